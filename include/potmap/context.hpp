@@ -1,0 +1,104 @@
+#pragma once
+// The device runtime: one OpenCL device, its in-order queue and a cache of built programs.
+//
+// Thread safety: a Context may be shared between threads for program look-ups (the cache is
+// locked), but its queue is in-order and shared, so work submitted from several threads is
+// serialised on the device. Give each thread its own Context for concurrent device work.
+
+#include <boost/compute/command_queue.hpp>
+#include <boost/compute/context.hpp>
+#include <boost/compute/device.hpp>
+#include <boost/compute/kernel.hpp>
+#include <boost/compute/program.hpp>
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace potmap {
+
+/// How to pick and set up the device.
+struct ContextOptions {
+  /// Case-insensitive substring of the platform or device name ("pocl", "nvidia", "cpu").
+  /// Empty: the POTMAP_DEVICE environment variable if set, else the first GPU, else the first
+  /// CPU device, else any device.
+  std::string device;
+  /// Folder for compiled program binaries, keyed by platform, device, driver version, source and
+  /// options. Empty: the POTMAP_CACHE_DIR environment variable if set, else no disk cache.
+  /// A folder that cannot be created or written is ignored (a warning goes to stderr once).
+  std::string binary_cache_dir;
+  /// Extra options appended to every program build (e.g. "-cl-fast-relaxed-math"). Default none.
+  std::string build_options;
+  /// Print each kernel's source to stderr when it is built. Also set by POTMAP_DUMP_KERNELS=1.
+  bool dump_kernels = false;
+};
+
+/// Names of one OpenCL device as potmap sees it.
+struct DeviceInfo {
+  std::string platform;        ///< platform name, e.g. "Portable Computing Language"
+  std::string platform_version;
+  std::string name;            ///< device name
+  std::string driver_version;
+  bool is_gpu = false;
+  bool is_cpu = false;
+  bool has_fp64 = false;
+  std::size_t compute_units = 0;
+  std::size_t max_work_group_size = 0;
+  std::size_t global_mem_bytes = 0;
+  std::size_t max_alloc_bytes = 0;
+  std::string summary() const;  ///< "device name (platform, driver x)" for logs and benchmarks
+};
+
+/// Every device of every platform, in platform order.
+std::vector<DeviceInfo> list_devices();
+
+/// Owns the device, queue and the program cache. Movable, not copyable.
+class Context {
+ public:
+  /// Picks a device as ContextOptions says. Throws potmap::Error if none matches.
+  explicit Context(const ContextOptions& options = {});
+  /// Wraps a queue the host application already owns (its context and device are used). The
+  /// queue is retained, not copied: work potmap enqueues is ordered with the host's own.
+  Context(cl_command_queue queue, const ContextOptions& options = {});
+
+  Context(Context&&) noexcept;
+  Context& operator=(Context&&) noexcept;
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+  ~Context();
+
+  const DeviceInfo& info() const;
+  boost::compute::device& device();
+  boost::compute::context& context();
+  boost::compute::command_queue& queue();
+
+  /// A kernel from the embedded source `file` (kernels/<file>.cl, without extension), built with
+  /// `defines` (e.g. "-DDIM=3 -DTILE=64") plus the context's build options. Programs are built
+  /// once per (source, options) and cached; each call returns a fresh cl_kernel, so different
+  /// threads never share argument state.
+  boost::compute::kernel kernel(const std::string& file, const std::string& kernel_name,
+                                const std::string& defines = "");
+  /// The built program of an embedded source (see kernel()).
+  boost::compute::program program(const std::string& file, const std::string& defines = "");
+  /// Builds arbitrary source text (cached like embedded ones). `label` names it in errors.
+  boost::compute::program program_from_source(const std::string& label, const std::string& source,
+                                              const std::string& defines = "");
+
+  /// Number of programs built from source (not loaded from the memory or disk cache). For tests.
+  std::size_t builds_from_source() const;
+  /// Number of programs loaded from the disk cache. For tests.
+  std::size_t disk_cache_hits() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Names of the embedded kernel sources (kernels/*.cl without extension).
+std::vector<std::string> embedded_kernel_names();
+/// Source text of an embedded kernel; throws ArgumentError for an unknown name.
+std::string embedded_kernel_source(const std::string& name);
+
+}  // namespace potmap

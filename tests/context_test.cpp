@@ -1,0 +1,123 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "potmap/context.hpp"
+#include "potmap/error.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+using namespace potmap;
+
+TEST(Context, PicksADeviceAndNamesIt) {
+  Context& ctx = test::context();
+  EXPECT_FALSE(ctx.info().name.empty());
+  EXPECT_FALSE(ctx.info().platform.empty());
+  EXPECT_NE(ctx.info().summary().find(ctx.info().name), std::string::npos);
+}
+
+TEST(Context, UnknownDeviceNameListsDevices) {
+  ContextOptions o;
+  o.device = "no-such-device-xyz";
+  try {
+    Context c(o);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no-such-device-xyz"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find(list_devices().at(0).name), std::string::npos);
+  }
+}
+
+TEST(Context, EveryEmbeddedKernelCompilesOnItsOwn) {
+  const auto names = embedded_kernel_names();
+  ASSERT_FALSE(names.empty());
+  for (const std::string& n : names) {
+    SCOPED_TRACE(n);
+    EXPECT_NO_THROW(test::context().program(n));
+  }
+}
+
+TEST(Context, ProgramsAreCachedInMemory) {
+  ContextOptions o;
+  o.binary_cache_dir = "";
+  Context ctx(o);
+  const std::string src = "__kernel void f(__global float* x) { x[get_global_id(0)] = 2.0f; }";
+  ctx.program_from_source("f", src);
+  ctx.program_from_source("f", src);
+  EXPECT_EQ(ctx.builds_from_source(), 1u);
+  ctx.program_from_source("f", src, "-DX=1");
+  EXPECT_EQ(ctx.builds_from_source(), 2u);
+}
+
+TEST(Context, BuildFailureCarriesTheLogAndErrorName) {
+  const std::string src = "__kernel void broken(__global float* x) { x[0] = undefined_name; }";
+  try {
+    test::context().program_from_source("broken", src);
+    FAIL() << "expected BuildError";
+  } catch (const BuildError& e) {
+    EXPECT_EQ(e.name(), "CL_BUILD_PROGRAM_FAILURE");
+    EXPECT_NE(e.log().find("undefined_name"), std::string::npos) << e.log();
+    EXPECT_NE(std::string(e.what()).find("broken"), std::string::npos);
+  }
+}
+
+TEST(Context, UnknownKernelNameThrowsOpenCLError) {
+  try {
+    test::context().kernel("map_eval", "no_such_kernel");
+    FAIL() << "expected OpenCLError";
+  } catch (const OpenCLError& e) {
+    EXPECT_EQ(e.name(), "CL_INVALID_KERNEL_NAME");
+    EXPECT_NE(std::string(e.what()).find("no_such_kernel"), std::string::npos);
+  }
+}
+
+TEST(Context, DiskCacheIsUsedAndSurvivesCorruption) {
+  const std::string dir = test::temp_dir("binary-cache");
+  const std::string src = "__kernel void g(__global int* x) { x[get_global_id(0)] = 7; }";
+  {
+    ContextOptions o;
+    o.binary_cache_dir = dir;
+    Context ctx(o);
+    ctx.program_from_source("g", src);
+    EXPECT_EQ(ctx.builds_from_source(), 1u);
+  }
+  {
+    ContextOptions o;
+    o.binary_cache_dir = dir;
+    Context ctx(o);
+    ctx.program_from_source("g", src);
+    EXPECT_EQ(ctx.builds_from_source(), 0u);
+    EXPECT_EQ(ctx.disk_cache_hits(), 1u);
+  }
+  // Corrupt every cached binary: potmap must rebuild from source, not fail.
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::FILE* f = std::fopen(e.path().c_str(), "r+b");
+    ASSERT_NE(f, nullptr);
+    std::fseek(f, -64, SEEK_END);
+    const char junk[64] = {1, 2, 3, 4, 5, 6, 7, 8};
+    std::fwrite(junk, 1, sizeof junk, f);
+    std::fclose(f);
+  }
+  {
+    ContextOptions o;
+    o.binary_cache_dir = dir;
+    Context ctx(o);
+    EXPECT_NO_THROW(ctx.program_from_source("g", src));
+  }
+}
+
+TEST(Context, UnwritableCacheFolderIsIgnored) {
+  ContextOptions o;
+  o.binary_cache_dir = "/proc/potmap-cannot-write-here";
+  Context ctx(o);
+  EXPECT_NO_THROW(ctx.program_from_source(
+      "h", "__kernel void h(__global int* x) { x[get_global_id(0)] = 1; }"));
+  EXPECT_EQ(ctx.builds_from_source(), 1u);
+}
+
+TEST(Context, WrapsAHostQueue) {
+  Context& base = test::context();
+  Context wrapped(base.queue().get());
+  EXPECT_EQ(wrapped.info().name, base.info().name);
+  EXPECT_EQ(wrapped.queue().get(), base.queue().get());
+}

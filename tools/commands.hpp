@@ -1,0 +1,31 @@
+#pragma once
+// Registration of the potmap subcommands. Each register_* adds one subcommand to the app and
+// stores the action to run in the Runner; main() runs it after parsing, so that errors from the
+// action are reported uniformly.
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "potmap/context.hpp"
+
+namespace potmap::cli {
+
+struct Runner {
+  std::function<int()> action;
+  int run() { return action ? action() : 0; }
+};
+
+/// Adds --device to a subcommand; returns the storage the option writes to.
+std::shared_ptr<std::string> add_device_option(CLI::App* cmd);
+/// A Context on the device named (or POTMAP_DEVICE, or the default), announced on stderr.
+Context make_context(const std::string& device, bool quiet = false);
+
+void register_devices(CLI::App& app, Runner& runner);
+void register_eval(CLI::App& app, Runner& runner);
+void register_raster(CLI::App& app, Runner& runner);
+void register_demo(CLI::App& app, Runner& runner);
+
+}  // namespace potmap::cli

@@ -1,0 +1,31 @@
+// The potmap command: one subcommand per job, each in its own cmd_*.cpp.
+#include <CLI/CLI.hpp>
+
+#include <exception>
+#include <iostream>
+
+#include "commands.hpp"
+#include "potmap/error.hpp"
+#include "potmap/version.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"potmap: continuous occupancy maps by parameter optimal transport (OpenCL)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("potmap ") + POTMAP_VERSION_STRING);
+  potmap::cli::Runner runner;
+  potmap::cli::register_devices(app, runner);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    return runner.run();
+  } catch (const potmap::Error& e) {
+    std::cerr << "potmap: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "potmap: internal error: " << e.what() << "\n";
+    return 2;
+  }
+}
