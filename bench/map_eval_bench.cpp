@@ -37,7 +37,9 @@ std::vector<double> random_points(std::size_t n, double extent, std::uint32_t se
 }
 
 // Kernels spaced as in Town 1 (about 0.58 per square metre).
-double extent_for(std::size_t kernels) { return std::sqrt(kernels / 0.58); }
+double extent_for(std::size_t kernels) {
+  return std::sqrt(kernels / 0.58);
+}
 
 void BM_EvalPointsOpenCL(benchmark::State& state) {
   const std::size_t m = state.range(0), n = state.range(1);
@@ -52,8 +54,10 @@ void BM_EvalPointsOpenCL(benchmark::State& state) {
     ev.evaluate(pts.data(), n, nullptr, nullptr, prob.data());
     pairs += ev.last_pairs();
   }
-  state.counters["queries_per_s"] = benchmark::Counter(double(n) * state.iterations(), benchmark::Counter::kIsRate);
-  state.counters["kernel_evals_per_s"] = benchmark::Counter(double(pairs), benchmark::Counter::kIsRate);
+  state.counters["queries_per_s"] =
+      benchmark::Counter(double(n) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["kernel_evals_per_s"] =
+      benchmark::Counter(double(pairs), benchmark::Counter::kIsRate);
   state.SetLabel(bench_context().info().name);
 }
 BENCHMARK(BM_EvalPointsOpenCL)
@@ -67,8 +71,10 @@ void BM_EvalPointsReference(benchmark::State& state) {
   KernelMap map = random_map(m, extent, 1);
   const std::vector<double> pts = random_points(n, extent, 2);
   for (auto _ : state) benchmark::DoNotOptimize(evaluate_exact(map, pts.data(), n));
-  state.counters["queries_per_s"] = benchmark::Counter(double(n) * state.iterations(), benchmark::Counter::kIsRate);
-  state.counters["kernel_evals_per_s"] = benchmark::Counter(double(n) * m * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["queries_per_s"] =
+      benchmark::Counter(double(n) * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["kernel_evals_per_s"] =
+      benchmark::Counter(double(n) * m * state.iterations(), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_EvalPointsReference)
     ->ArgsProduct({{1000, 10000, 100000}, {10000}})

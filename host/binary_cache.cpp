@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <functional>
+#include <iostream>
 #include <thread>
 
 #include <unistd.h>
@@ -46,8 +46,7 @@ BinaryCache::BinaryCache(std::string dir) : dir_(std::move(dir)) {
 
 std::string BinaryCache::path_for(const std::string& key) const {
   char name[32];
-  std::snprintf(name, sizeof name, "%016llx.clbin",
-                static_cast<unsigned long long>(fnv1a64(key)));
+  std::snprintf(name, sizeof name, "%016llx.clbin", static_cast<unsigned long long>(fnv1a64(key)));
   return (fs::path(dir_) / name).string();
 }
 

@@ -157,8 +157,7 @@ struct Context::Impl {
       }
     }
     if (dump)
-      std::cerr << "---- potmap: building kernel '" << label << "' with '" << options
-                << "' ----\n"
+      std::cerr << "---- potmap: building kernel '" << label << "' with '" << options << "' ----\n"
                 << source << "\n---- end of '" << label << "' ----\n";
     bc::program p = detail::cl_call("clCreateProgramWithSource", [&] {
       return bc::program::create_with_source(source, context);
@@ -207,10 +206,18 @@ Context::Context(Context&&) noexcept = default;
 Context& Context::operator=(Context&&) noexcept = default;
 Context::~Context() = default;
 
-const DeviceInfo& Context::info() const { return impl_->info; }
-bc::device& Context::device() { return impl_->device; }
-bc::context& Context::context() { return impl_->context; }
-bc::command_queue& Context::queue() { return impl_->queue; }
+const DeviceInfo& Context::info() const {
+  return impl_->info;
+}
+bc::device& Context::device() {
+  return impl_->device;
+}
+bc::context& Context::context() {
+  return impl_->context;
+}
+bc::command_queue& Context::queue() {
+  return impl_->queue;
+}
 
 bc::program Context::program_from_source(const std::string& label, const std::string& source,
                                          const std::string& defines) {

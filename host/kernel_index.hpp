@@ -25,7 +25,7 @@ class KernelIndex {
 
  private:
   struct Class {
-    double cell = 0;        // grid cell edge >= every reach in the class
+    double cell = 0;  // grid cell edge >= every reach in the class
     double lo[3] = {0, 0, 0};
     std::int64_t n[3] = {1, 1, 1};
     std::vector<std::uint32_t> start;  // CSR over cells

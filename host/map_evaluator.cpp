@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -81,7 +82,7 @@ struct MapEvaluator::Impl {
       wg = 64;
     }
     char buf[160];
-    std::snprintf(buf, sizeof buf, "-DDIM=%d -DVEC=%d -DTAU=%.9gf", map.dim, vec, opt.tau);
+    std::snprintf(buf, sizeof buf, "-DDIM=%d -DVEC=%d -DTAU=%#.9gf", map.dim, vec, opt.tau);
     defines = buf;
 
     const std::size_t m_count = std::max<std::size_t>(map.size(), 1);
@@ -105,7 +106,147 @@ struct MapEvaluator::Impl {
   }
 
   void run_batch(const double* pts, std::size_t n, float* mean, float* var, float* prob);
+  void run_grid(const GridSpec& grid, float* mean, float* var, float* prob);
+  GrowBuffer g_col_hi, g_col_lo, g_row_hi, g_row_lo, g_row_out, g_start, g_list;
 };
+
+// Grid tiles: TILE_X columns by TILE_Y rows; a work-item owns 16 columns by kRows rows.
+namespace {
+constexpr std::size_t kTileX = 64, kTileY = 64, kRows = 8;
+// Cells per launch: bounds device memory for grids of any size.
+constexpr std::size_t kCellsPerLaunch = std::size_t(1) << 22;
+}  // namespace
+
+void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out_v, float* out_p) {
+  last_pairs = 0;
+  const int dim = map.dim;
+  if (grid.dim != dim)
+    throw ArgumentError("MapEvaluator::evaluate_grid: grid is " + std::to_string(grid.dim) +
+                        "D but the map is " + std::to_string(dim) + "D");
+  if (!(grid.resolution > 0) || !std::isfinite(grid.resolution))
+    throw ArgumentError("MapEvaluator::evaluate_grid: resolution must be positive, got " +
+                        std::to_string(grid.resolution));
+  const std::size_t nx = grid.count[0], ny = grid.count[1], nz = dim == 3 ? grid.count[2] : 1;
+  if (nx == 0 || ny == 0 || nz == 0) return;
+  const double res = grid.resolution;
+
+  // Columns, padded to whole tiles by repeating the last one.
+  const std::size_t ntx = (nx + kTileX - 1) / kTileX;
+  std::vector<float> chi(ntx * kTileX), clo(ntx * kTileX);
+  for (std::size_t i = 0; i < chi.size(); ++i)
+    detail::split(grid.origin[0] + (std::min(i, nx - 1) + 0.5) * res - anchor[0], chi[i], clo[i]);
+
+  // Row blocks: 2D, kTileY consecutive y rows; 3D, 8 y by 8 z so tiles stay compact.
+  const std::size_t by = dim == 3 ? 8 : kTileY, bz = dim == 3 ? kTileY / 8 : 1;
+  const std::size_t nby = (ny + by - 1) / by, nbz = (nz + bz - 1) / bz;
+  const std::size_t nblocks = nby * nbz;
+  const std::size_t blocks_per_launch =
+      std::max<std::size_t>(1, kCellsPerLaunch / (kTileY * ntx * kTileX));
+
+  auto& cx = ctx->context();
+  auto& q = ctx->queue();
+  bc::buffer& b_chi = g_col_hi.get(cx, chi.size() * 4);
+  bc::buffer& b_clo = g_col_lo.get(cx, clo.size() * 4);
+  upload(q, b_chi, chi);
+  upload(q, b_clo, clo);
+  char defs[200];
+  std::snprintf(defs, sizeof defs,
+                "-DDIM=%d -DROWS=%zu -DTILE_X=%zu -DTILE_Y=%zu -cl-denorms-are-zero", dim, kRows,
+                kTileX, kTileY);
+  bc::kernel kern = ctx->kernel("map_raster", "map_raster", defs);
+  const float bm = map.has_bias ? static_cast<float>(map.bias_mean) : 0.f;
+  const float bv = map.has_bias ? static_cast<float>(map.bias_var) : 0.f;
+  const double xlo = grid.origin[0] + 0.5 * res, xhi = grid.origin[0] + (nx - 0.5) * res;
+
+  std::vector<float> host_m, host_v, host_p;
+  for (std::size_t b0 = 0; b0 < nblocks; b0 += blocks_per_launch) {
+    const std::size_t b1 = std::min(nblocks, b0 + blocks_per_launch);
+    const std::size_t nb = b1 - b0, nslots = nb * kTileY;
+    // Row slots of this launch: coordinates, and the (j, k) each real slot stands for.
+    std::vector<float> rhi(nslots * (dim - 1)), rlo(nslots * (dim - 1));
+    std::vector<int> rout(nslots, -1);
+    std::vector<std::size_t> slot_row(nslots, 0);      // flattened output row j + ny * k
+    std::vector<std::array<double, 4>> block_box(nb);  // ylo, yhi, zlo, zhi
+    for (std::size_t bi = 0; bi < nb; ++bi) {
+      const std::size_t blk = b0 + bi, bjy = blk % nby, bkz = blk / nby;
+      std::size_t last_real = 0;
+      for (std::size_t r = 0; r < kTileY; ++r) {
+        std::size_t j = bjy * by + r % by, k = bkz * bz + r / by;
+        const bool real = j < ny && k < nz;
+        const std::size_t s = bi * kTileY + r;
+        if (real) last_real = s;
+        j = std::min(j, ny - 1);
+        k = std::min(k, nz - 1);
+        detail::split(grid.origin[1] + (j + 0.5) * res - anchor[1], rhi[s], rlo[s]);
+        if (dim == 3)
+          detail::split(grid.origin[2] + (k + 0.5) * res - anchor[2], rhi[nslots + s],
+                        rlo[nslots + s]);
+        if (real) {
+          rout[s] = static_cast<int>(s * nx);
+          slot_row[s] = j + ny * k;
+        }
+      }
+      (void)last_real;
+      const std::size_t j0 = bjy * by, j1 = std::min(ny, j0 + by) - 1;
+      const std::size_t k0 = bkz * bz, k1 = std::min(nz, k0 + bz) - 1;
+      block_box[bi] = {grid.origin[1] + (j0 + 0.5) * res, grid.origin[1] + (j1 + 0.5) * res,
+                       grid.origin[2] + (k0 + 0.5) * res, grid.origin[2] + (k1 + 0.5) * res};
+    }
+    // Kernel list of every tile.
+    const std::size_t ntiles = nb * ntx;
+    std::vector<std::vector<std::uint32_t>> lists(ntiles);
+    const long long nt = static_cast<long long>(ntiles);
+#pragma omp parallel for schedule(dynamic, 4)
+    for (long long t = 0; t < nt; ++t) {
+      const std::size_t bi = t / ntx, tx = t % ntx;
+      const double lo[3] = {std::max(xlo, grid.origin[0] + (tx * kTileX + 0.5) * res),
+                            block_box[bi][0], block_box[bi][2]};
+      const double hi[3] = {std::min(xhi, grid.origin[0] + ((tx + 1) * kTileX - 0.5) * res),
+                            block_box[bi][1], block_box[bi][3]};
+      index.query_box(lo, hi, lists[t]);
+    }
+    std::vector<std::uint32_t> start(ntiles + 1, 0);
+    for (std::size_t t = 0; t < ntiles; ++t) start[t + 1] = start[t] + lists[t].size();
+    std::vector<std::uint32_t> flat(std::max<std::size_t>(start[ntiles], 1));
+    for (std::size_t t = 0; t < ntiles; ++t)
+      std::copy(lists[t].begin(), lists[t].end(), flat.begin() + start[t]);
+    last_pairs += static_cast<std::size_t>(start[ntiles]) * kTileX * kTileY;
+
+    const std::size_t cells = nslots * nx;
+    bc::buffer& b_rhi = g_row_hi.get(cx, rhi.size() * 4);
+    bc::buffer& b_rlo = g_row_lo.get(cx, rlo.size() * 4);
+    bc::buffer& b_rout = g_row_out.get(cx, rout.size() * 4);
+    bc::buffer& b_start = g_start.get(cx, start.size() * 4);
+    bc::buffer& b_list = g_list.get(cx, flat.size() * 4);
+    bc::buffer& b_m = out_mean.get(cx, cells * 4);
+    bc::buffer& b_v = out_var.get(cx, cells * 4);
+    bc::buffer& b_p = out_prob.get(cx, cells * 4);
+    upload(q, b_rhi, rhi);
+    upload(q, b_rlo, rlo);
+    upload(q, b_rout, rout);
+    upload(q, b_start, start);
+    upload(q, b_list, flat);
+    detail::cl_call("clSetKernelArg(map_raster)", [&] {
+      kern.set_args(kpos_hi, kpos_lo, kpar, b_chi, b_clo, static_cast<cl_uint>(nx), b_rhi, b_rlo,
+                    static_cast<cl_uint>(nslots), b_rout, b_start, b_list, bm, bv, b_m, b_v, b_p);
+    });
+    const std::size_t global[2] = {ntx * (kTileX / 16), nb * (kTileY / kRows)};
+    const std::size_t local[2] = {kTileX / 16, kTileY / kRows};
+    detail::cl_call("clEnqueueNDRangeKernel(map_raster)",
+                    [&] { q.enqueue_nd_range_kernel(kern, 2, nullptr, global, local); });
+    auto fetch = [&](bc::buffer& b, std::vector<float>& host, float* dst) {
+      if (!dst) return;
+      host.resize(cells);
+      detail::cl_call("clEnqueueReadBuffer",
+                      [&] { q.enqueue_read_buffer(b, 0, cells * 4, host.data()); });
+      for (std::size_t s = 0; s < nslots; ++s)
+        if (rout[s] >= 0) std::copy_n(host.data() + s * nx, nx, dst + slot_row[s] * nx);
+    };
+    fetch(b_m, host_m, out_m);
+    fetch(b_v, host_v, out_v);
+    fetch(b_p, host_p, out_p);
+  }
+}
 
 void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_m, float* out_v,
                                    float* out_p) {
@@ -155,8 +296,8 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
     const double* p = pts + std::size_t(finite[j]) * dim;
     std::uint64_t code = 0;
     for (int d = 0; d < dim; ++d) {
-      std::int64_t t = std::clamp<std::int64_t>(static_cast<std::int64_t>((p[d] - lo[d]) / tile),
-                                                0, nt[d] - 1);
+      std::int64_t t =
+          std::clamp<std::int64_t>(static_cast<std::int64_t>((p[d] - lo[d]) / tile), 0, nt[d] - 1);
       code |= spread(static_cast<std::uint64_t>(t)) << d;
     }
     key[j] = code;
@@ -174,7 +315,8 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
   for (std::size_t s = 0; s < padded; ++s) {
     const std::size_t j = perm[std::min(s, nf - 1)];
     const double* p = pts + std::size_t(finite[j]) * dim;
-    for (int d = 0; d < dim; ++d) detail::split(p[d] - anchor[d], qh[d * padded + s], ql[d * padded + s]);
+    for (int d = 0; d < dim; ++d)
+      detail::split(p[d] - anchor[d], qh[d * padded + s], ql[d * padded + s]);
     if (s < nf) ord[s] = static_cast<int>(finite[j]);
   }
 
@@ -229,9 +371,8 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
     k.set_args(kpos_hi, kpos_lo, kpar, b_qh, b_ql, static_cast<cl_uint>(padded), b_start, b_list,
                b_ord, bm, bv, b_m, b_v, b_p);
   });
-  detail::cl_call("clEnqueueNDRangeKernel(map_eval_points)", [&] {
-    q.enqueue_1d_range_kernel(k, 0, nchunks * wg, wg);
-  });
+  detail::cl_call("clEnqueueNDRangeKernel(map_eval_points)",
+                  [&] { q.enqueue_1d_range_kernel(k, 0, nchunks * wg, wg); });
   // Outputs were scattered to the caller's order; NaN slots (non-finite points) are untouched
   // on the device, so read only through the host's finite set when any were dropped.
   std::vector<float> tmp(n);
@@ -251,8 +392,12 @@ MapEvaluator::~MapEvaluator() = default;
 MapEvaluator::MapEvaluator(MapEvaluator&&) noexcept = default;
 MapEvaluator& MapEvaluator::operator=(MapEvaluator&&) noexcept = default;
 
-int MapEvaluator::dim() const { return impl_->map.dim; }
-std::size_t MapEvaluator::last_pairs() const { return impl_->last_pairs; }
+int MapEvaluator::dim() const {
+  return impl_->map.dim;
+}
+std::size_t MapEvaluator::last_pairs() const {
+  return impl_->last_pairs;
+}
 
 void MapEvaluator::evaluate(const double* points, std::size_t n, float* mean, float* var,
                             float* prob) {
@@ -287,32 +432,7 @@ MapValues MapEvaluator::evaluate(const std::vector<double>& points) {
 namespace potmap {
 
 void MapEvaluator::evaluate_grid(const GridSpec& grid, float* mean, float* var, float* prob) {
-  if (grid.dim != impl_->map.dim)
-    throw ArgumentError("MapEvaluator::evaluate_grid: grid is " + std::to_string(grid.dim) +
-                        "D but the map is " + std::to_string(impl_->map.dim) + "D");
-  // Row by row through the point path; bounded memory whatever the grid's size.
-  const std::size_t nx = grid.count[0], ny = grid.count[1];
-  const std::size_t nz = grid.dim == 3 ? grid.count[2] : 1;
-  const std::size_t rows_per = std::max<std::size_t>(1, kPointsPerBatch / std::max<std::size_t>(nx, 1));
-  std::vector<double> pts;
-  impl_->last_pairs = 0;
-  std::size_t pairs = 0;
-  for (std::size_t k = 0; k < nz; ++k)
-    for (std::size_t j0 = 0; j0 < ny; j0 += rows_per) {
-      const std::size_t j1 = std::min(ny, j0 + rows_per);
-      pts.clear();
-      for (std::size_t j = j0; j < j1; ++j)
-        for (std::size_t i = 0; i < nx; ++i) {
-          pts.push_back(grid.origin[0] + (i + 0.5) * grid.resolution);
-          pts.push_back(grid.origin[1] + (j + 0.5) * grid.resolution);
-          if (grid.dim == 3) pts.push_back(grid.origin[2] + (k + 0.5) * grid.resolution);
-        }
-      const std::size_t off = (k * ny + j0) * nx;
-      evaluate(pts.data(), (j1 - j0) * nx, mean ? mean + off : nullptr, var ? var + off : nullptr,
-               prob ? prob + off : nullptr);
-      pairs += impl_->last_pairs;
-    }
-  impl_->last_pairs = pairs;
+  impl_->run_grid(grid, mean, var, prob);
 }
 
 MapValues MapEvaluator::evaluate_grid(const GridSpec& grid) {

@@ -30,9 +30,11 @@ void register_devices(CLI::App& app, Runner& runner) {
         return 1;
       }
       for (const DeviceInfo& d : devices)
-        std::cout << (d.is_gpu ? "GPU " : d.is_cpu ? "CPU " : "ACC ") << d.summary() << ", "
-                  << d.compute_units << " compute units, " << (d.global_mem_bytes >> 20)
-                  << " MiB" << (d.has_fp64 ? ", fp64" : "") << "\n";
+        std::cout << (d.is_gpu   ? "GPU "
+                      : d.is_cpu ? "CPU "
+                                 : "ACC ")
+                  << d.summary() << ", " << d.compute_units << " compute units, "
+                  << (d.global_mem_bytes >> 20) << " MiB" << (d.has_fp64 ? ", fp64" : "") << "\n";
       return 0;
     };
   });

@@ -37,9 +37,9 @@ struct ContextOptions {
 
 /// Names of one OpenCL device as potmap sees it.
 struct DeviceInfo {
-  std::string platform;        ///< platform name, e.g. "Portable Computing Language"
+  std::string platform;  ///< platform name, e.g. "Portable Computing Language"
   std::string platform_version;
-  std::string name;            ///< device name
+  std::string name;  ///< device name
   std::string driver_version;
   bool is_gpu = false;
   bool is_cpu = false;

@@ -38,10 +38,10 @@ struct MapValuesExact {
 /// A regular grid of query points: cell centres origin[d] + (i + 0.5) * resolution for
 /// i < count[d]. Flattened index: x fastest, then y, then z (i + nx * (j + ny * k)).
 struct GridSpec {
-  int dim = 2;                      ///< 2 or 3
-  double origin[3] = {0, 0, 0};     ///< lower corner of cell (0, 0[, 0]), metres
-  double resolution = 1.0;          ///< cell edge, metres, > 0
-  std::size_t count[3] = {0, 0, 1}; ///< cells along x, y (and z in 3D; 1 in 2D)
+  int dim = 2;                       ///< 2 or 3
+  double origin[3] = {0, 0, 0};      ///< lower corner of cell (0, 0[, 0]), metres
+  double resolution = 1.0;           ///< cell edge, metres, > 0
+  std::size_t count[3] = {0, 0, 1};  ///< cells along x, y (and z in 3D; 1 in 2D)
   std::size_t cells() const { return count[0] * count[1] * (dim == 3 ? count[2] : 1); }
   /// Grid covering [lo, hi] on every axis (count = ceil((hi - lo) / resolution)).
   static GridSpec covering(int dim, const double lo[3], const double hi[3], double resolution);
