@@ -234,8 +234,17 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
     const std::size_t local[2] = {kTileX / 16, kTileY / kRows};
     detail::cl_call("clEnqueueNDRangeKernel(map_raster)",
                     [&] { q.enqueue_nd_range_kernel(kern, 2, nullptr, global, local); });
+    // 2D launches cover consecutive whole rows: read straight into the caller's array.
+    const bool contiguous = dim == 2;
+    const std::size_t first_row = b0 * kTileY, real_rows = std::min(ny, b1 * kTileY) - first_row;
     auto fetch = [&](bc::buffer& b, std::vector<float>& host, float* dst) {
       if (!dst) return;
+      if (contiguous) {
+        detail::cl_call("clEnqueueReadBuffer", [&] {
+          q.enqueue_read_buffer(b, 0, real_rows * nx * 4, dst + first_row * nx);
+        });
+        return;
+      }
       host.resize(cells);
       detail::cl_call("clEnqueueReadBuffer",
                       [&] { q.enqueue_read_buffer(b, 0, cells * 4, host.data()); });

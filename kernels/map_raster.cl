@@ -8,8 +8,9 @@
 // Each work-item owns 16 columns (a float16) by ROWS rows. Every tile has its own list of the
 // kernels whose cut-off reaches it (built on the host).
 //
-// No per-cell cut-off is applied: every listed kernel contributes in full, which is closer to
-// the exact sum than cutting. Sums run in blocks of BLOCK kernels in float, block sums added
+// A work-item skips a listed kernel whose cut-off (gamma * d^2 > TAU) excludes its whole block
+// of cells; otherwise the kernel contributes to every cell of the block in full, which is closer
+// to the exact sum than a per-cell cut. Sums run in blocks of BLOCK kernels in float, block sums added
 // with Neumaier's compensated summation (see map_eval.cl). Build with -cl-denorms-are-zero:
 // far cells produce tiny products whose denormal arithmetic would otherwise crawl on CPUs.
 
@@ -27,6 +28,9 @@
 #endif
 #ifndef BLOCK
 #define BLOCK 16
+#endif
+#ifndef TAU
+#define TAU 18.0f
 #endif
 
 #if ROWS == 4
@@ -83,6 +87,15 @@ __kernel void map_raster(__global const float* kpos_hi, __global const float* kp
   const rowv rz_lo = vloadr(0, row_lo + n_slots + slot0);
 #endif
 
+  // The work-item's block of cells, for the cut-off test (float is ample for a cull).
+  const float x_min = cx_hi.s0 + cx_lo.s0, x_max = cx_hi.sf + cx_lo.sf;
+  const float y_min = min(ry_hi.s0 + ry_lo.s0, ry_hi[ROWS - 1] + ry_lo[ROWS - 1]);
+  const float y_max = max(ry_hi.s0 + ry_lo.s0, ry_hi[ROWS - 1] + ry_lo[ROWS - 1]);
+#if DIM == 3
+  const float z_min = min(rz_hi.s0 + rz_lo.s0, rz_hi[ROWS - 1] + rz_lo[ROWS - 1]);
+  const float z_max = max(rz_hi.s0 + rz_lo.s0, rz_hi[ROWS - 1] + rz_lo[ROWS - 1]);
+#endif
+
   float16 mean_s[ROWS], mean_c[ROWS], var_s[ROWS], var_c[ROWS];
   for (int r = 0; r < ROWS; ++r) {
     mean_s[r] = mean_c[r] = var_s[r] = var_c[r] = (float16)(0.0f);
@@ -97,6 +110,19 @@ __kernel void map_raster(__global const float* kpos_hi, __global const float* kp
       const uint k = list[e];
       const float4 par = kpar[k];
       const float g = par.x;
+      {
+        const float kx = kpos_hi[k * DIM] + kpos_lo[k * DIM];
+        const float ky = kpos_hi[k * DIM + 1] + kpos_lo[k * DIM + 1];
+        const float ox = fmax(fmax(x_min - kx, kx - x_max), 0.0f);
+        const float oy = fmax(fmax(y_min - ky, ky - y_max), 0.0f);
+        float gap2 = ox * ox + oy * oy;
+#if DIM == 3
+        const float kz = kpos_hi[k * DIM + 2] + kpos_lo[k * DIM + 2];
+        const float oz = fmax(fmax(z_min - kz, kz - z_max), 0.0f);
+        gap2 += oz * oz;
+#endif
+        if (g * gap2 > TAU) continue;
+      }
       const float16 dx = (cx_hi - kpos_hi[k * DIM]) + (cx_lo - kpos_lo[k * DIM]);
       const float16 ex = exp(-g * dx * dx);
       const float16 exm = par.y * ex;
