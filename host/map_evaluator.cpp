@@ -54,6 +54,22 @@ std::uint64_t spread(std::uint64_t v) {
   return v;
 }
 
+// Stable LSD radix sort of indices by key, 11 bits a pass; only the passes max_key needs.
+std::vector<std::uint32_t> radix_order(const std::vector<std::uint64_t>& key,
+                                       std::uint64_t max_key) {
+  const std::size_t n = key.size();
+  std::vector<std::uint32_t> a(n), b(n);
+  std::iota(a.begin(), a.end(), 0u);
+  for (int shift = 0; shift < 64 && (max_key >> shift) != 0; shift += 11) {
+    std::size_t count[2049] = {0};
+    for (std::uint32_t i : a) ++count[((key[i] >> shift) & 2047) + 1];
+    for (int d = 0; d < 2048; ++d) count[d + 1] += count[d];
+    for (std::uint32_t i : a) b[count[(key[i] >> shift) & 2047]++] = i;
+    a.swap(b);
+  }
+  return a;
+}
+
 }  // namespace
 
 struct MapEvaluator::Impl {
@@ -311,43 +327,79 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
     }
     key[j] = code;
   }
-  std::vector<std::uint32_t> perm(nf);
-  std::iota(perm.begin(), perm.end(), 0u);
-  std::sort(perm.begin(), perm.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
+  std::uint64_t max_key = 0;
+  for (std::uint64_t k : key) max_key = std::max(max_key, k);
+  const std::vector<std::uint32_t> perm = radix_order(key, max_key);
 
   // 3. Chunks of consecutive sorted points, padded with the chunk's last point.
   const std::size_t nchunks = (nf + chunk - 1) / chunk;
   const std::size_t padded = nchunks * chunk;
   std::vector<float> qh(padded * dim), ql(padded * dim);
   std::vector<int> ord(padded, -1);
-  for (std::size_t s = 0; s < padded; ++s) {
-    const std::size_t j = perm[std::min(s, nf - 1)];
+  const long long npad = static_cast<long long>(padded);
+#pragma omp parallel for schedule(static)
+  for (long long s = 0; s < npad; ++s) {
+    const std::size_t j = perm[std::min<std::size_t>(s, nf - 1)];
     const double* p = pts + std::size_t(finite[j]) * dim;
     for (int d = 0; d < dim; ++d)
       detail::split(p[d] - anchor[d], qh[d * padded + s], ql[d * padded + s]);
-    if (s < nf) ord[s] = static_cast<int>(finite[j]);
+    if (static_cast<std::size_t>(s) < nf) ord[s] = static_cast<int>(finite[j]);
   }
 
   // 4. Kernel list of each chunk: every kernel whose cut-off reaches the chunk's bounding box.
-  std::vector<std::vector<std::uint32_t>> lists(nchunks);
+  //    The index is asked once per group of chunks (neighbours in Morton order); each chunk then
+  //    filters the group's candidates, which costs far less than one index walk per chunk.
+  std::vector<std::array<double, 6>> box(nchunks);
   const long long nc = static_cast<long long>(nchunks);
-#pragma omp parallel for schedule(dynamic, 16)
+#pragma omp parallel for schedule(static)
   for (long long c = 0; c < nc; ++c) {
-    double blo[3] = {0, 0, 0}, bhi[3] = {0, 0, 0};
-    for (int d = 0; d < dim; ++d) {
-      blo[d] = std::numeric_limits<double>::infinity();
-      bhi[d] = -blo[d];
+    std::array<double, 6>& bx = box[c];
+    for (int d = 0; d < 3; ++d) {
+      bx[d] = d < dim ? std::numeric_limits<double>::infinity() : 0.0;
+      bx[3 + d] = d < dim ? -std::numeric_limits<double>::infinity() : 0.0;
     }
     const std::size_t s0 = c * chunk, s1 = std::min(nf, s0 + chunk);
     for (std::size_t s = s0; s < s1; ++s) {
       const double* p = pts + std::size_t(finite[perm[s]]) * dim;
       for (int d = 0; d < dim; ++d) {
-        blo[d] = std::min(blo[d], p[d]);
-        bhi[d] = std::max(bhi[d], p[d]);
+        bx[d] = std::min(bx[d], p[d]);
+        bx[3 + d] = std::max(bx[3 + d], p[d]);
       }
     }
-    index.query_box(blo, bhi, lists[c]);
+  }
+  constexpr std::size_t kGroup = 16;
+  const long long ngroups = static_cast<long long>((nchunks + kGroup - 1) / kGroup);
+  std::vector<std::vector<std::uint32_t>> lists(nchunks);
+  const double* kp = map.position.data();
+  const double* kg = map.gamma.data();
+  const double tau = opt.tau;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (long long gi = 0; gi < ngroups; ++gi) {
+    const std::size_t c0 = gi * kGroup, c1 = std::min(nchunks, c0 + kGroup);
+    double glo[3] = {0, 0, 0}, ghi[3] = {0, 0, 0};
+    for (int d = 0; d < dim; ++d) {
+      glo[d] = box[c0][d];
+      ghi[d] = box[c0][3 + d];
+      for (std::size_t c = c0 + 1; c < c1; ++c) {
+        glo[d] = std::min(glo[d], box[c][d]);
+        ghi[d] = std::max(ghi[d], box[c][3 + d]);
+      }
+    }
+    std::vector<std::uint32_t> cand;
+    index.query_box(glo, ghi, cand);
+    for (std::size_t c = c0; c < c1; ++c) {
+      std::vector<std::uint32_t>& out = lists[c];
+      out.reserve(cand.size());
+      for (std::uint32_t k : cand) {
+        double d2 = 0;
+        for (int d = 0; d < dim; ++d) {
+          const double p = kp[k * dim + d];
+          const double q = std::clamp(p, box[c][d], box[c][3 + d]);
+          d2 += (p - q) * (p - q);
+        }
+        if (kg[k] * d2 <= tau) out.push_back(k);
+      }
+    }
   }
   std::vector<std::uint32_t> start(nchunks + 1, 0);
   for (std::size_t c = 0; c < nchunks; ++c) start[c + 1] = start[c] + lists[c].size();
