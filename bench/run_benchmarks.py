@@ -1,0 +1,93 @@
+#!/usr/bin/env python3
+"""Runs potmap's benchmarks, prints a table and writes the raw and summarised JSON.
+
+Usage: bench/run_benchmarks.py [--build build] [--filter REGEX] [--out bench-results.json]
+                               [--min-time 0.3]
+
+Every row names the device that ran it (the benchmark's label); rows of the CPU reference are
+paired with the OpenCL rows of the same map size to give the speed-up per query.
+"""
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+
+def run(binary, flt, min_time):
+    with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as tmp:
+        path = tmp.name
+    cmd = [binary, "--benchmark_filter=" + flt, "--benchmark_out=" + path,
+           "--benchmark_out_format=json", "--benchmark_min_time=%s" % min_time]
+    print("running:", " ".join(cmd), file=sys.stderr)
+    subprocess.run(cmd, check=True, stdout=sys.stderr)
+    with open(path) as f:
+        data = json.load(f)
+    os.unlink(path)
+    return data
+
+
+def si(x):
+    for unit, div in (("G", 1e9), ("M", 1e6), ("k", 1e3)):
+        if abs(x) >= div:
+            return "%.2f %s" % (x / div, unit)
+    return "%.2f" % x
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default="build", help="CMake build folder (default: build)")
+    ap.add_argument("--filter", default=".", help="benchmark name regex (default: all)")
+    ap.add_argument("--out", default="bench-results.json", help="summary JSON path")
+    ap.add_argument("--min-time", default="0.3", help="seconds per benchmark (default 0.3)")
+    args = ap.parse_args()
+    binary = os.path.join(args.build, "bench", "potmap_bench")
+    if not os.path.exists(binary):
+        sys.exit("no benchmark binary at %s: build with -DPOTMAP_BUILD_BENCH=ON" % binary)
+    data = run(binary, args.filter, args.min_time)
+
+    rows = []
+    for b in data["benchmarks"]:
+        if b.get("run_type") == "aggregate":
+            continue
+        rows.append({
+            "name": b["name"].replace("/real_time", ""),
+            "device": b.get("label", ""),
+            "ms": b["real_time"] if b.get("time_unit") == "ms" else b["real_time"] / 1e6,
+            "queries_per_s": b.get("queries_per_s"),
+            "kernel_evals_per_s": b.get("kernel_evals_per_s"),
+            "extra": {k: v for k, v in b.items() if k.endswith("_per_s") or k in ("iterations_used", "converged")},
+        })
+    # Speed-up of OpenCL over the reference per query, for the same benchmark family and map size.
+    ref = {}
+    for r in rows:
+        m = re.match(r"BM_(\w+)Reference/(\d+)", r["name"])
+        if m and r["queries_per_s"]:
+            ref[(m.group(1), m.group(2))] = r["queries_per_s"]
+    for r in rows:
+        m = re.match(r"BM_(\w+)OpenCL/(\d+)", r["name"])
+        r["speedup_vs_reference"] = None
+        if m and r["queries_per_s"] and (m.group(1), m.group(2)) in ref:
+            r["speedup_vs_reference"] = r["queries_per_s"] / ref[(m.group(1), m.group(2))]
+
+    w = max(len(r["name"]) for r in rows) if rows else 10
+    print("%-*s %10s %14s %16s %9s  %s" % (w, "benchmark", "ms", "queries/s", "kernel evals/s", "vs ref", "device"))
+    for r in rows:
+        print("%-*s %10.2f %14s %16s %9s  %s" % (
+            w, r["name"], r["ms"],
+            si(r["queries_per_s"]) if r["queries_per_s"] else "-",
+            si(r["kernel_evals_per_s"]) if r["kernel_evals_per_s"] else "-",
+            ("%.1fx" % r["speedup_vs_reference"]) if r["speedup_vs_reference"] else "-",
+            r["device"]))
+    summary = {"context": data.get("context", {}), "rows": rows}
+    tmp = args.out + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(summary, f, indent=1)
+    os.replace(tmp, args.out)
+    print("wrote", args.out, file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
