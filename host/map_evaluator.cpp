@@ -19,9 +19,6 @@ namespace potmap {
 
 namespace {
 
-// Points per device launch: bounds the memory of the chunk lists (about 500 entries a chunk).
-constexpr std::size_t kPointsPerBatch = std::size_t(1) << 21;
-
 // A device buffer that only grows.
 struct GrowBuffer {
   bc::buffer buf;
@@ -129,8 +126,6 @@ struct MapEvaluator::Impl {
 // Grid tiles: TILE_X columns by TILE_Y rows; a work-item owns 16 columns by kRows rows.
 namespace {
 constexpr std::size_t kTileX = 64, kTileY = 64, kRows = 8;
-// Cells per launch: bounds device memory for grids of any size.
-constexpr std::size_t kCellsPerLaunch = std::size_t(1) << 22;
 }  // namespace
 
 void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out_v, float* out_p) {
@@ -157,7 +152,7 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
   const std::size_t nby = (ny + by - 1) / by, nbz = (nz + bz - 1) / bz;
   const std::size_t nblocks = nby * nbz;
   const std::size_t blocks_per_launch =
-      std::max<std::size_t>(1, kCellsPerLaunch / (kTileY * ntx * kTileX));
+      std::max<std::size_t>(1, opt.cells_per_launch / (kTileY * ntx * kTileX));
 
   auto& cx = ctx->context();
   auto& q = ctx->queue();
@@ -466,8 +461,9 @@ void MapEvaluator::evaluate(const double* points, std::size_t n, float* mean, fl
   if (n == 0) return;
   if (!points) throw ArgumentError("MapEvaluator::evaluate: points is null but n > 0");
   const int dim = impl_->map.dim;
-  for (std::size_t s = 0; s < n; s += kPointsPerBatch) {
-    const std::size_t m = std::min(kPointsPerBatch, n - s);
+  const std::size_t batch = std::max<std::size_t>(impl_->opt.points_per_launch, 1);
+  for (std::size_t s = 0; s < n; s += batch) {
+    const std::size_t m = std::min(batch, n - s);
     impl_->run_batch(points + s * dim, m, mean ? mean + s : nullptr, var ? var + s : nullptr,
                      prob ? prob + s : nullptr);
   }

@@ -121,3 +121,13 @@ TEST(Context, WrapsAHostQueue) {
   EXPECT_EQ(wrapped.info().name, base.info().name);
   EXPECT_EQ(wrapped.queue().get(), base.queue().get());
 }
+
+TEST(Context, DumpKernelsPrintsTheSource) {
+  ContextOptions o;
+  o.dump_kernels = true;
+  Context ctx(o);
+  testing::internal::CaptureStderr();
+  ctx.program_from_source("dumped", "__kernel void dumped_marker_kernel(__global int* x) { x[0] = 3; }");
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("dumped_marker_kernel"), std::string::npos) << err;
+}

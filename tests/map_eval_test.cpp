@@ -186,3 +186,30 @@ TEST(MapEval, Grid3DMatchesReference) {
     dp = std::max(dp, std::abs(v.prob[i] - ref.prob[i]));
   EXPECT_LT(dp, 1e-6);
 }
+
+TEST(MapEval, SmallLaunchesGiveTheSameValues) {
+  // Many launches (bounded memory) must not change a single value.
+  KernelMap map = random_map(2, 600, 40, 13);
+  MapEvaluator whole(test::context(), map);
+  EvalOptions small;
+  small.points_per_launch = 777;
+  small.cells_per_launch = 64 * 64 * 2;
+  MapEvaluator pieces(test::context(), map, small);
+  const double lo[3] = {0, 0, 0}, hi[3] = {40, 40, 0};
+  const GridSpec g = GridSpec::covering(2, lo, hi, 0.2);
+  const MapValues a = whole.evaluate_grid(g), b = pieces.evaluate_grid(g);
+  ASSERT_EQ(a.prob.size(), b.prob.size());
+  for (std::size_t i = 0; i < a.prob.size(); i += 37) ASSERT_EQ(a.prob[i], b.prob[i]) << i;
+  const auto pts = random_points(2, 5000, 0, 40, 14);
+  const MapValues c = pieces.evaluate(pts);
+  const MapValuesExact ref = evaluate_exact(map, pts.data(), 5000);
+  for (std::size_t i = 0; i < 5000; ++i) ASSERT_NEAR(c.prob[i], ref.prob[i], 1e-6) << i;
+}
+
+TEST(MapEval, GridDimensionMismatchIsAnError) {
+  KernelMap map = random_map(2, 10, 10, 15);
+  MapEvaluator ev(test::context(), map);
+  const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+  EXPECT_THROW(ev.evaluate_grid(GridSpec::covering(3, lo, hi, 0.5)), ArgumentError);
+  EXPECT_THROW(GridSpec::covering(2, lo, hi, -1.0), ArgumentError);
+}

@@ -50,6 +50,11 @@ struct GridSpec {
 /// Options of the device evaluator.
 struct EvalOptions {
   double tau = kDefaultCutoffTau;  ///< cut-off exponent, gamma * d^2 > tau is dropped; default 18
+  /// Query points per device launch (bounds device memory: about 40 bytes a point plus the
+  /// kernel lists). Default 2^21.
+  std::size_t points_per_launch = std::size_t(1) << 21;
+  /// Grid cells per device launch (12 bytes a cell plus lists). Default 2^22.
+  std::size_t cells_per_launch = std::size_t(1) << 22;
 };
 
 /// Probability from mean and variance: sigmoid(mean / sqrt(1 + pi * var / 8)).
