@@ -60,18 +60,22 @@ def main():
             "kernel_evals_per_s": b.get("kernel_evals_per_s"),
             "extra": {k: v for k, v in b.items() if k.endswith("_per_s") or k in ("iterations_used", "converged")},
         })
-    # Speed-up of OpenCL over the reference per query, for the same benchmark family and map size.
+    # Speed-up of OpenCL over the reference per query: a reference row BM_<F>Reference[/size]
+    # pairs with every OpenCL row BM_<F...>OpenCL[/size] whose family starts with F.
+    pat = re.compile(r"BM_(\w+?)(OpenCL|Reference)(?:/(\d+))?")
     ref = {}
     for r in rows:
-        m = re.match(r"BM_(\w+)Reference/(\d+)", r["name"])
-        if m and r["queries_per_s"]:
-            ref[(m.group(1), m.group(2))] = r["queries_per_s"]
+        m = pat.match(r["name"])
+        if m and m.group(2) == "Reference" and r["queries_per_s"]:
+            ref[(m.group(1), m.group(3))] = r["queries_per_s"]
     for r in rows:
-        m = re.match(r"BM_(\w+)OpenCL/(\d+)", r["name"])
+        m = pat.match(r["name"])
         r["speedup_vs_reference"] = None
-        if m and r["queries_per_s"] and (m.group(1), m.group(2)) in ref:
-            r["speedup_vs_reference"] = r["queries_per_s"] / ref[(m.group(1), m.group(2))]
-
+        if not (m and m.group(2) == "OpenCL" and r["queries_per_s"]):
+            continue
+        for (fam, size), qps in ref.items():
+            if m.group(1).startswith(fam) and size == m.group(3):
+                r["speedup_vs_reference"] = r["queries_per_s"] / qps
     w = max(len(r["name"]) for r in rows) if rows else 10
     print("%-*s %10s %14s %16s %9s  %s" % (w, "benchmark", "ms", "queries/s", "kernel evals/s", "vs ref", "device"))
     for r in rows:
