@@ -95,7 +95,8 @@ struct MapEvaluator::Impl {
       wg = 64;
     }
     char buf[160];
-    std::snprintf(buf, sizeof buf, "-DDIM=%d -DVEC=%d -DTAU=%#.9gf", map.dim, vec, opt.tau);
+    std::snprintf(buf, sizeof buf, "-DDIM=%d -DVEC=%d -DTAU=%#.9gf -cl-denorms-are-zero", map.dim,
+                  vec, opt.tau);
     defines = buf;
 
     const std::size_t m_count = std::max<std::size_t>(map.size(), 1);
@@ -162,8 +163,8 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
   upload(q, b_clo, clo);
   char defs[200];
   std::snprintf(defs, sizeof defs,
-                "-DDIM=%d -DROWS=%zu -DTILE_X=%zu -DTILE_Y=%zu -cl-denorms-are-zero", dim, kRows,
-                kTileX, kTileY);
+                "-DDIM=%d -DROWS=%zu -DTILE_X=%zu -DTILE_Y=%zu -DTAU=%#.9gf -cl-denorms-are-zero",
+                dim, kRows, kTileX, kTileY, opt.tau);
   bc::kernel kern = ctx->kernel("map_raster", "map_raster", defs);
   const float bm = map.has_bias ? static_cast<float>(map.bias_mean) : 0.f;
   const float bv = map.has_bias ? static_cast<float>(map.bias_var) : 0.f;

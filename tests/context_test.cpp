@@ -127,7 +127,8 @@ TEST(Context, DumpKernelsPrintsTheSource) {
   o.dump_kernels = true;
   Context ctx(o);
   testing::internal::CaptureStderr();
-  ctx.program_from_source("dumped", "__kernel void dumped_marker_kernel(__global int* x) { x[0] = 3; }");
+  ctx.program_from_source("dumped",
+                          "__kernel void dumped_marker_kernel(__global int* x) { x[0] = 3; }");
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("dumped_marker_kernel"), std::string::npos) << err;
 }

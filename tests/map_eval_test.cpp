@@ -226,3 +226,30 @@ TEST(MapEval, Grid3DInSmallLaunchesMatchesPoints) {
   ASSERT_EQ(v.prob.size(), ref.prob.size());
   for (std::size_t i = 0; i < v.prob.size(); ++i) ASSERT_NEAR(v.prob[i], ref.prob[i], 1e-6) << i;
 }
+
+TEST(MapEval, CutoffTauIsHonoured) {
+  // The device sums every kernel with gamma d^2 <= tau and may add some beyond it (those whose
+  // cut-off reaches the chunk or block of cells): its mean lies between the strict-cut sum and
+  // that sum plus the magnitude of all terms beyond the cut.
+  KernelMap map = random_map(2, 400, 30, 17);
+  EvalOptions o;
+  o.tau = 0.5;
+  MapEvaluator ev(test::context(), map, o);
+  const auto pts = random_points(2, 3000, 0, 30, 18);
+  const MapValues v = ev.evaluate(pts);
+  const MapValuesExact full = evaluate_exact(map, pts.data(), 3000);
+  double differs = 0;
+  for (std::size_t i = 0; i < 3000; ++i) {
+    double cut = 0, beyond = 0;
+    for (std::size_t k = 0; k < map.size(); ++k) {
+      const double dx = pts[2 * i] - map.position[2 * k],
+                   dy = pts[2 * i + 1] - map.position[2 * k + 1];
+      const double a = map.gamma[k] * (dx * dx + dy * dy);
+      (a <= o.tau ? cut : beyond) +=
+          a <= o.tau ? map.w_mean[k] * std::exp(-a) : std::abs(map.w_mean[k]) * std::exp(-a);
+    }
+    ASSERT_LE(std::abs(v.mean[i] - cut), beyond + 1e-4 * (1 + std::abs(cut))) << i;
+    differs = std::max(differs, std::abs(v.mean[i] - full.mean[i]));
+  }
+  EXPECT_GT(differs, 1e-2);  // the cut really dropped something
+}
