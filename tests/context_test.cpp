@@ -132,3 +132,16 @@ TEST(Context, DumpKernelsPrintsTheSource) {
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("dumped_marker_kernel"), std::string::npos) << err;
 }
+
+TEST(Context, DeviceChosenByEnvironment) {
+  const std::string first = list_devices().at(0).name;
+  ::setenv("POTMAP_DEVICE", first.substr(0, 6).c_str(), 1);
+  EXPECT_EQ(Context().info().name.substr(0, 6), first.substr(0, 6));
+  ::setenv("POTMAP_DEVICE", "definitely-not-a-device", 1);
+  EXPECT_THROW(Context(), Error);
+  // An explicit option wins over the environment.
+  ContextOptions o;
+  o.device = first.substr(0, 6);
+  EXPECT_NO_THROW(Context{o});
+  ::unsetenv("POTMAP_DEVICE");
+}
