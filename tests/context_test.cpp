@@ -135,6 +135,8 @@ TEST(Context, DumpKernelsPrintsTheSource) {
 
 TEST(Context, DeviceChosenByEnvironment) {
   const std::string first = list_devices().at(0).name;
+  const char* old = std::getenv("POTMAP_DEVICE");
+  const std::string saved = old ? old : "";
   ::setenv("POTMAP_DEVICE", first.substr(0, 6).c_str(), 1);
   EXPECT_EQ(Context().info().name.substr(0, 6), first.substr(0, 6));
   ::setenv("POTMAP_DEVICE", "definitely-not-a-device", 1);
@@ -143,5 +145,8 @@ TEST(Context, DeviceChosenByEnvironment) {
   ContextOptions o;
   o.device = first.substr(0, 6);
   EXPECT_NO_THROW(Context{o});
-  ::unsetenv("POTMAP_DEVICE");
+  if (old)
+    ::setenv("POTMAP_DEVICE", saved.c_str(), 1);
+  else
+    ::unsetenv("POTMAP_DEVICE");
 }
