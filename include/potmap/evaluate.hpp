@@ -12,6 +12,10 @@
 // Measured bounds are in the tests (map_eval_test.cpp) and the README: |dp| < 1e-6 everywhere;
 // |dmean| <= 1e-5 * (1 + sum_m |w_mean_m| phi_m); |dvar| <= 1e-5 * (1 + var).
 
+#include <boost/compute/buffer.hpp>
+#include <boost/compute/event.hpp>
+#include <boost/compute/utility/wait_list.hpp>
+
 #include <cstddef>
 #include <memory>
 #include <vector>
@@ -83,6 +87,20 @@ class MapEvaluator {
   /// Values on a grid (GridSpec order). Outputs may be null; others receive grid.cells() floats.
   void evaluate_grid(const GridSpec& grid, float* mean, float* var, float* prob);
   MapValues evaluate_grid(const GridSpec& grid);
+
+  /// Values at n points that already live on the device, for a host mapper that keeps its data
+  /// there. `points`: n * dim floats (x, y[, z] per point), metres relative to `origin` (dim
+  /// doubles, metres, in the map's frame; keep points within a few km of it for millimetre
+  /// precision). Outputs: buffers of at least n floats, or null to skip. All buffers must belong
+  /// to the evaluator's OpenCL context. The launch waits for `events` and is not waited for:
+  /// the returned event completes when the outputs are written. n == 0 enqueues nothing and
+  /// returns an empty event. Points are processed in any order (no sorting): a uniform grid of
+  /// per-cell kernel lists is built on the first call and kept (about 4 bytes per kernel and
+  /// cell it reaches).
+  boost::compute::event evaluate_device(const boost::compute::buffer& points, std::size_t n,
+                                        const double* origin, boost::compute::buffer* mean,
+                                        boost::compute::buffer* var, boost::compute::buffer* prob,
+                                        const boost::compute::wait_list& events = {});
 
   /// Kernel-query pairs visited by the last call (work done, for benchmarks).
   std::size_t last_pairs() const;
