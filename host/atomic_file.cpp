@@ -12,7 +12,9 @@
 namespace potmap::detail {
 
 namespace {
-std::string errno_text() { return std::strerror(errno); }
+std::string errno_text() {
+  return std::strerror(errno);
+}
 }  // namespace
 
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {
@@ -31,7 +33,9 @@ AtomicFile::AtomicFile(const std::string& path) : path_(path) {
   }
 }
 
-AtomicFile::~AtomicFile() { discard(); }
+AtomicFile::~AtomicFile() {
+  discard();
+}
 
 void AtomicFile::write(const void* data, std::size_t n) {
   if (n == 0) return;

@@ -81,7 +81,7 @@ struct MapEvaluator::Impl {
       wg = 64;
     }
     char buf[160];
-    std::snprintf(buf, sizeof buf, "-DDIM=%d -DVEC=%d -DTAU=%.9gf", map.dim, vec, opt.tau);
+    std::snprintf(buf, sizeof buf, "-DDIM=%d -DVEC=%d -DTAU=%.9ef", map.dim, vec, opt.tau);
     defines = buf;
 
     const std::size_t m_count = std::max<std::size_t>(map.size(), 1);

@@ -18,8 +18,8 @@ bool host_is_little_endian() {
 }  // namespace
 
 std::string NpyWriter::header(std::size_t rows, std::size_t cols) {
-  std::string dict = "{'descr': '<f4', 'fortran_order': False, 'shape': (" +
-                     std::to_string(rows) + ", " + std::to_string(cols) + "), }";
+  std::string dict = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(rows) +
+                     ", " + std::to_string(cols) + "), }";
   // NumPy aligns the data to 64 bytes (format 1.0 allows any multiple of 16; 64 suits mmap).
   const std::size_t prefix = 10;  // magic (6) + version (2) + header length (2)
   std::size_t total = prefix + dict.size() + 1;

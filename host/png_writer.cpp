@@ -80,8 +80,7 @@ PngWriter::PngWriter(const std::string& path, std::size_t width, std::size_t hei
                  " outside 1..1000000")
                     .c_str());
   impl_->height = height;
-  impl_->png =
-      png_create_write_struct(PNG_LIBPNG_VER_STRING, &impl_->state, on_error, on_warning);
+  impl_->png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &impl_->state, on_error, on_warning);
   if (!impl_->png) impl_->fail("png_create_write_struct failed");
   impl_->info = png_create_info_struct(impl_->png);
   if (!impl_->info) impl_->fail("png_create_info_struct failed");
@@ -102,8 +101,8 @@ void PngWriter::write_row(const std::uint8_t* rgb) {
 
 void PngWriter::finish() {
   if (impl_->rows != impl_->height)
-    impl_->fail(("only " + std::to_string(impl_->rows) + " of " +
-                 std::to_string(impl_->height) + " rows written")
+    impl_->fail(("only " + std::to_string(impl_->rows) + " of " + std::to_string(impl_->height) +
+                 " rows written")
                     .c_str());
   if (!end(impl_->png, impl_->info)) impl_->fail("end");
   png_destroy_write_struct(&impl_->png, &impl_->info);

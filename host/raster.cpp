@@ -44,17 +44,22 @@ struct MinMax {
 
 }  // namespace
 
-std::size_t RasterSpec::width() const { return axis_cells(xmin, xmax, resolution); }
-std::size_t RasterSpec::height() const { return axis_cells(ymin, ymax, resolution); }
+std::size_t RasterSpec::width() const {
+  return axis_cells(xmin, xmax, resolution);
+}
+std::size_t RasterSpec::height() const {
+  return axis_cells(ymin, ymax, resolution);
+}
 
 void RasterSpec::validate() const {
   const char* names[] = {"xmin", "xmax", "ymin", "ymax", "resolution", "z"};
   const double values[] = {xmin, xmax, ymin, ymax, resolution, z};
   for (int i = 0; i < 6; ++i)
     if (!std::isfinite(values[i]))
-      throw ArgumentError(std::string("raster: ") + names[i] + " is not finite (" +
-                          num(values[i]) + ")");
-  if (!(resolution > 0)) throw ArgumentError("raster: resolution must be > 0, got " + num(resolution));
+      throw ArgumentError(std::string("raster: ") + names[i] + " is not finite (" + num(values[i]) +
+                          ")");
+  if (!(resolution > 0))
+    throw ArgumentError("raster: resolution must be > 0, got " + num(resolution));
   if (!(xmin < xmax))
     throw ArgumentError("raster: xmin (" + num(xmin) + ") must be below xmax (" + num(xmax) + ")");
   if (!(ymin < ymax))

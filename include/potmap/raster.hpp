@@ -51,10 +51,10 @@ Colormap parse_colormap(const std::string& name);
 
 /// The window to rasterise, in map coordinates (metres).
 struct RasterSpec {
-  double xmin = 0, xmax = 0;  ///< metres, xmin < xmax
-  double ymin = 0, ymax = 0;  ///< metres, ymin < ymax
-  double resolution = 0.1;    ///< cell edge, metres, > 0; default 0.1
-  double z = 0.0;             ///< height of the slice for 3D maps, metres; ignored in 2D
+  double xmin = 0, xmax = 0;   ///< metres, xmin < xmax
+  double ymin = 0, ymax = 0;   ///< metres, ymin < ymax
+  double resolution = 0.1;     ///< cell edge, metres, > 0; default 0.1
+  double z = 0.0;              ///< height of the slice for 3D maps, metres; ignored in 2D
   std::size_t width() const;   ///< ceil((xmax - xmin) / resolution)
   std::size_t height() const;  ///< ceil((ymax - ymin) / resolution)
   /// Throws ArgumentError naming the bad value (non-finite, empty window, resolution <= 0,
