@@ -1,10 +1,12 @@
 #include "atomic_file.hpp"
 
-#include <stdlib.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
+#include <random>
 #include <vector>
 
 #include "potmap/error.hpp"
@@ -18,12 +20,18 @@ std::string errno_text() {
 }  // namespace
 
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {
-  std::string templ = path + ".tmp-XXXXXX";
-  std::vector<char> buf(templ.begin(), templ.end());
-  buf.push_back('\0');
-  const int fd = ::mkstemp(buf.data());
+  // open(O_EXCL) with a random name rather than mkstemp: mkstemp makes the file 0600, while the
+  // result should get the usual permissions (0666 less the umask), as any other output file.
+  std::random_device rd;
+  int fd = -1;
+  for (int attempt = 0; attempt < 16 && fd < 0; ++attempt) {
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, ".tmp-%ld-%08x", static_cast<long>(::getpid()), rd());
+    temp_ = path + suffix;
+    fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && errno != EEXIST) break;
+  }
   if (fd < 0) throw Error("cannot create " + path + ": " + errno_text());
-  temp_ = buf.data();
   file_ = ::fdopen(fd, "wb");
   if (!file_) {
     const std::string why = errno_text();
