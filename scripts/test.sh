@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Builds potmap (scripts/setup.sh) and runs the whole test suite with CTest.
+# POTMAP_TEST_TIMEOUT: per-test limit in seconds (default 600).
+set -euo pipefail
+
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+./scripts/setup.sh
+
+start=$(date +%s)
+status=0
+ctest --test-dir build --output-on-failure -j"$(nproc)" \
+  --timeout "${POTMAP_TEST_TIMEOUT:-600}" || status=$?
+elapsed=$(($(date +%s) - start))
+
+echo
+if ((status == 0)); then
+  echo "test.sh: PASSED (all tests, ${elapsed} s)"
+else
+  echo "test.sh: FAILED (ctest exit status ${status}, ${elapsed} s); see the failures above" >&2
+fi
+exit "$status"
