@@ -1,6 +1,7 @@
-// Colour maps as anchor tables sampled from the published viridis and magma maps (van der Walt
-// and Smith, 2015), interpolated linearly in sRGB. Between anchors 1/12 apart the error against
-// the full 256-entry maps is a few 8-bit levels, invisible in occupancy pictures.
+// Colour maps as anchor tables of the published viridis and magma maps (van der Walt and Smith,
+// 2015): their 10-colour and 5-colour samplings (t = k/9 and k/4), interpolated linearly in
+// sRGB. That is an approximation of the 256-entry originals, close enough for occupancy
+// pictures; the tests check that lightness still rises monotonically.
 #include <algorithm>
 #include <cctype>
 #include <cmath>
