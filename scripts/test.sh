@@ -5,7 +5,7 @@
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
-./scripts/setup.sh
+./scripts/setup.sh || { echo "test.sh: FAILED: installing or building failed (see above)" >&2; exit 1; }
 
 start=$(date +%s)
 status=0
