@@ -1,0 +1,37 @@
+#pragma once
+// A file that appears under its final name only once it is complete: it is written to a
+// temporary file in the same folder (so that rename() is atomic on POSIX file systems) and
+// renamed by commit(). If commit() is never reached the temporary file is removed, so a failed
+// write leaves nothing behind and never clobbers an existing file with half a result.
+
+#include <cstdio>
+#include <string>
+
+namespace potmap::detail {
+
+class AtomicFile {
+ public:
+  /// Creates the temporary file next to `path`. Throws potmap::Error naming `path` on failure.
+  explicit AtomicFile(const std::string& path);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  std::FILE* file() { return file_; }
+  const std::string& path() const { return path_; }
+  /// Writes `n` bytes; throws potmap::Error naming the file on a short write.
+  void write(const void* data, std::size_t n);
+  /// Flushes, closes and renames the temporary file to its final name. Throws on failure (the
+  /// temporary file is then removed).
+  void commit();
+  /// Removes the temporary file now (also done by the destructor unless committed).
+  void discard() noexcept;
+
+ private:
+  std::string path_;
+  std::string temp_;
+  std::FILE* file_ = nullptr;
+  bool done_ = false;
+};
+
+}  // namespace potmap::detail

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Builds potmap (scripts/setup.sh) and runs the whole test suite with CTest.
+# POTMAP_TEST_TIMEOUT: per-test limit in seconds (default 600).
+# POTMAP_SUITE_TIMEOUT: limit for the whole run in seconds (default 3600).
+set -euo pipefail
+
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+./scripts/setup.sh || { echo "test.sh: FAILED: installing or building failed (see above)" >&2; exit 1; }
+
+start=$(date +%s)
+status=0
+timeout --foreground "${POTMAP_SUITE_TIMEOUT:-3600}" \
+  ctest --test-dir build --output-on-failure -j"$(nproc)" \
+  --timeout "${POTMAP_TEST_TIMEOUT:-600}" || status=$?
+elapsed=$(($(date +%s) - start))
+
+echo
+if ((status == 0)); then
+  echo "test.sh: PASSED (all tests, ${elapsed} s)"
+elif ((status == 124)); then
+  echo "test.sh: FAILED: the suite ran past ${POTMAP_SUITE_TIMEOUT:-3600} s" >&2
+else
+  echo "test.sh: FAILED (ctest exit status ${status}, ${elapsed} s); see the failures above" >&2
+fi
+exit "$status"

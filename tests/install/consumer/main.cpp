@@ -1,0 +1,36 @@
+// Evaluates a one-kernel map through an installed potmap and checks the probability against
+// the model's formula. Exit status 0 only if they agree.
+#include <cmath>
+#include <cstdio>
+
+#include "potmap/context.hpp"
+#include "potmap/evaluate.hpp"
+#include "potmap/kernel_map.hpp"
+#include "potmap/version.hpp"
+
+int main() {
+  try {
+    potmap::Context ctx;
+    potmap::KernelMap map;
+    const double h[2] = {1.0, 2.0};
+    map.push_back(h, 0.5, 2.0, 0.3);
+    potmap::MapEvaluator ev(ctx, map);
+    const double q[2] = {1.5, 2.0};
+    float prob = -1;
+    ev.evaluate(q, 1, nullptr, nullptr, &prob);
+
+    const double phi = std::exp(-0.5 * 0.25);
+    const double mu = 2.0 * phi, s2 = 0.3 * phi * phi;
+    const double want = 1.0 / (1.0 + std::exp(-mu / std::sqrt(1.0 + M_PI * s2 / 8.0)));
+    std::printf("potmap %s on %s: p = %.7f (expected %.7f)\n", POTMAP_VERSION_STRING,
+                ctx.info().summary().c_str(), prob, want);
+    if (!(std::fabs(prob - want) < 1e-5)) {
+      std::fprintf(stderr, "wrong probability\n");
+      return 1;
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+}

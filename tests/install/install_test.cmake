@@ -1,0 +1,59 @@
+# Installs the built potmap into a fresh prefix, checks the installed package files carry no
+# path of the build machine, then builds and runs a consumer twice: with find_package(potmap)
+# and with pkg-config. Run by CTest as `cmake -P` with:
+#   BUILD_DIR, SOURCE_DIR (potmap's), CONSUMER_DIR, WORK_DIR, CXX (compiler), GENERATOR
+cmake_minimum_required(VERSION 3.20)
+
+function(run)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "failed (${rc}): ${ARGN}\n${out}\n${err}")
+  endif()
+  set(run_output "${out}" PARENT_SCOPE)
+endfunction()
+
+file(REMOVE_RECURSE "${WORK_DIR}")
+set(prefix "${WORK_DIR}/prefix")
+run(${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${prefix}")
+
+# Relocatable package: no absolute path of the source or build tree in the package files.
+file(GLOB_RECURSE package_files "${prefix}/*.cmake" "${prefix}/*.pc" "${prefix}/include/*")
+if(NOT package_files)
+  message(FATAL_ERROR "nothing installed under ${prefix}")
+endif()
+foreach(f IN LISTS package_files)
+  file(READ "${f}" text)
+  foreach(p IN ITEMS "${SOURCE_DIR}" "${BUILD_DIR}" "${prefix}")
+    string(FIND "${text}" "${p}" at)
+    if(NOT at EQUAL -1)
+      message(FATAL_ERROR "${f} contains the build machine's path ${p}")
+    endif()
+  endforeach()
+endforeach()
+
+# 1. CMake package.
+run(${CMAKE_COMMAND} -S "${CONSUMER_DIR}" -B "${WORK_DIR}/cmake-consumer" -G "${GENERATOR}"
+    -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_CXX_COMPILER=${CXX} -DCMAKE_BUILD_TYPE=Release)
+run(${CMAKE_COMMAND} --build "${WORK_DIR}/cmake-consumer")
+run("${WORK_DIR}/cmake-consumer/app")
+message(STATUS "find_package consumer: ${run_output}")
+
+# 2. pkg-config.
+find_program(PKG_CONFIG pkg-config REQUIRED)
+file(GLOB pc_dirs "${prefix}/lib*/pkgconfig" "${prefix}/lib/*/pkgconfig")
+string(REPLACE ";" ":" pc_path "${pc_dirs}")
+set(ENV{PKG_CONFIG_PATH} "${pc_path}")
+run(${PKG_CONFIG} --cflags --libs potmap)
+string(STRIP "${run_output}" flags)
+separate_arguments(flags UNIX_COMMAND "${flags}")
+run(${CXX} -std=c++17 "${CONSUMER_DIR}/main.cpp" ${flags} -o "${WORK_DIR}/pc-app")
+# pkg-config gives no run path: point the loader at the prefix.
+set(libdirs "")
+foreach(fl IN LISTS flags)
+  if(fl MATCHES "^-L(.*)")
+    list(APPEND libdirs "${CMAKE_MATCH_1}")
+  endif()
+endforeach()
+string(REPLACE ";" ":" libpath "${libdirs}")
+run(${CMAKE_COMMAND} -E env "LD_LIBRARY_PATH=${libpath}" "${WORK_DIR}/pc-app")
+message(STATUS "pkg-config consumer: ${run_output}")

@@ -1,0 +1,74 @@
+// The `potmap raster` command end to end. Skipped where the command was not built (it needs
+// read_map from the map I/O part of the library).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string read_all(const std::string& path) {
+  std::ifstream f(path);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+Result run_cli(const std::string& dir, const std::string& args) {
+  const std::string cmd =
+      std::string("'") + POTMAP_CLI + "' " + args + " >'" + dir + "/stdout' 2>'" + dir + "/stderr'";
+  const int rc = std::system(cmd.c_str());
+  Result r;
+  r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  r.out = read_all(dir + "/stdout");
+  r.err = read_all(dir + "/stderr");
+  return r;
+}
+
+std::string write_map_csv(const std::string& dir) {
+  const std::string path = dir + "/map.csv";
+  std::ofstream(path) << "x,y,gamma,w_mean,w_var\n0.5,0.25,2.0,3.0,0.5\n";
+  return path;
+}
+
+}  // namespace
+
+TEST(RasterCli, WritesTheFourFiles) {
+  if (std::string(POTMAP_CLI).empty() || !fs::exists(POTMAP_CLI))
+    GTEST_SKIP() << "potmap command not built";
+  const std::string dir = potmap::test::temp_dir("raster-cli");
+  const std::string map = write_map_csv(dir);
+  const Result r =
+      run_cli(dir, "raster --map '" + map + "' --bounds -1,2,-1,1.5 --res 0.05 --out '" + dir +
+                       "/w' --band-cells 100 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\"width\": 60"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"height\": 50"), std::string::npos) << r.out;
+  for (const char* f : {"_prob.png", "_var.png", "_prob.npy", "_var.npy"})
+    EXPECT_TRUE(fs::exists(dir + "/w" + f)) << f;
+}
+
+TEST(RasterCli, BadBoundsNameTheValue) {
+  if (std::string(POTMAP_CLI).empty() || !fs::exists(POTMAP_CLI))
+    GTEST_SKIP() << "potmap command not built";
+  const std::string dir = potmap::test::temp_dir("raster-cli-bad");
+  const std::string map = write_map_csv(dir);
+  Result r = run_cli(
+      dir, "raster --map '" + map + "' --bounds -1,2,oops,1 --res 0.1 --out '" + dir + "/w'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("ymin 'oops'"), std::string::npos) << r.err;
+  r = run_cli(dir, "raster --map '" + map + "' --bounds -1,2,1 --res 0.1 --out '" + dir + "/w'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("expected 4"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir + "/w_prob.png"));
+}

@@ -1,0 +1,132 @@
+// potmap raster: a window of a map as pictures (PNG) and arrays (.npy).
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "commands.hpp"
+#include "potmap/error.hpp"
+#include "potmap/map_io.hpp"
+#include "potmap/raster.hpp"
+
+namespace potmap::cli {
+
+namespace {
+
+struct RasterArgs {
+  std::string map, bounds, out, prob_cmap = "viridis", var_cmap = "magma";
+  double res = 0, z = 0;
+  std::size_t band_cells = RasterOptions{}.max_band_cells;
+  bool no_png = false, no_npy = false, json = false;
+};
+
+// "xmin,xmax,ymin,ymax" -> spec; names the value that is wrong.
+void parse_bounds(const std::string& text, RasterSpec& spec) {
+  const char* names[] = {"xmin", "xmax", "ymin", "ymax"};
+  double* dest[] = {&spec.xmin, &spec.xmax, &spec.ymin, &spec.ymax};
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) parts.push_back(item);
+  if (!text.empty() && text.back() == ',') parts.push_back("");
+  if (parts.size() != 4)
+    throw ArgumentError("--bounds '" + text + "': expected 4 comma-separated values " +
+                        "xmin,xmax,ymin,ymax, got " + std::to_string(parts.size()));
+  for (int i = 0; i < 4; ++i) {
+    std::size_t used = 0;
+    double v = NAN;
+    try {
+      v = std::stod(parts[i], &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    while (used < parts[i].size() && std::isspace(static_cast<unsigned char>(parts[i][used])))
+      ++used;
+    if (used == 0 || used != parts[i].size() || !std::isfinite(v))
+      throw ArgumentError(std::string("--bounds: ") + names[i] + " '" + parts[i] +
+                          "' is not a finite number");
+    *dest[i] = v;
+  }
+}
+
+// Progress on a terminal only: logs and pipes get the summary, not carriage returns.
+std::function<void(double)> terminal_progress() {
+  if (!::isatty(::fileno(stderr))) return {};
+  const auto start = std::chrono::steady_clock::now();
+  return [start](double f) {
+    const double el =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double eta = f > 0 ? el * (1 - f) / f : 0;
+    std::fprintf(stderr, "\rpotmap: raster %5.1f%%  elapsed %.0f s  ETA %.0f s   ", 100 * f, el,
+                 eta);
+    if (f >= 1) std::fprintf(stderr, "\n");
+    std::fflush(stderr);
+  };
+}
+
+}  // namespace
+
+void register_raster(CLI::App& app, Runner& runner) {
+  CLI::App* cmd = app.add_subcommand(
+      "raster", "Write probability and variance of a map window as PNG pictures and .npy arrays");
+  auto a = std::make_shared<RasterArgs>();
+  auto device = add_device_option(cmd);
+  cmd->add_option("--map", a->map, "Map file (.csv, .npz, .potmap)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--bounds", a->bounds, "Window xmin,xmax,ymin,ymax in metres")->required();
+  cmd->add_option("--res", a->res, "Cell edge in metres")->required()->check(CLI::PositiveNumber);
+  cmd->add_option("--out", a->out,
+                  "Output prefix: writes PREFIX_prob.png, PREFIX_var.png, PREFIX_prob.npy, "
+                  "PREFIX_var.npy")
+      ->required();
+  cmd->add_option("--z", a->z, "Slice height for 3D maps, metres (default 0)");
+  cmd->add_option("--band-cells", a->band_cells,
+                  "Most cells evaluated at once (memory ~24 bytes per cell; default 4194304)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--prob-cmap", a->prob_cmap, "Colour map of probability (viridis, magma)");
+  cmd->add_option("--var-cmap", a->var_cmap, "Colour map of variance (viridis, magma)");
+  cmd->add_flag("--no-png", a->no_png, "Do not write the PNG pictures");
+  cmd->add_flag("--no-npy", a->no_npy, "Do not write the .npy arrays");
+  cmd->add_flag("--json", a->json, "Print the summary as JSON on stdout");
+  cmd->callback([&runner, a, device] {
+    runner.action = [a, device] {
+      RasterSpec spec;
+      parse_bounds(a->bounds, spec);
+      spec.resolution = a->res;
+      spec.z = a->z;
+      spec.validate();  // before reading a large map
+      RasterOptions opt;
+      opt.max_band_cells = a->band_cells;
+      opt.write_png = !a->no_png;
+      opt.write_npy = !a->no_npy;
+      opt.prob_colormap = parse_colormap(a->prob_cmap);
+      opt.var_colormap = parse_colormap(a->var_cmap);
+      opt.progress = terminal_progress();
+      const KernelMap map = read_map(a->map);
+      Context ctx = make_context(*device, a->json);
+      const RasterSummary s = rasterize(ctx, map, spec, a->out, opt);
+      if (a->json) {
+        nlohmann::json j = {{"width", s.width},       {"height", s.height},
+                            {"cells", s.cells},       {"bands", s.bands},
+                            {"seconds", s.seconds},   {"prob_min", s.prob_min},
+                            {"prob_max", s.prob_max}, {"var_min", s.var_min},
+                            {"var_max", s.var_max},   {"files", s.files}};
+        std::cout << j.dump(2) << "\n";
+      } else {
+        std::cout << s.width << " x " << s.height << " cells in " << s.bands << " band"
+                  << (s.bands == 1 ? "" : "s") << ", " << s.seconds << " s; p in [" << s.prob_min
+                  << ", " << s.prob_max << "], variance in [" << s.var_min << ", " << s.var_max
+                  << "]\n";
+        for (const std::string& f : s.files) std::cout << "wrote " << f << "\n";
+      }
+      return 0;
+    };
+  });
+}
+
+}  // namespace potmap::cli
