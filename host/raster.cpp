@@ -98,7 +98,6 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   }
 
   const std::size_t band_rows = std::max<std::size_t>(1, options.max_band_cells / W);
-  std::vector<double> pts;
   std::vector<float> var, prob;
   std::vector<std::uint8_t> rgb(W * 3);
   MinMax pstat, vstat;
@@ -116,27 +115,30 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
     return rgb.data();
   };
 
-  for (std::size_t r0 = 0; r0 < H; r0 += band_rows) {
-    const std::size_t r1 = std::min(H, r0 + band_rows);
-    const std::size_t n = (r1 - r0) * W;
-    pts.resize(n * dim);
+  // Bands run top to bottom (image order) but are cut on a lattice of whole 64-row tiles counted
+  // from the window's bottom, so every band is evaluated by exactly the tiles a single pass
+  // would use: the values do not depend on the band size.
+  constexpr std::size_t kTileRows = 64;
+  const std::size_t band = std::max<std::size_t>(kTileRows, band_rows / kTileRows * kTileRows);
+  std::size_t j_hi = H;  // rows counted from the bottom (y up): image row r is j = H - 1 - r
+  while (j_hi > 0) {
+    const std::size_t j_lo = (j_hi - 1) / band * band;
+    GridSpec g;
+    g.dim = dim;
+    g.resolution = spec.resolution;
+    g.origin[0] = spec.xmin;
+    g.origin[1] = spec.ymin + double(j_lo) * spec.resolution;
+    g.origin[2] = spec.z - 0.5 * spec.resolution;  // one layer centred on z (3D maps)
+    g.count[0] = W;
+    g.count[1] = j_hi - j_lo;
+    g.count[2] = 1;
+    const std::size_t n = g.cells();
     var.resize(n);
     prob.resize(n);
-    // Coordinates from absolute indices, never from a band origin: the values then do not
-    // depend on how the window is cut into bands.
-    double* p = pts.data();
-    for (std::size_t r = r0; r < r1; ++r) {
-      const double y = spec.ymin + (double(H - 1 - r) + 0.5) * spec.resolution;
-      for (std::size_t c = 0; c < W; ++c) {
-        *p++ = spec.xmin + (double(c) + 0.5) * spec.resolution;
-        *p++ = y;
-        if (dim == 3) *p++ = spec.z;
-      }
-    }
-    ev.evaluate(pts.data(), n, nullptr, var.data(), prob.data());
-    for (std::size_t r = r0; r < r1; ++r) {
-      const float* pr = prob.data() + (r - r0) * W;
-      const float* vr = var.data() + (r - r0) * W;
+    ev.evaluate_grid(g, nullptr, var.data(), prob.data());
+    for (std::size_t j = j_hi; j-- > j_lo;) {
+      const float* pr = prob.data() + (j - j_lo) * W;
+      const float* vr = var.data() + (j - j_lo) * W;
       for (std::size_t c = 0; c < W; ++c) {
         pstat.add(pr[c]);
         vstat.add(vr[c]);
@@ -147,7 +149,8 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
       if (var_png) var_png->write_row(to_rgb(vr, options.var_colormap, true));
     }
     ++sum.bands;
-    if (options.progress) options.progress(double(r1) / double(H));
+    if (options.progress) options.progress(double(H - j_lo) / double(H));
+    j_hi = j_lo;
   }
 
   // Put the files in place only now that every one is complete. Should a late rename fail, the

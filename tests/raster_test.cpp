@@ -200,11 +200,17 @@ TEST(Raster, OneKernelMatchesTheExactReference) {
 }
 
 TEST(Raster, BandsGiveTheSameFilesBitForBit) {
-  const KernelMap map = one_kernel_2d();
-  const RasterSpec spec = small_window();
+  // A window of 201 rows, so that bands of 64 rows (the tile lattice) cut it several ways, with
+  // several kernels of different reach.
+  KernelMap map = one_kernel_2d();
+  const double p2[2] = {-1.0, 6.0}, p3[2] = {1.5, 12.0};
+  map.push_back(p2, 0.05, -2.0, 3.0);
+  map.push_back(p3, 1.0, 4.0, 0.2);
+  RasterSpec spec = small_window();
+  spec.ymax = spec.ymin + 20.05;  // 201 rows
   const std::string dir = test::temp_dir("raster-bands");
   rasterize(test::context(), map, spec, dir + "/one");
-  for (std::size_t band : {std::size_t(1), std::size_t(130), std::size_t(333)}) {
+  for (std::size_t band : {std::size_t(1), std::size_t(40 * 130), std::size_t(40 * 333)}) {
     SCOPED_TRACE(band);
     RasterOptions o;
     o.max_band_cells = band;
@@ -212,8 +218,9 @@ TEST(Raster, BandsGiveTheSameFilesBitForBit) {
     o.progress = [&](double f) { fractions.push_back(f); };
     const std::string prefix = dir + "/band" + std::to_string(band);
     const RasterSummary s = rasterize(test::context(), map, spec, prefix, o);
-    const std::size_t rows = std::max<std::size_t>(1, band / 40);
-    EXPECT_EQ(s.bands, (31 + rows - 1) / rows);
+    // Bands are whole multiples of 64 rows (at least one), counted from the bottom.
+    const std::size_t rows = std::max<std::size_t>(64, band / 40 / 64 * 64);
+    EXPECT_EQ(s.bands, (201 + rows - 1) / rows);
     ASSERT_EQ(fractions.size(), s.bands);
     EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
     EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
@@ -253,12 +260,14 @@ TEST(Raster, UnwritableFolderLeavesNothing) {
 TEST(Raster, FailureMidRunRemovesTemporaryFiles) {
   const std::string dir = test::temp_dir("raster-abort");
   RasterOptions o;
-  o.max_band_cells = 40 * 4;
+  o.max_band_cells = 40 * 4;  // one 64-row band at a time
+  RasterSpec spec = small_window();
+  spec.ymax = spec.ymin + 20.05;  // 201 rows: four bands
   int calls = 0;
   o.progress = [&](double) {
     if (++calls == 3) throw std::runtime_error("stop");
   };
-  EXPECT_THROW(rasterize(test::context(), one_kernel_2d(), small_window(), dir + "/out", o),
+  EXPECT_THROW(rasterize(test::context(), one_kernel_2d(), spec, dir + "/out", o),
                std::runtime_error);
   EXPECT_EQ(calls, 3);
   EXPECT_TRUE(fs::is_empty(dir)) << fs::directory_iterator(dir)->path();
