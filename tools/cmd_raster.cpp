@@ -12,6 +12,7 @@
 #include "potmap/error.hpp"
 #include "potmap/map_io.hpp"
 #include "potmap/raster.hpp"
+#include "progress.hpp"
 
 namespace potmap::cli {
 
@@ -53,21 +54,6 @@ void parse_bounds(const std::string& text, RasterSpec& spec) {
   }
 }
 
-// Progress on a terminal only: logs and pipes get the summary, not carriage returns.
-std::function<void(double)> terminal_progress() {
-  if (!::isatty(::fileno(stderr))) return {};
-  const auto start = std::chrono::steady_clock::now();
-  return [start](double f) {
-    const double el =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const double eta = f > 0 ? el * (1 - f) / f : 0;
-    std::fprintf(stderr, "\rpotmap: raster %5.1f%%  elapsed %.0f s  ETA %.0f s   ", 100 * f, el,
-                 eta);
-    if (f >= 1) std::fprintf(stderr, "\n");
-    std::fflush(stderr);
-  };
-}
-
 }  // namespace
 
 void register_raster(CLI::App& app, Runner& runner) {
@@ -106,7 +92,7 @@ void register_raster(CLI::App& app, Runner& runner) {
       opt.write_npy = !a->no_npy;
       opt.prob_colormap = parse_colormap(a->prob_cmap);
       opt.var_colormap = parse_colormap(a->var_cmap);
-      opt.progress = terminal_progress();
+      opt.progress = terminal_progress("raster");
       const KernelMap map = read_map(a->map);
       Context ctx = make_context(*device, a->json);
       const RasterSummary s = rasterize(ctx, map, spec, a->out, opt);

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   potmap::cli::Runner runner;
   potmap::cli::register_devices(app, runner);
   potmap::cli::register_raster(app, runner);
+  potmap::cli::register_demo(app, runner);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

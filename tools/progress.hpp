@@ -1,0 +1,16 @@
+#pragma once
+// Small helpers shared by the subcommands.
+#include <functional>
+#include <string>
+
+namespace potmap::cli {
+
+/// A progress callback printing "potmap: <label> 42.0%  elapsed 3 s  ETA 4 s" on stderr, or an
+/// empty function when stderr is not a terminal (logs and pipes get the summary only).
+std::function<void(double fraction)> terminal_progress(const std::string& label);
+
+/// Writes text to path through a temporary file in the same folder and a rename; throws
+/// potmap::Error naming the file on failure (and leaves nothing behind).
+void write_text_atomically(const std::string& path, const std::string& text);
+
+}  // namespace potmap::cli
