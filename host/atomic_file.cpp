@@ -1,81 +1,87 @@
 #include "atomic_file.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <random>
-#include <sstream>
+#include <vector>
 
 #include "potmap/error.hpp"
 
-namespace fs = std::filesystem;
-
 namespace potmap::detail {
 
+namespace {
+std::string errno_text() {
+  return std::strerror(errno);
+}
+}  // namespace
+
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {
-  // A random suffix (not a process-wide counter) keeps concurrent writers, in this process or
-  // another, from sharing a temporary; "x" makes fopen fail rather than reuse an existing file.
+  // open(O_EXCL) with a random name rather than mkstemp: mkstemp makes the file 0600, while the
+  // result should get the usual permissions (0666 less the umask), as any other output file.
   std::random_device rd;
-  for (int attempt = 0; attempt < 16 && !file_; ++attempt) {
-    std::ostringstream name;
-    name << path << ".tmp-" << ::getpid() << "-" << std::hex << rd();
-    temp_ = name.str();
-    file_ = std::fopen(temp_.c_str(), "wbx");
-    if (!file_ && errno != EEXIST) break;
+  int fd = -1;
+  for (int attempt = 0; attempt < 16 && fd < 0; ++attempt) {
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, ".tmp-%ld-%08x", static_cast<long>(::getpid()), rd());
+    temp_ = path + suffix;
+    fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && errno != EEXIST) break;
   }
-  if (!file_)
-    throw Error("cannot create temporary file '" + temp_ + "' to write '" + path +
-                "': " + std::strerror(errno));
+  if (fd < 0) throw Error("cannot create " + path + ": " + errno_text());
+  file_ = ::fdopen(fd, "wb");
+  if (!file_) {
+    const std::string why = errno_text();
+    ::close(fd);
+    ::unlink(temp_.c_str());
+    throw Error("cannot open " + path + ": " + why);
+  }
 }
 
 AtomicFile::~AtomicFile() {
-  if (file_) std::fclose(file_);
-  if (!committed_) std::remove(temp_.c_str());
+  discard();
 }
 
-void AtomicFile::fail(const std::string& what) {
-  const std::string reason = std::strerror(errno);
-  if (file_) std::fclose(file_);
-  file_ = nullptr;
-  std::remove(temp_.c_str());
-  throw Error("writing '" + path_ + "': " + what + ": " + reason);
-}
-
-void AtomicFile::write(const void* data, std::size_t size) {
-  if (!file_) throw Error("writing '" + path_ + "': file already closed");
-  if (size && std::fwrite(data, 1, size, file_) != size) fail("write failed");
+void AtomicFile::write(const void* data, std::size_t n) {
+  if (n == 0) return;
+  if (std::fwrite(data, 1, n, file_) != n)
+    throw Error("cannot write " + path_ + ": " + errno_text());
 }
 
 void AtomicFile::commit() {
-  if (!file_) throw Error("writing '" + path_ + "': file already closed");
-  if (std::fflush(file_) != 0) fail("flush failed");
-  // fsync so that a crash right after the rename cannot leave an empty destination.
-  if (::fsync(::fileno(file_)) != 0 && errno != EINVAL) fail("fsync failed");
-  const int rc = std::fclose(file_);
+  if (done_) return;
+  bool ok = std::fflush(file_) == 0 && !std::ferror(file_);
+  std::string why = ok ? "" : errno_text();
+  // fsync before rename: otherwise a crash could leave the final name pointing at an empty file.
+  if (ok && ::fsync(::fileno(file_)) != 0 && errno != EINVAL) {
+    ok = false;
+    why = errno_text();
+  }
+  if (std::fclose(file_) != 0 && ok) {
+    ok = false;
+    why = errno_text();
+  }
   file_ = nullptr;
-  if (rc != 0) fail("close failed");
-  if (std::rename(temp_.c_str(), path_.c_str()) != 0) fail("rename from '" + temp_ + "' failed");
-  committed_ = true;
+  if (ok && std::rename(temp_.c_str(), path_.c_str()) != 0) {
+    ok = false;
+    why = errno_text();
+  }
+  if (!ok) {
+    discard();
+    throw Error("cannot write " + path_ + ": " + why);
+  }
+  done_ = true;
 }
 
-void write_file_atomically(const std::string& path, const std::string& bytes) {
-  AtomicFile f(path);
-  f.write(bytes);
-  f.commit();
-}
-
-std::string read_whole_file(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw InputError("'" + path + "' is a directory, not a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("cannot open '" + path + "': " + std::strerror(errno));
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw InputError("error reading '" + path + "'");
-  return s.str();
+void AtomicFile::discard() noexcept {
+  if (done_) return;
+  if (file_) std::fclose(file_);
+  file_ = nullptr;
+  ::unlink(temp_.c_str());
+  done_ = true;
 }
 
 }  // namespace potmap::detail

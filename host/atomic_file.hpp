@@ -1,9 +1,9 @@
 #pragma once
-// Writing a file so that readers never see it half-written: the bytes go to a temporary file in
-// the destination's folder (same file system, so the final rename is atomic on POSIX), and the
-// temporary replaces the destination only once everything was written and flushed.
+// A file that appears under its final name only once it is complete: it is written to a
+// temporary file in the same folder (so that rename() is atomic on POSIX file systems) and
+// renamed by commit(). If commit() is never reached the temporary file is removed, so a failed
+// write leaves nothing behind and never clobbers an existing file with half a result.
 
-#include <cstddef>
 #include <cstdio>
 #include <string>
 
@@ -11,34 +11,27 @@ namespace potmap::detail {
 
 class AtomicFile {
  public:
-  /// Creates the temporary file next to `path`. Throws potmap::Error if it cannot.
+  /// Creates the temporary file next to `path`. Throws potmap::Error naming `path` on failure.
   explicit AtomicFile(const std::string& path);
-  /// Removes the temporary file unless commit() succeeded.
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
 
-  /// Appends bytes. Throws potmap::Error on a write error (disk full, ...).
-  void write(const void* data, std::size_t size);
-  void write(const std::string& s) { write(s.data(), s.size()); }
-  /// Flushes, closes and renames the temporary file onto the destination.
-  void commit();
-
+  std::FILE* file() { return file_; }
   const std::string& path() const { return path_; }
+  /// Writes `n` bytes; throws potmap::Error naming the file on a short write.
+  void write(const void* data, std::size_t n);
+  /// Flushes, closes and renames the temporary file to its final name. Throws on failure (the
+  /// temporary file is then removed).
+  void commit();
+  /// Removes the temporary file now (also done by the destructor unless committed).
+  void discard() noexcept;
 
  private:
-  [[noreturn]] void fail(const std::string& what);
-
   std::string path_;
   std::string temp_;
   std::FILE* file_ = nullptr;
-  bool committed_ = false;
+  bool done_ = false;
 };
-
-/// Writes `bytes` to `path` atomically.
-void write_file_atomically(const std::string& path, const std::string& bytes);
-
-/// The whole content of a file. Throws InputError naming the path if it cannot be read.
-std::string read_whole_file(const std::string& path);
 
 }  // namespace potmap::detail

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <map>
 
-#include "atomic_file.hpp"
+#include "file_util.hpp"
 #include "potmap/error.hpp"
 #include "text_io.hpp"
 

@@ -2,7 +2,7 @@
 #include <map>
 #include <sstream>
 
-#include "atomic_file.hpp"
+#include "file_util.hpp"
 #include "map_checks.hpp"
 #include "potmap/error.hpp"
 #include "potmap/map_io.hpp"

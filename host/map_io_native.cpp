@@ -5,7 +5,7 @@
 #include <limits>
 #include <sstream>
 
-#include "atomic_file.hpp"
+#include "file_util.hpp"
 #include "map_checks.hpp"
 #include "potmap/error.hpp"
 #include "potmap/map_io.hpp"

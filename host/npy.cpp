@@ -4,7 +4,7 @@
 #include <limits>
 #include <sstream>
 
-#include "atomic_file.hpp"
+#include "file_util.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap::npy {

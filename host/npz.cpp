@@ -7,7 +7,7 @@
 #include <memory>
 #include <sstream>
 
-#include "atomic_file.hpp"
+#include "file_util.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap::npz {
