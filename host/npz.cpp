@@ -2,6 +2,7 @@
 
 #include <zip.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -64,19 +65,24 @@ std::map<std::string, npy::Array> read(const std::string& path) {
     }
     std::unique_ptr<zip_file_t, FileCloser> f(zip_fopen_index(za.get(), i, 0));
     if (!f) throw InputError(where + ": cannot open member: " + zip_strerror(za.get()));
-    std::string bytes(static_cast<std::size_t>(st.size), '\0');
+    // Memory grows with the bytes that actually arrive, not with what the directory claims.
+    const std::size_t want = static_cast<std::size_t>(st.size);
+    std::string bytes;
+    bytes.reserve(std::min<std::size_t>(want, std::size_t(1) << 26));
+    std::vector<char> chunk(std::min<std::size_t>(std::max<std::size_t>(want, 1), 1 << 20));
     std::size_t got = 0;
-    while (got < bytes.size()) {
-      const zip_int64_t r = zip_fread(f.get(), &bytes[got], bytes.size() - got);
+    while (got < want) {
+      const zip_int64_t r = zip_fread(f.get(), chunk.data(), std::min(chunk.size(), want - got));
       if (r < 0)
         throw InputError(where + ": byte offset " + std::to_string(got) +
                          ": read error: " + zip_file_strerror(f.get()));
       if (r == 0) break;
+      bytes.append(chunk.data(), static_cast<std::size_t>(r));
       got += static_cast<std::size_t>(r);
     }
-    if (got != bytes.size())
+    if (got != want)
       throw InputError(where + ": truncated: " + std::to_string(got) + " of " +
-                       std::to_string(bytes.size()) + " bytes could be read");
+                       std::to_string(want) + " bytes could be read");
     // libzip verifies the CRC-32 when it reaches the end of the member: read past the end.
     char extra;
     const zip_int64_t r = zip_fread(f.get(), &extra, 1);
