@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "potmap/error.hpp"  // the exceptions documented below
+
 namespace potmap {
 
 struct LabelledPoints {

@@ -33,6 +33,7 @@
 
 #include <string>
 
+#include "potmap/error.hpp"  // InputError, ArgumentError: what these functions throw
 #include "potmap/kernel_map.hpp"
 
 namespace potmap {

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "potmap/error.hpp"  // the exceptions documented below
+
 namespace potmap {
 
 /// Probabilities are clipped to [kNllClip, 1 - kNllClip] before the logarithm in mean_nll, so
