@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("potmap ") + POTMAP_VERSION_STRING);
   potmap::cli::Runner runner;
+  potmap::cli::register_eval(app, runner);
   potmap::cli::register_devices(app, runner);
   potmap::cli::register_raster(app, runner);
   potmap::cli::register_demo(app, runner);

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "potmap/error.hpp"  // the exceptions documented below
+
 namespace potmap {
 
 struct LabelledPoints {
@@ -20,12 +22,16 @@ struct LabelledPoints {
 };
 
 /// Reads `t,x,y,occupied` (2D) or `t,x,y,z,occupied` (3D) CSV with a header line; the dimension
-/// follows the header. `occupied` must be 0 or 1 (1.0 and 0.0 accepted). Throws InputError
-/// naming file, line and value for a missing column, a non-numeric or non-finite value, or a
-/// wrong field count.
+/// follows the header (3D if a `z` column is present). Columns are found by name
+/// (case-insensitive, any order); `t` is optional (scan 0 when absent) and must be an integer;
+/// extra columns are ignored; blank lines and lines starting with `#` are skipped. `occupied`
+/// must be 0 or 1 (1.0 and 0.0 accepted). Throws InputError naming file, line and value for a
+/// missing column, a non-numeric or non-finite value, or a wrong field count.
 LabelledPoints read_labelled_csv(const std::string& path);
 
-/// Writes the same format (atomically: temporary file, then rename).
+/// Writes the same format (atomically: temporary file, then rename), numbers as the shortest text
+/// that reads back exactly. Throws ArgumentError for inconsistent sizes, labels other than 0/1 or
+/// non-finite coordinates; an empty `scan` writes t = 0.
 void write_labelled_csv(const LabelledPoints& points, const std::string& path);
 
 }  // namespace potmap
