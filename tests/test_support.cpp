@@ -1,6 +1,10 @@
 #include "test_support.hpp"
 
+#include <array>
+#include <cstdio>
 #include <filesystem>
+
+#include <sys/wait.h>
 #include <memory>
 
 namespace fs = std::filesystem;
@@ -20,6 +24,27 @@ std::string temp_dir(const std::string& name) {
   fs::remove_all(p);
   fs::create_directories(p);
   return p.string();
+}
+
+CliResult run_cli(const std::string& args, const std::string& redirect) {
+  const std::string cmd = quoted(POTMAP_CLI) + " " + args + " " + redirect;
+  CliResult r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = std::fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int st = pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+bool cli_built() {
+  return !std::string(POTMAP_CLI).empty();
+}
+
+std::string quoted(const std::string& s) {
+  return "'" + s + "'";
 }
 
 Context& context() {

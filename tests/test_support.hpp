@@ -13,6 +13,18 @@ std::string source_dir();
 std::string shared_data(const std::string& rel);
 /// A fresh empty folder under the build tree for one test's files.
 std::string temp_dir(const std::string& name);
+/// Exit status and captured stdout of one run of the potmap command.
+struct CliResult {
+  int status = -1;
+  std::string out;
+};
+/// Runs `potmap <args> <redirect>` through the shell (redirect e.g. "2>&1" or "2>/dev/null").
+CliResult run_cli(const std::string& args, const std::string& redirect = "2>&1");
+/// Whether the potmap command was built (POTMAP_BUILD_TOOLS).
+bool cli_built();
+/// Single-quotes a path for the shell.
+std::string quoted(const std::string& s);
+
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();
 

@@ -87,14 +87,16 @@ int run_demo(const DemoArgs& a, const std::string& device) {
   double dp = 0;
   for (std::size_t i = 0; i < test.size(); ++i) dp = std::max(dp, std::abs(v.prob[i] - ex.prob[i]));
 
-  std::printf("map        %s: %zu kernels, %dD\n", name.c_str(), map.size(), map.dim);
-  std::printf("test       %zu labelled points\n", test.size());
-  std::printf("ACC        %.4f\n", sc.acc);
-  std::printf("AUC        %.4f\n", sc.auc);
-  std::printf("NLL        %.4f   (p clipped to [1e-6, 1 - 1e-6])\n", sc.nll);
-  std::printf("max |dp|   %.2g   (device against the exact double sum)\n", dp);
-  std::printf("eval time  %.2f ms for %zu points (first call with kernel build: %.2f s)\n",
-              t_eval * 1e3, test.size(), t_first);
+  // With --json -, stdout carries the JSON alone; the readable summary goes to stderr.
+  std::FILE* human = a.json == "-" ? stderr : stdout;
+  std::fprintf(human, "map        %s: %zu kernels, %dD\n", name.c_str(), map.size(), map.dim);
+  std::fprintf(human, "test       %zu labelled points\n", test.size());
+  std::fprintf(human, "ACC        %.4f\n", sc.acc);
+  std::fprintf(human, "AUC        %.4f\n", sc.auc);
+  std::fprintf(human, "NLL        %.4f   (p clipped to [1e-6, 1 - 1e-6])\n", sc.nll);
+  std::fprintf(human, "max |dp|   %.2g   (device against the exact double sum)\n", dp);
+  std::fprintf(human, "eval time  %.2f ms for %zu points (first call with kernel build: %.2f s)\n",
+               t_eval * 1e3, test.size(), t_first);
 
   RasterSpec spec;
   spec.xmin = bounds[0];
@@ -108,9 +110,9 @@ int run_demo(const DemoArgs& a, const std::string& device) {
   fs::create_directories(fs::path(prefix).parent_path().empty() ? "."
                                                                 : fs::path(prefix).parent_path());
   const RasterSummary rs = rasterize(ctx, map, spec, prefix, ro);
-  std::printf("picture    %zu x %zu cells at %.2f m in %.2f s (%.1f M cells/s):\n", rs.width,
-              rs.height, a.res, rs.seconds, rs.cells / rs.seconds / 1e6);
-  for (const std::string& f : rs.files) std::printf("           %s\n", f.c_str());
+  std::fprintf(human, "picture    %zu x %zu cells at %.2f m in %.2f s (%.1f M cells/s):\n",
+               rs.width, rs.height, a.res, rs.seconds, rs.cells / rs.seconds / 1e6);
+  for (const std::string& f : rs.files) std::fprintf(human, "           %s\n", f.c_str());
 
   if (!a.json.empty()) {
     nlohmann::json j = {{"map", name},           {"kernels", map.size()},
