@@ -225,6 +225,9 @@ struct BadCsv {
   const char* value;  // expected offending value in the message
 };
 
+// Test names and failure messages show the case's name, not the struct's bytes.
+void PrintTo(const BadCsv& c, std::ostream* os) { *os << c.name; }
+
 class MapCsvBadInput : public ::testing::TestWithParam<BadCsv> {};
 
 TEST_P(MapCsvBadInput, NamesFileLineAndValue) {
