@@ -222,5 +222,50 @@ TEST(Abhm, BeatsBhmOnThinWallsWithTheSameKernels) {
   EXPECT_LT(abhm, best_bhm);
 }
 
+TEST(Abhm, DeviceEqualsReference) {
+  for (int dim : {2, 3}) {
+    std::mt19937 rng(21 + dim);
+    const std::size_t m = 40;
+    AbhmParams p = random_params(rng, dim, m);
+    // Narrow enough that the cut-off matters: the device must drop only negligible terms.
+    for (double& g : p.g_loc) g += 1.0;
+    const LabelledPoints batch = random_samples(rng, dim, 300);
+    AbhmNoise noise;
+    std::normal_distribution<double> nd;
+    noise.w.resize(m);
+    noise.g.resize(m);
+    noise.h.resize(m * dim);
+    for (auto* v : {&noise.w, &noise.g, &noise.h})
+      for (double& e : *v) e = nd(rng);
+    noise.b = nd(rng);
+    AbhmPrior prior;
+    std::vector<double> gr, gd;
+    const double lr = abhm_loss(p, prior, batch, 3.0, noise, &gr);
+    const double ld = abhm_loss_device(test::context(), p, prior, batch, 3.0, noise, &gd);
+    EXPECT_NEAR(ld, lr, 1e-4 * std::abs(lr));
+    ASSERT_EQ(gd.size(), gr.size());
+    double scale = 0;
+    for (double g : gr) scale = std::max(scale, std::abs(g));
+    for (std::size_t i = 0; i < gr.size(); ++i)
+      EXPECT_NEAR(gd[i], gr[i], 1e-4 * scale + 1e-4 * std::abs(gr[i])) << dim << "D " << i;
+  }
+}
+
+TEST(Abhm, DeviceTrainingMatchesReference) {
+  LabelledPoints train, test;
+  wall_scans(7, train, test);
+  const double lo[3] = {0, 0, 0}, hi[3] = {12, 12, 0};
+  AbhmOptions o;
+  o.steps = 200;
+  o.batch = 128;
+  AbhmParams ref = abhm_init_grid(2, lo, hi, 1.5, 1.0), dev = ref;
+  abhm_train(ref, train, o);
+  o.device = &test::context();
+  abhm_train(dev, train, o);
+  const double nr = nll(ref.to_map(), test), nd = nll(dev.to_map(), test);
+  std::printf("after 200 steps: held-out NLL reference %.4f, device %.4f\n", nr, nd);
+  EXPECT_NEAR(nd, nr, 0.02);
+}
+
 }  // namespace
 }  // namespace potmap

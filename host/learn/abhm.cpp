@@ -8,6 +8,7 @@
 #include <numeric>
 #include <random>
 
+#include "abhm_detail.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -208,12 +209,35 @@ double abhm_loss(const AbhmParams& p, const AbhmPrior& prior, const LabelledPoin
     }
   }
   loss += abhm_kl(p, prior);
-  if (!grad) return loss;
+  if (grad) detail::abhm_chain(p, prior, noise, g, dw, dh, dg, db, *grad);
+  return loss;
+}
 
-  // Chain rule through the reparameterisation, plus the KL terms.
-  const std::size_t md = m * dim;
-  grad->assign(4 * m + 2 * md + 2, 0.0);
-  double* gw_loc = grad->data();
+namespace detail {
+
+AbhmDraw abhm_draw(const AbhmParams& p, const AbhmNoise& noise) {
+  const std::size_t m = p.size();
+  AbhmDraw d;
+  d.w.resize(m);
+  d.g.resize(m);
+  d.h.resize(m * p.dim);
+  for (std::size_t k = 0; k < m; ++k) {
+    d.w[k] = p.w_loc[k] + softplus(p.w_s[k]) * noise.w[k];
+    d.g[k] = std::exp(p.g_loc[k] + softplus(p.g_s[k]) * noise.g[k]);
+  }
+  for (std::size_t j = 0; j < m * p.dim; ++j) d.h[j] = p.h_loc[j] + softplus(p.h_s[j]) * noise.h[j];
+  d.b = p.b_loc + softplus(p.b_s) * noise.b;
+  return d;
+}
+
+void abhm_chain(const AbhmParams& p, const AbhmPrior& prior, const AbhmNoise& noise,
+                const std::vector<double>& g, const std::vector<double>& dw,
+                const std::vector<double>& dh, const std::vector<double>& dg, double db,
+                std::vector<double>& grad) {
+  const std::size_t m = p.size();
+  const std::size_t md = m * p.dim;
+  grad.assign(4 * m + 2 * md + 2, 0.0);
+  double* gw_loc = grad.data();
   double* gw_s = gw_loc + m;
   double* gh_loc = gw_s + m;
   double* gh_s = gh_loc + md;
@@ -236,10 +260,11 @@ double abhm_loss(const AbhmParams& p, const AbhmPrior& prior, const LabelledPoin
     gh_s[j] = (dh[j] * noise.h[j] + b) * sigmoid(p.h_s[j]);
   }
   kl_normal(p.b_loc, softplus(p.b_s), 0.0, prior.w_sd, a, b);
-  (*grad)[4 * m + 2 * md] = db + a;
-  (*grad)[4 * m + 2 * md + 1] = (db * noise.b + b) * sigmoid(p.b_s);
-  return loss;
+  grad[4 * m + 2 * md] = db + a;
+  grad[4 * m + 2 * md + 1] = (db * noise.b + b) * sigmoid(p.b_s);
 }
+
+}  // namespace detail
 
 namespace {
 
@@ -338,7 +363,9 @@ std::size_t abhm_train(AbhmParams& params, const LabelledPoints& data, const Abh
       for (double& e : noise.h) e = normal(rng);
       for (double& e : noise.g) e = normal(rng);
       noise.b = normal(rng);
-      loss += abhm_loss(params, o.prior, batch, scale, noise, &grad) / o.mc_samples;
+      loss += (o.device ? abhm_loss_device(*o.device, params, o.prior, batch, scale, noise, &grad)
+                        : abhm_loss(params, o.prior, batch, scale, noise, &grad)) /
+              o.mc_samples;
       for (std::size_t i = 0; i < grad.size(); ++i) gsum[i] += grad[i] / o.mc_samples;
     }
     ++st.step;

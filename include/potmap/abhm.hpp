@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "potmap/context.hpp"
 #include "potmap/kernel_map.hpp"
 #include "potmap/labelled_points.hpp"
 
@@ -73,6 +74,15 @@ struct AbhmNoise {
 double abhm_loss(const AbhmParams& p, const AbhmPrior& prior, const LabelledPoints& batch,
                  double scale, const AbhmNoise& noise, std::vector<double>* grad);
 
+/// abhm_loss with the sums over samples on the OpenCL device of `ctx`: each sample visits only
+/// the kernels of the draw within the cut-off gamma d^2 <= `tau` (default 18), per-kernel
+/// gradients are summed over each kernel's samples (no atomics, reproducible). Single precision
+/// on the device with positions relative to the batch centre (ABHM areas are small); the KL and
+/// the chain rule run on the host in double.
+double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prior,
+                        const LabelledPoints& batch, double scale, const AbhmNoise& noise,
+                        std::vector<double>* grad, double tau = kDefaultCutoffTau);
+
 /// The KL(q || prior) part of abhm_loss alone (analytic).
 double abhm_kl(const AbhmParams& p, const AbhmPrior& prior);
 
@@ -94,6 +104,8 @@ struct AbhmOptions {
   /// Stop after this many steps of this call even if `steps` is not reached (0: no limit);
   /// with a checkpoint, a later call continues.
   std::size_t max_steps_this_call = 0;
+  /// Device for the per-sample sums (abhm_loss_device); null (default): the CPU reference.
+  Context* device = nullptr;
 };
 
 /// Trains `params` in place by SVI with Adam on the CPU. Returns the number of steps done in
