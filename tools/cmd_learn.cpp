@@ -1,10 +1,12 @@
 // `potmap learn bhm|abhm`: fit a kernel map to labelled samples over an area.
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <memory>
 #include <vector>
 
 #include "commands.hpp"
+#include "potmap/abhm.hpp"
 #include "potmap/bhm.hpp"
 #include "potmap/error.hpp"
 #include "potmap/labelled_points.hpp"
@@ -112,6 +114,64 @@ void register_learn(CLI::App& app, Runner& runner) {
       else
         bhm_update_reference(map, pts, o);
       write_map(map, b->output);
+      return 0;
+    };
+  });
+
+  // --- abhm ---
+  CLI::App* abhm = learn->add_subcommand(
+      "abhm", "Automorphing BHM: per-kernel position, width and weight by variational inference");
+  struct AbhmArgs {
+    std::string input, output, checkpoint;
+    AreaArgs area;
+    double gamma0 = 1.0;
+    bool halton = false, cpu = false;
+    std::size_t steps = 2450, batch = 256, report = 100;
+    std::uint64_t seed = 1;
+  };
+  auto a = std::make_shared<AbhmArgs>();
+  abhm->add_option("input", a->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
+  abhm->add_option("-o,--output", a->output, "Map file to write (means of q)")->required();
+  add_area_options(abhm, a->area);
+  abhm->add_flag("--halton", a->halton,
+                 "Start kernels on a Halton sequence (needs --count) instead of a regular grid");
+  abhm->add_option("--gamma0", a->gamma0, "Starting kernel width, 1/m^2 (default 1)");
+  abhm->add_option("--steps,--iterations", a->steps, "Adam steps (default 2450)");
+  abhm->add_option("--batch", a->batch, "Samples per minibatch (default 256)");
+  abhm->add_option("--seed", a->seed, "Random seed (default 1)");
+  abhm->add_option("--report", a->report, "Print the ELBO every this many steps (default 100)");
+  abhm->add_option("--checkpoint", a->checkpoint,
+                   "Checkpoint file: resumed from if it exists, written every 500 steps");
+  abhm->add_flag("--cpu", a->cpu, "Use the double-precision CPU reference instead of OpenCL");
+  auto adev = add_device_option(abhm);
+  abhm->callback([&runner, a, adev] {
+    runner.action = [a, adev] {
+      const LabelledPoints pts = read_labelled_csv(a->input);
+      double lo[3], hi[3], spacing;
+      resolve_area(a->area, pts, lo, hi, spacing);
+      AbhmParams p;
+      if (a->halton) {
+        if (a->area.count == 0) throw ArgumentError("--halton needs --count");
+        p = abhm_init_halton(pts.dim, lo, hi, a->area.count, a->gamma0);
+      } else {
+        p = abhm_init_grid(pts.dim, lo, hi, spacing, a->gamma0);
+      }
+      std::cerr << "potmap: ABHM over " << pts.size() << " samples, " << p.size() << " kernels, "
+                << a->steps << " steps\n";
+      std::unique_ptr<Context> ctx;
+      if (!a->cpu) ctx = std::make_unique<Context>(make_context(*adev));
+      AbhmOptions o;
+      o.steps = a->steps;
+      o.batch = a->batch;
+      o.seed = a->seed;
+      o.report_every = a->report;
+      o.checkpoint = a->checkpoint;
+      o.device = ctx.get();
+      o.progress = [](std::size_t step, double elbo) {
+        std::fprintf(stderr, "potmap: step %zu ELBO %.3f\n", step, elbo);
+      };
+      abhm_train(p, pts, o);
+      write_map(p.to_map(), a->output);
       return 0;
     };
   });
