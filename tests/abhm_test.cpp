@@ -142,6 +142,18 @@ TEST(Abhm, CheckpointResumeEqualsUninterrupted) {
   EXPECT_THROW(abhm_train(other, data, o), InputError);
 }
 
+TEST(Abhm, ParamsRoundTrip) {
+  std::mt19937 rng(9);
+  const AbhmParams p = random_params(rng, 3, 5);
+  const std::string path = test::temp_dir("abhm_params") + "/p.bin";
+  write_abhm_params(p, path);
+  const AbhmParams q = read_abhm_params(path);
+  EXPECT_EQ(q.dim, 3);
+  EXPECT_EQ(q.h_grid, p.h_grid);
+  EXPECT_EQ(q.flat(), p.flat());
+  EXPECT_THROW(read_abhm_params(path + ".missing"), InputError);
+}
+
 // A room with a thin wall (0.15 m) next to open space, seen from both sides.
 bool wall_occupied(double x, double y) {
   const bool outer = x < 0.2 || x > 11.8 || y < 0.2 || y > 11.8;

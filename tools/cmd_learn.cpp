@@ -122,7 +122,7 @@ void register_learn(CLI::App& app, Runner& runner) {
   CLI::App* abhm = learn->add_subcommand(
       "abhm", "Automorphing BHM: per-kernel position, width and weight by variational inference");
   struct AbhmArgs {
-    std::string input, output, checkpoint;
+    std::string input, output, checkpoint, params;
     AreaArgs area;
     double gamma0 = 1.0;
     bool halton = false, cpu = false;
@@ -142,6 +142,8 @@ void register_learn(CLI::App& app, Runner& runner) {
   abhm->add_option("--report", a->report, "Print the ELBO every this many steps (default 100)");
   abhm->add_option("--checkpoint", a->checkpoint,
                    "Checkpoint file: resumed from if it exists, written every 500 steps");
+  abhm->add_option("--params", a->params,
+                   "Also write the variational parameters (read_abhm_params reads them)");
   abhm->add_flag("--cpu", a->cpu, "Use the double-precision CPU reference instead of OpenCL");
   auto adev = add_device_option(abhm);
   abhm->callback([&runner, a, adev] {
@@ -172,6 +174,7 @@ void register_learn(CLI::App& app, Runner& runner) {
       };
       abhm_train(p, pts, o);
       write_map(p.to_map(), a->output);
+      if (!a->params.empty()) write_abhm_params(p, a->params);
       return 0;
     };
   });

@@ -317,6 +317,56 @@ bool read_checkpoint(const std::string& path, AbhmParams& p, AdamState& s) {
 
 }  // namespace
 
+namespace {
+constexpr char kParamsMagic[8] = {'P', 'O', 'T', 'A', 'B', 'H', 'P', '1'};
+}
+
+void write_abhm_params(const AbhmParams& p, const std::string& path) {
+  check_params(p);
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) throw InputError(tmp + ": cannot open for writing");
+    const std::vector<double> th = p.flat();
+    const std::uint64_t hdr[2] = {static_cast<std::uint64_t>(p.dim), p.size()};
+    f.write(kParamsMagic, 8);
+    f.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
+    for (const auto* v : {&p.h_grid, &th})
+      f.write(reinterpret_cast<const char*>(v->data()), v->size() * sizeof(double));
+    if (!f) throw InputError(tmp + ": write failed");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw InputError(path + ": rename failed");
+}
+
+AbhmParams read_abhm_params(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw InputError(path + ": cannot open");
+  char magic[8];
+  std::uint64_t hdr[2];
+  f.read(magic, 8);
+  f.read(reinterpret_cast<char*>(hdr), sizeof hdr);
+  if (!f || std::memcmp(magic, kParamsMagic, 8) != 0)
+    throw InputError(path + ": not an ABHM parameter file");
+  if ((hdr[0] != 2 && hdr[0] != 3) || hdr[1] > (std::uint64_t(1) << 32))
+    throw InputError(path + ": bad header");
+  AbhmParams p;
+  p.dim = static_cast<int>(hdr[0]);
+  const std::size_t m = hdr[1];
+  p.h_grid.resize(m * p.dim);
+  p.w_loc.resize(m);
+  p.w_s.resize(m);
+  p.g_loc.resize(m);
+  p.g_s.resize(m);
+  p.h_loc.resize(m * p.dim);
+  p.h_s.resize(m * p.dim);
+  std::vector<double> th(p.flat().size());
+  for (auto* v : {&p.h_grid, &th})
+    f.read(reinterpret_cast<char*>(v->data()), v->size() * sizeof(double));
+  if (!f) throw InputError(path + ": truncated");
+  p.set_flat(th);
+  return p;
+}
+
 std::size_t abhm_train(AbhmParams& params, const LabelledPoints& data, const AbhmOptions& o) {
   check_params(params);
   if (data.dim != params.dim) throw ArgumentError("ABHM: data and kernels differ in dimension");

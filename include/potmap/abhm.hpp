@@ -51,6 +51,11 @@ struct AbhmParams {
   KernelMap to_map(bool mean_gamma = false) const;
 };
 
+/// Writes the variational parameters (binary, little-endian doubles; atomically) and reads them
+/// back. read throws InputError naming the file for a wrong, truncated or unreadable file.
+void write_abhm_params(const AbhmParams& params, const std::string& path);
+AbhmParams read_abhm_params(const std::string& path);
+
 /// Initial parameters: kernels on the regular grid over [lo, hi] (dim axes, metres) with the
 /// given spacing (> 0), or, with `halton` true, `count` kernels at the points of the Halton
 /// sequence (bases 2, 3, 5) over the box. Starting values: w_loc 0, sd_w 0.1, h_loc at the
