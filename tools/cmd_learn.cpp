@@ -73,7 +73,7 @@ void register_learn(CLI::App& app, Runner& runner) {
   struct BhmArgs {
     std::string input, output, prior;
     AreaArgs area;
-    double gamma = 8.0, var0 = 1e4;
+    double gamma = 0.0, var0 = 1e4;
     int em = 3;
     bool sequential = false, cpu = false, bias = false;
   };
@@ -83,7 +83,9 @@ void register_learn(CLI::App& app, Runner& runner) {
   bhm->add_option("--prior", b->prior,
                   "Map file used as prior instead of a grid (positions and widths kept)");
   add_area_options(bhm, b->area);
-  bhm->add_option("--gamma", b->gamma, "Kernel width of the grid, 1/m^2 (default 8)");
+  bhm->add_option("--gamma", b->gamma,
+                  "Kernel width of the grid, 1/m^2 (default 8 / spacing^2: narrow kernels suit the "
+                  "diagonal posterior, which ignores how overlapping kernels share the data)");
   bhm->add_option("--prior-var", b->var0, "Prior weight variance (default 10000)");
   bhm->add_option("--em", b->em, "EM iterations (E-steps) per update (default 3)");
   bhm->add_flag("--bias", b->bias, "Add a bias weight");
@@ -100,7 +102,8 @@ void register_learn(CLI::App& app, Runner& runner) {
       } else {
         double lo[3], hi[3], spacing;
         resolve_area(b->area, pts, lo, hi, spacing);
-        map = bhm_grid_prior(pts.dim, lo, hi, spacing, b->gamma, 0.0, b->var0, b->bias);
+        const double gamma = b->gamma > 0 ? b->gamma : 8.0 / (spacing * spacing);
+        map = bhm_grid_prior(pts.dim, lo, hi, spacing, gamma, 0.0, b->var0, b->bias);
       }
       std::cerr << "potmap: BHM over " << pts.size() << " samples, " << map.size() << " kernels\n";
       BhmOptions o;
