@@ -1,0 +1,94 @@
+// Learner timings: BHM update per scan against the number of kernels; ABHM time per step and per
+// epoch for 1k, 10k and 50k kernels (the SPEC's 2450 steps to convergence follow by
+// multiplication: a full run is too long for the default benchmark set).
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+
+#include "potmap/abhm.hpp"
+#include "potmap/bhm.hpp"
+#include "potmap/context.hpp"
+
+using namespace potmap;
+
+namespace {
+
+Context& learn_context() {
+  static Context ctx;
+  return ctx;
+}
+
+// Samples of one LIDAR-sized scan (about 10k: hits and free samples) spread over a square.
+LabelledPoints scan_samples(std::size_t n, double side, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, side);
+  LabelledPoints s;
+  s.dim = 2;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = u(rng), y = u(rng);
+    s.position.insert(s.position.end(), {x, y});
+    // A striped world: occupied bands 1 m wide every 6 m.
+    s.label.push_back(std::fmod(x, 6.0) < 1.0);
+    s.scan.push_back(0);
+  }
+  return s;
+}
+
+void BM_BhmUpdate(benchmark::State& state) {
+  const std::size_t m = static_cast<std::size_t>(state.range(0));
+  const bool device = state.range(1) != 0;
+  const double side = std::sqrt(double(m));  // 1 m spacing
+  const LabelledPoints scan = scan_samples(10000, side, 3);
+  const double lo[3] = {0, 0, 0}, hi[3] = {side - 1, side - 1, 0};
+  const KernelMap prior = bhm_grid_prior(2, lo, hi, 1.0, 2.0);
+  if (device) {  // build the OpenCL program outside the timing
+    KernelMap warm = prior;
+    bhm_update(learn_context(), warm, scan);
+  }
+  for (auto _ : state) {
+    KernelMap map = prior;
+    if (device)
+      bhm_update(learn_context(), map, scan);
+    else
+      bhm_update_reference(map, scan);
+    benchmark::DoNotOptimize(map.w_mean.data());
+  }
+  state.counters["kernels"] = double(prior.size());
+  state.counters["samples"] = double(scan.size());
+}
+BENCHMARK(BM_BhmUpdate)
+    ->ArgsProduct({{1000, 10000, 50000}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+void BM_AbhmStep(benchmark::State& state) {
+  const std::size_t m = static_cast<std::size_t>(state.range(0));
+  const double side = std::sqrt(double(m));
+  const LabelledPoints data = scan_samples(20000, side, 5);
+  const double lo[3] = {0, 0, 0}, hi[3] = {side, side, 0};
+  AbhmParams p = abhm_init_halton(2, lo, hi, m, 2.0);
+  AbhmOptions o;
+  o.batch = 1024;
+  o.device = &learn_context();
+  o.steps = 1;
+  abhm_train(p, data, o);  // build the OpenCL program outside the timing
+  // Without a checkpoint every call is one fresh step: the cost of one step
+  for (auto _ : state) abhm_train(p, data, o);
+  const double epoch_steps = double(data.size()) / double(o.batch);
+  state.counters["kernels"] = double(m);
+  state.counters["s_per_epoch"] =
+      benchmark::Counter(double(state.iterations()) / epoch_steps,
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["s_2450_steps"] =
+      benchmark::Counter(double(state.iterations()) / 2450.0,
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_AbhmStep)
+    ->Arg(1000)
+    ->Arg(10000)
+    ->Arg(50000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+}  // namespace

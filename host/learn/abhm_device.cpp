@@ -1,0 +1,116 @@
+#include <boost/compute/buffer.hpp>
+#include <boost/compute/kernel.hpp>
+#include <string>
+#include <vector>
+
+#include "../cl_check.hpp"
+#include "abhm_detail.hpp"
+#include "bhm_detail.hpp"
+#include "potmap/abhm.hpp"
+#include "potmap/error.hpp"
+
+namespace potmap {
+
+namespace bc = boost::compute;
+
+namespace {
+
+template <class T>
+bc::buffer to_device(Context& ctx, const std::vector<T>& v) {
+  const std::size_t bytes = std::max<std::size_t>(v.size(), 1) * sizeof(T);
+  bc::buffer b =
+      detail::cl_call("clCreateBuffer", [&] { return bc::buffer(ctx.context(), bytes); });
+  if (!v.empty())
+    detail::cl_call("clEnqueueWriteBuffer", [&] {
+      ctx.queue().enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data());
+    });
+  return b;
+}
+
+template <class T>
+void from_device(Context& ctx, bc::buffer& b, std::vector<T>& v) {
+  if (v.empty()) return;
+  detail::cl_call("clEnqueueReadBuffer",
+                  [&] { ctx.queue().enqueue_read_buffer(b, 0, v.size() * sizeof(T), v.data()); });
+}
+
+std::size_t round_up(std::size_t n, std::size_t m) {
+  return (n + m - 1) / m * m;
+}
+
+}  // namespace
+
+double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prior,
+                        const LabelledPoints& batch, double scale, const AbhmNoise& noise,
+                        std::vector<double>* grad, double tau) {
+  const std::size_t m = p.size(), n = batch.size();
+  const int dim = p.dim;
+  if (batch.dim != dim) throw ArgumentError("ABHM: samples and kernels differ in dimension");
+  const detail::AbhmDraw draw = detail::abhm_draw(p, noise);
+  // The cut-off must follow the draw: positions and widths change every step.
+  KernelMap drawn;
+  drawn.dim = dim;
+  drawn.position = draw.h;
+  drawn.gamma = draw.g;
+  drawn.w_mean = draw.w;
+  drawn.w_var.assign(m, 0.0);
+  const detail::SampleKernelPairs pairs = detail::build_pairs(drawn, batch, tau);
+
+  double centre[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < dim; ++d) centre[d] += batch.position[i * dim + d] / double(n);
+  std::vector<float> kpos(m * dim), kg(m), kw(m), spos(n * dim), sy(n);
+  for (std::size_t k = 0; k < m; ++k) {
+    for (int d = 0; d < dim; ++d) kpos[k * dim + d] = float(draw.h[k * dim + d] - centre[d]);
+    kg[k] = float(draw.g[k]);
+    kw[k] = float(draw.w[k]);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int d = 0; d < dim; ++d)
+      spos[i * dim + d] = float(batch.position[i * dim + d] - centre[d]);
+    sy[i] = batch.label[i] ? 1.0f : 0.0f;
+  }
+  std::vector<float> gf(n), ll(n), dw(m), dg(m), dh(m * dim);
+  bc::buffer b_kpos = to_device(ctx, kpos), b_kg = to_device(ctx, kg), b_kw = to_device(ctx, kw),
+             b_spos = to_device(ctx, spos), b_sy = to_device(ctx, sy),
+             b_sstart = to_device(ctx, pairs.sample_start),
+             b_slist = to_device(ctx, pairs.sample_kernels),
+             b_kstart = to_device(ctx, pairs.kernel_start),
+             b_klist = to_device(ctx, pairs.kernel_samples), b_gf = to_device(ctx, gf),
+             b_ll = to_device(ctx, ll), b_dw = to_device(ctx, dw), b_dg = to_device(ctx, dg),
+             b_dh = to_device(ctx, dh);
+  const std::string defs = "-DDIM=" + std::to_string(dim);
+  const std::size_t wg = 64;
+  if (n > 0) {
+    bc::kernel fwd = ctx.kernel("abhm_grad", "abhm_forward", defs);
+    fwd.set_args(b_kpos, b_kg, b_kw, b_spos, b_sy, b_sstart, b_slist, static_cast<cl_uint>(n),
+                 static_cast<float>(draw.b), static_cast<float>(scale), b_gf, b_ll);
+    detail::cl_call("clEnqueueNDRangeKernel",
+                    [&] { ctx.queue().enqueue_1d_range_kernel(fwd, 0, round_up(n, wg), wg); });
+    from_device(ctx, b_ll, ll);
+    from_device(ctx, b_gf, gf);
+  }
+  double loss = 0, db = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    loss -= scale * ll[i];
+    db += gf[i];
+  }
+  loss += abhm_kl(p, prior);
+  if (!grad) return loss;
+  if (m > 0 && n > 0) {
+    bc::kernel bwd = ctx.kernel("abhm_grad", "abhm_backward", defs);
+    bwd.set_args(b_kpos, b_kg, b_kw, b_spos, b_gf, b_kstart, b_klist, static_cast<cl_uint>(m), b_dw,
+                 b_dg, b_dh);
+    detail::cl_call("clEnqueueNDRangeKernel",
+                    [&] { ctx.queue().enqueue_1d_range_kernel(bwd, 0, round_up(m, wg), wg); });
+    from_device(ctx, b_dw, dw);
+    from_device(ctx, b_dg, dg);
+    from_device(ctx, b_dh, dh);
+  }
+  detail::abhm_chain(p, prior, noise, draw.g, std::vector<double>(dw.begin(), dw.end()),
+                     std::vector<double>(dh.begin(), dh.end()),
+                     std::vector<double>(dg.begin(), dg.end()), db, *grad);
+  return loss;
+}
+
+}  // namespace potmap

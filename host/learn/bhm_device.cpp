@@ -1,0 +1,130 @@
+#include <boost/compute/buffer.hpp>
+#include <boost/compute/kernel.hpp>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "../cl_check.hpp"
+#include "../split_float.hpp"
+#include "bhm_detail.hpp"
+#include "potmap/bhm.hpp"
+
+namespace potmap {
+
+namespace bc = boost::compute;
+
+namespace {
+
+template <class T>
+bc::buffer make_buffer(Context& ctx, const std::vector<T>& v) {
+  // Zero-size buffers are invalid in OpenCL: keep at least one element.
+  const std::size_t bytes = std::max<std::size_t>(v.size(), 1) * sizeof(T);
+  bc::buffer b =
+      detail::cl_call("clCreateBuffer", [&] { return bc::buffer(ctx.context(), bytes); });
+  if (!v.empty())
+    detail::cl_call("clEnqueueWriteBuffer", [&] {
+      ctx.queue().enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data());
+    });
+  return b;
+}
+
+template <class T>
+void upload(Context& ctx, bc::buffer& b, const std::vector<T>& v) {
+  if (v.empty()) return;
+  detail::cl_call("clEnqueueWriteBuffer",
+                  [&] { ctx.queue().enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
+}
+
+template <class T>
+void download(Context& ctx, bc::buffer& b, std::vector<T>& v) {
+  if (v.empty()) return;
+  detail::cl_call("clEnqueueReadBuffer",
+                  [&] { ctx.queue().enqueue_read_buffer(b, 0, v.size() * sizeof(T), v.data()); });
+}
+
+std::size_t round_up(std::size_t n, std::size_t m) {
+  return (n + m - 1) / m * m;
+}
+
+}  // namespace
+
+void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
+                const BhmOptions& options) {
+  detail::check_bhm_inputs(map, samples, options);
+  const std::size_t n = samples.size(), m = map.size();
+  const int dim = map.dim;
+  if (n == 0) return;  // no data: the posterior is the prior
+  const detail::SampleKernelPairs pairs = detail::build_pairs(map, samples, options.tau);
+
+  double anchor[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < dim; ++d) anchor[d] += samples.position[i * dim + d];
+  for (int d = 0; d < dim; ++d) anchor[d] = std::round(anchor[d] / double(n));
+
+  std::vector<float> khi(m * dim), klo(m * dim), kg(m), shi(n * dim), slo(n * dim), sy(n);
+  for (std::size_t k = 0; k < m; ++k) {
+    for (int d = 0; d < dim; ++d)
+      detail::split(map.position[k * dim + d] - anchor[d], khi[k * dim + d], klo[k * dim + d]);
+    kg[k] = static_cast<float>(map.gamma[k]);
+  }
+  double bias_y = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int d = 0; d < dim; ++d)
+      detail::split(samples.position[i * dim + d] - anchor[d], shi[i * dim + d], slo[i * dim + d]);
+    sy[i] = samples.label[i] ? 0.5f : -0.5f;
+    bias_y += sy[i];
+  }
+  std::vector<float> lambda(n, static_cast<float>(detail::jj_lambda(options.xi_init)));
+  std::vector<float> a(m), b(m), wm(m), wv(m);
+
+  bc::buffer b_khi = make_buffer(ctx, khi), b_klo = make_buffer(ctx, klo),
+             b_kg = make_buffer(ctx, kg), b_shi = make_buffer(ctx, shi),
+             b_slo = make_buffer(ctx, slo), b_sy = make_buffer(ctx, sy),
+             b_lambda = make_buffer(ctx, lambda), b_kstart = make_buffer(ctx, pairs.kernel_start),
+             b_klist = make_buffer(ctx, pairs.kernel_samples),
+             b_sstart = make_buffer(ctx, pairs.sample_start),
+             b_slist = make_buffer(ctx, pairs.sample_kernels), b_a = make_buffer(ctx, a),
+             b_b = make_buffer(ctx, b), b_wm = make_buffer(ctx, wm), b_wv = make_buffer(ctx, wv);
+
+  const std::string defs = "-DDIM=" + std::to_string(dim);
+  bc::kernel acc = ctx.kernel("bhm_update", "bhm_accumulate", defs);
+  bc::kernel lam = ctx.kernel("bhm_update", "bhm_lambda", defs);
+  const std::size_t wg = 64;
+
+  const std::vector<double> mean0 = map.w_mean, var0 = map.w_var;
+  const double bmean0 = map.bias_mean, bvar0 = map.bias_var;
+  std::vector<double> ad(m), bd(m);
+  for (int it = 0; it < options.em_iterations; ++it) {
+    if (m > 0) {
+      acc.set_args(b_khi, b_klo, b_kg, b_shi, b_slo, b_sy, b_lambda, b_kstart, b_klist,
+                   static_cast<cl_uint>(m), b_a, b_b);
+      detail::cl_call("clEnqueueNDRangeKernel",
+                      [&] { ctx.queue().enqueue_1d_range_kernel(acc, 0, round_up(m, wg), wg); });
+      download(ctx, b_a, a);
+      download(ctx, b_b, b);
+    }
+    double bias_lambda = 0;
+    for (float l : lambda) bias_lambda += l;
+    for (std::size_t k = 0; k < m; ++k) {
+      ad[k] = a[k];
+      bd[k] = b[k];
+    }
+    detail::bhm_posterior(map, mean0, var0, ad.data(), bd.data(), bias_lambda, bias_y, bmean0,
+                          bvar0);
+    if (it + 1 == options.em_iterations) break;
+    for (std::size_t k = 0; k < m; ++k) {
+      wm[k] = static_cast<float>(map.w_mean[k]);
+      wv[k] = static_cast<float>(map.w_var[k]);
+    }
+    upload(ctx, b_wm, wm);
+    upload(ctx, b_wv, wv);
+    lam.set_args(b_khi, b_klo, b_kg, b_wm, b_wv, b_shi, b_slo, b_sstart, b_slist,
+                 static_cast<cl_uint>(n), static_cast<float>(map.has_bias ? map.bias_mean : 0.0),
+                 static_cast<float>(map.has_bias ? map.bias_var : 0.0), b_lambda);
+    detail::cl_call("clEnqueueNDRangeKernel",
+                    [&] { ctx.queue().enqueue_1d_range_kernel(lam, 0, round_up(n, wg), wg); });
+    download(ctx, b_lambda, lambda);
+  }
+}
+
+}  // namespace potmap
