@@ -132,7 +132,9 @@ struct Context::Impl {
         info(describe(device)),
         build_options(o.build_options),
         dump(o.dump_kernels || env_or("POTMAP_DUMP_KERNELS", "0") == "1"),
-        disk(o.binary_cache_dir.empty() ? env_or("POTMAP_CACHE_DIR", "") : o.binary_cache_dir) {}
+        disk(!o.disk_cache              ? std::string()
+             : o.binary_cache_dir.empty() ? env_or("POTMAP_CACHE_DIR", "")
+                                          : o.binary_cache_dir) {}
 
   bc::program build(const std::string& label, const std::string& source,
                     const std::string& defines) {
@@ -142,6 +144,11 @@ struct Context::Impl {
     std::lock_guard<std::mutex> lock(mutex);
     if (auto it = programs.find(mem_key); it != programs.end()) return it->second;
 
+    // Dumped whether the binary then comes from the disk cache or the compiler: what matters
+    // to the reader is the source the device runs.
+    if (dump)
+      std::cerr << "---- potmap: building kernel '" << label << "' with '" << options << "' ----\n"
+                << source << "\n---- end of '" << label << "' ----\n";
     // The disk key names everything that can change the binary: a driver update must miss.
     const std::string disk_key = info.platform + '\n' + info.platform_version + '\n' + info.name +
                                  '\n' + info.driver_version + '\n' + options + '\n' + source;
@@ -156,9 +163,6 @@ struct Context::Impl {
         disk.forget(disk_key);  // stale or corrupt: fall back to source below
       }
     }
-    if (dump)
-      std::cerr << "---- potmap: building kernel '" << label << "' with '" << options << "' ----\n"
-                << source << "\n---- end of '" << label << "' ----\n";
     bc::program p = detail::cl_call("clCreateProgramWithSource", [&] {
       return bc::program::create_with_source(source, context);
     });

@@ -29,6 +29,8 @@ struct ContextOptions {
   /// options. Empty: the POTMAP_CACHE_DIR environment variable if set, else no disk cache.
   /// A folder that cannot be created or written is ignored (a warning goes to stderr once).
   std::string binary_cache_dir;
+  /// false: no disk cache at all, whatever binary_cache_dir and POTMAP_CACHE_DIR say.
+  bool disk_cache = true;
   /// Extra options appended to every program build (e.g. "-cl-fast-relaxed-math"). Default none.
   std::string build_options;
   /// Print each kernel's source to stderr when it is built. Also set by POTMAP_DUMP_KERNELS=1.
