@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include <sys/wait.h>
+#include <unistd.h>
 #include <memory>
 
 namespace fs = std::filesystem;
@@ -20,7 +21,8 @@ std::string shared_data(const std::string& rel) {
 }
 
 std::string temp_dir(const std::string& name) {
-  fs::path p = fs::path(POTMAP_BINARY_DIR) / "test-tmp" / name;
+  // One folder per process: ctest runs tests in parallel processes that may ask for one name.
+  fs::path p = fs::path(POTMAP_BINARY_DIR) / "test-tmp" / (name + "-" + std::to_string(::getpid()));
   fs::remove_all(p);
   fs::create_directories(p);
   return p.string();
