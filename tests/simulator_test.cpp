@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "potmap/error.hpp"
+#include "test_support.hpp"
 
 using namespace potmap;
 
@@ -101,4 +102,38 @@ TEST(Simulator, ThousandScansAreFast) {
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_EQ(s.scans.size(), 1000u);
   EXPECT_LT(sec, 3.0);
+}
+
+TEST(Simulator, TwoDDatasetRoundTripsThroughTheCarmenReader) {
+  const Town t = Town::builtin("town1", 2);
+  SimOptions o;
+  o.scans = 12;
+  const Simulation s = simulate(t, o);
+  const std::string dir = potmap::test::temp_dir("sim_roundtrip2d");
+  const std::string log = write_simulation(s, o, dir);
+  const Dataset back = read_carmen(log);
+  ASSERT_EQ(back.scans.size(), 12u);
+  for (std::size_t n = 0; n < 12; ++n) {
+    ASSERT_EQ(back.scans[n].num_hits(), s.scans[n].num_hits());
+    EXPECT_EQ(back.scans[n].num_no_return(), s.scans[n].num_no_return());
+    EXPECT_DOUBLE_EQ(back.scans[n].max_range, 20);
+    for (std::size_t i = 0; i < back.scans[n].hits.size(); ++i)
+      ASSERT_NEAR(back.scans[n].hits[i], s.scans[n].hits[i], 1e-3);
+  }
+}
+
+TEST(Simulator, ThreeDDatasetRoundTripsThroughTheKittiReaders) {
+  const Town t = Town::builtin("town3", 2);
+  SimOptions o;
+  o.scans = 3;
+  o.three_d = true;
+  const Simulation s = simulate(t, o);
+  const std::string dir = potmap::test::temp_dir("sim_roundtrip3d");
+  const std::string poses = write_simulation(s, o, dir);
+  const auto T = read_kitti_poses(poses, dir + "/calib.txt");
+  ASSERT_EQ(T.size(), 3u);
+  Scan f = read_kitti_bin(dir + "/velodyne/000002.bin", 20);
+  apply_pose(f, T[2]);
+  ASSERT_EQ(f.num_hits(), s.scans[2].num_hits());
+  for (std::size_t i = 0; i < f.hits.size(); ++i) ASSERT_NEAR(f.hits[i], s.scans[2].hits[i], 1e-3);
 }

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("potmap ") + POTMAP_VERSION_STRING);
   potmap::cli::Runner runner;
   potmap::cli::register_devices(app, runner);
+  potmap::cli::register_data(app, runner);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -21,7 +21,7 @@ Dataset read_dataset(const std::string& path) {
   if (ends_with(base, ".gz")) base.resize(base.size() - 3);
   if (ends_with(base, ".bin")) {
     const bool nus = lower.find("nuscenes") != std::string::npos;
-    return read_velodyne_dataset(path, nus ? 5 : 4, nus ? 70 : 120);
+    return read_velodyne_dataset(path, nus ? 5 : 4, nus ? 110 : 120);
   }
   if (ends_with(base, ".npz")) {
     LabelledPoints lp = read_npz_labelled(path);

@@ -58,8 +58,8 @@ Dataset read_carmen(const std::string& path, double flaser_max_range = 0);
 Scan read_kitti_bin(const std::string& path, double max_range = 120);
 
 /// nuScenes LIDAR_TOP frame: N x 5 float32 (x, y, z, intensity, ring), sensor at the origin.
-/// max_range in metres (default 70).
-Scan read_nuscenes_bin(const std::string& path, double max_range = 70);
+/// max_range in metres (default 110: the frames hold returns past 100 m).
+Scan read_nuscenes_bin(const std::string& path, double max_range = 110);
 
 /// KITTI odometry: poses.txt (one 3 x 4 row-major camera pose per line) and calib.txt (line
 /// `Tr: ...` velodyne to camera). Returns, per frame, the velodyne-to-world pose

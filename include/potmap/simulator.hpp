@@ -98,3 +98,22 @@ struct Simulation {
 Simulation simulate(const Town& town, const SimOptions& options);
 
 }  // namespace potmap
+
+namespace potmap {
+
+/// Writes a top view of the town (buildings dark grey, cars blue, poles and trees green) with
+/// the route in red as an 8-bit RGB PNG; `metres_per_pixel` default 0.5.
+void write_town_png(const Town& town, const std::vector<double>& route, const std::string& path,
+                    double metres_per_pixel = 0.5);
+
+/// Writes simulated scans as a dataset the readers load back:
+///   2D: `scans.log`, CARMEN ROBOTLASER1 lines (start angle, field of view, maximum range per
+///       line; a no-return beam is written at the maximum range), read by read_carmen.
+///   3D: `velodyne/NNNNNN.bin` frames in the sensor frame (N x 4 float32, reflectance 0, read by
+///       read_kitti_bin; no-returns are not stored), `poses.txt` (sensor-to-world 3 x 4 per
+///       frame) and `calib.txt` with an identity `Tr:`, read by read_kitti_poses.
+/// Returns the main file written (scans.log or poses.txt).
+std::string write_simulation(const Simulation& sim, const SimOptions& options,
+                             const std::string& dir);
+
+}  // namespace potmap
