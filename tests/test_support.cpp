@@ -7,9 +7,7 @@ namespace fs = std::filesystem;
 
 namespace potmap::test {
 
-std::string source_dir() {
-  return POTMAP_SOURCE_DIR;
-}
+std::string source_dir() { return POTMAP_SOURCE_DIR; }
 
 std::string shared_data(const std::string& rel) {
   return (fs::path(POTMAP_SOURCE_DIR) / ".." / "shared" / "data" / rel).lexically_normal().string();
