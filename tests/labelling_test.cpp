@@ -131,3 +131,15 @@ TEST(Labelling, KittiFrameLabelsEveryPoint) {
   EXPECT_EQ(hits, 17238u);  // every point of the frame is within KITTI's 120 m
   EXPECT_EQ(out.train.dim, 3);
 }
+
+TEST(Labelling, AbsurdRangeIsBoundedNotALongLoop) {
+  Scan s;
+  s.dim = 2;
+  s.max_range = 1e300;  // what a corrupt log's largest range makes of FLASER's automatic maximum
+  s.no_return = {1, 0};
+  LabelOptions o;
+  o.holdout_fraction = 0;
+  LabelledSplit out;
+  label_scan(s, 0, o, out);
+  EXPECT_EQ(out.train.size(), static_cast<std::size_t>(o.max_free_per_beam));
+}

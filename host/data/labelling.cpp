@@ -35,7 +35,8 @@ void label_scan(const Scan& scan, std::int64_t scan_index, const LabelOptions& o
                 LabelledSplit& out) {
   const int d = scan.dim;
   if (d != 2 && d != 3) throw ArgumentError("label_scan: scan dim must be 2 or 3");
-  if (!(o.free_per_metre >= 0) || !(o.holdout_fraction >= 0 && o.holdout_fraction <= 1))
+  if (!(o.free_per_metre >= 0) || o.max_free_per_beam < 1 ||
+      !(o.holdout_fraction >= 0 && o.holdout_fraction <= 1))
     throw ArgumentError("label_scan: free_per_metre must be >= 0, holdout_fraction in [0, 1]");
   for (LabelledPoints* lp : {&out.train, &out.test}) {
     if (lp->empty()) lp->dim = d;
@@ -96,7 +97,8 @@ void label_scan(const Scan& scan, std::int64_t scan_index, const LabelOptions& o
       len = rmax;
     }
     if (hit) push(dst, end, d, 1, scan_index);
-    const long nfree = std::max(1L, std::lround(len * o.free_per_metre));
+    const double want = std::min(len * o.free_per_metre, static_cast<double>(o.max_free_per_beam));
+    const long nfree = std::max(1L, std::lround(want));
     for (long j = 0; j < nfree; ++j) {
       const double s = rng.uniform() * len;
       for (int k = 0; k < d; ++k) q[k] = org[k] + s * dir[k];

@@ -11,6 +11,9 @@ namespace potmap {
 struct LabelOptions {
   /// Free samples per metre of free beam (default 1); every beam gets at least one.
   double free_per_metre = 1.0;
+  /// Upper bound on free samples per beam (default 10000), so that a corrupt range (1e300 m in a
+  /// log) cannot ask for an unbounded loop.
+  long max_free_per_beam = 10000;
   /// Fraction of each scan's beams held out with all their samples (default 0.2). 0 disables.
   double holdout_fraction = 0.2;
   /// Seed of the free-sample positions and of the split (default 0). The same seed, scan index
