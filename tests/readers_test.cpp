@@ -208,3 +208,14 @@ TEST(Readers, ScansFromLabelledGroupsByT) {
   EXPECT_DOUBLE_EQ(scans[1].timestamp, 3);
   EXPECT_DOUBLE_EQ(scans[1].pose2d[0], 5);
 }
+
+TEST(Readers, FlaserFieldOfViewWhenTold) {
+  const std::string d = test::temp_dir("readers_fov");
+  // Three beams over 90 degrees: -45, 0, +45 around a heading of 0.
+  const std::string p = write(d, "f.log", flaser(3, "2 2 2", "0 0 0"));
+  const Dataset ds = read_carmen(p, 10, M_PI / 2);
+  ASSERT_EQ(ds.scans[0].num_hits(), 3u);
+  EXPECT_NEAR(ds.scans[0].hits[0], std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(ds.scans[0].hits[1], -std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(ds.scans[0].hits[5], std::sqrt(2.0), 1e-9);
+}

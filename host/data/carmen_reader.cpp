@@ -86,7 +86,9 @@ std::vector<double> read_ranges(const Fields& f, std::size_t first, std::size_t 
 
 }  // namespace
 
-Dataset read_carmen(const std::string& path, double flaser_max_range) {
+Dataset read_carmen(const std::string& path, double flaser_max_range, double flaser_fov) {
+  if (!(flaser_fov > 0 && flaser_fov <= 2 * kPi))
+    throw ArgumentError("read_carmen: flaser_fov must be in (0, 2 pi] radians");
   const std::string bytes = data::read_file_bytes(path);
   Dataset out;
   std::vector<Raw> raws;
@@ -122,11 +124,11 @@ Dataset read_carmen(const std::string& path, double flaser_max_range) {
       r.y = finite_pose(f, 3 + n, "pose y");
       r.theta = finite_pose(f, 4 + n, "pose theta");
       r.t = f.num(8 + n, "timestamp");
-      r.start = -kPi / 2;
-      r.step = n > 1 ? kPi / (n - 1) : 0;
+      r.start = -flaser_fov / 2;
+      r.step = n > 1 ? flaser_fov / (n - 1) : 0;
       // 180 beams are 1 degree steps over 180 degrees (the last beam at +89), 181/361 span
       // -90..+90 inclusive; 360 are half-degree steps ending at +89.5.
-      if (n % 2 == 0 && n > 0) r.step = kPi / n;
+      if (n % 2 == 0 && n > 0) r.step = flaser_fov / n;
       r.max_range = -1;
     } else {
       // ROBOTLASER1 type start fov res max_range accuracy remission_mode n r.. m rem.. laser_x

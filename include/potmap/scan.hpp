@@ -48,9 +48,13 @@ struct Dataset {
 /// carry their own start angle, field of view and maximum range. Other lines are counted in
 /// stats.lines_skipped. A range >= max_range is a no-return; `flaser_max_range` (metres, default
 /// 0 = automatic: the largest range seen in the file, so readings at the device's limit count
-/// as no-returns) sets it for FLASER lines. Throws InputError naming file, line and value for a
-/// truncated line, wrong field count, non-numeric value, NaN pose or negative range.
-Dataset read_carmen(const std::string& path, double flaser_max_range = 0);
+/// as no-returns) sets it for FLASER lines; `flaser_fov` (radians, default pi) is FLASER's field of
+/// view, centred on the heading (n odd: both ends included; n even: 1 degree steps for 180 beams
+/// over 180 degrees, the last beam one step short of +fov/2). Throws InputError naming file, line
+/// and value for a truncated line, wrong field count, non-numeric value, NaN pose or negative
+/// range.
+Dataset read_carmen(const std::string& path, double flaser_max_range = 0,
+                    double flaser_fov = 3.14159265358979323846);
 
 /// KITTI Velodyne frame: N x 4 float32 (x, y, z, reflectance), plain or gzip. The sensor is at
 /// the origin unless a pose is given. max_range in metres (default 120, the HDL-64E).
