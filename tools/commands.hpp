@@ -28,5 +28,6 @@ void register_eval(CLI::App& app, Runner& runner);
 void register_raster(CLI::App& app, Runner& runner);
 void register_demo(CLI::App& app, Runner& runner);
 void register_learn(CLI::App& app, Runner& runner);
+void register_data(CLI::App& app, Runner& runner);
 
 }  // namespace potmap::cli

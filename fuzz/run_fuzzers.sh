@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets with clang and runs each for SECONDS (default 20) from a seed
+# corpus taken from ../shared/data where present. Exits non-zero on the first crash.
+# Usage: fuzz/run_fuzzers.sh [SECONDS] [BUILD_DIR]
+set -euo pipefail
+secs=${1:-20}
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${2:-$root/build-fuzz}
+CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DPOTMAP_BUILD_FUZZERS=ON -DPOTMAP_BUILD_TESTS=OFF -DPOTMAP_BUILD_BENCH=OFF \
+  -DPOTMAP_BUILD_TOOLS=OFF -DBUILD_SHARED_LIBS=OFF \
+  -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined" >/dev/null
+make -C "$build" -j2 fuzz_carmen fuzz_velodyne fuzz_kitti_poses fuzz_npz >/dev/null
+data=$root/../shared/data
+corpus=$build/corpus
+for t in carmen velodyne kitti_poses npz; do mkdir -p "$corpus/$t"; done
+# Small seeds: the head of a real log, a slice of a real frame.
+if [ -d "$data/radish" ]; then
+  zcat "$data/radish/intel-corrected.log.gz" | head -c 20000 > "$corpus/carmen/intel_head.log" || true
+fi
+if [ -f "$data/lidar3d/kitti_000008.bin" ]; then
+  head -c 1600 "$data/lidar3d/kitti_000008.bin" > "$corpus/velodyne/kitti_head.bin"
+fi
+printf 'Tr: 1 0 0 0 0 1 0 0 0 0 1 0\n\0001 0 0 0 0 1 0 0 0 0 1 0\n' > "$corpus/kitti_poses/seed"
+# A tiny valid .npz (X: 2 x 3 float64, Y: 2 uint8) so the npz fuzzer starts past the zip layer.
+if command -v python3 >/dev/null; then
+  python3 - "$corpus/npz/seed.npz" <<'PY'
+import struct, sys, zipfile
+def npy(descr, shape, body):
+    h = "{'descr': '%s', 'fortran_order': False, 'shape': %s, }" % (descr, shape)
+    h += " " * ((64 - (10 + len(h) + 1) % 64) % 64) + "\n"
+    return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(h)) + h.encode() + body
+with zipfile.ZipFile(sys.argv[1], "w") as z:
+    z.writestr("X.npy", npy("<f8", "(2, 3)", struct.pack("<6d", 0, 1, 2, 1, 3, 4)))
+    z.writestr("Y.npy", npy("|u1", "(2,)", b"\x01\x00"))
+PY
+fi
+for t in carmen velodyne kitti_poses npz; do
+  echo "fuzz_$t: ${secs} s"
+  "$build/fuzz/fuzz_$t" -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 \
+    "$corpus/$t" 2>&1 | tail -3
+done
+echo "no crashes"

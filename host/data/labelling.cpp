@@ -1,0 +1,145 @@
+#include "potmap/labelling.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "potmap/error.hpp"
+
+namespace potmap {
+
+namespace {
+
+// SplitMix64: a tiny, portable generator whose output is the same on every standard library.
+struct Rng {
+  std::uint64_t s;
+  std::uint64_t next() {
+    std::uint64_t z = (s += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+  }
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  std::size_t below(std::size_t n) { return static_cast<std::size_t>(uniform() * n); }
+};
+
+void push(LabelledPoints& lp, const double* p, int d, std::uint8_t y, std::int64_t t) {
+  lp.position.insert(lp.position.end(), p, p + d);
+  lp.label.push_back(y);
+  lp.scan.push_back(t);
+}
+
+}  // namespace
+
+void label_scan(const Scan& scan, std::int64_t scan_index, const LabelOptions& o,
+                LabelledSplit& out) {
+  const int d = scan.dim;
+  if (d != 2 && d != 3) throw ArgumentError("label_scan: scan dim must be 2 or 3");
+  if (!(o.free_per_metre >= 0) || o.max_free_per_beam < 1 ||
+      !(o.holdout_fraction >= 0 && o.holdout_fraction <= 1))
+    throw ArgumentError("label_scan: free_per_metre must be >= 0, holdout_fraction in [0, 1]");
+  for (LabelledPoints* lp : {&out.train, &out.test}) {
+    if (lp->empty()) lp->dim = d;
+    if (lp->dim != d) throw ArgumentError("label_scan: output dim differs from the scan's");
+  }
+  const std::size_t nh = scan.num_hits(), nb = scan.num_beams();
+  if (nb == 0) return;
+  Rng rng{o.seed * 0x2545f4914f6cdd1dULL ^ static_cast<std::uint64_t>(scan_index)};
+  rng.next();
+  // Beam-level split: exactly round(fraction * beams) beams, by a partial Fisher-Yates shuffle.
+  std::vector<std::uint8_t> held(nb, 0);
+  const std::size_t nheld = static_cast<std::size_t>(std::lround(o.holdout_fraction * nb));
+  if (nheld > 0) {
+    std::vector<std::uint32_t> idx(nb);
+    std::iota(idx.begin(), idx.end(), 0u);
+    for (std::size_t i = 0; i < nheld; ++i) {
+      std::swap(idx[i], idx[i + rng.below(nb - i)]);
+      held[idx[i]] = 1;
+    }
+  }
+  const auto org = scan.origin();
+  const double rmax = scan.max_range > 0 ? scan.max_range : HUGE_VAL;
+  double end[3], q[3], dir[3];
+  for (std::size_t b = 0; b < nb; ++b) {
+    LabelledPoints& dst = held[b] ? out.test : out.train;
+    double len;
+    bool hit;
+    if (b < nh) {
+      const double* p = &scan.hits[b * d];
+      double r2 = 0;
+      bool finite = true;
+      for (int k = 0; k < d; ++k) {
+        finite = finite && std::isfinite(p[k]);
+        dir[k] = p[k] - org[k];
+        r2 += dir[k] * dir[k];
+      }
+      if (!finite) {
+        ++out.points_dropped;
+        continue;
+      }
+      const double r = std::sqrt(r2);
+      hit = r < rmax;
+      len = hit ? r : rmax;
+      if (r > 0)
+        for (int k = 0; k < d; ++k) dir[k] /= r;
+      if (hit) std::copy(p, p + d, end);
+    } else {
+      const double* u = &scan.no_return[(b - nh) * d];
+      double n2 = 0;
+      for (int k = 0; k < d; ++k) n2 += u[k] * u[k];
+      if (!std::isfinite(n2) || n2 == 0 || !std::isfinite(rmax)) {
+        ++out.points_dropped;
+        continue;
+      }
+      const double inv = 1 / std::sqrt(n2);
+      for (int k = 0; k < d; ++k) dir[k] = u[k] * inv;
+      hit = false;
+      len = rmax;
+    }
+    if (hit) push(dst, end, d, 1, scan_index);
+    const double want = std::min(len * o.free_per_metre, static_cast<double>(o.max_free_per_beam));
+    const long nfree = std::max(1L, std::lround(want));
+    for (long j = 0; j < nfree; ++j) {
+      const double s = rng.uniform() * len;
+      for (int k = 0; k < d; ++k) q[k] = org[k] + s * dir[k];
+      push(dst, q, d, 0, scan_index);
+    }
+  }
+}
+
+LabelledSplit label_scans(const std::vector<Scan>& scans, const LabelOptions& options) {
+  LabelledSplit out;
+  for (std::size_t i = 0; i < scans.size(); ++i)
+    label_scan(scans[i], static_cast<std::int64_t>(i), options, out);
+  return out;
+}
+
+Scan slice_2d(const Scan& s, double z_min, double z_max) {
+  if (s.dim != 3) throw ArgumentError("slice_2d: scan is not 3D");
+  Scan o;
+  o.dim = 2;
+  o.timestamp = s.timestamp;
+  o.max_range = s.max_range;
+  const auto& T = s.pose3d;
+  o.pose2d = {T[3], T[7], std::atan2(T[4], T[0])};
+  const double z0 = T[11];
+  for (std::size_t i = 0; i + 2 < s.hits.size(); i += 3) {
+    const double dz = s.hits[i + 2] - z0;
+    if (dz >= z_min && dz <= z_max) {
+      o.hits.push_back(s.hits[i]);
+      o.hits.push_back(s.hits[i + 1]);
+    }
+  }
+  for (std::size_t i = 0; i + 2 < s.no_return.size(); i += 3) {
+    const double h = std::hypot(s.no_return[i], s.no_return[i + 1]);
+    // A no-return beam belongs to the band when it stays in it out to max range.
+    if (h > 0 && s.no_return[i + 2] * s.max_range >= z_min &&
+        s.no_return[i + 2] * s.max_range <= z_max) {
+      o.no_return.push_back(s.no_return[i] / h);
+      o.no_return.push_back(s.no_return[i + 1] / h);
+    }
+  }
+  return o;
+}
+
+}  // namespace potmap

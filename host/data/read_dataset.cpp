@@ -1,0 +1,41 @@
+// Picks a reader by file name.
+#include <algorithm>
+
+#include "potmap/error.hpp"
+#include "potmap/labelled_points.hpp"
+#include "potmap/scan.hpp"
+
+namespace potmap {
+
+Dataset read_velodyne_dataset(const std::string& path, std::size_t fields, double max_range);
+
+namespace {
+bool ends_with(const std::string& s, const std::string& e) {
+  return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+}
+}  // namespace
+
+Dataset read_dataset(const std::string& path) {
+  std::string lower = path;
+  std::transform(lower.begin(), lower.end(), lower.begin(), ::tolower);
+  std::string base = lower;
+  if (ends_with(base, ".gz")) base.resize(base.size() - 3);
+  if (ends_with(base, ".bin")) {
+    const bool nus = lower.find("nuscenes") != std::string::npos;
+    return read_velodyne_dataset(path, nus ? 5 : 4, nus ? 110 : 120);
+  }
+  if (ends_with(base, ".npz")) {
+    LabelledPoints lp = read_npz_labelled(path);
+    Dataset ds;
+    ds.scans = scans_from_labelled(lp);
+    return ds;
+  }
+  if (ends_with(base, ".csv")) {
+    Dataset ds;
+    ds.scans = scans_from_labelled(read_labelled_csv(path));
+    return ds;
+  }
+  return read_carmen(path);
+}
+
+}  // namespace potmap

@@ -1,0 +1,221 @@
+// Readers: every real dataset in ../shared/data loads with the counts its README states, and
+// every malformed-input class is an InputError naming file, position and value.
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "potmap/error.hpp"
+#include "potmap/scan.hpp"
+#include "test_support.hpp"
+
+using namespace potmap;
+
+namespace {
+
+void expect_counts(const std::string& rel, std::size_t scans, std::size_t beams) {
+  const Dataset ds = read_carmen(test::shared_data(rel));
+  ASSERT_EQ(ds.scans.size(), scans) << rel;
+  for (const Scan& s : ds.scans) ASSERT_EQ(s.num_beams(), beams) << rel;
+  EXPECT_GT(ds.stats.lines_skipped, 0u) << rel;
+}
+
+std::string write(const std::string& dir, const std::string& name, const std::string& body) {
+  const std::string p = dir + "/" + name;
+  std::ofstream(p, std::ios::binary) << body;
+  return p;
+}
+
+// Runs f, expects an InputError whose message contains every needle.
+template <class F>
+void expect_input_error(F f, std::initializer_list<std::string> needles) {
+  try {
+    f();
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    for (const auto& n : needles) EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
+  }
+}
+
+std::string flaser(int n, const std::string& ranges, const std::string& pose) {
+  return "FLASER " + std::to_string(n) + " " + ranges + " " + pose + " 0 0 0 12.5 host 12.5\n";
+}
+
+}  // namespace
+
+TEST(Readers, IntelRadish) {
+  expect_counts("radish/intel-corrected.log.gz", 910, 180);
+}
+TEST(Readers, AcesRadish) {
+  expect_counts("radish/aces-corrected.log.gz", 440, 180);
+}
+TEST(Readers, CsailRadish) {
+  expect_counts("radish/csail-corrected.log.gz", 406, 361);
+}
+TEST(Readers, FreiburgRadish) {
+  expect_counts("radish/freiburg-079-corrected.log.gz", 4791, 360);
+}
+
+TEST(Readers, IntelHasHitsAndNoReturns) {
+  const Dataset ds = read_carmen(test::shared_data("radish/intel-corrected.log.gz"));
+  std::size_t hits = 0, none = 0;
+  for (const Scan& s : ds.scans) hits += s.num_hits(), none += s.num_no_return();
+  EXPECT_GT(hits, none);
+  EXPECT_GT(none, 0u);
+  EXPECT_NEAR(ds.scans[0].max_range, 81.9, 0.2);
+}
+
+TEST(Readers, KittiFrame) {
+  const Scan s = read_kitti_bin(test::shared_data("lidar3d/kitti_000008.bin"));
+  EXPECT_EQ(s.num_hits(), 17238u);
+  EXPECT_EQ(s.dim, 3);
+}
+
+TEST(Readers, NuscenesFrame) {
+  const Scan s =
+      read_nuscenes_bin(test::shared_data("lidar3d/nuscenes_lidar_top_1532402927647951.bin"));
+  EXPECT_EQ(s.num_hits(), 34688u);
+}
+
+TEST(Readers, FlaserGeometryAndPlainText) {
+  const std::string d = test::temp_dir("readers_geom");
+  // Two beams at -90 and 0 degrees (n = 2: one step of 90 degrees), robot at (1, 2) facing +y.
+  const std::string p =
+      write(d, "a.log", "ODOM 0 0 0\n" + flaser(2, "3 4", "1 2 1.5707963267948966"));
+  const Dataset ds = read_carmen(p, 10);
+  ASSERT_EQ(ds.scans.size(), 1u);
+  EXPECT_EQ(ds.stats.lines_skipped, 1u);
+  const Scan& s = ds.scans[0];
+  ASSERT_EQ(s.num_hits(), 2u);
+  EXPECT_NEAR(s.hits[0], 4, 1e-9);  // -90 deg from +y is +x
+  EXPECT_NEAR(s.hits[1], 2, 1e-9);
+  EXPECT_NEAR(s.hits[2], 1, 1e-9);
+  EXPECT_NEAR(s.hits[3], 6, 1e-9);
+  EXPECT_DOUBLE_EQ(s.timestamp, 12.5);
+}
+
+TEST(Readers, GzipMatchesPlain) {
+  const std::string d = test::temp_dir("readers_gz");
+  const std::string body = flaser(3, "1 2 9", "0 0 0") + flaser(3, "1 nan 2", "1 0 0");
+  const std::string plain = write(d, "p.log", body);
+  gzFile g = gzopen((d + "/z.log.gz").c_str(), "wb");
+  gzwrite(g, body.data(), static_cast<unsigned>(body.size()));
+  gzclose(g);
+  const Dataset a = read_carmen(plain, 5), b = read_carmen(d + "/z.log.gz", 5);
+  ASSERT_EQ(a.scans.size(), 2u);
+  ASSERT_EQ(b.scans.size(), 2u);
+  EXPECT_EQ(a.scans[0].hits, b.scans[0].hits);
+  EXPECT_EQ(a.scans[0].num_no_return(), 1u);  // 9 >= 5
+  EXPECT_EQ(a.stats.points_dropped, 1u);      // the NaN range
+  EXPECT_EQ(b.stats.points_dropped, 1u);
+}
+
+TEST(Readers, RobotLaser) {
+  const std::string d = test::temp_dir("readers_robot");
+  // start -pi/2, fov pi, 3 beams, max range 8; laser pose (0, 0, 0).
+  const std::string p = write(d, "r.log",
+                              "ROBOTLASER1 0 -1.5707963267948966 3.141592653589793 1.57 8 0.01 0 "
+                              "3 1 8 2 0 0 0 0 0 0 0 0 0 0 0 0 77.5 host 77.5\n");
+  const Dataset ds = read_carmen(p);
+  ASSERT_EQ(ds.scans.size(), 1u);
+  EXPECT_EQ(ds.scans[0].num_hits(), 2u);
+  EXPECT_EQ(ds.scans[0].num_no_return(), 1u);
+  EXPECT_NEAR(ds.scans[0].hits[1], -1, 1e-9);
+  EXPECT_NEAR(ds.scans[0].hits[3], 2, 1e-9);  // the +90 degree beam, 2 m along +y
+  EXPECT_DOUBLE_EQ(ds.scans[0].timestamp, 77.5);
+}
+
+TEST(ReadersMalformed, TruncatedLine) {
+  const std::string d = test::temp_dir("mal_trunc");
+  const std::string p = write(d, "t.log", flaser(3, "1 2 3", "0 0 0") + "FLASER 180 1.0 2.0");
+  expect_input_error([&] { read_carmen(p); }, {p, "line 2", "2.0"});
+}
+
+TEST(ReadersMalformed, WrongFieldCountBeamCount) {
+  const std::string d = test::temp_dir("mal_count");
+  const std::string p = write(d, "c.log", "FLASER 2.5 1 2 0 0 0 0 0 0 1 h 1\n");
+  expect_input_error([&] { read_carmen(p); }, {p, "line 1", "2.5"});
+}
+
+TEST(ReadersMalformed, NonNumericRange) {
+  const std::string d = test::temp_dir("mal_nonnum");
+  const std::string p = write(d, "n.log", flaser(2, "1 abc", "0 0 0"));
+  expect_input_error([&] { read_carmen(p); }, {p, "line 1", "abc"});
+}
+
+TEST(ReadersMalformed, NanPose) {
+  const std::string d = test::temp_dir("mal_nanpose");
+  const std::string p = write(d, "p.log", "PARAM x\n" + flaser(2, "1 2", "0 nan 0"));
+  expect_input_error([&] { read_carmen(p); }, {p, "line 2", "nan"});
+}
+
+TEST(ReadersMalformed, NegativeRange) {
+  const std::string d = test::temp_dir("mal_neg");
+  const std::string p = write(d, "g.log", flaser(2, "1 -0.5", "0 0 0"));
+  expect_input_error([&] { read_carmen(p); }, {p, "line 1", "-0.5"});
+}
+
+TEST(ReadersMalformed, BinSizeNotMultipleOf16) {
+  const std::string d = test::temp_dir("mal_bin");
+  const std::string p = write(d, "k.bin", std::string(16 * 3 + 5, '\0'));
+  expect_input_error([&] { read_kitti_bin(p); }, {p, "byte 48", "53"});
+}
+
+TEST(ReadersMalformed, CorruptGzip) {
+  const std::string d = test::temp_dir("mal_gz");
+  const std::string p = write(d, "x.log.gz", std::string("\x1f\x8b\x08\x00garbage", 11));
+  expect_input_error([&] { read_carmen(p); }, {p, "byte"});
+}
+
+TEST(ReadersMalformed, KittiPoseLine) {
+  const std::string d = test::temp_dir("mal_pose");
+  const std::string calib =
+      write(d, "calib.txt", "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nTr: 1 0 0 0 0 1 0 0 0 0 1 0\n");
+  const std::string poses =
+      write(d, "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 inf 0 0 1 0\n");
+  expect_input_error([&] { read_kitti_poses(poses, calib); }, {poses, "line 2", "inf"});
+}
+
+TEST(Readers, KittiPosesComposeWithCalib) {
+  const std::string d = test::temp_dir("kitti_pose");
+  // Tr swaps axes as KITTI's does (velo x forward -> cam z forward); the camera moves 2 m along z.
+  const std::string calib = write(d, "calib.txt", "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 0\n");
+  const std::string poses = write(d, "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 2\n");
+  const auto T = read_kitti_poses(poses, calib);
+  ASSERT_EQ(T.size(), 1u);
+  // In velodyne axes that is 2 m forward (x).
+  EXPECT_NEAR(T[0][3], 2, 1e-12);
+  EXPECT_NEAR(T[0][7], 0, 1e-12);
+  EXPECT_NEAR(T[0][11], 0, 1e-12);
+  Scan s;
+  s.dim = 3;
+  s.hits = {1, 0, 0};
+  apply_pose(s, T[0]);
+  EXPECT_NEAR(s.hits[0], 3, 1e-12);
+}
+
+TEST(Readers, ScansFromLabelledGroupsByT) {
+  LabelledPoints lp;
+  lp.dim = 2;
+  lp.position = {1, 1, 2, 2, 0, 0, 5, 5};
+  lp.label = {1, 0, 1, 0};
+  lp.scan = {0, 0, 3, 3};
+  const auto scans = scans_from_labelled(lp);
+  ASSERT_EQ(scans.size(), 2u);
+  EXPECT_EQ(scans[0].num_hits(), 1u);
+  EXPECT_DOUBLE_EQ(scans[1].timestamp, 3);
+  EXPECT_DOUBLE_EQ(scans[1].pose2d[0], 5);
+}
+
+TEST(Readers, FlaserFieldOfViewWhenTold) {
+  const std::string d = test::temp_dir("readers_fov");
+  // Three beams over 90 degrees: -45, 0, +45 around a heading of 0.
+  const std::string p = write(d, "f.log", flaser(3, "2 2 2", "0 0 0"));
+  const Dataset ds = read_carmen(p, 10, M_PI / 2);
+  ASSERT_EQ(ds.scans[0].num_hits(), 3u);
+  EXPECT_NEAR(ds.scans[0].hits[0], std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(ds.scans[0].hits[1], -std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(ds.scans[0].hits[5], std::sqrt(2.0), 1e-9);
+}

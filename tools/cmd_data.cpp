@@ -1,0 +1,104 @@
+// potmap data info FILE | potmap data simulate --town NAME --seed S --out DIR
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+
+#include "commands.hpp"
+#include "potmap/scan.hpp"
+#include "potmap/simulator.hpp"
+
+namespace potmap::cli {
+
+namespace {
+
+int data_info(const std::string& file) {
+  const Dataset ds = read_dataset(file);
+  std::size_t bmin = std::numeric_limits<std::size_t>::max(), bmax = 0, hits = 0, none = 0;
+  double rmin = HUGE_VAL, rmax = 0, maxr_lo = HUGE_VAL, maxr_hi = 0;
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  int dim = ds.scans.empty() ? 0 : ds.scans[0].dim;
+  for (const Scan& s : ds.scans) {
+    bmin = std::min(bmin, s.num_beams());
+    bmax = std::max(bmax, s.num_beams());
+    hits += s.num_hits();
+    none += s.num_no_return();
+    maxr_lo = std::min(maxr_lo, s.max_range);
+    maxr_hi = std::max(maxr_hi, s.max_range);
+    const auto o = s.origin();
+    for (std::size_t i = 0; i < s.num_hits(); ++i) {
+      double r2 = 0;
+      for (int k = 0; k < s.dim; ++k) {
+        const double v = s.hits[i * s.dim + k];
+        lo[k] = std::min(lo[k], v);
+        hi[k] = std::max(hi[k], v);
+        r2 += (v - o[k]) * (v - o[k]);
+      }
+      rmin = std::min(rmin, std::sqrt(r2));
+      rmax = std::max(rmax, std::sqrt(r2));
+    }
+  }
+  std::cout << "file: " << file << "\n";
+  std::cout << "scans: " << ds.scans.size() << "\n";
+  if (ds.scans.empty()) return 0;
+  std::cout << "dimension: " << dim << "\n";
+  std::cout << "beams per scan: " << bmin;
+  if (bmax != bmin) std::cout << " to " << bmax;
+  std::cout << "\nhits: " << hits << "\nno-return beams: " << none << "\n";
+  std::cout << "hit ranges (m): " << rmin << " to " << rmax << "\n";
+  std::cout << "max range (m): " << maxr_lo;
+  if (maxr_hi != maxr_lo) std::cout << " to " << maxr_hi;
+  std::cout << "\nbounds (m):";
+  for (int k = 0; k < dim; ++k)
+    std::cout << " "
+              << "xyz"[k] << " [" << lo[k] << ", " << hi[k] << "]";
+  std::cout << "\nlines skipped: " << ds.stats.lines_skipped << "\n";
+  std::cout << "points dropped (NaN/Inf): " << ds.stats.points_dropped << "\n";
+  return 0;
+}
+
+}  // namespace
+
+void register_data(CLI::App& app, Runner& runner) {
+  CLI::App* data = app.add_subcommand("data", "Inspect LIDAR datasets and simulate towns");
+  data->require_subcommand(1);
+
+  CLI::App* info = data->add_subcommand(
+      "info", "Summarise a dataset (CARMEN .log[.gz], KITTI/nuScenes .bin, .npz)");
+  auto file = std::make_shared<std::string>();
+  info->add_option("FILE", *file, "dataset file")->required();
+  info->callback([&runner, file] { runner.action = [file] { return data_info(*file); }; });
+
+  CLI::App* sim = data->add_subcommand(
+      "simulate",
+      "Simulate a drive through a built-in town. Writes DIR/scans.log (2D, CARMEN ROBOTLASER1) "
+      "or DIR/velodyne/*.bin + poses.txt + calib.txt (3D, KITTI layout), and DIR/town.png");
+  auto town = std::make_shared<std::string>("town1");
+  auto out = std::make_shared<std::string>();
+  auto seed = std::make_shared<std::uint64_t>(0);
+  auto opt = std::make_shared<SimOptions>();
+  sim->add_option("--town", *town, "town1, town2 or town3")->capture_default_str();
+  sim->add_option("--seed", *seed, "seed of the town, route and traffic")->capture_default_str();
+  sim->add_option("--out", *out, "output folder")->required();
+  sim->add_option("--scans", opt->scans, "number of scans")->capture_default_str();
+  sim->add_option("--spacing", opt->spacing, "metres between scans")->capture_default_str();
+  sim->add_option("--range", opt->max_range, "sensor range, metres")->capture_default_str();
+  sim->add_option("--moving", opt->moving_vehicles, "moving vehicles")->capture_default_str();
+  sim->add_flag("--3d", opt->three_d, "16-channel 3D sensor instead of a 2D ring");
+  sim->callback([&runner, town, out, seed, opt] {
+    runner.action = [town, out, seed, opt] {
+      const Town t = Town::builtin(*town, *seed);
+      opt->seed = *seed;
+      const Simulation s = simulate(t, *opt);
+      const std::string main_file = write_simulation(s, *opt, *out);
+      const std::string png = (std::filesystem::path(*out) / "town.png").string();
+      write_town_png(t, s.route, png);
+      std::cout << "scans: " << s.scans.size() << "\n"
+                << "wrote " << main_file << "\nwrote " << png << "\n";
+      return 0;
+    };
+  });
+}
+
+}  // namespace potmap::cli
