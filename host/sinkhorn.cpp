@@ -16,7 +16,7 @@ namespace potmap {
 namespace {
 
 // Must match kernels/sinkhorn.cl.
-constexpr int kNI = 10, kNP = 12, kNR = 4;
+constexpr int kNI = 11, kNP = 12, kNR = 4;
 
 std::string at(std::size_t p) {
   return "Sinkhorn problem " + std::to_string(p) + ": ";
@@ -121,7 +121,7 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   std::vector<int> ints(np * kNI);
   std::vector<float> params(np * kNP);
   std::size_t sslot = 0, tslot = 0;
-  long plan = 0;
+  long plan = 0, kelems = 0;
   L.result.coupling_offset.assign(np, -1);
   for (std::size_t p = 0; p < np; ++p) {
     const int n = scnt[p], m = tcnt[p];
@@ -142,6 +142,8 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
       plan += static_cast<long>(n) * m;
     }
     I[9] = par[p]->max_iterations;
+    I[10] = static_cast<int>(kelems);
+    if (opt.stabilised) kelems += static_cast<long>(n) * mpad;
     float* P = &params[p * kNP];
     P[0] = static_cast<float>(par[p]->epsilon);
     P[1] = static_cast<float>(par[p]->tolerance);
@@ -158,7 +160,7 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
     sslot += npad;
     tslot += mpad;
   }
-  if (plan > std::numeric_limits<int>::max())
+  if (plan > std::numeric_limits<int>::max() || kelems > std::numeric_limits<int>::max())
     throw ArgumentError("Sinkhorn batch: couplings too large for one launch");
   std::vector<R> la(std::max<std::size_t>(sslot, 1)), lb(std::max<std::size_t>(tslot, 1));
   for (std::size_t p = 0; p < np; ++p) {
@@ -184,7 +186,8 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");
   char defs[128];
   std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d", dim, wg, L.dbl ? 1 : 0);
-  auto k = ctx.kernel("sinkhorn", "sinkhorn_solve", defs);
+  auto k = opt.stabilised ? ctx.kernel("sinkhorn_stab", "sinkhorn_stab_solve", defs)
+                          : ctx.kernel("sinkhorn", "sinkhorn_solve", defs);
   int a = 0;
   k.set_arg(a++, source);
   k.set_arg(a++, target);
@@ -201,6 +204,15 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   k.set_arg(a++, L.result.coupling);
   k.set_arg(a++, L.result.barycentric);
   k.set_arg(a++, static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
+  bc::buffer kmat, ub, vb;
+  if (opt.stabilised) {
+    kmat = empty_buffer(cx, static_cast<std::size_t>(kelems) * sizeof(R));
+    ub = empty_buffer(cx, sslot * sizeof(R));
+    vb = empty_buffer(cx, tslot * sizeof(R));
+    k.set_arg(a++, kmat);
+    k.set_arg(a++, ub);
+    k.set_arg(a++, vb);
+  }
   detail::cl_call("clEnqueueNDRangeKernel",
                   [&] { q.enqueue_1d_range_kernel(k, 0, np * static_cast<std::size_t>(wg), wg); });
   return L;

@@ -23,6 +23,10 @@
 #ifndef USE_DOUBLE
 #define USE_DOUBLE 0
 #endif
+// The exponential of the inner loops (exp or native_exp; measured in bench/).
+#ifndef EXPF
+#define EXPF exp
+#endif
 
 #if USE_DOUBLE
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -52,7 +56,8 @@
 #define I_MPAD 7     // padded number of target slots
 #define I_PLAN 8     // first element of the coupling in `plan`, or -1 for none
 #define I_MAXIT 9    // iteration limit at the target epsilon
-#define NI 10
+#define I_KOFF 10    // first element of the stored kernel matrix (sinkhorn_stab.cl only)
+#define NI 11
 
 // Per-problem real parameters (NP floats per problem).
 #define P_EPS 0
@@ -89,7 +94,7 @@ static REAL row_lse(const REAL px, const REAL py, const REAL pz, __global const 
     REALV dz = VLOAD(0, qz + j) - pz;
     d2 = fma(dz, dz, d2);
 #endif
-    acc += exp(fma(-k, d2, VLOAD(0, w + j) - shift));
+    acc += EXPF(fma(-k, d2, VLOAD(0, w + j) - shift));
   }
   REAL s = 0;
 #if USE_DOUBLE
@@ -131,7 +136,7 @@ static REAL row_lse(const REAL px, const REAL py, const REAL pz, __global const 
     REALV dz = VLOAD(0, qz + j) - pz;
     d2 = fma(dz, dz, d2);
 #endif
-    acc += exp(fma(-k, d2, VLOAD(0, w + j) - m));
+    acc += EXPF(fma(-k, d2, VLOAD(0, w + j) - m));
   }
 #if USE_DOUBLE
   s = acc.s0 + acc.s1 + acc.s2 + acc.s3 + acc.s4 + acc.s5 + acc.s6 + acc.s7;

@@ -282,3 +282,43 @@ TEST(Sinkhorn, OutOfSampleMap) {
     EXPECT_LT((r.extra_mapped.row(e) - expect).cwiseAbs().maxCoeff(), 1e-3);
   }
 }
+
+TEST(Sinkhorn, StabilisedSchemeMatchesReference) {
+  SinkhornOptions o = full();
+  o.stabilised = true;
+  for (int dim : {2, 3}) {
+    auto q = problem(37, 53, dim, 3, 0.05);
+    q.tolerance = 1e-5;
+    q.angle = 0.7;
+    q.centre = Eigen::Vector3d(0.3, -0.2, 0.5);
+    q.scale = 0.8;
+    const auto r = solve_one(q, o);
+    const auto ref = sinkhorn_reference(q);
+    ASSERT_TRUE(r.converged);
+    EXPECT_NEAR(r.cost, ref.cost, 1e-4 * std::abs(ref.cost) + 1e-6);
+    const double shift = (r.f - ref.f).mean();
+    EXPECT_LT((r.f.array() - ref.f.array() - shift).abs().maxCoeff(), 1e-2 * q.epsilon);
+    EXPECT_LT((r.coupling - ref.coupling).cwiseAbs().maxCoeff(), 1e-3 / 37.0);
+    EXPECT_LT((r.barycentric - ref.barycentric).cwiseAbs().maxCoeff(), 1e-3);
+  }
+  // Ragged batch with annealing, small epsilon (absorptions happen) and the iteration limit.
+  SinkhornBatch b;
+  std::vector<SinkhornProblem> qs;
+  qs.push_back(problem(5, 9, 2, 81, 0.002));
+  qs.back().normalise_cost = true;
+  qs.push_back(problem(70, 41, 2, 82, 0.001));
+  qs.back().normalise_cost = true;
+  qs.push_back(problem(30, 30, 2, 83, 0.001));
+  qs.back().max_iterations = 2;
+  qs.back().tolerance = 1e-7;
+  for (auto& q : qs) b.add(q);
+  o.epsilon_start = 0.5;
+  const auto rs = b.run(test::context(), o);
+  for (int p = 0; p < 2; ++p) {
+    const auto ref = sinkhorn_reference(qs[p]);
+    ASSERT_TRUE(rs[p].converged) << p;
+    EXPECT_NEAR(rs[p].cost, ref.cost, 1e-3 * ref.cost) << p;
+    EXPECT_LT((rs[p].coupling - ref.coupling).cwiseAbs().maxCoeff(), 2e-3 / qs[p].source.rows());
+  }
+  EXPECT_FALSE(rs[2].converged);
+}

@@ -49,7 +49,11 @@ struct SinkhornOptions {
   bool want_coupling = false;     ///< fill SinkhornResult::coupling (n x m dense)
   bool want_barycentric = false;  ///< fill SinkhornResult::barycentric (and extra_mapped)
   bool use_double = false;        ///< solve in double precision (needs cl_khr_fp64)
-  int work_group = 0;             ///< work-items per problem; 0: device default
+  /// Stabilised scheme: store K = exp(-C/eps + absorbed duals) per problem (n x m reals of
+  /// device memory per problem) and iterate with multiply-adds, absorbing the scalings into the
+  /// log-domain duals when they grow past e^25. Same fixed point as the log-domain solver.
+  bool stabilised = false;
+  int work_group = 0;  ///< work-items per problem; 0: device default
 };
 
 /// What one problem came to. Duals f, g are in cost units (f_i/eps + log a_i convention of
