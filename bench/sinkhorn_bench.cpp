@@ -55,13 +55,15 @@ SinkhornProblem bench_problem(std::uint64_t p, int n) {
   return q;
 }
 
-// Args: batch size, points a side, annealing (0: none; else epsilon_start = value / 1000).
+// Args: batch size, points a side, annealing (0: none; else epsilon_start = value / 1000),
+// scheme (0: log domain, 1: stabilised).
 void BM_SinkhornOpenCL(benchmark::State& state) {
   const int batch = static_cast<int>(state.range(0)), n = static_cast<int>(state.range(1));
   SinkhornBatch b;
   for (int p = 0; p < batch; ++p) b.add(bench_problem(p, n));
   SinkhornOptions o;
   o.epsilon_start = state.range(2) / 1000.0;
+  o.stabilised = state.range(3) != 0;
   std::vector<SinkhornResult> r = b.run(bench_context(), o);  // warm-up: program build
   for (auto _ : state) r = b.run(bench_context(), o);
   double its = 0, conv = 0, err = 0;
@@ -80,11 +82,11 @@ void BM_SinkhornOpenCL(benchmark::State& state) {
   state.SetLabel(bench_context().info().summary());
 }
 BENCHMARK(BM_SinkhornOpenCL)
-    ->ArgsProduct({{1, 8, 36, 64, 128, 270, 512}, {50, 200}, {0}})
-    ->ArgsProduct({{1, 8, 36, 64}, {500}, {0}})
-    ->ArgsProduct({{1, 8}, {1500}, {0}})
-    ->ArgsProduct({{270}, {200}, {100}})
-    ->ArgsProduct({{1}, {1500}, {500}})
+    ->ArgsProduct({{1, 8, 36, 64, 128, 270, 512}, {50, 200}, {0}, {0, 1}})
+    ->ArgsProduct({{1, 8, 36, 64}, {500}, {0}, {0, 1}})
+    ->ArgsProduct({{1, 8}, {1500}, {0}, {0, 1}})
+    ->ArgsProduct({{270}, {200}, {100}, {0, 1}})
+    ->ArgsProduct({{1}, {1500}, {500}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
