@@ -322,3 +322,48 @@ TEST(Sinkhorn, StabilisedSchemeMatchesReference) {
   }
   EXPECT_FALSE(rs[2].converged);
 }
+
+TEST(Sinkhorn, DeviceBufferCallMatchesHostBatch) {
+  namespace bc = boost::compute;
+  auto& ctx = test::context();
+  std::vector<SinkhornProblem> qs = {problem(12, 20, 2, 91, 0.02), problem(33, 7, 2, 92, 0.03)};
+  SinkhornBatch host;
+  SinkhornDeviceBatch dev;
+  dev.dim = 2;
+  dev.problems = qs.size();
+  std::vector<float> src, tgt;
+  for (auto& q : qs) {
+    host.add(q);
+    dev.source_offset.push_back(static_cast<int>(src.size() / 2));
+    dev.target_offset.push_back(static_cast<int>(tgt.size() / 2));
+    dev.source_count.push_back(static_cast<int>(q.source.rows()));
+    dev.target_count.push_back(static_cast<int>(q.target.rows()));
+    for (int i = 0; i < q.source.rows(); ++i)
+      for (int d = 0; d < 2; ++d) src.push_back(static_cast<float>(q.source(i, d)));
+    for (int j = 0; j < q.target.rows(); ++j)
+      for (int d = 0; d < 2; ++d) tgt.push_back(static_cast<float>(q.target(j, d)));
+    dev.params.push_back(q);
+  }
+  dev.source = bc::buffer(ctx.context(), src.size() * sizeof(float));
+  dev.target = bc::buffer(ctx.context(), tgt.size() * sizeof(float));
+  ctx.queue().enqueue_write_buffer(dev.source, 0, src.size() * sizeof(float), src.data());
+  ctx.queue().enqueue_write_buffer(dev.target, 0, tgt.size() * sizeof(float), tgt.data());
+  SinkhornOptions o;
+  o.want_barycentric = true;
+  const auto res = sinkhorn_device(ctx, dev, o);
+  std::vector<float> stats(4 * qs.size()), bary(src.size());
+  ctx.queue().enqueue_read_buffer(res.stats, 0, stats.size() * sizeof(float), stats.data());
+  ctx.queue().enqueue_read_buffer(res.barycentric, 0, bary.size() * sizeof(float), bary.data());
+  const auto ref = host.run(ctx, o);
+  for (std::size_t p = 0; p < qs.size(); ++p) {
+    EXPECT_FLOAT_EQ(stats[4 * p], static_cast<float>(ref[p].cost));
+    EXPECT_EQ(static_cast<int>(stats[4 * p + 1]), ref[p].iterations);
+    EXPECT_EQ(stats[4 * p + 3] != 0, ref[p].converged);
+    const int o0 = dev.source_offset[p];
+    for (int i = 0; i < dev.source_count[p]; ++i)
+      EXPECT_FLOAT_EQ(bary[2 * (o0 + i) + 1], static_cast<float>(ref[p].barycentric(i, 1)));
+  }
+  // Offsets past the end of the buffers are refused before anything is enqueued.
+  dev.source_count[1] = 1000;
+  EXPECT_THROW(sinkhorn_device(ctx, dev, o), ArgumentError);
+}

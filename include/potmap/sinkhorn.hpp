@@ -94,8 +94,9 @@ struct SinkhornDeviceBatch {
   boost::compute::buffer target;  ///< float, all target points (AoS)
   /// Per problem (host side): offsets (in points) and sizes into `source` and `target`.
   std::vector<int> source_offset, source_count, target_offset, target_count;
-  /// Per problem parameters, as in SinkhornProblem (weights uniform unless log weights given).
-  std::vector<SinkhornProblem> params;  ///< only scalar members are read (points ignored)
+  /// Per problem parameters, as in SinkhornProblem. Only the scalar members are read (points
+  /// and weights are ignored: marginals are uniform on this path).
+  std::vector<SinkhornProblem> params;
 };
 
 /// Device-side results of sinkhorn_device().
