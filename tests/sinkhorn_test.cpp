@@ -181,7 +181,8 @@ TEST(Sinkhorn, RaggedBatchEqualsOneByOne) {
   const int sizes[][2] = {{5, 9}, {33, 17}, {16, 16}, {70, 41}, {1, 3}};
   unsigned seed = 20;
   for (auto& s : sizes) {
-    qs.push_back(problem(s[0], s[1], 2, seed++, 0.03 + 0.01 * (seed % 3)));
+    qs.push_back(problem(s[0], s[1], 2, seed, 0.03 + 0.01 * (seed % 3)));
+    ++seed;
     qs.back().angle = 0.3 * seed;
     batch.add(qs.back());
   }
