@@ -1,0 +1,123 @@
+#!/usr/bin/env python3
+"""Runs potmap_bench's Sinkhorn benchmarks, prints a table, writes JSON, and times PythonOT.
+
+Usage: bench/sinkhorn_table.py [--bench build/bench/potmap_bench] [--filter REGEX]
+                               [--json sinkhorn.json] [--pot-repeats 3] [--pot-log-max 500]
+
+PythonOT (Debian python3-pot; run with /usr/bin/python3) is timed with ot.sinkhorn methods
+'sinkhorn' and 'sinkhorn_log' on the same point sets as the benchmark (the generator below is
+the one of bench/sinkhorn_bench.cpp). Note the stopping rules differ: POT checks the 2-norm of
+the target-marginal error every 10 iterations, potmap the 1-norm of the source-marginal error.
+"""
+import argparse
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+M64 = (1 << 64) - 1
+
+
+def sinkhorn_point(problem, side, index, coord):
+    h = (((problem * 2 + side) * 100000 + index) * 4 + coord) & M64
+    h = (h * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & M64
+    h ^= h >> 31
+    h = (h * 0xBF58476D1CE4E5B9) & M64
+    h ^= h >> 27
+    h = (h * 0x94D049BB133111EB) & M64
+    h ^= h >> 31
+    return ((h >> 11) / 9007199254740992.0) * 20.0 - 10.0
+
+
+def problem(p, n):
+    """Cost matrix, epsilon, iteration limit: the settings of sinkhorn_bench.cpp."""
+    x = np.array([[sinkhorn_point(p, 0, i, d) for d in range(2)] for i in range(n)])
+    y = np.array([[sinkhorn_point(p, 1, i, d) for d in range(2)] for i in range(n)])
+    if n >= 1500:
+        c = ((x[:, None, :] - y[None, :, :]) ** 2).sum(-1)
+        return c / c.max(), 0.0005, 2000
+    x, y = x / 50, y / 50
+    return ((x[:, None, :] - y[None, :, :]) ** 2).sum(-1), 0.005, 1000
+
+
+def time_pot(n, method, repeats):
+    try:
+        import ot
+    except ImportError:
+        return None
+    c, eps, max_it = problem(0, n)
+    a = np.full(n, 1.0 / n)
+    best = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        ot.sinkhorn(a, a, c, eps, method=method, numItermax=max_it, stopThr=1e-7)
+        dt = time.perf_counter() - t0
+        best = dt if best is None else min(best, dt)
+    return best
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bench", default="build/bench/potmap_bench")
+    ap.add_argument("--filter", default="BM_Sinkhorn")
+    ap.add_argument("--json", default="sinkhorn_bench.json")
+    ap.add_argument("--min-time", default="0.01")
+    ap.add_argument("--pot-repeats", type=int, default=3)
+    ap.add_argument("--pot-log-max", type=int, default=500,
+                    help="largest n to time 'sinkhorn_log' on (1500 takes about a minute)")
+    ap.add_argument("--no-pot", action="store_true")
+    args = ap.parse_args()
+
+    out = subprocess.run([args.bench, "--benchmark_filter=" + args.filter,
+                          "--benchmark_format=json", "--benchmark_min_time=" + args.min_time],
+                         check=True, capture_output=True, text=True).stdout
+    data = json.loads(out)
+    rows = []
+    for b in data["benchmarks"]:
+        rows.append({
+            "name": b["name"], "label": b.get("label", ""), "batch": int(b.get("batch", 1)),
+            "n": int(b.get("n", 0)), "problems_per_s": b.get("problems_per_s", 0.0),
+            "ms_per_problem": 1000.0 / b["problems_per_s"] if b.get("problems_per_s") else None,
+            "iterations": b.get("iterations"), "converged_fraction": b.get("converged_fraction"),
+            "max_marginal_error": b.get("max_marginal_error")})
+
+    pot = {}
+    if not args.no_pot:
+        for n in sorted({r["n"] for r in rows}):
+            for method in ("sinkhorn", "sinkhorn_log"):
+                if method == "sinkhorn_log" and n > args.pot_log_max:
+                    continue
+                t = time_pot(n, method, 1 if n >= 1500 else args.pot_repeats)
+                if t is not None:
+                    pot[(n, method)] = t * 1000.0
+
+    labels = sorted({r["label"] for r in rows})
+    print("devices: " + "; ".join(labels))
+    hdr = f"{'benchmark':46} {'batch':>5} {'n':>5} {'prob/s':>9} {'ms/prob':>9} {'iters':>7} " \
+          f"{'conv':>5} {'x POT':>7} {'x POT log':>9}"
+    print(hdr)
+    print("-" * len(hdr))
+    for r in rows:
+        ms = r["ms_per_problem"]
+        s = pot.get((r["n"], "sinkhorn"))
+        sl = pot.get((r["n"], "sinkhorn_log"))
+        r["speedup_vs_pot_sinkhorn"] = s / ms if s and ms else None
+        r["speedup_vs_pot_sinkhorn_log"] = sl / ms if sl and ms else None
+        fmt = lambda v, f: (f % v) if v is not None else "-"
+        print(f"{r['name'][:46]:46} {r['batch']:5d} {r['n']:5d} {r['problems_per_s']:9.2f} "
+              f"{fmt(ms, '%9.3f'):>9} {fmt(r['iterations'], '%7.0f'):>7} "
+              f"{fmt(r['converged_fraction'], '%5.2f'):>5} "
+              f"{fmt(r['speedup_vs_pot_sinkhorn'], '%7.1f'):>7} "
+              f"{fmt(r['speedup_vs_pot_sinkhorn_log'], '%9.1f'):>9}")
+    for (n, method), ms in sorted(pot.items()):
+        print(f"PythonOT {method:13} n={n:5d}: {ms:10.2f} ms per problem")
+    with open(args.json, "w") as f:
+        json.dump({"context": data.get("context", {}), "rows": rows,
+                   "pythonot_ms": {f"{n}/{m}": v for (n, m), v in pot.items()}}, f, indent=1)
+    print(f"wrote {args.json}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,392 @@
+#include "potmap/sinkhorn.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+
+#include "cl_check.hpp"
+#include "potmap/error.hpp"
+
+namespace bc = boost::compute;
+
+namespace potmap {
+
+namespace {
+
+// Must match kernels/sinkhorn.cl.
+constexpr int kNI = 11, kNP = 12, kNR = 4;
+
+std::string at(std::size_t p) {
+  return "Sinkhorn problem " + std::to_string(p) + ": ";
+}
+
+void check_points(const Eigen::MatrixXd& pts, const char* what, std::size_t p) {
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
+    for (Eigen::Index d = 0; d < pts.cols(); ++d)
+      if (!std::isfinite(pts(i, d)))
+        throw InputError(at(p) + what + " point " + std::to_string(i) + " is not finite (" +
+                         std::to_string(pts(i, d)) + ")");
+}
+
+void check_weights(const Eigen::VectorXd& w, Eigen::Index n, const char* what, std::size_t p) {
+  if (w.size() == 0) return;
+  if (w.size() != n)
+    throw ArgumentError(at(p) + what + " weights have " + std::to_string(w.size()) +
+                        " entries for " + std::to_string(n) + " points");
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!(w(i) > 0) || !std::isfinite(w(i)))
+      throw ArgumentError(at(p) + what + " weight " + std::to_string(i) +
+                          " must be positive and finite");
+  if (std::abs(w.sum() - 1) > 1e-6)
+    throw ArgumentError(at(p) + what + " weights must sum to 1, got " + std::to_string(w.sum()));
+}
+
+void validate(const SinkhornProblem& q, std::size_t p) {
+  if (q.source.rows() == 0) throw ArgumentError(at(p) + "empty source point set");
+  if (q.target.rows() == 0) throw ArgumentError(at(p) + "empty target point set");
+  const auto dim = q.source.cols();
+  if (dim != 2 && dim != 3)
+    throw ArgumentError(at(p) + "points must be 2D or 3D, got " + std::to_string(dim));
+  if (q.target.cols() != dim) throw ArgumentError(at(p) + "source and target dimensions differ");
+  if (q.extra_points.rows() > 0 && q.extra_points.cols() != dim)
+    throw ArgumentError(at(p) + "extra points have the wrong dimension");
+  check_points(q.source, "source", p);
+  check_points(q.target, "target", p);
+  check_points(q.extra_points, "extra", p);
+  check_weights(q.source_weights, q.source.rows(), "source", p);
+  check_weights(q.target_weights, q.target.rows(), "target", p);
+  if (!(q.epsilon > 0) || !std::isfinite(q.epsilon))
+    throw ArgumentError(at(p) + "epsilon must be positive, got " + std::to_string(q.epsilon));
+  if (!(q.tolerance > 0)) throw ArgumentError(at(p) + "tolerance must be positive");
+  if (q.max_iterations < 1) throw ArgumentError(at(p) + "max_iterations must be >= 1");
+  if (!(q.scale > 0) || !std::isfinite(q.scale))
+    throw ArgumentError(at(p) + "scale must be positive, got " + std::to_string(q.scale));
+  if (!std::isfinite(q.angle) || !q.centre.allFinite())
+    throw ArgumentError(at(p) + "angle and centre must be finite");
+}
+
+template <class T>
+bc::buffer make_buffer(bc::context& cx, bc::command_queue& q, const std::vector<T>& v) {
+  const std::size_t bytes = std::max<std::size_t>(v.size() * sizeof(T), 64);
+  auto b = detail::cl_call("clCreateBuffer", [&] { return bc::buffer(cx, bytes); });
+  if (!v.empty())
+    detail::cl_call("clEnqueueWriteBuffer",
+                    [&] { q.enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
+  return b;
+}
+
+bc::buffer empty_buffer(bc::context& cx, std::size_t bytes) {
+  return detail::cl_call("clCreateBuffer",
+                         [&] { return bc::buffer(cx, std::max<std::size_t>(bytes, 64)); });
+}
+
+// Everything a launch needs besides the points; duals come back for the host batch.
+struct Launch {
+  SinkhornDeviceResult result;
+  bc::buffer fh, gh, loga, logb;
+  std::vector<int> ints;
+  int vw = 16;
+  bool dbl = false;
+};
+
+// Log weights per padded slot, uniform when `w` is empty, -1e30 on pads.
+template <class R>
+void fill_logw(std::vector<R>& out, std::size_t slot, int count, int pad,
+               const Eigen::VectorXd* w) {
+  const R pad_value = std::is_same<R, double>::value ? R(-1e300) : R(-1e30f);
+  for (int i = 0; i < pad; ++i) {
+    if (i >= count)
+      out[slot + i] = pad_value;
+    else if (w && w->size() > 0)
+      out[slot + i] = static_cast<R>(std::log((*w)(i)));
+    else
+      out[slot + i] = static_cast<R>(-std::log(static_cast<double>(count)));
+  }
+}
+
+template <class R>
+Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::buffer& target,
+                    std::size_t source_points, const std::vector<int>& soff,
+                    const std::vector<int>& scnt, const std::vector<int>& toff,
+                    const std::vector<int>& tcnt, const std::vector<const SinkhornProblem*>& par,
+                    const SinkhornOptions& opt) {
+  auto& cx = ctx.context();
+  auto& q = ctx.queue();
+  Launch L;
+  L.dbl = std::is_same<R, double>::value;
+  L.vw = L.dbl ? 8 : 16;
+  const std::size_t np = par.size();
+  std::vector<int> ints(np * kNI);
+  std::vector<float> params(np * kNP);
+  std::size_t sslot = 0, tslot = 0;
+  long plan = 0, kelems = 0;
+  L.result.coupling_offset.assign(np, -1);
+  for (std::size_t p = 0; p < np; ++p) {
+    const int n = scnt[p], m = tcnt[p];
+    const int npad = (n + L.vw - 1) / L.vw * L.vw, mpad = (m + L.vw - 1) / L.vw * L.vw;
+    int* I = &ints[p * kNI];
+    I[0] = soff[p];
+    I[1] = n;
+    I[2] = static_cast<int>(sslot);
+    I[3] = npad;
+    I[4] = toff[p];
+    I[5] = m;
+    I[6] = static_cast<int>(tslot);
+    I[7] = mpad;
+    I[8] = -1;
+    if (opt.want_coupling) {
+      I[8] = static_cast<int>(plan);
+      L.result.coupling_offset[p] = plan;
+      plan += static_cast<long>(n) * m;
+    }
+    I[9] = par[p]->max_iterations;
+    I[10] = static_cast<int>(kelems);
+    if (opt.stabilised) kelems += static_cast<long>(n) * mpad;
+    float* P = &params[p * kNP];
+    P[0] = static_cast<float>(par[p]->epsilon);
+    P[1] = static_cast<float>(par[p]->tolerance);
+    P[2] = static_cast<float>(std::cos(par[p]->angle));
+    P[3] = static_cast<float>(std::sin(par[p]->angle));
+    P[4] = static_cast<float>(par[p]->centre.x());
+    P[5] = static_cast<float>(par[p]->centre.y());
+    P[6] = static_cast<float>(par[p]->centre.z());
+    P[7] = static_cast<float>(par[p]->scale);
+    P[8] = par[p]->normalise_cost ? 1.f : 0.f;
+    P[9] = static_cast<float>(opt.epsilon_start);
+    P[10] = static_cast<float>(opt.epsilon_decay);
+    P[11] = static_cast<float>(std::max(opt.check_every, 1));
+    sslot += npad;
+    tslot += mpad;
+  }
+  if (plan > std::numeric_limits<int>::max() || kelems > std::numeric_limits<int>::max())
+    throw ArgumentError("Sinkhorn batch: couplings too large for one launch");
+  std::vector<R> la(std::max<std::size_t>(sslot, 1)), lb(std::max<std::size_t>(tslot, 1));
+  for (std::size_t p = 0; p < np; ++p) {
+    fill_logw(la, ints[p * kNI + 2], scnt[p], ints[p * kNI + 3], &par[p]->source_weights);
+    fill_logw(lb, ints[p * kNI + 6], tcnt[p], ints[p * kNI + 7], &par[p]->target_weights);
+  }
+  L.ints = ints;
+  auto ib = make_buffer(cx, q, ints);
+  auto pb = make_buffer(cx, q, params);
+  L.loga = make_buffer(cx, q, la);
+  L.logb = make_buffer(cx, q, lb);
+  auto sx = empty_buffer(cx, sslot * dim * sizeof(R));
+  auto tx = empty_buffer(cx, tslot * dim * sizeof(R));
+  L.fh = empty_buffer(cx, sslot * sizeof(R));
+  L.gh = empty_buffer(cx, tslot * sizeof(R));
+  auto fn = empty_buffer(cx, sslot * sizeof(R));
+  L.result.stats = empty_buffer(cx, np * kNR * sizeof(float));
+  L.result.coupling = empty_buffer(cx, static_cast<std::size_t>(plan) * sizeof(float));
+  L.result.barycentric =
+      empty_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0);
+
+  int wg = opt.work_group > 0 ? opt.work_group : (ctx.info().is_cpu ? 16 : 64);
+  if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");
+  char defs[128];
+  std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d", dim, wg, L.dbl ? 1 : 0);
+  auto k = opt.stabilised ? ctx.kernel("sinkhorn_stab", "sinkhorn_stab_solve", defs)
+                          : ctx.kernel("sinkhorn", "sinkhorn_solve", defs);
+  int a = 0;
+  k.set_arg(a++, source);
+  k.set_arg(a++, target);
+  k.set_arg(a++, ib);
+  k.set_arg(a++, pb);
+  k.set_arg(a++, L.loga);
+  k.set_arg(a++, L.logb);
+  k.set_arg(a++, sx);
+  k.set_arg(a++, tx);
+  k.set_arg(a++, L.fh);
+  k.set_arg(a++, L.gh);
+  k.set_arg(a++, fn);
+  k.set_arg(a++, L.result.stats);
+  k.set_arg(a++, L.result.coupling);
+  k.set_arg(a++, L.result.barycentric);
+  k.set_arg(a++, static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
+  bc::buffer kmat, ub, vb;
+  if (opt.stabilised) {
+    kmat = empty_buffer(cx, static_cast<std::size_t>(kelems) * sizeof(R));
+    ub = empty_buffer(cx, sslot * sizeof(R));
+    vb = empty_buffer(cx, tslot * sizeof(R));
+    k.set_arg(a++, kmat);
+    k.set_arg(a++, ub);
+    k.set_arg(a++, vb);
+  }
+  detail::cl_call("clEnqueueNDRangeKernel",
+                  [&] { q.enqueue_1d_range_kernel(k, 0, np * static_cast<std::size_t>(wg), wg); });
+  return L;
+}
+
+Launch launch(Context& ctx, int dim, const bc::buffer& source, const bc::buffer& target,
+              std::size_t source_points, const std::vector<int>& soff, const std::vector<int>& scnt,
+              const std::vector<int>& toff, const std::vector<int>& tcnt,
+              const std::vector<const SinkhornProblem*>& par, const SinkhornOptions& opt) {
+  if (opt.use_double && !ctx.info().has_fp64)
+    throw ArgumentError("SinkhornOptions::use_double: the device has no cl_khr_fp64");
+  if (!(opt.epsilon_decay > 0 && opt.epsilon_decay < 1))
+    throw ArgumentError("SinkhornOptions::epsilon_decay must be in (0, 1)");
+  if (opt.use_double)
+    return launch_typed<double>(ctx, dim, source, target, source_points, soff, scnt, toff, tcnt,
+                                par, opt);
+  return launch_typed<float>(ctx, dim, source, target, source_points, soff, scnt, toff, tcnt, par,
+                             opt);
+}
+
+template <class R>
+std::vector<double> read_back(bc::command_queue& q, const bc::buffer& b, std::size_t count) {
+  std::vector<R> tmp(count);
+  if (count)
+    detail::cl_call("clEnqueueReadBuffer",
+                    [&] { q.enqueue_read_buffer(b, 0, count * sizeof(R), tmp.data()); });
+  return std::vector<double>(tmp.begin(), tmp.end());
+}
+
+}  // namespace
+
+std::size_t SinkhornBatch::add(SinkhornProblem problem) {
+  validate(problem, problems_.size());
+  const int dim = static_cast<int>(problem.source.cols());
+  if (dim_ != 0 && dim != dim_)
+    throw ArgumentError(at(problems_.size()) + "dimension differs from the batch's");
+  dim_ = dim;
+  problems_.push_back(std::move(problem));
+  return problems_.size() - 1;
+}
+
+std::vector<SinkhornResult> SinkhornBatch::run(Context& ctx, const SinkhornOptions& opt) const {
+  const std::size_t np = problems_.size();
+  if (np == 0) return {};
+  auto& cx = ctx.context();
+  auto& q = ctx.queue();
+  const int dim = dim_;
+  std::vector<int> soff(np), scnt(np), toff(np), tcnt(np);
+  std::vector<const SinkhornProblem*> par(np);
+  std::vector<float> src, tgt;
+  for (std::size_t p = 0; p < np; ++p) {
+    const auto& pr = problems_[p];
+    par[p] = &pr;
+    soff[p] = static_cast<int>(src.size() / dim);
+    toff[p] = static_cast<int>(tgt.size() / dim);
+    scnt[p] = static_cast<int>(pr.source.rows());
+    tcnt[p] = static_cast<int>(pr.target.rows());
+    for (Eigen::Index i = 0; i < pr.source.rows(); ++i)
+      for (int d = 0; d < dim; ++d) src.push_back(static_cast<float>(pr.source(i, d)));
+    for (Eigen::Index j = 0; j < pr.target.rows(); ++j)
+      for (int d = 0; d < dim; ++d) tgt.push_back(static_cast<float>(pr.target(j, d)));
+  }
+  auto sb = make_buffer(cx, q, src);
+  auto tb = make_buffer(cx, q, tgt);
+  Launch L = launch(ctx, dim, sb, tb, src.size() / dim, soff, scnt, toff, tcnt, par, opt);
+
+  auto stats = read_back<float>(q, L.result.stats, np * kNR);
+  const std::size_t sslots = L.ints[(np - 1) * kNI + 2] + L.ints[(np - 1) * kNI + 3];
+  const std::size_t tslots = L.ints[(np - 1) * kNI + 6] + L.ints[(np - 1) * kNI + 7];
+  std::vector<double> fh, gh, la, lb;
+  if (L.dbl) {
+    fh = read_back<double>(q, L.fh, sslots);
+    gh = read_back<double>(q, L.gh, tslots);
+    la = read_back<double>(q, L.loga, sslots);
+    lb = read_back<double>(q, L.logb, tslots);
+  } else {
+    fh = read_back<float>(q, L.fh, sslots);
+    gh = read_back<float>(q, L.gh, tslots);
+    la = read_back<float>(q, L.loga, sslots);
+    lb = read_back<float>(q, L.logb, tslots);
+  }
+  std::vector<double> plan, bary;
+  if (opt.want_coupling) {
+    const long total =
+        L.result.coupling_offset[np - 1] + static_cast<long>(scnt[np - 1]) * tcnt[np - 1];
+    plan = read_back<float>(q, L.result.coupling, total);
+  }
+  if (opt.want_barycentric) bary = read_back<float>(q, L.result.barycentric, src.size());
+
+  std::vector<SinkhornResult> out(np);
+  for (std::size_t p = 0; p < np; ++p) {
+    auto& r = out[p];
+    const auto& pr = problems_[p];
+    r.cost = stats[p * kNR + 0];
+    r.iterations = static_cast<int>(stats[p * kNR + 1]);
+    r.marginal_error = stats[p * kNR + 2];
+    r.converged = stats[p * kNR + 3] != 0;
+    const int n = scnt[p], m = tcnt[p];
+    const int ss = L.ints[p * kNI + 2], ts = L.ints[p * kNI + 6];
+    r.f.resize(n);
+    r.g.resize(m);
+    for (int i = 0; i < n; ++i) r.f(i) = (fh[ss + i] - la[ss + i]) * pr.epsilon;
+    for (int j = 0; j < m; ++j) r.g(j) = (gh[ts + j] - lb[ts + j]) * pr.epsilon;
+    if (opt.want_coupling) {
+      r.coupling.resize(n, m);
+      const long o = L.result.coupling_offset[p];
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < m; ++j) r.coupling(i, j) = plan[o + static_cast<long>(i) * m + j];
+    }
+    if (opt.want_barycentric) {
+      r.barycentric.resize(n, dim);
+      for (int i = 0; i < n; ++i)
+        for (int d = 0; d < dim; ++d) r.barycentric(i, d) = bary[(soff[p] + i) * dim + d];
+      // Out-of-sample map on the host: few extra points, and it needs the whole barycentric map.
+      const Eigen::Index k = pr.extra_points.rows();
+      r.extra_mapped.resize(k, dim);
+      const double c = std::cos(pr.angle), s = std::sin(pr.angle);
+      auto rot = [&](Eigen::RowVectorXd v) {
+        const double ux = v(0) - pr.centre.x(), uy = v(1) - pr.centre.y();
+        v(0) = pr.centre.x() + c * ux - s * uy;
+        v(1) = pr.centre.y() + s * ux + c * uy;
+        return v;
+      };
+      for (Eigen::Index e = 0; e < k; ++e) {
+        Eigen::Index best = 0;
+        (pr.source.rowwise() - pr.extra_points.row(e)).rowwise().squaredNorm().minCoeff(&best);
+        r.extra_mapped.row(e) =
+            r.barycentric.row(best) + rot(pr.extra_points.row(e)) - rot(pr.source.row(best));
+      }
+    }
+  }
+  return out;
+}
+
+SinkhornDeviceResult sinkhorn_device(Context& ctx, const SinkhornDeviceBatch& batch,
+                                     const SinkhornOptions& options) {
+  const std::size_t np = batch.problems;
+  if (batch.dim != 2 && batch.dim != 3) throw ArgumentError("SinkhornDeviceBatch: dim 2 or 3");
+  if (batch.source_offset.size() != np || batch.source_count.size() != np ||
+      batch.target_offset.size() != np || batch.target_count.size() != np ||
+      batch.params.size() != np)
+    throw ArgumentError("SinkhornDeviceBatch: per-problem vectors must have `problems` entries");
+  std::vector<const SinkhornProblem*> par(np);
+  std::size_t src_end = 0, tgt_end = 0;
+  for (std::size_t p = 0; p < np; ++p) {
+    if (batch.source_count[p] < 1) throw ArgumentError(at(p) + "empty source point set");
+    if (batch.target_count[p] < 1) throw ArgumentError(at(p) + "empty target point set");
+    par[p] = &batch.params[p];
+    src_end = std::max<std::size_t>(src_end, batch.source_offset[p] + batch.source_count[p]);
+    tgt_end = std::max<std::size_t>(tgt_end, batch.target_offset[p] + batch.target_count[p]);
+  }
+  if (src_end * batch.dim * sizeof(float) > batch.source.size() ||
+      tgt_end * batch.dim * sizeof(float) > batch.target.size())
+    throw ArgumentError("SinkhornDeviceBatch: point buffers smaller than the offsets say");
+  if (np == 0) return {};
+  for (std::size_t p = 0; p < np; ++p) {
+    SinkhornProblem check = batch.params[p];
+    check.source = Eigen::MatrixXd::Zero(1, batch.dim);
+    check.target = Eigen::MatrixXd::Zero(1, batch.dim);
+    check.source_weights.resize(0);
+    check.target_weights.resize(0);
+    check.extra_points.resize(0, batch.dim);
+    validate(check, p);
+  }
+  // Given weights are a host-batch feature: uniform here (documented).
+  std::vector<SinkhornProblem> uniform(batch.params.begin(), batch.params.end());
+  for (std::size_t p = 0; p < np; ++p) {
+    uniform[p].source_weights.resize(0);
+    uniform[p].target_weights.resize(0);
+    par[p] = &uniform[p];
+  }
+  Launch L = launch(ctx, batch.dim, batch.source, batch.target, src_end, batch.source_offset,
+                    batch.source_count, batch.target_offset, batch.target_count, par, options);
+  return L.result;
+}
+
+}  // namespace potmap

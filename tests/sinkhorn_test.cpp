@@ -1,0 +1,370 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "potmap/error.hpp"
+#include "potmap/sinkhorn.hpp"
+#include "test_support.hpp"
+
+using namespace potmap;
+
+namespace {
+
+Eigen::MatrixXd random_points(int n, int dim, unsigned seed, double spread = 1.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-spread, spread);
+  Eigen::MatrixXd p(n, dim);
+  for (int i = 0; i < n; ++i)
+    for (int d = 0; d < dim; ++d) p(i, d) = u(rng);
+  return p;
+}
+
+SinkhornProblem problem(int n, int m, int dim, unsigned seed, double eps) {
+  SinkhornProblem q;
+  q.source = random_points(n, dim, seed);
+  q.target = random_points(m, dim, seed + 1000);
+  q.epsilon = eps;
+  q.tolerance = 1e-4;
+  q.max_iterations = 5000;
+  return q;
+}
+
+SinkhornResult solve_one(const SinkhornProblem& q, const SinkhornOptions& o = {}) {
+  SinkhornBatch b;
+  b.add(q);
+  return b.run(test::context(), o).at(0);
+}
+
+SinkhornOptions full() {
+  SinkhornOptions o;
+  o.want_coupling = true;
+  o.want_barycentric = true;
+  return o;
+}
+
+// Brute-force optimal assignment of a square problem, and an epsilon small enough against the
+// gap to the second-best assignment that the entropic plan must sit on the optimal one.
+double assignment_epsilon(const SinkhornProblem& q, std::vector<int>& best, double& best_cost) {
+  const Eigen::MatrixXd C = sinkhorn_cost(q);
+  const int n = static_cast<int>(C.rows());
+  std::vector<int> perm(n);
+  std::iota(perm.begin(), perm.end(), 0);
+  best_cost = 1e300;
+  double second = 1e300;
+  do {
+    double c = 0;
+    for (int i = 0; i < n; ++i) c += C(i, perm[i]);
+    if (c < best_cost) {
+      second = best_cost;
+      best_cost = c;
+      best = perm;
+    } else if (c < second) {
+      second = c;
+    }
+  } while (std::next_permutation(perm.begin(), perm.end()));
+  return std::min(0.01, (second - best_cost) / 20);
+}
+
+}  // namespace
+
+TEST(SinkhornReference, SmallProblemsApproachBruteForceAssignment) {
+  for (int n = 2; n <= 7; ++n) {
+    auto q = problem(n, n, 2, 10 + n, 0.01);
+    q.normalise_cost = true;
+    // Near a permutation Sinkhorn slows down (its contraction factor tends to 1), hence 1e-5.
+    q.tolerance = 1e-5;
+    q.max_iterations = 200000;
+    std::vector<int> best;
+    double best_cost = 0;
+    q.epsilon = assignment_epsilon(q, best, best_cost);
+    const auto r = sinkhorn_reference(q);
+    ASSERT_TRUE(r.converged) << n << " eps " << q.epsilon << " err " << r.marginal_error << " it "
+                             << r.iterations;
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(r.coupling(i, best[i]), 1.0 / n, 0.02 / n) << n;
+    EXPECT_NEAR(r.cost, best_cost / n, 0.02 * best_cost / n + 1e-6);
+  }
+}
+
+TEST(Sinkhorn, SmallProblemsApproachBruteForceAssignment) {
+  for (int n = 2; n <= 7; ++n) {
+    auto q = problem(n, n, 2, 10 + n, 0.01);
+    q.normalise_cost = true;
+    q.tolerance = 1e-5;
+    q.max_iterations = 200000;
+    std::vector<int> best;
+    double best_cost = 0;
+    q.epsilon = assignment_epsilon(q, best, best_cost);
+    SinkhornOptions o = full();
+    o.epsilon_start = 0.5;
+    const auto r = solve_one(q, o);
+    ASSERT_TRUE(r.converged) << n << " eps " << q.epsilon << " err " << r.marginal_error << " it "
+                             << r.iterations;
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(r.coupling(i, best[i]), 1.0 / n, 0.03 / n) << n;
+  }
+}
+
+TEST(Sinkhorn, MatchesReference) {
+  for (int dim : {2, 3}) {
+    auto q = problem(37, 53, dim, 3, 0.05);
+    q.tolerance = 1e-5;
+    q.angle = 0.7;
+    q.centre = Eigen::Vector3d(0.3, -0.2, 0.5);
+    q.scale = 0.8;
+    const auto r = solve_one(q, full());
+    const auto ref = sinkhorn_reference(q);
+    ASSERT_TRUE(r.converged);
+    ASSERT_TRUE(ref.converged);
+    EXPECT_LT(r.marginal_error, q.tolerance);
+    EXPECT_NEAR(r.cost, ref.cost, 1e-4 * std::abs(ref.cost) + 1e-6);
+    // Duals agree up to a constant moved from f to g.
+    const double shift = (r.f - ref.f).mean();
+    EXPECT_LT((r.f.array() - ref.f.array() - shift).abs().maxCoeff(), 1e-3 * q.epsilon * 10);
+    EXPECT_LT((r.g.array() - ref.g.array() + shift).abs().maxCoeff(), 1e-3 * q.epsilon * 10);
+    EXPECT_LT((r.coupling - ref.coupling).cwiseAbs().maxCoeff(), 1e-3 / (37.0));
+    EXPECT_LT((r.barycentric - ref.barycentric).cwiseAbs().maxCoeff(), 1e-3);
+    // Row marginals of the returned plan within the tolerance (the column ones are exact).
+    const Eigen::VectorXd rows = r.coupling.rowwise().sum();
+    EXPECT_LT((rows.array() - 1.0 / 37).abs().sum(), 2 * q.tolerance);
+    const Eigen::VectorXd cols = r.coupling.colwise().sum();
+    EXPECT_LT((cols.array() - 1.0 / 53).abs().sum(), 2 * q.tolerance);
+  }
+}
+
+TEST(Sinkhorn, GivenMarginalsAndNormalisedCost) {
+  auto q = problem(20, 30, 2, 5, 0.01);
+  q.normalise_cost = true;
+  Eigen::VectorXd a = Eigen::VectorXd::LinSpaced(20, 1, 3);
+  q.source_weights = a / a.sum();
+  Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(30, 2, 1);
+  q.target_weights = b / b.sum();
+  const auto r = solve_one(q, full());
+  const auto ref = sinkhorn_reference(q);
+  ASSERT_TRUE(r.converged);
+  EXPECT_NEAR(r.cost, ref.cost, 1e-4 * ref.cost + 1e-6);
+  const Eigen::VectorXd rows = r.coupling.rowwise().sum();
+  EXPECT_LT((rows - q.source_weights).cwiseAbs().sum(), 2 * q.tolerance);
+  EXPECT_LT((r.coupling - ref.coupling).cwiseAbs().maxCoeff(), 1e-4);
+}
+
+TEST(Sinkhorn, TranslationLeavesPlanUnchanged) {
+  auto q = problem(40, 40, 2, 7, 0.02);
+  auto moved = q;
+  moved.source.rowwise() += Eigen::RowVector2d(3.0, -2.0);
+  moved.target.rowwise() += Eigen::RowVector2d(3.0, -2.0);
+  const auto r = solve_one(q, full()), s = solve_one(moved, full());
+  EXPECT_LT((r.coupling - s.coupling).cwiseAbs().maxCoeff(), 2e-4 / 40);
+}
+
+TEST(Sinkhorn, KernelRotationEqualsHostRotation) {
+  auto q = problem(30, 45, 2, 9, 0.02);
+  q.angle = 1.1;
+  q.centre = Eigen::Vector3d(0.4, 0.1, 0);
+  auto host = q;
+  host.angle = 0;
+  const double c = std::cos(q.angle), s = std::sin(q.angle);
+  for (int i = 0; i < host.source.rows(); ++i) {
+    const double ux = q.source(i, 0) - 0.4, uy = q.source(i, 1) - 0.1;
+    host.source(i, 0) = 0.4 + c * ux - s * uy;
+    host.source(i, 1) = 0.1 + s * ux + c * uy;
+  }
+  const auto r = solve_one(q, full()), h = solve_one(host, full());
+  EXPECT_LT((r.coupling - h.coupling).cwiseAbs().maxCoeff(), 2e-4 / 30);
+  EXPECT_NEAR(r.cost, h.cost, 1e-4 * h.cost);
+}
+
+TEST(Sinkhorn, RaggedBatchEqualsOneByOne) {
+  SinkhornBatch batch;
+  std::vector<SinkhornProblem> qs;
+  const int sizes[][2] = {{5, 9}, {33, 17}, {16, 16}, {70, 41}, {1, 3}};
+  unsigned seed = 20;
+  for (auto& s : sizes) {
+    qs.push_back(problem(s[0], s[1], 2, seed, 0.03 + 0.01 * (seed % 3)));
+    ++seed;
+    qs.back().angle = 0.3 * seed;
+    batch.add(qs.back());
+  }
+  const auto all = batch.run(test::context(), full());
+  for (std::size_t p = 0; p < qs.size(); ++p) {
+    const auto one = solve_one(qs[p], full());
+    EXPECT_EQ(all[p].iterations, one.iterations) << p;
+    EXPECT_EQ(all[p].converged, one.converged) << p;
+    EXPECT_FLOAT_EQ(all[p].cost, one.cost) << p;
+    EXPECT_EQ((all[p].coupling - one.coupling).cwiseAbs().maxCoeff(), 0.0) << p;
+  }
+}
+
+TEST(Sinkhorn, RankingSettingConverges) {
+  // Authors' ranking setting: sector points (metres, 20 m) scaled by 1/50, eps 0.005.
+  auto q = problem(200, 200, 2, 31, 0.005);
+  q.source *= 20;
+  q.target *= 20;
+  q.scale = 1.0 / 50;
+  q.tolerance = 1e-5;
+  const auto r = solve_one(q);
+  EXPECT_TRUE(r.converged) << r.marginal_error;
+  EXPECT_TRUE(std::isfinite(r.cost));
+  EXPECT_TRUE(r.f.allFinite());
+}
+
+TEST(Sinkhorn, HighQualitySettingConverges) {
+  // 1500 x 1500, eps 0.0005 with max-normalised cost, single precision, with annealing.
+  auto q = problem(1500, 1500, 2, 41, 0.0005);
+  q.normalise_cost = true;
+  q.tolerance = 1e-3;
+  q.max_iterations = 2000;
+  SinkhornOptions o;
+  o.epsilon_start = 0.5;
+  const auto r = solve_one(q, o);
+  EXPECT_TRUE(r.converged) << r.marginal_error << " after " << r.iterations;
+  EXPECT_TRUE(std::isfinite(r.cost));
+  EXPECT_TRUE(r.f.allFinite() && r.g.allFinite());
+}
+
+TEST(Sinkhorn, AnnealingGivesTheTargetEpsilonResult) {
+  auto q = problem(60, 50, 2, 51, 0.002);
+  q.normalise_cost = true;
+  q.tolerance = 1e-5;
+  SinkhornOptions o = full();
+  o.epsilon_start = 1.0;
+  const auto r = solve_one(q, o);
+  const auto ref = sinkhorn_reference(q);
+  ASSERT_TRUE(r.converged);
+  EXPECT_NEAR(r.cost, ref.cost, 1e-3 * ref.cost);
+  EXPECT_LT((r.coupling - ref.coupling).cwiseAbs().maxCoeff(), 2e-3 / 60);
+}
+
+TEST(Sinkhorn, IterationLimitIsNotConvergence) {
+  auto q = problem(50, 50, 2, 61, 0.001);
+  q.max_iterations = 3;
+  q.tolerance = 1e-6;
+  const auto r = solve_one(q);
+  EXPECT_FALSE(r.converged);
+  EXPECT_GE(r.marginal_error, q.tolerance);
+  EXPECT_EQ(r.iterations, 3);
+  EXPECT_FALSE(sinkhorn_reference(q).converged);
+}
+
+TEST(Sinkhorn, EmptyAndNanInputsAreErrors) {
+  SinkhornBatch b;
+  b.add(problem(3, 3, 2, 1, 0.1));
+  auto empty = problem(3, 3, 2, 1, 0.1);
+  empty.target.resize(0, 2);
+  try {
+    b.add(empty);
+    FAIL();
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("problem 1"), std::string::npos) << e.what();
+  }
+  auto nan = problem(3, 3, 2, 1, 0.1);
+  nan.source(2, 1) = std::nan("");
+  try {
+    b.add(nan);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("point 2"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(b.size(), 1u);
+}
+
+TEST(Sinkhorn, OutOfSampleMap) {
+  auto q = problem(25, 25, 2, 71, 0.02);
+  q.angle = 0.5;
+  q.extra_points = q.source.topRows(3);
+  q.extra_points.rowwise() += Eigen::RowVector2d(0.01, 0.0);
+  const auto r = solve_one(q, full());
+  const auto ref = sinkhorn_reference(q);
+  const double c = std::cos(0.5), s = std::sin(0.5);
+  for (int e = 0; e < 3; ++e) {
+    // The nearest sample is the one it was made from; its displacement is rotated with it.
+    Eigen::RowVector2d expect = ref.barycentric.row(e) + Eigen::RowVector2d(0.01 * c, 0.01 * s);
+    EXPECT_LT((r.extra_mapped.row(e) - expect).cwiseAbs().maxCoeff(), 1e-3);
+  }
+}
+
+TEST(Sinkhorn, StabilisedSchemeMatchesReference) {
+  SinkhornOptions o = full();
+  o.stabilised = true;
+  for (int dim : {2, 3}) {
+    auto q = problem(37, 53, dim, 3, 0.05);
+    q.tolerance = 1e-5;
+    q.angle = 0.7;
+    q.centre = Eigen::Vector3d(0.3, -0.2, 0.5);
+    q.scale = 0.8;
+    const auto r = solve_one(q, o);
+    const auto ref = sinkhorn_reference(q);
+    ASSERT_TRUE(r.converged);
+    EXPECT_NEAR(r.cost, ref.cost, 1e-4 * std::abs(ref.cost) + 1e-6);
+    const double shift = (r.f - ref.f).mean();
+    EXPECT_LT((r.f.array() - ref.f.array() - shift).abs().maxCoeff(), 1e-2 * q.epsilon);
+    EXPECT_LT((r.coupling - ref.coupling).cwiseAbs().maxCoeff(), 1e-3 / 37.0);
+    EXPECT_LT((r.barycentric - ref.barycentric).cwiseAbs().maxCoeff(), 1e-3);
+  }
+  // Ragged batch with annealing, small epsilon (absorptions happen) and the iteration limit.
+  SinkhornBatch b;
+  std::vector<SinkhornProblem> qs;
+  qs.push_back(problem(5, 9, 2, 81, 0.002));
+  qs.back().normalise_cost = true;
+  qs.push_back(problem(70, 41, 2, 82, 0.001));
+  qs.back().normalise_cost = true;
+  qs.push_back(problem(30, 30, 2, 83, 0.001));
+  qs.back().max_iterations = 2;
+  qs.back().tolerance = 1e-7;
+  for (auto& q : qs) b.add(q);
+  o.epsilon_start = 0.5;
+  const auto rs = b.run(test::context(), o);
+  for (int p = 0; p < 2; ++p) {
+    const auto ref = sinkhorn_reference(qs[p]);
+    ASSERT_TRUE(rs[p].converged) << p;
+    EXPECT_NEAR(rs[p].cost, ref.cost, 1e-3 * ref.cost) << p;
+    EXPECT_LT((rs[p].coupling - ref.coupling).cwiseAbs().maxCoeff(), 2e-3 / qs[p].source.rows());
+  }
+  EXPECT_FALSE(rs[2].converged);
+}
+
+TEST(Sinkhorn, DeviceBufferCallMatchesHostBatch) {
+  namespace bc = boost::compute;
+  auto& ctx = test::context();
+  std::vector<SinkhornProblem> qs = {problem(12, 20, 2, 91, 0.02), problem(33, 7, 2, 92, 0.03)};
+  SinkhornBatch host;
+  SinkhornDeviceBatch dev;
+  dev.dim = 2;
+  dev.problems = qs.size();
+  std::vector<float> src, tgt;
+  for (auto& q : qs) {
+    host.add(q);
+    dev.source_offset.push_back(static_cast<int>(src.size() / 2));
+    dev.target_offset.push_back(static_cast<int>(tgt.size() / 2));
+    dev.source_count.push_back(static_cast<int>(q.source.rows()));
+    dev.target_count.push_back(static_cast<int>(q.target.rows()));
+    for (int i = 0; i < q.source.rows(); ++i)
+      for (int d = 0; d < 2; ++d) src.push_back(static_cast<float>(q.source(i, d)));
+    for (int j = 0; j < q.target.rows(); ++j)
+      for (int d = 0; d < 2; ++d) tgt.push_back(static_cast<float>(q.target(j, d)));
+    dev.params.push_back(q);
+  }
+  dev.source = bc::buffer(ctx.context(), src.size() * sizeof(float));
+  dev.target = bc::buffer(ctx.context(), tgt.size() * sizeof(float));
+  ctx.queue().enqueue_write_buffer(dev.source, 0, src.size() * sizeof(float), src.data());
+  ctx.queue().enqueue_write_buffer(dev.target, 0, tgt.size() * sizeof(float), tgt.data());
+  SinkhornOptions o;
+  o.want_barycentric = true;
+  const auto res = sinkhorn_device(ctx, dev, o);
+  std::vector<float> stats(4 * qs.size()), bary(src.size());
+  ctx.queue().enqueue_read_buffer(res.stats, 0, stats.size() * sizeof(float), stats.data());
+  ctx.queue().enqueue_read_buffer(res.barycentric, 0, bary.size() * sizeof(float), bary.data());
+  const auto ref = host.run(ctx, o);
+  for (std::size_t p = 0; p < qs.size(); ++p) {
+    EXPECT_FLOAT_EQ(stats[4 * p], static_cast<float>(ref[p].cost));
+    EXPECT_EQ(static_cast<int>(stats[4 * p + 1]), ref[p].iterations);
+    EXPECT_EQ(stats[4 * p + 3] != 0, ref[p].converged);
+    const int o0 = dev.source_offset[p];
+    for (int i = 0; i < dev.source_count[p]; ++i)
+      EXPECT_FLOAT_EQ(bary[2 * (o0 + i) + 1], static_cast<float>(ref[p].barycentric(i, 1)));
+  }
+  // Offsets past the end of the buffers are refused before anything is enqueued.
+  dev.source_count[1] = 1000;
+  EXPECT_THROW(sinkhorn_device(ctx, dev, o), ArgumentError);
+}
