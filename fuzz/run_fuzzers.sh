@@ -10,10 +10,11 @@ CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebI
   -DPOTMAP_BUILD_FUZZERS=ON -DPOTMAP_BUILD_TESTS=OFF -DPOTMAP_BUILD_BENCH=OFF \
   -DPOTMAP_BUILD_TOOLS=OFF -DBUILD_SHARED_LIBS=OFF \
   -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined" >/dev/null
-make -C "$build" -j2 fuzz_carmen fuzz_velodyne fuzz_kitti_poses fuzz_npz >/dev/null
+targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv"
+make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null
 data=$root/../shared/data
 corpus=$build/corpus
-for t in carmen velodyne kitti_poses npz; do mkdir -p "$corpus/$t"; done
+for t in $targets; do mkdir -p "$corpus/$t"; done
 # Small seeds: the head of a real log, a slice of a real frame.
 if [ -d "$data/radish" ]; then
   zcat "$data/radish/intel-corrected.log.gz" | head -c 20000 > "$corpus/carmen/intel_head.log" || true
@@ -35,9 +36,16 @@ with zipfile.ZipFile(sys.argv[1], "w") as z:
     z.writestr("Y.npy", npy("|u1", "(2,)", b"\x01\x00"))
 PY
 fi
-for t in carmen velodyne kitti_poses npz; do
+if [ -d "$data/carla" ]; then
+  head -c 4000 "$data/carla/town1_abhm_map.csv" > "$corpus/map_csv/town1_head.csv"
+  head -c 4000 "$data/carla/town1_test2k.csv" > "$corpus/labelled_csv/test_head.csv"
+fi
+printf 'x,y,z,gamma,w_mean,w_var\n# bias 0.5 2\n1,2,3,0.5,1,2\n' > "$corpus/map_csv/seed3d.csv"
+printf 'POTMAP' > "$corpus/map_potmap/seed"
+cp "$corpus/npz/seed.npz" "$corpus/map_npz/seed.npz" 2>/dev/null || true
+for t in $targets; do
   echo "fuzz_$t: ${secs} s"
-  "$build/fuzz/fuzz_$t" -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 \
+  "$build/fuzz/fuzz_$t" -seed=1 -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 \
     "$corpus/$t" 2>&1 | tail -3
 done
 echo "no crashes"
