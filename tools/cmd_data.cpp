@@ -6,6 +6,8 @@
 #include <limits>
 
 #include "commands.hpp"
+#include "potmap/labelled_points.hpp"
+#include "potmap/labelling.hpp"
 #include "potmap/scan.hpp"
 #include "potmap/simulator.hpp"
 
@@ -73,7 +75,9 @@ void register_data(CLI::App& app, Runner& runner) {
   CLI::App* sim = data->add_subcommand(
       "simulate",
       "Simulate a drive through a built-in town. Writes DIR/scans.log (2D, CARMEN ROBOTLASER1) "
-      "or DIR/velodyne/*.bin + poses.txt + calib.txt (3D, KITTI layout), and DIR/town.png");
+      "or DIR/velodyne/*.bin + poses.txt + calib.txt (3D, KITTI layout), DIR/town.png, and "
+      "labelled "
+      "samples DIR/train.csv and DIR/test.csv (20 % of beams held out)");
   auto town = std::make_shared<std::string>("town1");
   auto out = std::make_shared<std::string>();
   auto seed = std::make_shared<std::uint64_t>(0);
@@ -94,8 +98,19 @@ void register_data(CLI::App& app, Runner& runner) {
       const std::string main_file = write_simulation(s, *opt, *out);
       const std::string png = (std::filesystem::path(*out) / "town.png").string();
       write_town_png(t, s.route, png);
+      // Labelled samples (SPEC section 1) beside the scans: train.csv for learning, test.csv
+      // with the held-out 20 % of beams, in the `t,x,y[,z],occupied` format every reader takes.
+      LabelOptions lo;
+      lo.seed = *seed;
+      const LabelledSplit split = label_scans(s.scans, lo);
+      const std::string train = (std::filesystem::path(*out) / "train.csv").string();
+      const std::string test = (std::filesystem::path(*out) / "test.csv").string();
+      write_labelled_csv(split.train, train);
+      write_labelled_csv(split.test, test);
       std::cout << "scans: " << s.scans.size() << "\n"
-                << "wrote " << main_file << "\nwrote " << png << "\n";
+                << "wrote " << main_file << "\nwrote " << png << "\nwrote " << train << " ("
+                << split.train.size() << " samples)\nwrote " << test << " (" << split.test.size()
+                << " held-out samples)\n";
       return 0;
     };
   });
