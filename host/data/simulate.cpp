@@ -87,6 +87,7 @@ Simulation simulate(const Town& town, const SimOptions& o) {
       along(r, 8.0 * time, 3.5, mx, my, myaw);  // 8 m/s in the right-hand lane
       moving.push_back(box_obstacle(Obstacle::kCar, mx, my, 4.5, 1.9, myaw, 0, 1.5));
     }
+    sim.moving.push_back(moving);
     Scan sc;
     sc.dim = o.three_d ? 3 : 2;
     sc.timestamp = time;

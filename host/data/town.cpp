@@ -251,7 +251,10 @@ void Town::build_grid() {
   }
 }
 
-bool Town::occupied(double x, double y) const {
+bool Town::occupied(double x, double y, const std::vector<Obstacle>* extra) const {
+  if (extra)
+    for (const Obstacle& o : *extra)
+      if (inside2d(o, x, y)) return true;
   const int i = static_cast<int>(std::floor(x / cell_)),
             j = static_cast<int>(std::floor(y / cell_));
   if (!(i >= 0 && i < gx_ && j >= 0 && j < gy_)) return false;
@@ -260,8 +263,11 @@ bool Town::occupied(double x, double y) const {
   return false;
 }
 
-bool Town::occupied(double x, double y, double z) const {
+bool Town::occupied(double x, double y, double z, const std::vector<Obstacle>* extra) const {
   if (z < 0) return true;
+  if (extra)
+    for (const Obstacle& o : *extra)
+      if (z >= o.z0 && z <= o.z1 && inside2d(o, x, y)) return true;
   const int i = static_cast<int>(std::floor(x / cell_)),
             j = static_cast<int>(std::floor(y / cell_));
   if (!(i >= 0 && i < gx_ && j >= 0 && j < gy_)) return false;

@@ -52,10 +52,11 @@ class Town {
   int intersections_x() const { return style_.blocks_x + 1; }
   int intersections_y() const { return style_.blocks_y + 1; }
 
-  /// Ground truth: is (x, y) inside an obstacle (any height)? Moving vehicles are not included.
-  bool occupied(double x, double y) const;
-  /// Ground truth in 3D: inside an obstacle's prism, or below the ground (z < 0).
-  bool occupied(double x, double y, double z) const;
+  /// Ground truth: is (x, y) inside an obstacle (any height)? `extra`: obstacles beside the
+  /// town's own, such as the moving vehicles of one scan (Simulation::moving); default none.
+  bool occupied(double x, double y, const std::vector<Obstacle>* extra = nullptr) const;
+  /// Ground truth in 3D: inside an obstacle's prism, or below the ground (z < 0); `extra` as above.
+  bool occupied(double x, double y, double z, const std::vector<Obstacle>* extra = nullptr) const;
 
   /// Distance (metres) along a ray from (x, y, z) with horizontal heading `yaw` and elevation
   /// `elev` to the first surface, or +inf when nothing lies within max_range. When `ground` is
@@ -91,6 +92,9 @@ struct SimOptions {
 struct Simulation {
   std::vector<Scan> scans;
   std::vector<double> route;  ///< x, y of the sensor at each scan
+  /// The moving vehicles where they were at each scan (empty lists without moving vehicles):
+  /// pass moving[i] to Town::occupied for the ground truth of a dynamic scene at scan i.
+  std::vector<std::vector<Obstacle>> moving;
 };
 
 /// Drives a vehicle along a seeded random route over the street grid and scans at every stop.
