@@ -45,7 +45,7 @@ printf 'POTMAP' > "$corpus/map_potmap/seed"
 cp "$corpus/npz/seed.npz" "$corpus/map_npz/seed.npz" 2>/dev/null || true
 for t in $targets; do
   echo "fuzz_$t: ${secs} s"
-  "$build/fuzz/fuzz_$t" -seed=1 -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 \
+  "$build/fuzz/fuzz_$t" -seed=1 -artifact_prefix="$build/" -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 \
     "$corpus/$t" 2>&1 | tail -3
 done
 echo "no crashes"

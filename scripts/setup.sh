@@ -13,6 +13,7 @@ packages=(
   libzip-dev libpng-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy
+  clang libclang-rt-14-dev
 )
 
 missing=()

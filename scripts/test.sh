@@ -2,6 +2,8 @@
 # Builds potmap (scripts/setup.sh) and runs the whole test suite with CTest.
 # POTMAP_TEST_TIMEOUT: per-test limit in seconds (default 600).
 # POTMAP_SUITE_TIMEOUT: limit for the whole run in seconds (default 3600).
+# POTMAP_FUZZ_SECONDS: after the tests, every reader's libFuzzer target runs this long with a
+#   fixed seed (default 10; 0 skips; skipped too when clang is missing).
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -12,14 +14,27 @@ status=0
 timeout --foreground "${POTMAP_SUITE_TIMEOUT:-3600}" \
   ctest --test-dir build --output-on-failure -j"$(nproc)" \
   --timeout "${POTMAP_TEST_TIMEOUT:-600}" || status=$?
+fuzz_status=0
+fuzz_secs=${POTMAP_FUZZ_SECONDS:-10}
+if ((status == 0 && fuzz_secs > 0)); then
+  if command -v clang++ >/dev/null; then
+    echo "test.sh: fuzzing every reader for ${fuzz_secs} s each (fuzz/run_fuzzers.sh)"
+    ./fuzz/run_fuzzers.sh "$fuzz_secs" || fuzz_status=$?
+  else
+    echo "test.sh: clang++ not found: fuzzing skipped"
+  fi
+fi
 elapsed=$(($(date +%s) - start))
 
 echo
-if ((status == 0)); then
+if ((status == 0 && fuzz_status == 0)); then
   echo "test.sh: PASSED (all tests, ${elapsed} s)"
 elif ((status == 124)); then
   echo "test.sh: FAILED: the suite ran past ${POTMAP_SUITE_TIMEOUT:-3600} s" >&2
-else
+elif ((status != 0)); then
   echo "test.sh: FAILED (ctest exit status ${status}, ${elapsed} s); see the failures above" >&2
+else
+  echo "test.sh: FAILED: a fuzz target crashed (see above; the crashing input is in build-fuzz)" >&2
+  status=$fuzz_status
 fi
 exit "$status"
