@@ -17,23 +17,10 @@ using namespace potmap;
 
 namespace {
 
-struct CliResult {
-  int status = -1;
-  std::string out;
-};
+using test::CliResult;
 
-// Runs the command through the shell; `redirect` is appended (e.g. "2>/dev/null").
 CliResult run(const std::string& args, const std::string& redirect) {
-  const std::string cmd = std::string("'") + POTMAP_CLI + "' " + args + " " + redirect;
-  CliResult r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  std::size_t n;
-  while ((n = std::fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
+  return test::run_cli(args, redirect);
 }
 
 std::string q(const std::string& s) {

@@ -1,4 +1,5 @@
 #include "potmap/labelling.hpp"
+#include "sim_rng.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,18 +11,7 @@ namespace potmap {
 
 namespace {
 
-// SplitMix64: a tiny, portable generator whose output is the same on every standard library.
-struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
-  std::size_t below(std::size_t n) { return static_cast<std::size_t>(uniform() * n); }
-};
+using Rng = data::SimRng;
 
 void push(LabelledPoints& lp, const double* p, int d, std::uint8_t y, std::int64_t t) {
   lp.position.insert(lp.position.end(), p, p + d);

@@ -1,5 +1,6 @@
 #pragma once
-// The simulator's seeded generator (SplitMix64): identical output on every standard library.
+// The seeded generator of the simulator and the labelling (SplitMix64): identical output on
+// every standard library, unlike std:: distributions.
 #include <cstdint>
 
 namespace potmap::data {
@@ -13,6 +14,10 @@ struct SimRng {
   }
   double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
   double range(double a, double b) { return a + (b - a) * uniform(); }
-  int below(int n) { return static_cast<int>(uniform() * n); }
+  /// An integer in [0, n): the same value for every integer type of n.
+  template <class T>
+  T below(T n) {
+    return static_cast<T>(uniform() * n);
+  }
 };
 }  // namespace potmap::data

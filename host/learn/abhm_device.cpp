@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "../cl_check.hpp"
+#include "../device_buffers.hpp"
 #include "abhm_detail.hpp"
 #include "bhm_detail.hpp"
 #include "potmap/abhm.hpp"
@@ -12,27 +13,11 @@
 namespace potmap {
 
 namespace bc = boost::compute;
+using detail::from_device;
+using detail::to_device;
+using detail::upload;
 
 namespace {
-
-template <class T>
-bc::buffer to_device(Context& ctx, const std::vector<T>& v) {
-  const std::size_t bytes = std::max<std::size_t>(v.size(), 1) * sizeof(T);
-  bc::buffer b =
-      detail::cl_call("clCreateBuffer", [&] { return bc::buffer(ctx.context(), bytes); });
-  if (!v.empty())
-    detail::cl_call("clEnqueueWriteBuffer", [&] {
-      ctx.queue().enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data());
-    });
-  return b;
-}
-
-template <class T>
-void from_device(Context& ctx, bc::buffer& b, std::vector<T>& v) {
-  if (v.empty()) return;
-  detail::cl_call("clEnqueueReadBuffer",
-                  [&] { ctx.queue().enqueue_read_buffer(b, 0, v.size() * sizeof(T), v.data()); });
-}
 
 std::size_t round_up(std::size_t n, std::size_t m) {
   return (n + m - 1) / m * m;

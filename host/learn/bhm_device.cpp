@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "../cl_check.hpp"
+#include "../device_buffers.hpp"
 #include "../split_float.hpp"
 #include "bhm_detail.hpp"
 #include "potmap/bhm.hpp"
@@ -12,35 +13,11 @@
 namespace potmap {
 
 namespace bc = boost::compute;
+using detail::from_device;
+using detail::to_device;
+using detail::upload;
 
 namespace {
-
-template <class T>
-bc::buffer make_buffer(Context& ctx, const std::vector<T>& v) {
-  // Zero-size buffers are invalid in OpenCL: keep at least one element.
-  const std::size_t bytes = std::max<std::size_t>(v.size(), 1) * sizeof(T);
-  bc::buffer b =
-      detail::cl_call("clCreateBuffer", [&] { return bc::buffer(ctx.context(), bytes); });
-  if (!v.empty())
-    detail::cl_call("clEnqueueWriteBuffer", [&] {
-      ctx.queue().enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data());
-    });
-  return b;
-}
-
-template <class T>
-void upload(Context& ctx, bc::buffer& b, const std::vector<T>& v) {
-  if (v.empty()) return;
-  detail::cl_call("clEnqueueWriteBuffer",
-                  [&] { ctx.queue().enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
-}
-
-template <class T>
-void download(Context& ctx, bc::buffer& b, std::vector<T>& v) {
-  if (v.empty()) return;
-  detail::cl_call("clEnqueueReadBuffer",
-                  [&] { ctx.queue().enqueue_read_buffer(b, 0, v.size() * sizeof(T), v.data()); });
-}
 
 std::size_t round_up(std::size_t n, std::size_t m) {
   return (n + m - 1) / m * m;
@@ -77,14 +54,13 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
   std::vector<float> lambda(n, static_cast<float>(detail::jj_lambda(options.xi_init)));
   std::vector<float> a(m), b(m), wm(m), wv(m);
 
-  bc::buffer b_khi = make_buffer(ctx, khi), b_klo = make_buffer(ctx, klo),
-             b_kg = make_buffer(ctx, kg), b_shi = make_buffer(ctx, shi),
-             b_slo = make_buffer(ctx, slo), b_sy = make_buffer(ctx, sy),
-             b_lambda = make_buffer(ctx, lambda), b_kstart = make_buffer(ctx, pairs.kernel_start),
-             b_klist = make_buffer(ctx, pairs.kernel_samples),
-             b_sstart = make_buffer(ctx, pairs.sample_start),
-             b_slist = make_buffer(ctx, pairs.sample_kernels), b_a = make_buffer(ctx, a),
-             b_b = make_buffer(ctx, b), b_wm = make_buffer(ctx, wm), b_wv = make_buffer(ctx, wv);
+  bc::buffer b_khi = to_device(ctx, khi), b_klo = to_device(ctx, klo), b_kg = to_device(ctx, kg),
+             b_shi = to_device(ctx, shi), b_slo = to_device(ctx, slo), b_sy = to_device(ctx, sy),
+             b_lambda = to_device(ctx, lambda), b_kstart = to_device(ctx, pairs.kernel_start),
+             b_klist = to_device(ctx, pairs.kernel_samples),
+             b_sstart = to_device(ctx, pairs.sample_start),
+             b_slist = to_device(ctx, pairs.sample_kernels), b_a = to_device(ctx, a),
+             b_b = to_device(ctx, b), b_wm = to_device(ctx, wm), b_wv = to_device(ctx, wv);
 
   const std::string defs = "-DDIM=" + std::to_string(dim);
   bc::kernel acc = ctx.kernel("bhm_update", "bhm_accumulate", defs);
@@ -100,8 +76,8 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
                    static_cast<cl_uint>(m), b_a, b_b);
       detail::cl_call("clEnqueueNDRangeKernel",
                       [&] { ctx.queue().enqueue_1d_range_kernel(acc, 0, round_up(m, wg), wg); });
-      download(ctx, b_a, a);
-      download(ctx, b_b, b);
+      from_device(ctx, b_a, a);
+      from_device(ctx, b_b, b);
     }
     double bias_lambda = 0;
     for (float l : lambda) bias_lambda += l;
@@ -123,7 +99,7 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
                  static_cast<float>(map.has_bias ? map.bias_var : 0.0), b_lambda);
     detail::cl_call("clEnqueueNDRangeKernel",
                     [&] { ctx.queue().enqueue_1d_range_kernel(lam, 0, round_up(n, wg), wg); });
-    download(ctx, b_lambda, lambda);
+    from_device(ctx, b_lambda, lambda);
   }
 }
 
