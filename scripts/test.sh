@@ -11,9 +11,13 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 start=$(date +%s)
 status=0
+log=build/ctest-output.log
 timeout --foreground "${POTMAP_SUITE_TIMEOUT:-3600}" \
   ctest --test-dir build --output-on-failure -j"$(nproc)" \
-  --timeout "${POTMAP_TEST_TIMEOUT:-600}" || status=$?
+  --timeout "${POTMAP_TEST_TIMEOUT:-600}" 2>&1 | tee "$log" || status=$?
+# ctest's own count, repeated as the last line (the fuzz run prints after it).
+total=$(sed -n 's/.*tests failed out of \([0-9]*\).*/\1/p' "$log" | tail -1)
+failed=$(sed -n 's/.* \([0-9]*\) tests failed out of.*/\1/p' "$log" | tail -1)
 fuzz_status=0
 fuzz_secs=${POTMAP_FUZZ_SECONDS:-10}
 if ((status == 0 && fuzz_secs > 0)); then
@@ -27,6 +31,12 @@ fi
 elapsed=$(($(date +%s) - start))
 
 echo
+if [[ -n "$total" && -n "$failed" ]]; then
+  summary="tests: $((total - failed)) passed, ${failed} failed"
+else
+  summary="tests: 0 passed, 1 failed"  # ctest printed no count: it did not run
+  ((status != 0)) || status=1
+fi
 if ((status == 0 && fuzz_status == 0)); then
   echo "test.sh: PASSED (all tests, ${elapsed} s)"
 elif ((status == 124)); then
@@ -37,4 +47,5 @@ else
   echo "test.sh: FAILED: a fuzz target crashed (see above; the crashing input is in build-fuzz)" >&2
   status=$fuzz_status
 fi
+echo "$summary"
 exit "$status"
