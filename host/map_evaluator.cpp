@@ -19,10 +19,24 @@ namespace potmap {
 
 namespace {
 
+template <class T>
+void upload(bc::command_queue& q, bc::buffer& b, const std::vector<T>& v) {
+  if (v.empty()) return;
+  detail::cl_call("clEnqueueWriteBuffer",
+                  [&] { q.enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
+}
+
 // A device buffer that only grows.
 struct GrowBuffer {
   bc::buffer buf;
   std::size_t bytes = 0;
+  /// The buffer, grown to hold v, with v written to its start.
+  template <class T>
+  bc::buffer& put(bc::context& ctx, bc::command_queue& q, const std::vector<T>& v) {
+    bc::buffer& b = get(ctx, v.size() * sizeof(T));
+    upload(q, b, v);
+    return b;
+  }
   bc::buffer& get(bc::context& ctx, std::size_t need) {
     need = std::max<std::size_t>(need, 64);
     if (need > bytes) {
@@ -32,13 +46,6 @@ struct GrowBuffer {
     return buf;
   }
 };
-
-template <class T>
-void upload(bc::command_queue& q, bc::buffer& b, const std::vector<T>& v) {
-  if (v.empty()) return;
-  detail::cl_call("clEnqueueWriteBuffer",
-                  [&] { q.enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
-}
 
 // Interleaves the low 21 bits of x, y, z (Morton order keeps nearby tiles nearby in memory).
 std::uint64_t spread(std::uint64_t v) {
@@ -164,10 +171,8 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
 
   auto& cx = ctx->context();
   auto& q = ctx->queue();
-  bc::buffer& b_chi = g_col_hi.get(cx, chi.size() * 4);
-  bc::buffer& b_clo = g_col_lo.get(cx, clo.size() * 4);
-  upload(q, b_chi, chi);
-  upload(q, b_clo, clo);
+  bc::buffer& b_chi = g_col_hi.put(cx, q, chi);
+  bc::buffer& b_clo = g_col_lo.put(cx, q, clo);
   char defs[200];
   std::snprintf(defs, sizeof defs,
                 "-DDIM=%d -DROWS=%zu -DTILE_X=%zu -DTILE_Y=%zu -DTAU=%#.9gf -cl-denorms-are-zero",
@@ -232,19 +237,14 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
     last_pairs += static_cast<std::size_t>(start[ntiles]) * kTileX * kTileY;
 
     const std::size_t cells = nslots * nx;
-    bc::buffer& b_rhi = g_row_hi.get(cx, rhi.size() * 4);
-    bc::buffer& b_rlo = g_row_lo.get(cx, rlo.size() * 4);
-    bc::buffer& b_rout = g_row_out.get(cx, rout.size() * 4);
-    bc::buffer& b_start = g_start.get(cx, start.size() * 4);
-    bc::buffer& b_list = g_list.get(cx, flat.size() * 4);
+    bc::buffer& b_rhi = g_row_hi.put(cx, q, rhi);
+    bc::buffer& b_rlo = g_row_lo.put(cx, q, rlo);
+    bc::buffer& b_rout = g_row_out.put(cx, q, rout);
+    bc::buffer& b_start = g_start.put(cx, q, start);
+    bc::buffer& b_list = g_list.put(cx, q, flat);
     bc::buffer& b_m = out_mean.get(cx, cells * 4);
     bc::buffer& b_v = out_var.get(cx, cells * 4);
     bc::buffer& b_p = out_prob.get(cx, cells * 4);
-    upload(q, b_rhi, rhi);
-    upload(q, b_rlo, rlo);
-    upload(q, b_rout, rout);
-    upload(q, b_start, start);
-    upload(q, b_list, flat);
     detail::cl_call("clSetKernelArg(map_raster)", [&] {
       kern.set_args(kpos_hi, kpos_lo, kpar, b_chi, b_clo, static_cast<cl_uint>(nx), b_rhi, b_rlo,
                     static_cast<cl_uint>(nslots), b_rout, b_start, b_list, bm, bv, b_m, b_v, b_p);
@@ -414,19 +414,14 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
   // 5. Upload, run, read back.
   auto& cx = ctx->context();
   auto& q = ctx->queue();
-  bc::buffer& b_qh = q_hi.get(cx, qh.size() * 4);
-  bc::buffer& b_ql = q_lo.get(cx, ql.size() * 4);
-  bc::buffer& b_start = chunk_start.get(cx, start.size() * 4);
-  bc::buffer& b_list = list.get(cx, flat.size() * 4);
-  bc::buffer& b_ord = order.get(cx, ord.size() * 4);
+  bc::buffer& b_qh = q_hi.put(cx, q, qh);
+  bc::buffer& b_ql = q_lo.put(cx, q, ql);
+  bc::buffer& b_start = chunk_start.put(cx, q, start);
+  bc::buffer& b_list = list.put(cx, q, flat);
+  bc::buffer& b_ord = order.put(cx, q, ord);
   bc::buffer& b_m = out_mean.get(cx, n * 4);
   bc::buffer& b_v = out_var.get(cx, n * 4);
   bc::buffer& b_p = out_prob.get(cx, n * 4);
-  upload(q, b_qh, qh);
-  upload(q, b_ql, ql);
-  upload(q, b_start, start);
-  upload(q, b_list, flat);
-  upload(q, b_ord, ord);
 
   bc::kernel k = ctx->kernel("map_eval", "map_eval_points", defines);
   const float bm = map.has_bias ? static_cast<float>(map.bias_mean) : 0.f;
