@@ -1,0 +1,118 @@
+#pragma once
+// Parameter Optimal Transport (SPEC section 4, steps 2 to 7; paper Sec. III, Algorithm 1):
+// map a scan by transporting kernels from a dictionary of atoms instead of learning them.
+//
+// For every sector of the target scan, every (atom, rotation) candidate is ranked by the
+// entropic OT cost between subsampled points (all candidates of the scan in one batched
+// Sinkhorn launch); the best candidate of each sector is transported with the high-quality
+// setting (batched across sectors); its kernels follow the out-of-sample barycentric map, are
+// dropped beyond max_range of the sensor, unscaled and placed in the world frame. RePOT then
+// refines the transported weights with one BHM update on the scan's own training samples.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "potmap/atoms.hpp"
+#include "potmap/bhm.hpp"
+#include "potmap/context.hpp"
+#include "potmap/kernel_map.hpp"
+#include "potmap/labelled_points.hpp"
+
+namespace potmap {
+
+/// The authors' settings (SPEC section 4) are the defaults.
+struct PotOptions {
+  /// Target cut: sectors per scan (default 5) and max_range (0: the scan's own). The scale is
+  /// taken from the dictionary.
+  int sectors = 5;
+  double max_range = 0;
+  std::size_t min_samples = 4;  ///< target sectors with fewer samples are skipped
+
+  /// Rotations tried for every atom, radians about the atom's centroid (vertical axis in 3D).
+  /// Default: 45 degree steps, 8 rotations.
+  std::vector<double> rotations = {0.0,
+                                   0.7853981633974483,
+                                   1.5707963267948966,
+                                   2.356194490192345,
+                                   3.141592653589793,
+                                   3.9269908169872414,
+                                   4.71238898038469,
+                                   5.497787143782138};
+
+  // Ranking (eq. 6, 7): points subsampled from each side, unnormalised scaled cost.
+  std::size_t rank_hits = 200;  ///< at most this many hits a side
+  std::size_t rank_free = 50;   ///< at most this many free samples a side
+  double rank_epsilon = 0.005;  ///< cost units (scaled metres squared)
+  int rank_max_iterations = 1000;
+  double rank_tolerance = 1e-7;  ///< on ||P 1 - a||_1
+
+  // High-quality transport of the best candidate: cost divided by its maximum.
+  std::size_t transport_points = 1500;  ///< at most this many points a side
+  double transport_epsilon = 0.0005;    ///< unitless (normalised cost)
+  int transport_max_iterations = 2000;
+  double transport_tolerance = 1e-5;  ///< float32 floors near 1e-7 on 1500 x 1500 (issue #3)
+
+  /// Consider only this many atoms per target sector, pre-selected by a cheap descriptor before
+  /// the Sinkhorn ranking (0, the default: every atom).
+  std::size_t candidates = 0;
+
+  /// RePOT (SPEC step 7): refine the transported weights with a BHM update on the scan's own
+  /// training samples (default false: plain POT).
+  bool refine = false;
+  /// The refinement's BHM settings. One E-step by default: the diagonal E-step overshoots when
+  /// transported kernels overlap strongly, so more EM rounds make maps worse, not better.
+  BhmOptions refine_bhm = [] {
+    BhmOptions o;
+    o.em_iterations = 1;
+    return o;
+  }();
+
+  std::uint64_t seed = 0;  ///< subsampling seed (with the scan index: reproducible per scan)
+};
+
+/// What happened to one target sector.
+struct SectorTransfer {
+  int sector = 0;                 ///< sector index in the target scan
+  std::size_t target_hits = 0;    ///< samples of the target sector
+  std::size_t target_free = 0;
+  long atom = -1;                 ///< chosen atom (index into the dictionary), -1 if none
+  double rotation = 0;            ///< chosen rotation, radians
+  double score = 0;               ///< ranking score of the chosen candidate (smaller is better)
+  bool rank_converged = false;    ///< the chosen candidate's ranking problems converged
+  bool transport_converged = false;
+  int transport_iterations = 0;
+  std::size_t kernels_placed = 0;   ///< kernels that survived the range filter
+  std::size_t kernels_dropped = 0;  ///< kernels transported beyond max_range
+};
+
+/// Wall-clock time of each stage of one scan, milliseconds.
+struct PotTiming {
+  double prepare_ms = 0;    ///< cutting, subsampling, batch assembly
+  double ranking_ms = 0;    ///< the batched ranking solve
+  double transport_ms = 0;  ///< the batched high-quality transport
+  double placement_ms = 0;  ///< out-of-sample map, filter, world frame
+  double refine_ms = 0;     ///< RePOT's BHM update (0 for POT)
+  double total_ms() const {
+    return prepare_ms + ranking_ms + transport_ms + placement_ms + refine_ms;
+  }
+};
+
+/// The instantaneous map of one scan and how it was made.
+struct ScanTransfer {
+  KernelMap map;  ///< transported kernels, world frame (no bias)
+  std::vector<SectorTransfer> sectors;
+  PotTiming timing;
+};
+
+/// Transfers one scan. `train` are the scan's training samples (world frame), seen from
+/// `sensor` (world frame, metres) with `heading` (radians); `scan_index` seeds the subsampling.
+/// `ctx` null: the same algorithm one problem at a time on the CPU reference Sinkhorn (double
+/// precision), the baseline the batched path is compared with. Throws ArgumentError when the
+/// dictionary is empty or of another dimension.
+ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledPoints& train,
+                           const std::array<double, 3>& sensor, double heading,
+                           std::int64_t scan_index, const PotOptions& options = {});
+
+}  // namespace potmap
