@@ -140,7 +140,7 @@ void build_dictionary(const std::vector<Scan>& scans, const KernelMap& map,
     for (std::size_t m = 0; m < map.size(); ++m) {
       const double* h = &map.position[m * d];
       const int k = sector_of(h, sensor, heading, r2max, so.sectors);
-      if (k < 0 || slot[k] < 0) continue;
+      if (k < 0 || slot[k] < 0 || !(map.w_var[m] <= options.max_weight_variance)) continue;
       const Sector& s = sectors[slot[k]];
       for (int c = 0; c < d; ++c) q[c] = (h[c] - s.centre[c]) * s.scale;
       atoms[slot[k]].kernels.push_back(q, map.gamma[m], map.w_mean[m], map.w_var[m]);

@@ -93,29 +93,25 @@ struct AtomSample {
   Eigen::MatrixXd hits, free;
 };
 
-struct Candidate {
-  std::size_t atom = 0;
-  double angle = 0;
-  long hits_problem = -1, free_problem = -1;
-};
-
 }  // namespace
 
-ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledPoints& train,
-                           const std::array<double, 3>& sensor, double heading,
-                           std::int64_t scan_index, const PotOptions& o) {
+PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
+                                  const std::array<double, 3>& sensor, double heading,
+                                  std::int64_t scan_index, const PotOptions& o) {
   check(dict, train, o);
   const int dim = dict.dim;
-  ScanTransfer out;
-  out.map.dim = dim;
-  auto t0 = Clock::now();
+  const auto t0 = Clock::now();
+  PreparedTransfer pt;
+  pt.sensor = sensor;
+  pt.scan_index = scan_index;
 
   SectorOptions so;
   so.sectors = o.sectors;
   so.max_range = o.max_range > 0 ? o.max_range : dict.max_range;
   so.scale = dict.scale;
   so.min_samples = o.min_samples;
-  const std::vector<Sector> sectors = cut_sectors(train, sensor, heading, so);
+  pt.max_range = so.max_range;
+  pt.sectors = cut_sectors(train, sensor, heading, so);
   const auto t_index = static_cast<std::uint64_t>(scan_index);
 
   std::vector<AtomSample> atom_sample(dict.size());
@@ -130,87 +126,93 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
     return s;
   };
 
-  // Ranking problems of every sector in one batch.
-  SinkhornBatch rank;
   SinkhornProblem proto;
   proto.epsilon = o.rank_epsilon;
   proto.max_iterations = o.rank_max_iterations;
   proto.tolerance = o.rank_tolerance;
-  std::vector<std::vector<Candidate>> cands(sectors.size());
-  std::vector<bool> use_hits(sectors.size()), use_free(sectors.size());
-  for (std::size_t s = 0; s < sectors.size(); ++s) {
-    const Sector& sec = sectors[s];
+  pt.candidates.resize(pt.sectors.size());
+  for (std::size_t s = 0; s < pt.sectors.size(); ++s) {
+    const Sector& sec = pt.sectors[s];
+    const Eigen::MatrixXd th =
+        subsample(sec.hits, dim, o.rank_hits, mix(o.seed ^ 0x5eed, t_index, 2 * sec.index));
+    const Eigen::MatrixXd tf =
+        subsample(sec.free, dim, o.rank_free, mix(o.seed ^ 0x5eed, t_index, 2 * sec.index + 1));
+    // Each term (hits, free) is an OT problem when both sides have such samples. When only one
+    // side has them the shapes disagree as much as they can: the term scores its largest
+    // normalised value, 1 (a target sector without hits prefers atoms without hits).
+    for (std::size_t a = 0; a < dict.size(); ++a) {
+      const AtomSample& as = sample_of(a);
+      const bool hm = (th.rows() > 0) != (as.hits.rows() > 0);
+      const bool fm = (tf.rows() > 0) != (as.free.rows() > 0);
+      const bool hp = th.rows() > 0 && as.hits.rows() > 0;
+      const bool fp = tf.rows() > 0 && as.free.rows() > 0;
+      if (!hp && !fp) continue;  // nothing to match the atom with
+      for (double angle : o.rotations) {
+        PreparedTransfer::Candidate c;
+        c.atom = a;
+        c.angle = angle;
+        c.hits_mismatch = hm;
+        c.free_mismatch = fm;
+        SinkhornProblem p = proto;
+        p.angle = angle;
+        if (hp) {
+          p.source = as.hits;
+          p.target = th;
+          c.hits_problem = static_cast<long>(pt.ranking.add(p));
+        }
+        if (fp) {
+          p.source = as.free;
+          p.target = tf;
+          c.free_problem = static_cast<long>(pt.ranking.add(std::move(p)));
+        }
+        pt.candidates[s].push_back(c);
+      }
+    }
+  }
+  pt.train = std::move(train);
+  pt.timing.prepare_ms = ms_since(t0);
+  return pt;
+}
+
+ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& pt,
+                             const PotOptions& o) {
+  const int dim = dict.dim;
+  ScanTransfer out;
+  out.map.dim = dim;
+  out.timing = pt.timing;
+  const auto& sectors = pt.sectors;
+  const auto& cands = pt.candidates;
+  const auto t_index = static_cast<std::uint64_t>(pt.scan_index);
+  for (const Sector& sec : sectors) {
     SectorTransfer st;
     st.sector = sec.index;
     st.target_hits = sec.num_hits();
     st.target_free = sec.num_free();
     out.sectors.push_back(st);
-    const Eigen::MatrixXd th =
-        subsample(sec.hits, dim, o.rank_hits, mix(o.seed ^ 0x5eed, t_index, 2 * sec.index));
-    const Eigen::MatrixXd tf =
-        subsample(sec.free, dim, o.rank_free, mix(o.seed ^ 0x5eed, t_index, 2 * sec.index + 1));
-    // A term is ranked when the target has it; a candidate must have every ranked term. When
-    // no atom has both, hits alone decide (free space carries less shape), then free alone.
-    bool any_both = false, any_hits = false, any_free = false;
-    for (std::size_t a = 0; a < dict.size(); ++a) {
-      const Sector& src = dict.atoms[a].sector;
-      any_hits |= src.num_hits() > 0;
-      any_free |= src.num_free() > 0;
-      any_both |= src.num_hits() > 0 && src.num_free() > 0;
-    }
-    bool uh = th.rows() > 0 && any_hits, uf = tf.rows() > 0 && any_free;
-    if (uh && uf && !any_both) uf = false;
-    use_hits[s] = uh;
-    use_free[s] = uf;
-    if (!uh && !uf) continue;
-    for (std::size_t a = 0; a < dict.size(); ++a) {
-      const AtomSample& as = sample_of(a);
-      if ((uh && as.hits.rows() == 0) || (uf && as.free.rows() == 0)) continue;
-      for (double angle : o.rotations) {
-        Candidate c;
-        c.atom = a;
-        c.angle = angle;
-        SinkhornProblem p = proto;
-        p.angle = angle;
-        if (uh) {
-          p.source = as.hits;
-          p.target = th;
-          c.hits_problem = static_cast<long>(rank.add(p));
-        }
-        if (uf) {
-          p.source = as.free;
-          p.target = tf;
-          c.free_problem = static_cast<long>(rank.add(std::move(p)));
-        }
-        cands[s].push_back(c);
-      }
-    }
   }
-  out.timing.prepare_ms = ms_since(t0);
 
-  t0 = Clock::now();
-  const std::vector<SinkhornResult> ranked = solve(ctx, rank, SinkhornOptions{});
+  auto t0 = Clock::now();
+  const std::vector<SinkhornResult> ranked = solve(ctx, pt.ranking, SinkhornOptions{});
   out.timing.ranking_ms = ms_since(t0);
-
   // Eq. 7 with the SPEC's score: each term divided by its largest value over the sector's
   // candidates, summed; the smallest wins.
   t0 = Clock::now();
   SinkhornBatch transport;
   std::vector<long> transport_of(sectors.size(), -1);
-  std::vector<bool> transport_hits(sectors.size(), false);
   for (std::size_t s = 0; s < sectors.size(); ++s) {
     if (cands[s].empty()) continue;
     double hmax = 0, fmax = 0;
-    for (const Candidate& c : cands[s]) {
+    for (const PreparedTransfer::Candidate& c : cands[s]) {
       if (c.hits_problem >= 0) hmax = std::max(hmax, ranked[c.hits_problem].cost);
       if (c.free_problem >= 0) fmax = std::max(fmax, ranked[c.free_problem].cost);
     }
     double best = std::numeric_limits<double>::infinity();
-    const Candidate* win = nullptr;
-    for (const Candidate& c : cands[s]) {
+    const PreparedTransfer::Candidate* win = nullptr;
+    for (const PreparedTransfer::Candidate& c : cands[s]) {
       double score = 0;
       if (c.hits_problem >= 0) score += hmax > 0 ? ranked[c.hits_problem].cost / hmax : 0;
       if (c.free_problem >= 0) score += fmax > 0 ? ranked[c.free_problem].cost / fmax : 0;
+      score += static_cast<double>(c.hits_mismatch) + static_cast<double>(c.free_mismatch);
       if (score < best) {
         best = score;
         win = &c;
@@ -241,7 +243,6 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
     p.normalise_cost = true;
     p.extra_points = kernel_positions(atom.kernels);
     transport_of[s] = static_cast<long>(transport.add(std::move(p)));
-    transport_hits[s] = hits;
   }
   out.timing.prepare_ms += ms_since(t0);
 
@@ -254,7 +255,7 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
   // Placement (SPEC step 5): unscale, move to the target sector's centre, drop what lands
   // beyond max_range of the sensor.
   t0 = Clock::now();
-  const double r2max = so.max_range * so.max_range;
+  const double r2max = pt.max_range * pt.max_range;
   double w[3];
   for (std::size_t s = 0; s < sectors.size(); ++s) {
     if (transport_of[s] < 0) continue;
@@ -268,7 +269,7 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
       double r2 = 0;
       for (int d = 0; d < dim; ++d) {
         w[d] = r.extra_mapped(e, d) / sec.scale + sec.centre[d];
-        if (d < 2) r2 += (w[d] - sensor[d]) * (w[d] - sensor[d]);
+        if (d < 2) r2 += (w[d] - pt.sensor[d]) * (w[d] - pt.sensor[d]);
       }
       if (!(r2 <= r2max)) {
         ++st.kernels_dropped;
@@ -280,8 +281,10 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
   }
   out.timing.placement_ms = ms_since(t0);
 
+  const LabelledPoints& train = pt.train;
   if (o.refine && !out.map.empty() && !train.empty()) {
     t0 = Clock::now();
+    for (double& v : out.map.w_var) v = std::max(v, o.refine_min_variance);
     if (ctx)
       bhm_update(*ctx, out.map, train, o.refine_bhm);
     else
@@ -289,6 +292,13 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
     out.timing.refine_ms = ms_since(t0);
   }
   return out;
+}
+
+ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledPoints& train,
+                           const std::array<double, 3>& sensor, double heading,
+                           std::int64_t scan_index, const PotOptions& options) {
+  return finish_transfer(
+      ctx, dict, prepare_transfer(dict, train, sensor, heading, scan_index, options), options);
 }
 
 }  // namespace potmap

@@ -36,13 +36,13 @@ struct SectorOptions {
 /// One sector of one scan, centred and scaled.
 struct Sector {
   int dim = 2;
-  int index = 0;                       ///< sector number in [0, sectors)
+  int index = 0;                          ///< sector number in [0, sectors)
   std::array<double, 3> centre{0, 0, 0};  ///< world-frame centroid the points are relative to, m
   std::array<double, 3> sensor{0, 0, 0};  ///< world-frame sensor position, metres
-  double scale = 1.0 / 50.0;           ///< s used for this sector
-  double max_range = 20;               ///< sector radius, metres
-  std::vector<double> hits;            ///< (p - centre) * scale, dim per point (y = 1 samples)
-  std::vector<double> free;            ///< (p - centre) * scale, dim per point (y = 0 samples)
+  double scale = 1.0 / 50.0;              ///< s used for this sector
+  double max_range = 20;                  ///< sector radius, metres
+  std::vector<double> hits;               ///< (p - centre) * scale, dim per point (y = 1 samples)
+  std::vector<double> free;               ///< (p - centre) * scale, dim per point (y = 0 samples)
   std::size_t num_hits() const { return hits.size() / dim; }
   std::size_t num_free() const { return free.size() / dim; }
 };
@@ -90,6 +90,11 @@ struct DictionaryOptions {
     o.holdout_fraction = 0;
     return o;
   }();
+  /// Kernels whose weight variance is above this are left out of atoms (default 1000; the
+  /// priors are 1e4 for BHM and 900^2 for ABHM). A kernel the source data never reached keeps
+  /// its prior: mean 0 and a huge variance, which carries no shape and, transported into
+  /// observed space, pulls every probability near it to 0.5. Infinity keeps every kernel.
+  double max_weight_variance = 1000;
   /// Atoms with fewer kernels than this are skipped (default 1).
   std::size_t min_kernels = 1;
   std::string source;  ///< provenance stored on every atom

@@ -19,13 +19,14 @@
 #include "potmap/context.hpp"
 #include "potmap/kernel_map.hpp"
 #include "potmap/labelled_points.hpp"
+#include "potmap/sinkhorn.hpp"
 
 namespace potmap {
 
 /// The authors' settings (SPEC section 4) are the defaults.
 struct PotOptions {
-  /// Target cut: sectors per scan (default 5) and max_range (0: the scan's own). The scale is
-  /// taken from the dictionary.
+  /// Target cut: sectors per scan (default 5) and max_range, metres (0, the default: the
+  /// dictionary's). The scale is taken from the dictionary.
   int sectors = 5;
   double max_range = 0;
   std::size_t min_samples = 4;  ///< target sectors with fewer samples are skipped
@@ -69,18 +70,23 @@ struct PotOptions {
     return o;
   }();
 
+  /// RePOT prior: transported weight variances below this are raised to it before the update
+  /// (default 0: the transported variances as they are, SPEC step 7). A floor lets the scan's
+  /// own samples correct kernels the source map was very sure of.
+  double refine_min_variance = 0;
+
   std::uint64_t seed = 0;  ///< subsampling seed (with the scan index: reproducible per scan)
 };
 
 /// What happened to one target sector.
 struct SectorTransfer {
-  int sector = 0;                 ///< sector index in the target scan
-  std::size_t target_hits = 0;    ///< samples of the target sector
+  int sector = 0;               ///< sector index in the target scan
+  std::size_t target_hits = 0;  ///< samples of the target sector
   std::size_t target_free = 0;
-  long atom = -1;                 ///< chosen atom (index into the dictionary), -1 if none
-  double rotation = 0;            ///< chosen rotation, radians
-  double score = 0;               ///< ranking score of the chosen candidate (smaller is better)
-  bool rank_converged = false;    ///< the chosen candidate's ranking problems converged
+  long atom = -1;               ///< chosen atom (index into the dictionary), -1 if none
+  double rotation = 0;          ///< chosen rotation, radians
+  double score = 0;             ///< ranking score of the chosen candidate (smaller is better)
+  bool rank_converged = false;  ///< the chosen candidate's ranking problems converged
   bool transport_converged = false;
   int transport_iterations = 0;
   std::size_t kernels_placed = 0;   ///< kernels that survived the range filter
@@ -106,11 +112,44 @@ struct ScanTransfer {
   PotTiming timing;
 };
 
-/// Transfers one scan. `train` are the scan's training samples (world frame), seen from
-/// `sensor` (world frame, metres) with `heading` (radians); `scan_index` seeds the subsampling.
-/// `ctx` null: the same algorithm one problem at a time on the CPU reference Sinkhorn (double
-/// precision), the baseline the batched path is compared with. Throws ArgumentError when the
-/// dictionary is empty or of another dimension.
+/// The host half of a transfer: the scan cut into sectors and every ranking problem assembled.
+/// Kept apart from the solve so that a mapper can prepare the next scan while the device works
+/// on the current one (Mapper does). Plain data; finish_transfer() consumes it.
+struct PreparedTransfer {
+  struct Candidate {
+    std::size_t atom = 0;
+    double angle = 0;            ///< radians
+    long hits_problem = -1;      ///< index in `ranking`, -1 when hits are not ranked
+    long free_problem = -1;      ///< index in `ranking`, -1 when free samples are not ranked
+    bool hits_mismatch = false;  ///< only one side has hits: the hits term scores 1
+    bool free_mismatch = false;  ///< only one side has free samples: the free term scores 1
+  };
+  std::vector<Sector> sectors;
+  std::vector<std::vector<Candidate>> candidates;  ///< per sector
+  SinkhornBatch ranking;                           ///< every candidate's problems
+  LabelledPoints train;                            ///< the scan's training samples (RePOT)
+  std::array<double, 3> sensor{0, 0, 0};
+  std::int64_t scan_index = 0;
+  double max_range = 0;  ///< metres, the cut's radius
+  PotTiming timing;      ///< prepare_ms filled
+};
+
+/// Cuts and assembles (host only, thread-safe for a shared dictionary). Arguments as for
+/// transfer_scan().
+PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
+                                  const std::array<double, 3>& sensor, double heading,
+                                  std::int64_t scan_index, const PotOptions& options = {});
+
+/// Ranks, transports, places and (for RePOT) refines a prepared scan. `ctx` null: the CPU
+/// reference, one problem at a time. `dict` and `options` must be those it was prepared with.
+ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& prepared,
+                             const PotOptions& options = {});
+
+/// Transfers one scan: finish_transfer(prepare_transfer(...)). `train` are the scan's training
+/// samples (world frame), seen from `sensor` (world frame, metres) with `heading` (radians);
+/// `scan_index` seeds the subsampling. `ctx` null: the same algorithm one problem at a time on the
+/// CPU reference Sinkhorn (double precision), the baseline the batched path is compared with.
+/// Throws ArgumentError when the dictionary is empty or of another dimension.
 ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledPoints& train,
                            const std::array<double, 3>& sensor, double heading,
                            std::int64_t scan_index, const PotOptions& options = {});

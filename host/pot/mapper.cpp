@@ -1,0 +1,60 @@
+#include "potmap/mapper.hpp"
+
+#include <chrono>
+#include <future>
+#include <string>
+
+#include "potmap/error.hpp"
+
+namespace potmap {
+
+namespace {
+
+struct Prepared {
+  PreparedTransfer transfer;
+  LabelledPoints test;
+};
+
+Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const MapperOptions& o) {
+  if (scan.dim != dict.dim)
+    throw ArgumentError("map_scans: scan " + std::to_string(i) + " is " + std::to_string(scan.dim) +
+                        "D, the dictionary " + std::to_string(dict.dim) + "D");
+  const auto t0 = std::chrono::steady_clock::now();
+  LabelledSplit split;
+  label_scan(scan, static_cast<std::int64_t>(i), o.labels, split);
+  if (split.train.empty()) split.train.dim = scan.dim;
+  Prepared p;
+  p.transfer = prepare_transfer(dict, std::move(split.train), scan.origin(), scan_heading(scan),
+                                static_cast<std::int64_t>(i), o.pot);
+  // Labelling is host preparation too.
+  p.transfer.timing.prepare_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  p.test = std::move(split.test);
+  return p;
+}
+
+}  // namespace
+
+void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
+               const MapperOptions& o, const std::function<void(MappedScan&&)>& on_scan) {
+  if (scans.empty()) return;
+  const auto launch = o.pipeline ? std::launch::async : std::launch::deferred;
+  std::future<Prepared> next = std::async(launch, prepare, std::cref(dict), std::cref(scans[0]),
+                                          std::size_t{0}, std::cref(o));
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    Prepared cur = next.get();
+    if (i + 1 < scans.size())
+      next = std::async(launch, prepare, std::cref(dict), std::cref(scans[i + 1]), i + 1,
+                        std::cref(o));
+    const auto t0 = std::chrono::steady_clock::now();
+    MappedScan m;
+    m.index = i;
+    m.transfer = finish_transfer(ctx, dict, std::move(cur.transfer), o.pot);
+    m.test = std::move(cur.test);
+    m.wall_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    on_scan(std::move(m));
+  }
+}
+
+}  // namespace potmap
