@@ -326,22 +326,7 @@ std::vector<SinkhornResult> SinkhornBatch::run(Context& ctx, const SinkhornOptio
       r.barycentric.resize(n, dim);
       for (int i = 0; i < n; ++i)
         for (int d = 0; d < dim; ++d) r.barycentric(i, d) = bary[(soff[p] + i) * dim + d];
-      // Out-of-sample map on the host: few extra points, and it needs the whole barycentric map.
-      const Eigen::Index k = pr.extra_points.rows();
-      r.extra_mapped.resize(k, dim);
-      const double c = std::cos(pr.angle), s = std::sin(pr.angle);
-      auto rot = [&](Eigen::RowVectorXd v) {
-        const double ux = v(0) - pr.centre.x(), uy = v(1) - pr.centre.y();
-        v(0) = pr.centre.x() + c * ux - s * uy;
-        v(1) = pr.centre.y() + s * ux + c * uy;
-        return v;
-      };
-      for (Eigen::Index e = 0; e < k; ++e) {
-        Eigen::Index best = 0;
-        (pr.source.rowwise() - pr.extra_points.row(e)).rowwise().squaredNorm().minCoeff(&best);
-        r.extra_mapped.row(e) =
-            r.barycentric.row(best) + rot(pr.extra_points.row(e)) - rot(pr.source.row(best));
-      }
+      r.extra_mapped = out_of_sample_map(pr, r.barycentric, pr.extra_points);
     }
   }
   return out;

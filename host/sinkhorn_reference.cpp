@@ -91,6 +91,7 @@ SinkhornResult sinkhorn_reference(const SinkhornProblem& q) {
   r.cost = (r.coupling.array() * C.array()).sum();
   const Eigen::VectorXd rows = r.coupling.rowwise().sum();
   r.barycentric = (r.coupling * q.target).array().colwise() / rows.array();
+  r.extra_mapped = out_of_sample_map(q, r.barycentric, q.extra_points);
   return r;
 }
 

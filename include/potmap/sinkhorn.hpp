@@ -116,6 +116,13 @@ SinkhornDeviceResult sinkhorn_device(Context& ctx, const SinkhornDeviceBatch& ba
 /// (error checked every iteration), no annealing. Fills coupling and barycentric always.
 SinkhornResult sinkhorn_reference(const SinkhornProblem& problem);
 
+/// The out-of-sample map of SPEC step 4: each row h of `points` (k x dim, source units) goes to
+/// T_k + R (h - x_k), x_k the source sample nearest to h, T = `barycentric` (n x dim, target
+/// units), R the problem's rotation (about the vertical axis in 3D). Host code, brute force.
+Eigen::MatrixXd out_of_sample_map(const SinkhornProblem& problem,
+                                  const Eigen::MatrixXd& barycentric,
+                                  const Eigen::MatrixXd& points);
+
 /// The cost matrix C (n x m) of a problem as defined at the top of this file, in double.
 Eigen::MatrixXd sinkhorn_cost(const SinkhornProblem& problem);
 

@@ -1,0 +1,156 @@
+#include "potmap/atoms.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "potmap/error.hpp"
+
+namespace potmap {
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586476925286766559;
+
+// Sector of a point seen from the sensor, or -1 beyond the radius. The bearing is measured
+// counter-clockwise from the heading and wrapped into [0, 2 pi).
+int sector_of(const double* p, const std::array<double, 3>& sensor, double heading, double r2max,
+              int sectors) {
+  const double dx = p[0] - sensor[0], dy = p[1] - sensor[1];
+  if (dx * dx + dy * dy > r2max) return -1;
+  double a = std::atan2(dy, dx) - heading;
+  a -= kTwoPi * std::floor(a / kTwoPi);
+  int k = static_cast<int>(a * sectors / kTwoPi);
+  return k >= sectors ? sectors - 1 : k;  // a rounding to exactly 2 pi belongs to the last one
+}
+
+void check_options(const SectorOptions& o, double max_range, const char* who) {
+  if (o.sectors < 1)
+    throw ArgumentError(std::string(who) + ": sectors must be >= 1, got " +
+                        std::to_string(o.sectors));
+  if (!(max_range > 0) || !std::isfinite(max_range))
+    throw ArgumentError(std::string(who) + ": max_range must be a positive number of metres, got " +
+                        std::to_string(max_range));
+  if (!(o.scale > 0) || !std::isfinite(o.scale))
+    throw ArgumentError(std::string(who) + ": scale must be positive, got " +
+                        std::to_string(o.scale));
+}
+
+}  // namespace
+
+double scan_heading(const Scan& scan) {
+  if (scan.dim == 2) return scan.pose2d[2];
+  // The sensor's x axis in the world is the first column of R (row-major 3 x 4).
+  return std::atan2(scan.pose3d[4], scan.pose3d[0]);
+}
+
+std::vector<Sector> cut_sectors(const LabelledPoints& samples, const std::array<double, 3>& sensor,
+                                double heading, const SectorOptions& o) {
+  check_options(o, o.max_range, "cut_sectors");
+  const int d = samples.dim;
+  if (d != 2 && d != 3) throw ArgumentError("cut_sectors: samples must be 2D or 3D");
+  if (!std::isfinite(heading)) throw ArgumentError("cut_sectors: heading is not finite");
+  const std::size_t n = samples.size();
+  const double r2max = o.max_range * o.max_range;
+
+  std::vector<int> which(n);
+  std::vector<std::size_t> hits(o.sectors, 0), frees(o.sectors, 0);
+  std::vector<std::array<double, 3>> hsum(o.sectors, {0, 0, 0}), fsum(o.sectors, {0, 0, 0});
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* p = &samples.position[i * d];
+    const int k = sector_of(p, sensor, heading, r2max, o.sectors);
+    which[i] = k;
+    if (k < 0) continue;
+    auto& sum = samples.label[i] ? hsum[k] : fsum[k];
+    ++(samples.label[i] ? hits[k] : frees[k]);
+    for (int c = 0; c < d; ++c) sum[c] += p[c];
+  }
+
+  std::vector<Sector> out;
+  std::vector<int> slot(o.sectors, -1);
+  for (int k = 0; k < o.sectors; ++k) {
+    if (hits[k] + frees[k] < o.min_samples || hits[k] + frees[k] == 0) continue;
+    Sector s;
+    s.dim = d;
+    s.index = k;
+    s.sensor = sensor;
+    s.scale = o.scale;
+    s.max_range = o.max_range;
+    const auto& sum = hits[k] ? hsum[k] : fsum[k];
+    const double cnt = static_cast<double>(hits[k] ? hits[k] : frees[k]);
+    for (int c = 0; c < d; ++c) s.centre[c] = sum[c] / cnt;
+    s.hits.reserve(hits[k] * d);
+    s.free.reserve(frees[k] * d);
+    slot[k] = static_cast<int>(out.size());
+    out.push_back(std::move(s));
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (which[i] < 0 || slot[which[i]] < 0) continue;
+    Sector& s = out[slot[which[i]]];
+    auto& dst = samples.label[i] ? s.hits : s.free;
+    const double* p = &samples.position[i * d];
+    for (int c = 0; c < d; ++c) dst.push_back((p[c] - s.centre[c]) * s.scale);
+  }
+  return out;
+}
+
+void build_dictionary(const std::vector<Scan>& scans, const KernelMap& map,
+                      const DictionaryOptions& options, Dictionary& dict) {
+  map.validate("build_dictionary: map");
+  const int d = map.dim;
+  if (!dict.empty() && (dict.dim != d || dict.scale != options.sectors.scale))
+    throw ArgumentError("build_dictionary: the dictionary holds atoms of another dim or scale");
+  if (dict.empty()) {
+    dict.dim = d;
+    dict.scale = options.sectors.scale;
+    dict.sectors = options.sectors.sectors;
+    dict.max_range = 0;
+  }
+  for (std::size_t t = 0; t < scans.size(); ++t) {
+    const Scan& scan = scans[t];
+    if (scan.dim != d)
+      throw ArgumentError("build_dictionary: scan " + std::to_string(t) + " is " +
+                          std::to_string(scan.dim) + "D, the map " + std::to_string(d) + "D");
+    SectorOptions so = options.sectors;
+    if (so.max_range <= 0) so.max_range = scan.max_range;
+    check_options(so, so.max_range, "build_dictionary");
+    if (dict.max_range > 0 && std::abs(dict.max_range - so.max_range) > 1e-9 * so.max_range)
+      throw ArgumentError("build_dictionary: scan " + std::to_string(t) + " has max_range " +
+                          std::to_string(so.max_range) + " m, the dictionary " +
+                          std::to_string(dict.max_range) + " m");
+    dict.max_range = so.max_range;
+
+    LabelledSplit split;
+    label_scan(scan, static_cast<std::int64_t>(t), options.labels, split);
+    if (split.train.empty()) continue;
+    const auto sensor = scan.origin();
+    const double heading = scan_heading(scan);
+    std::vector<Sector> sectors = cut_sectors(split.train, sensor, heading, so);
+    if (sectors.empty()) continue;
+
+    std::vector<int> slot(so.sectors, -1);
+    std::vector<Atom> atoms(sectors.size());
+    for (std::size_t i = 0; i < sectors.size(); ++i) {
+      slot[sectors[i].index] = static_cast<int>(i);
+      atoms[i].kernels.dim = d;
+      atoms[i].scan_index = static_cast<std::int64_t>(t);
+      atoms[i].source = options.source;
+    }
+    const double r2max = so.max_range * so.max_range;
+    double q[3];
+    for (std::size_t m = 0; m < map.size(); ++m) {
+      const double* h = &map.position[m * d];
+      const int k = sector_of(h, sensor, heading, r2max, so.sectors);
+      if (k < 0 || slot[k] < 0) continue;
+      const Sector& s = sectors[slot[k]];
+      for (int c = 0; c < d; ++c) q[c] = (h[c] - s.centre[c]) * s.scale;
+      atoms[slot[k]].kernels.push_back(q, map.gamma[m], map.w_mean[m], map.w_var[m]);
+    }
+    for (std::size_t i = 0; i < sectors.size(); ++i) {
+      if (atoms[i].kernels.size() < options.min_kernels) continue;
+      atoms[i].sector = std::move(sectors[i]);
+      dict.atoms.push_back(std::move(atoms[i]));
+    }
+  }
+}
+
+}  // namespace potmap

@@ -1,0 +1,178 @@
+// Scan transfer by POT and RePOT (SPEC section 4, steps 2 to 7).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+
+#include "potmap/atoms.hpp"
+#include "potmap/error.hpp"
+#include "potmap/evaluate.hpp"
+#include "potmap/labelling.hpp"
+#include "potmap/metrics.hpp"
+#include "potmap/pot.hpp"
+#include "potmap/simulator.hpp"
+#include "test_support.hpp"
+
+namespace potmap {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Kernels every `step` metres around a point, each weight mean tagging its index.
+KernelMap tagged_grid(const std::array<double, 3>& c, double half, double step) {
+  KernelMap map;
+  map.dim = 2;
+  for (double x = -half; x <= half + 1e-9; x += step)
+    for (double y = -half; y <= half + 1e-9; y += step) {
+      const double p[2] = {c[0] + x, c[1] + y};
+      map.push_back(p, 2.0, static_cast<double>(map.size()), 0.5);
+    }
+  return map;
+}
+
+LabelledPoints all_samples(const Scan& scan, std::int64_t index) {
+  LabelOptions o;
+  o.holdout_fraction = 0;
+  LabelledSplit s;
+  label_scan(scan, index, o, s);
+  return s.train;
+}
+
+// Small problems so that the CPU reference stays quick.
+PotOptions small_options() {
+  PotOptions o;
+  o.rank_hits = 40;
+  o.rank_free = 20;
+  o.transport_points = 120;
+  o.transport_max_iterations = 600;
+  o.transport_tolerance = 1e-4;
+  return o;
+}
+
+TEST(Pot, ScanOntoItselfPutsKernelsBack) {
+  SimOptions so;
+  so.scans = 1;
+  const Scan scan = simulate(Town::builtin("town1"), so).scans[0];
+  const KernelMap map = tagged_grid(scan.origin(), 20, 2);
+  Dictionary dict;
+  build_dictionary({scan}, map, {}, dict);
+  ASSERT_GE(dict.size(), 3u);
+  PotOptions o = small_options();
+  o.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  const LabelledPoints train = all_samples(scan, 0);
+  const ScanTransfer t =
+      transfer_scan(&test::context(), dict, train, scan.origin(), scan_heading(scan), 0, o);
+  ASSERT_EQ(t.sectors.size(), dict.size());
+  std::size_t placed = 0, total = 0;
+  for (std::size_t s = 0; s < t.sectors.size(); ++s) {
+    const SectorTransfer& st = t.sectors[s];
+    // Every sector is its own atom, unrotated.
+    EXPECT_EQ(st.atom, static_cast<long>(s)) << "sector " << st.sector;
+    EXPECT_NEAR(st.rotation, 0, 1e-12);
+    placed += st.kernels_placed;
+    total += dict.atoms[s].kernels.size();
+  }
+  EXPECT_EQ(placed, t.map.size());
+  EXPECT_GE(placed, total * 9 / 10);
+  double worst = 0;
+  for (std::size_t k = 0; k < t.map.size(); ++k) {
+    const auto m = static_cast<std::size_t>(t.map.w_mean[k]);
+    const double dx = t.map.position[2 * k] - map.position[2 * m];
+    const double dy = t.map.position[2 * k + 1] - map.position[2 * m + 1];
+    worst = std::max(worst, std::hypot(dx, dy));
+    EXPECT_EQ(t.map.gamma[k], map.gamma[m]);
+    EXPECT_EQ(t.map.w_var[k], map.w_var[m]);
+  }
+  // The entropic blur at epsilon 0.0005 of the normalised cost moves samples by a fraction of
+  // their spacing; kernels follow their nearest sample.
+  RecordProperty("worst_displacement_m", std::to_string(worst));
+  EXPECT_LT(worst, 0.5);  // measured 0.14 m
+}
+
+TEST(Pot, RotatedAtomIsRankedBestAtItsRotation) {
+  SimOptions so;
+  so.scans = 3;
+  so.spacing = 12;
+  const Simulation sim = simulate(Town::builtin("town3"), so);
+  const Scan& scan = sim.scans[1];
+  const KernelMap map = tagged_grid(scan.origin(), 20, 4);
+  Dictionary dict;
+  DictionaryOptions dopt;
+  dopt.sectors.sectors = 1;
+  build_dictionary(sim.scans, map, dopt, dict);
+  ASSERT_EQ(dict.size(), 3u);
+  // The target: scan 1 turned by 90 degrees about its sensor and moved 500 m away.
+  const double angle = kPi / 2;
+  const auto o = scan.origin();
+  LabelledPoints target = all_samples(scan, 1);
+  for (std::size_t i = 0; i < target.size(); ++i) {
+    double* p = &target.position[2 * i];
+    const double ux = p[0] - o[0], uy = p[1] - o[1];
+    p[0] = o[0] + 500 + std::cos(angle) * ux - std::sin(angle) * uy;
+    p[1] = o[1] - 300 + std::sin(angle) * ux + std::cos(angle) * uy;
+  }
+  PotOptions opt = small_options();
+  opt.sectors = 1;
+  const ScanTransfer t =
+      transfer_scan(&test::context(), dict, target, {o[0] + 500, o[1] - 300, 0}, 0, 1, opt);
+  ASSERT_EQ(t.sectors.size(), 1u);
+  EXPECT_EQ(t.sectors[0].atom, 1);
+  EXPECT_NEAR(t.sectors[0].rotation, angle, 1e-12);
+}
+
+TEST(Pot, DeviceChoosesWhatTheReferenceChooses) {
+  SimOptions so;
+  so.scans = 4;
+  so.spacing = 6;
+  const Simulation sim = simulate(Town::builtin("town2"), so);
+  const KernelMap map = tagged_grid(sim.scans[0].origin(), 40, 4);
+  Dictionary dict;
+  build_dictionary({sim.scans[0], sim.scans[1]}, map, {}, dict);
+  PotOptions o = small_options();
+  o.rotations = {0, kPi};
+  const Scan& scan = sim.scans[3];
+  const LabelledPoints train = all_samples(scan, 3);
+  const ScanTransfer dev =
+      transfer_scan(&test::context(), dict, train, scan.origin(), scan_heading(scan), 3, o);
+  const ScanTransfer ref =
+      transfer_scan(nullptr, dict, train, scan.origin(), scan_heading(scan), 3, o);
+  ASSERT_EQ(dev.sectors.size(), ref.sectors.size());
+  for (std::size_t s = 0; s < dev.sectors.size(); ++s) {
+    EXPECT_EQ(dev.sectors[s].atom, ref.sectors[s].atom) << "sector " << s;
+    EXPECT_EQ(dev.sectors[s].rotation, ref.sectors[s].rotation) << "sector " << s;
+    EXPECT_NEAR(dev.sectors[s].score, ref.sectors[s].score, 1e-3);
+  }
+  ASSERT_EQ(dev.map.size(), ref.map.size());
+  for (std::size_t i = 0; i < dev.map.position.size(); ++i)
+    EXPECT_NEAR(dev.map.position[i], ref.map.position[i], 0.05);
+}
+
+TEST(Pot, RejectsEmptyDictionaryAndWrongDimension) {
+  Dictionary dict;
+  LabelledPoints lp;
+  lp.dim = 2;
+  EXPECT_THROW(transfer_scan(nullptr, dict, lp, {0, 0, 0}, 0, 0), ArgumentError);
+  dict.dim = 3;
+  dict.atoms.resize(1);
+  EXPECT_THROW(transfer_scan(nullptr, dict, lp, {0, 0, 0}, 0, 0), ArgumentError);
+  dict.dim = 2;
+  PotOptions o;
+  o.rotations.clear();
+  EXPECT_THROW(transfer_scan(nullptr, dict, lp, {0, 0, 0}, 0, 0, o), ArgumentError);
+}
+
+TEST(Pot, EmptyScanGivesAnEmptyMap) {
+  SimOptions so;
+  so.scans = 1;
+  const Scan scan = simulate(Town::builtin("town1"), so).scans[0];
+  Dictionary dict;
+  build_dictionary({scan}, tagged_grid(scan.origin(), 20, 4), {}, dict);
+  LabelledPoints none;
+  none.dim = 2;
+  const ScanTransfer t = transfer_scan(&test::context(), dict, none, scan.origin(), 0, 0);
+  EXPECT_TRUE(t.map.empty());
+  EXPECT_TRUE(t.sectors.empty());
+}
+
+}  // namespace
+}  // namespace potmap
