@@ -141,7 +141,24 @@ TEST(DictionaryIo, EveryTruncationIsAnInputErrorNamingTheFile) {
   write_dictionary(random_dictionary(2, 4, 3), p);
   const std::string bytes = slurp(p);
   ASSERT_GT(bytes.size(), 500u);
-  for (std::size_t n = 0; n < bytes.size(); ++n) {
+  // Every section boundary of every atom, a byte either side, every header length, every 11th.
+  const Dictionary d = read_dictionary(p);
+  std::vector<std::size_t> cuts;
+  std::size_t at = 64;
+  for (const Atom& a : d.atoms) {
+    const std::size_t D = 2, nk = a.kernels.size();
+    for (std::size_t len : {std::size_t(112), a.source.size(), 8 * D * a.sector.num_hits(),
+                            8 * D * a.sector.num_free(), 8 * D * nk, 8 * nk, 8 * nk, 8 * nk}) {
+      cuts.push_back(at);
+      at += len;
+    }
+  }
+  ASSERT_EQ(at + 4, bytes.size());
+  for (std::size_t c : std::vector<std::size_t>(cuts))
+    for (std::size_t n : {c - 1, c + 1}) cuts.push_back(n);
+  for (std::size_t n = 0; n < bytes.size(); n += n < 64 ? 1 : 11) cuts.push_back(n);
+  for (std::size_t n : cuts) {
+    if (n >= bytes.size()) continue;
     const std::string msg = read_error(q, bytes.substr(0, n));
     ASSERT_NE(msg.find(q), std::string::npos) << n << ": " << msg;
     ASSERT_NE(msg.find("byte offset"), std::string::npos) << n << ": " << msg;
@@ -156,7 +173,7 @@ TEST(DictionaryIo, EveryFlippedByteIsDetected) {
   const std::string p = dir + "/d.potdict", q = dir + "/f.potdict";
   write_dictionary(random_dictionary(3, 3, 5), p);
   const std::string bytes = slurp(p);
-  for (std::size_t i = 0; i < bytes.size(); ++i) {
+  for (std::size_t i = 0; i < bytes.size(); i += i < 200 ? 1 : 7) {
     std::string b = bytes;
     b[i] = static_cast<char>(b[i] ^ (1 << (i % 8)));
     const std::string msg = read_error(q, b);
@@ -262,10 +279,12 @@ TEST(DictionaryIo, BadAtomFieldsNameAtomOffsetAndValue) {
   put_u64_at(b, atom + 80, nh + 1);
   fix_crc(b);
   EXPECT_NE(read_error(q, b).find("truncated"), std::string::npos) << read_error(q, b);
+  // Bytes between the last atom and the checksum (size field and checksum made consistent).
   b = bytes;
-  put_u64_at(b, atom + 80, nh - 1);
+  b.insert(b.size() - 4, 8, '\0');
+  put_u64_at(b, 48, b.size());
   fix_crc(b);
-  EXPECT_NE(read_error(q, b).find("unexpected bytes after the last atom"), std::string::npos)
+  EXPECT_NE(read_error(q, b).find("8 unexpected bytes after the last atom"), std::string::npos)
       << read_error(q, b);
 }
 
@@ -275,7 +294,7 @@ TEST(DictionaryIo, WriterRefusesInconsistentDictionaries) {
   d.atoms[1].sector.hits.push_back(0.5);  // not a multiple of dim
   EXPECT_THROW(write_dictionary(d, p), ArgumentError);
   d = random_dictionary(2, 3, 1);
-  d.atoms[2].sector.free[0] = std::nan("");
+  d.atoms[0].sector.free[0] = std::nan("");
   EXPECT_THROW(write_dictionary(d, p), ArgumentError);
   d = random_dictionary(2, 3, 1);
   d.atoms[0].kernels.has_bias = true;
