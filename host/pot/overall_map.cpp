@@ -64,7 +64,7 @@ void OverallMap::index_erase(std::uint32_t k) {
   if (v.empty()) grid_.erase(it);
 }
 
-long OverallMap::nearest_mergeable(const double* p, double gamma, std::size_t limit) const {
+long OverallMap::nearest_mergeable(const double* p, double gamma, long exclude) const {
   // Any partner e has max(gamma_n, gamma_e) >= gamma_n, so d^2 < merge_radius / gamma_n.
   const double reach = std::sqrt(opt_.merge_radius / gamma);
   std::int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
@@ -81,7 +81,7 @@ long OverallMap::nearest_mergeable(const double* p, double gamma, std::size_t li
         const auto it = grid_.find(key_of(c));
         if (it == grid_.end()) continue;
         for (std::uint32_t e : it->second) {
-          if (e >= limit) continue;
+          if (born_[e] == adds_ || long(e) == exclude) continue;
           const double ge = map_.gamma[e];
           const double gmax = std::max(ge, gamma), gmin = std::min(ge, gamma);
           if (gmax > opt_.gamma_ratio * gmin) continue;
@@ -100,9 +100,10 @@ long OverallMap::nearest_mergeable(const double* p, double gamma, std::size_t li
   return best;
 }
 
-void OverallMap::merge_into(std::size_t e, const double* p, double g, double wm, double wv) {
+void OverallMap::merge_into(std::size_t e, const double* p, double g, double wm, double wv,
+                            std::uint32_t c_n) {
   const double c = count_[e];
-  const double om = c / (c + 1.0), on = 1.0 / (c + 1.0);
+  const double om = c / (c + c_n), on = c_n / (c + c_n);
   const double we = map_.w_mean[e], ve = map_.w_var[e];
   double w, v;
   if (ve == 0 && wv == 0) {
@@ -133,8 +134,52 @@ void OverallMap::merge_into(std::size_t e, const double* p, double g, double wm,
   } else {
     std::copy(moved, moved + dim_, h);
   }
-  if (count_[e] < UINT32_MAX) ++count_[e];
+  count_[e] = static_cast<std::uint32_t>(
+      std::min<std::uint64_t>(UINT32_MAX, std::uint64_t(count_[e]) + c_n));
   last_seen_[e] = adds_;
+}
+
+void OverallMap::remove(std::size_t f) {
+  index_erase(static_cast<std::uint32_t>(f));
+  const std::size_t last = map_.size() - 1;
+  if (f != last) {
+    index_erase(static_cast<std::uint32_t>(last));
+    for (int d = 0; d < dim_; ++d) map_.position[f * dim_ + d] = map_.position[last * dim_ + d];
+    map_.gamma[f] = map_.gamma[last];
+    map_.w_mean[f] = map_.w_mean[last];
+    map_.w_var[f] = map_.w_var[last];
+    count_[f] = count_[last];
+    last_seen_[f] = last_seen_[last];
+    born_[f] = born_[last];
+    index_insert(static_cast<std::uint32_t>(f));
+  }
+  map_.position.resize(last * dim_);
+  map_.gamma.pop_back();
+  map_.w_mean.pop_back();
+  map_.w_var.pop_back();
+  count_.pop_back();
+  last_seen_.pop_back();
+  born_.pop_back();
+}
+
+std::size_t OverallMap::consolidate(std::size_t e) {
+  // A merge moves e; if it now lies on another old kernel, the two are one kernel seen twice.
+  // Fusing them keeps the merge radius a real spacing, so jittered revisits cannot slowly pile
+  // kernels around one place.
+  std::size_t fused = 0;
+  for (;;) {
+    const long f = nearest_mergeable(&map_.position[e * dim_], map_.gamma[e], long(e));
+    if (f < 0) return fused;
+    const std::size_t ff = static_cast<std::size_t>(f);
+    const double p[3] = {map_.position[ff * dim_], map_.position[ff * dim_ + 1],
+                         dim_ == 3 ? map_.position[ff * dim_ + 2] : 0.0};
+    merge_into(e, p, map_.gamma[ff], map_.w_mean[ff], map_.w_var[ff], count_[ff]);
+    born_[e] = std::min(born_[e], born_[ff]);
+    const std::size_t last = map_.size() - 1;
+    remove(ff);
+    if (e == last) e = ff;  // e was moved into f's slot
+    ++fused;
+  }
 }
 
 OverallMapAddStats OverallMap::add(const KernelMap& inst) {
@@ -155,18 +200,18 @@ OverallMapAddStats OverallMap::add(const KernelMap& inst) {
     grid_.clear();
     for (std::size_t k = 0; k < map_.size(); ++k) index_insert(static_cast<std::uint32_t>(k));
   }
-  const std::size_t before = map_.size();
-  map_.reserve(before + inst.size());
   for (std::size_t i = 0; i < inst.size(); ++i) {
     const double* p = &inst.position[i * dim_];
-    const long e = merging && before > 0 ? nearest_mergeable(p, inst.gamma[i], before) : -1;
+    const long e = merging && !map_.empty() ? nearest_mergeable(p, inst.gamma[i], -1) : -1;
     if (e >= 0) {
-      merge_into(static_cast<std::size_t>(e), p, inst.gamma[i], inst.w_mean[i], inst.w_var[i]);
+      merge_into(static_cast<std::size_t>(e), p, inst.gamma[i], inst.w_mean[i], inst.w_var[i], 1);
+      stats.fused += consolidate(static_cast<std::size_t>(e));
       ++stats.merged;
     } else {
       map_.push_back(p, inst.gamma[i], inst.w_mean[i], inst.w_var[i]);
       count_.push_back(1);
       last_seen_.push_back(adds_);
+      born_.push_back(adds_);
       index_insert(static_cast<std::uint32_t>(map_.size() - 1));
       ++stats.added;
     }
@@ -199,6 +244,7 @@ std::size_t OverallMap::retire() {
     map_.w_var[out] = map_.w_var[k];
     count_[out] = count_[k];
     last_seen_[out] = last_seen_[k];
+    born_[out] = born_[k];
     ++out;
   }
   map_.position.resize(out * dim_);
@@ -207,6 +253,7 @@ std::size_t OverallMap::retire() {
   map_.w_var.resize(out);
   count_.resize(out);
   last_seen_.resize(out);
+  born_.resize(out);
   grid_.clear();
   for (std::size_t k = 0; k < out; ++k) index_insert(static_cast<std::uint32_t>(k));
   return drop;
@@ -216,7 +263,7 @@ std::size_t OverallMap::memory_bytes() const {
   std::size_t b = sizeof(*this);
   b += 8 * (map_.position.capacity() + map_.gamma.capacity() + map_.w_mean.capacity() +
             map_.w_var.capacity());
-  b += 4 * count_.capacity() + 8 * last_seen_.capacity();
+  b += 4 * count_.capacity() + 8 * (last_seen_.capacity() + born_.capacity());
   // Hash table: a bucket pointer each, and per cell a node (key, vector header, next pointer)
   // plus the vector's storage.
   b += grid_.bucket_count() * sizeof(void*);

@@ -23,8 +23,12 @@
 //   * position and gamma: count-weighted running means (h = omega h_e + (1-omega) h_n; the same
 //     for gamma), so a kernel stays at the average place where it was transported.
 //   * count c_e + 1; last_seen = the add() number.
-// New kernels never merge with one another inside one add(): an instantaneous map's own
-// kernels are meant to be summed.
+// The same rule, with omega = c_e / (c_e + c_f), fuses two existing kernels e and f when a merge
+// has moved e onto f (consolidation): the merge radius then stays a real spacing between
+// kernels of similar width, so jittered revisits cannot pile kernels up around one place.
+// Kernels of the current add() take no part in either (an instantaneous map's own kernels are
+// meant to be summed); they can be fused in later adds. Kernel order is not stable: a fused or
+// retired kernel's slot is taken by another.
 //
 // Spatial index: a hash grid over kernel positions (cell edge: the largest merge distance
 // sqrt(merge_radius / gamma) seen in the first non-empty add(), fixed afterwards). A query
@@ -61,6 +65,7 @@ struct OverallMapAddStats {
   std::size_t added = 0;    ///< new kernels appended
   std::size_t merged = 0;   ///< new kernels merged into existing ones
   std::size_t retired = 0;  ///< kernels removed by the cap
+  std::size_t fused = 0;    ///< pairs of existing kernels fused after a merge moved one
 };
 
 class OverallMap {
@@ -90,8 +95,11 @@ class OverallMap {
   void cell_of(const double* p, std::int64_t c[3]) const;
   void index_insert(std::uint32_t k);
   void index_erase(std::uint32_t k);
-  long nearest_mergeable(const double* p, double gamma, std::size_t limit) const;
-  void merge_into(std::size_t e, const double* p, double g, double wm, double wv);
+  long nearest_mergeable(const double* p, double gamma, long exclude) const;
+  void merge_into(std::size_t e, const double* p, double g, double wm, double wv,
+                  std::uint32_t count);
+  std::size_t consolidate(std::size_t e);
+  void remove(std::size_t k);
   std::size_t retire();
 
   int dim_;
@@ -99,7 +107,8 @@ class OverallMap {
   KernelMap map_;
   std::vector<std::uint32_t> count_;
   std::vector<std::uint64_t> last_seen_;
-  double cell_ = 0;  // 0 until the first kernel arrives
+  std::vector<std::uint64_t> born_;  // add() number that created the kernel
+  double cell_ = 0;                  // 0 until the first kernel arrives
   std::unordered_map<CellKey, std::vector<std::uint32_t>> grid_;
   std::uint64_t adds_ = 0;
 };
