@@ -10,7 +10,7 @@ CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebI
   -DPOTMAP_BUILD_FUZZERS=ON -DPOTMAP_BUILD_TESTS=OFF -DPOTMAP_BUILD_BENCH=OFF \
   -DPOTMAP_BUILD_TOOLS=OFF -DBUILD_SHARED_LIBS=OFF \
   -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined" >/dev/null
-targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv"
+targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary"
 make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null
 data=$root/../shared/data
 corpus=$build/corpus
@@ -42,6 +42,19 @@ if [ -d "$data/carla" ]; then
 fi
 printf 'x,y,z,gamma,w_mean,w_var\n# bias 0.5 2\n1,2,3,0.5,1,2\n' > "$corpus/map_csv/seed3d.csv"
 printf 'POTMAP' > "$corpus/map_potmap/seed"
+# A valid one-atom 2D dictionary (layout: include/potmap/dictionary_io.hpp), so that the
+# dictionary fuzzer starts past the checksum.
+if command -v python3 >/dev/null; then
+  python3 - "$corpus/dictionary/seed.potdict" <<'PY'
+import struct, sys, zlib
+src = b"seed"
+atom = struct.pack("<iI6d2dq3QII", 1, 0, 1, 2, 0, 0, 0, 0, 0.02, 20, 3, 2, 1, 1, len(src), 0)
+atom += src + struct.pack("<4d2d2d3d", .1, .2, -.1, -.2, .05, .05, 0, .1, 2.0, 1.5, 3.0)
+size = 64 + len(atom) + 4
+body = b"POTDIC\r\n" + struct.pack("<II2dIIQQQ", 1, 2, 0.02, 20, 5, 0, 1, size, 0) + atom
+open(sys.argv[1], "wb").write(body + struct.pack("<I", zlib.crc32(body)))
+PY
+fi
 cp "$corpus/npz/seed.npz" "$corpus/map_npz/seed.npz" 2>/dev/null || true
 for t in $targets; do
   echo "fuzz_$t: ${secs} s"

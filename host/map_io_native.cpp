@@ -1,11 +1,10 @@
 // The native binary map format (layout: include/potmap/map_io.hpp).
-#include <zlib.h>
-
 #include <cstring>
 #include <limits>
 #include <sstream>
 
 #include "file_util.hpp"
+#include "le_bytes.hpp"
 #include "map_checks.hpp"
 #include "potmap/error.hpp"
 #include "potmap/map_io.hpp"
@@ -22,41 +21,11 @@ constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kHeaderBytes = 48;
 constexpr std::size_t kCrcBytes = 4;
 
-void put_u32(std::string& out, std::uint32_t v) {
-  for (int i = 0; i < 4; ++i) out += static_cast<char>((v >> (8 * i)) & 0xff);
-}
-void put_u64(std::string& out, std::uint64_t v) {
-  for (int i = 0; i < 8; ++i) out += static_cast<char>((v >> (8 * i)) & 0xff);
-}
-void put_f64(std::string& out, double d) {
-  std::uint64_t v;
-  std::memcpy(&v, &d, 8);
-  put_u64(out, v);
-}
-
-std::uint64_t get_le(const unsigned char* p, int n) {
-  std::uint64_t v = 0;
-  for (int i = 0; i < n; ++i) v |= std::uint64_t(p[i]) << (8 * i);
-  return v;
-}
-double get_f64(const unsigned char* p) {
-  const std::uint64_t v = get_le(p, 8);
-  double d;
-  std::memcpy(&d, &v, 8);
-  return d;
-}
-
-std::uint32_t crc_of(const unsigned char* p, std::size_t n) {
-  uLong crc = crc32(0L, Z_NULL, 0);
-  // zlib's length argument is a uInt: feed large payloads in pieces.
-  while (n > 0) {
-    const uInt chunk = static_cast<uInt>(std::min<std::size_t>(n, 1u << 30));
-    crc = crc32(crc, p, chunk);
-    p += chunk;
-    n -= chunk;
-  }
-  return static_cast<std::uint32_t>(crc);
-}
+using detail::get_f64;
+using detail::get_le;
+using detail::put_f64;
+using detail::put_u32;
+using detail::put_u64;
 
 [[noreturn]] void fail_at(const std::string& path, std::size_t offset, const std::string& what) {
   throw InputError(path + ": byte offset " + std::to_string(offset) + ": " + what);
@@ -102,7 +71,7 @@ KernelMap read_map_native(const std::string& path) {
   }
   const std::size_t crc_at = size - kCrcBytes;
   const std::uint32_t stored = static_cast<std::uint32_t>(get_le(b + crc_at, 4));
-  const std::uint32_t actual = crc_of(b, crc_at);
+  const std::uint32_t actual = detail::crc32_of(b, crc_at);
   if (stored != actual) {
     char m[128];
     std::snprintf(m, sizeof m,
@@ -170,7 +139,7 @@ void write_map_native(const KernelMap& map, const std::string& path) {
   for (double v : map.gamma) put_f64(out, v);
   for (double v : map.w_mean) put_f64(out, v);
   for (double v : map.w_var) put_f64(out, v);
-  put_u32(out, crc_of(reinterpret_cast<const unsigned char*>(out.data()), out.size()));
+  put_u32(out, detail::crc32_of(reinterpret_cast<const unsigned char*>(out.data()), out.size()));
   detail::write_file_atomically(path, out);
 }
 
