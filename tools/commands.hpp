@@ -29,6 +29,7 @@ void register_raster(CLI::App& app, Runner& runner);
 void register_demo(CLI::App& app, Runner& runner);
 void register_learn(CLI::App& app, Runner& runner);
 void register_data(CLI::App& app, Runner& runner);
+void register_map(CLI::App& app, Runner& runner);
 void register_dict(CLI::App& app, Runner& runner);
 
 }  // namespace potmap::cli

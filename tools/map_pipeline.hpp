@@ -1,0 +1,41 @@
+#pragma once
+// The POT mapping job shared by `potmap map` and `potmap demo`: stream scans through
+// map_scans(), accumulate the overall map, score instantaneous and overall maps on the scans'
+// held-out samples, report per-scan timing.
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+#include "potmap/atoms.hpp"
+#include "potmap/context.hpp"
+#include "potmap/mapper.hpp"
+#include "potmap/metrics.hpp"
+#include "potmap/overall_map.hpp"
+
+namespace potmap::cli {
+
+struct MapJob {
+  MapperOptions mapper;
+  OverallMapOptions overall;
+  std::string instantaneous_dir;  ///< write each instantaneous map here (empty: don't)
+  bool verbose = true;            ///< a line per scan on stderr (else a progress bar on a tty)
+};
+
+struct MapJobResult {
+  OverallMap overall;
+  Scores instantaneous;   ///< every scan's held-out samples on its own instantaneous map
+  Scores overall_scores;  ///< every scan's held-out samples on the final overall map
+  std::size_t scans = 0;
+  PotTiming mean_timing;     ///< per scan
+  double mean_wall_ms = 0;   ///< per scan, solve to callback
+  double total_seconds = 0;  ///< whole run, preparation included
+  double max_wall_ms = 0;
+  std::size_t kernels_per_scan = 0;
+  nlohmann::json to_json() const;
+};
+
+MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
+                         const MapJob& job);
+
+}  // namespace potmap::cli
