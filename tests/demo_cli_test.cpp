@@ -13,7 +13,7 @@ namespace {
 
 nlohmann::json demo(const std::string& extra, const std::string& out) {
   const test::CliResult r =
-      test::run_cli("demo --json - --out " + test::quoted(out) + " " + extra, "2>/dev/null");
+      test::run_cli("demo --authors-map --json - --out " + test::quoted(out) + " " + extra, "2>/dev/null");
   EXPECT_EQ(r.status, 0) << r.out;
   return nlohmann::json::parse(r.out);
 }

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "demo_pot.hpp"
 #include "potmap/evaluate.hpp"
 #include "potmap/labelled_points.hpp"
 #include "potmap/map_io.hpp"
@@ -134,20 +135,44 @@ int run_demo(const DemoArgs& a, const std::string& device) {
 void register_demo(CLI::App& app, Runner& runner) {
   CLI::App* cmd = app.add_subcommand(
       "demo",
-      "Score a map on labelled test points (ACC/AUC/NLL) and write its pictures: the real "
-      "Town 1 map when ../shared/data/carla exists, else a built-in synthetic scene");
+      "The main job: build a dictionary of atoms on one built-in simulated town, map another by "
+      "POT and RePOT, print ACC/AUC/NLL on held-out beams and write the map's pictures. With "
+      "--authors-map: score the paper's Town 1 map (or a synthetic scene) instead");
   auto args = std::make_shared<DemoArgs>();
+  auto pot = std::make_shared<PotDemoArgs>();
+  auto authors = std::make_shared<bool>(false);
   auto device = add_device_option(cmd);
-  cmd->add_option("--data", args->data, "folder holding carla/ (default ../shared/data)");
+  cmd->add_flag("--authors-map", *authors,
+                "Score the authors' Town 1 map on its test points (../shared/data/carla), or the "
+                "built-in synthetic scene without it");
+  cmd->add_option("--source", pot->source, "Town the atoms come from (default town1)");
+  cmd->add_option("--target", pot->target, "Town to map (default town2)");
+  cmd->add_option("--source-scans", pot->source_scans, "Scans of the source town (default 10)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--scans", pot->target_scans, "Scans of the target town (default 40)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--rotations", pot->rotations, "Rotations tried per atom (default 8)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--method", pot->method, "pot, repot or both (default both)");
+  cmd->add_option("--data", args->data,
+                  "with --authors-map: folder holding carla/ (default ../shared/data)");
   cmd->add_option("--out", args->out,
-                  "output prefix for the pictures (default out/demo/town1 or out/demo/synthetic)");
+                  "output prefix for the pictures (default out/demo/pot, or out/demo/town1 and "
+                  "out/demo/synthetic with --authors-map)");
   cmd->add_option("--res", args->res, "picture resolution, metres per cell (default 0.25)")
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--synthetic", args->synthetic,
-                "use the built-in synthetic scene even if data exists");
+                "with --authors-map: the built-in synthetic scene even if data exists");
   cmd->add_option("--json", args->json, "also write the scores as JSON to this path ('-': stdout)");
-  cmd->callback([&runner, args, device] {
-    runner.action = [args, device] { return run_demo(*args, *device); };
+  cmd->callback([&runner, args, pot, authors, device] {
+    runner.action = [args, pot, authors, device] {
+      if (*authors) return run_demo(*args, *device);
+      PotDemoArgs p = *pot;
+      p.out = args->out;
+      p.json = args->json;
+      p.res = args->res;
+      return run_pot_demo(p, *device);
+    };
   });
 }
 

@@ -1,0 +1,153 @@
+#include "demo_pot.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "map_pipeline.hpp"
+#include "potmap/atoms.hpp"
+#include "potmap/bhm.hpp"
+#include "potmap/error.hpp"
+#include "potmap/kernel_picture.hpp"
+#include "potmap/labelling.hpp"
+#include "potmap/map_io.hpp"
+#include "potmap/raster.hpp"
+#include "potmap/simulator.hpp"
+#include "progress.hpp"
+
+namespace fs = std::filesystem;
+
+namespace potmap::cli {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The source town's map: BHM over the source scans' samples, kernels every metre (the
+// dictionary needs a learned map of the place its atoms come from).
+KernelMap learn_source_map(Context& ctx, const std::vector<Scan>& scans) {
+  LabelOptions lo;
+  lo.holdout_fraction = 0;
+  const LabelledSplit s = label_scans(scans, lo);
+  double lo3[3] = {HUGE_VAL, HUGE_VAL, 0}, hi3[3] = {-HUGE_VAL, -HUGE_VAL, 0};
+  for (std::size_t i = 0; i < s.train.size(); ++i)
+    for (int d = 0; d < 2; ++d) {
+      lo3[d] = std::min(lo3[d], s.train.position[2 * i + d]);
+      hi3[d] = std::max(hi3[d], s.train.position[2 * i + d]);
+    }
+  KernelMap map = bhm_grid_prior(2, lo3, hi3, 1.0, 4.0);
+  bhm_update_sequential(&ctx, map, s.train);
+  return map;
+}
+
+}  // namespace
+
+int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
+  if (a.method != "pot" && a.method != "repot" && a.method != "both")
+    throw ArgumentError("demo: --method must be pot, repot or both, not '" + a.method + "'");
+  Context ctx = make_context(device);
+  std::FILE* human = a.json == "-" ? stderr : stdout;
+  const std::string prefix = a.out.empty() ? "out/demo/pot" : a.out;
+  const fs::path parent = fs::path(prefix).parent_path();
+  fs::create_directories(parent.empty() ? fs::path(".") : parent);
+
+  auto t0 = std::chrono::steady_clock::now();
+  SimOptions so;
+  so.scans = a.source_scans;
+  so.spacing = 3;
+  so.seed = 1;
+  const Town src = Town::builtin(a.source);
+  const Simulation source = simulate(src, so);
+  const KernelMap source_map = learn_source_map(ctx, source.scans);
+  Dictionary dict;
+  DictionaryOptions dopt;
+  dopt.source = a.source;
+  build_dictionary(source.scans, source_map, dopt, dict);
+  if (dict.empty()) throw Error("demo: the source scans gave no atoms");
+  std::fprintf(human, "dictionary     %zu atoms from %zu scans of %s (BHM source map, %zu kernels; "
+                      "%.1f s)\n",
+               dict.size(), source.scans.size(), a.source.c_str(), source_map.size(),
+               seconds_since(t0));
+
+  SimOptions to;
+  to.scans = a.target_scans;
+  to.spacing = a.spacing;
+  to.seed = 7;
+  const Town tgt = Town::builtin(a.target);
+  const Simulation target = simulate(tgt, to);
+  write_town_png(tgt, target.route, prefix + "_town.png");
+  std::fprintf(human, "target         %zu scans of %s, 20 %% of every scan's beams held out\n",
+               target.scans.size(), a.target.c_str());
+
+  nlohmann::json j = {{"source", a.source},
+                      {"target", a.target},
+                      {"atoms", dict.size()},
+                      {"source_scans", source.scans.size()},
+                      {"target_scans", target.scans.size()},
+                      {"device", ctx.info().summary()}};
+  std::vector<std::string> files = {prefix + "_town.png"};
+  for (const bool refine : {false, true}) {
+    if ((refine && a.method == "pot") || (!refine && a.method == "repot")) continue;
+    const std::string name = refine ? "RePOT" : "POT";
+    MapJob job;
+    job.mapper.pot.refine = refine;
+    job.mapper.pot.rotations.clear();
+    for (int i = 0; i < a.rotations; ++i)
+      job.mapper.pot.rotations.push_back(2 * kPi * i / a.rotations);
+    job.verbose = false;
+    const MapJobResult r = run_map_job(&ctx, dict, target.scans, job);
+    std::fprintf(human,
+                 "%-6s overall  ACC %.4f  AUC %.4f  NLL %.4f   instantaneous  ACC %.4f  AUC %.4f  "
+                 "NLL %.4f\n",
+                 name.c_str(), r.overall_scores.acc, r.overall_scores.auc, r.overall_scores.nll,
+                 r.instantaneous.acc, r.instantaneous.auc, r.instantaneous.nll);
+    std::fprintf(human,
+                 "       %zu kernels; %.1f ms per scan (ranking %.1f, transport %.1f, placement "
+                 "%.1f, refine %.1f)\n",
+                 r.overall.size(), r.mean_wall_ms, r.mean_timing.ranking_ms,
+                 r.mean_timing.transport_ms, r.mean_timing.placement_ms, r.mean_timing.refine_ms);
+    j[refine ? "repot" : "pot"] = r.to_json();
+
+    // Pictures of the last method run (RePOT when both): probability, variance, kernels.
+    if (refine || a.method == "pot") {
+      const std::string p = prefix + (refine ? "_repot" : "_pot");
+      write_map(r.overall.map(), p + ".potmap");
+      double lo[3], hi[3];
+      r.overall.map().bounds(lo, hi);
+      RasterSpec spec;
+      spec.xmin = lo[0] - 5;
+      spec.xmax = hi[0] + 5;
+      spec.ymin = lo[1] - 5;
+      spec.ymax = hi[1] + 5;
+      spec.resolution = a.res;
+      RasterOptions ro;
+      ro.write_npy = false;
+      const RasterSummary rs = rasterize(ctx, r.overall.map(), spec, p, ro);
+      files.insert(files.end(), rs.files.begin(), rs.files.end());
+      const KernelPictureSummary ks =
+          write_kernel_picture(&ctx, r.overall.map(), spec, p + "_kernels.png");
+      files.push_back(p + "_kernels.png");
+      files.push_back(p + ".potmap");
+      j["kernel_length_m"] = {ks.min_length, ks.max_length};
+    }
+  }
+  std::fprintf(human, "files:\n");
+  for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
+  j["files"] = files;
+  j["seconds"] = seconds_since(t0);
+  if (a.json == "-")
+    std::cout << j.dump(1) << "\n";
+  else if (!a.json.empty())
+    write_text_atomically(a.json, j.dump(1) + "\n");
+  return 0;
+}
+
+}  // namespace potmap::cli
