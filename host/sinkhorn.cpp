@@ -16,7 +16,7 @@ namespace potmap {
 namespace {
 
 // Must match kernels/sinkhorn.cl.
-constexpr int kNI = 11, kNP = 12, kNR = 4;
+constexpr int kNI = 11, kNP = 13, kNR = 4;
 
 std::string at(std::size_t p) {
   return "Sinkhorn problem " + std::to_string(p) + ": ";
@@ -86,6 +86,7 @@ bc::buffer empty_buffer(bc::context& cx, std::size_t bytes) {
 struct Launch {
   SinkhornDeviceResult result;
   bc::buffer fh, gh, loga, logb;
+  std::vector<bc::buffer> scratch;
   std::vector<int> ints;
   int vw = 16;
   bool dbl = false;
@@ -157,6 +158,7 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
     P[9] = static_cast<float>(opt.epsilon_start);
     P[10] = static_cast<float>(opt.epsilon_decay);
     P[11] = static_cast<float>(std::max(opt.check_every, 1));
+    P[12] = static_cast<float>(opt.overrelaxation);
     sslot += npad;
     tslot += mpad;
   }
@@ -184,8 +186,13 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
 
   int wg = opt.work_group > 0 ? opt.work_group : (ctx.info().is_cpu ? 16 : 64);
   if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");
+  // Sums and scalings of the stabilised scheme in double where the device has it (see
+  // kernels/sinkhorn_stab.cl on the float floor of the marginal error).
+  const bool acc_double = L.dbl || (opt.stabilised && ctx.info().has_fp64);
+  const std::size_t acc = acc_double ? sizeof(double) : sizeof(float);
   char defs[128];
-  std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d", dim, wg, L.dbl ? 1 : 0);
+  std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d -DACC_DOUBLE=%d", dim, wg,
+                L.dbl ? 1 : 0, acc_double ? 1 : 0);
   auto k = opt.stabilised ? ctx.kernel("sinkhorn_stab", "sinkhorn_stab_solve", defs)
                           : ctx.kernel("sinkhorn", "sinkhorn_solve", defs);
   int a = 0;
@@ -199,19 +206,20 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   k.set_arg(a++, tx);
   k.set_arg(a++, L.fh);
   k.set_arg(a++, L.gh);
-  k.set_arg(a++, fn);
+  if (!opt.stabilised) k.set_arg(a++, fn);
   k.set_arg(a++, L.result.stats);
   k.set_arg(a++, L.result.coupling);
   k.set_arg(a++, L.result.barycentric);
   k.set_arg(a++, static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
-  bc::buffer kmat, ub, vb;
   if (opt.stabilised) {
-    kmat = empty_buffer(cx, static_cast<std::size_t>(kelems) * sizeof(R));
-    ub = empty_buffer(cx, sslot * sizeof(R));
-    vb = empty_buffer(cx, tslot * sizeof(R));
-    k.set_arg(a++, kmat);
-    k.set_arg(a++, ub);
-    k.set_arg(a++, vb);
+    // K, absorbed duals, two generations of log-scalings, and the scalings in R.
+    const std::size_t bytes[] = {static_cast<std::size_t>(kelems) * sizeof(R), sslot * acc,
+                                 tslot * acc, 2 * sslot * acc, 2 * tslot * acc,
+                                 sslot * sizeof(R), tslot * sizeof(R)};
+    for (std::size_t b : bytes) {
+      L.scratch.push_back(empty_buffer(cx, b));
+      k.set_arg(a++, L.scratch.back());
+    }
   }
   detail::cl_call("clEnqueueNDRangeKernel",
                   [&] { q.enqueue_1d_range_kernel(k, 0, np * static_cast<std::size_t>(wg), wg); });
@@ -226,6 +234,9 @@ Launch launch(Context& ctx, int dim, const bc::buffer& source, const bc::buffer&
     throw ArgumentError("SinkhornOptions::use_double: the device has no cl_khr_fp64");
   if (!(opt.epsilon_decay > 0 && opt.epsilon_decay < 1))
     throw ArgumentError("SinkhornOptions::epsilon_decay must be in (0, 1)");
+  if (opt.overrelaxation != 0 && !(opt.overrelaxation >= 1 && opt.overrelaxation < 2))
+    throw ArgumentError("SinkhornOptions::overrelaxation must be 0 (adaptive) or in [1, 2), got " +
+                        std::to_string(opt.overrelaxation));
   if (opt.use_double)
     return launch_typed<double>(ctx, dim, source, target, source_points, soff, scnt, toff, tcnt,
                                 par, opt);

@@ -39,8 +39,15 @@ struct SinkhornProblem {
 
 /// How the batch is solved; the defaults suit PoCL on a CPU.
 struct SinkhornOptions {
-  /// Convergence is checked every this many iterations at the target epsilon. Default 10.
-  int check_every = 10;
+  /// Convergence is checked every this many iterations at the target epsilon. The marginal
+  /// error comes with every row update at no extra cost, so checking is nearly free. Default 1.
+  int check_every = 1;
+  /// Over-relaxation factor w of the updates at the target epsilon, f <- (1-w) f + w f_sinkhorn
+  /// (same fixed point, so the same result; far fewer iterations near the optimal w).
+  /// 0 (default): adaptive per problem, starting at 1.3 and raised towards
+  /// 2 / (1 + sqrt(1 - eta^2)) as the observed error decay reveals plain Sinkhorn's contraction
+  /// eta^2; 1: plain Sinkhorn; otherwise a fixed factor in (1, 2).
+  double overrelaxation = 0;
   /// Epsilon scaling: one iteration at each of epsilon_start, epsilon_start * epsilon_decay, ...
   /// down to the problem's epsilon, then iterations at that epsilon until converged or
   /// max_iterations. The result is always the one at the problem's epsilon.
