@@ -143,8 +143,8 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
       plan += static_cast<long>(n) * m;
     }
     I[9] = par[p]->max_iterations;
-    I[10] = static_cast<int>(kelems);
-    if (opt.stabilised) kelems += static_cast<long>(n) * mpad;
+    I[10] = 0;  // unused: K lives per work-group (sinkhorn_stab.cl)
+    if (opt.stabilised) kelems = std::max(kelems, static_cast<long>(n) * mpad);
     float* P = &params[p * kNP];
     P[0] = static_cast<float>(par[p]->epsilon);
     P[1] = static_cast<float>(par[p]->tolerance);
@@ -211,18 +211,31 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   k.set_arg(a++, L.result.coupling);
   k.set_arg(a++, L.result.barycentric);
   k.set_arg(a++, static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
+  std::size_t groups = np;
   if (opt.stabilised) {
-    // K, absorbed duals, two generations of log-scalings, and the scalings in R.
-    const std::size_t bytes[] = {static_cast<std::size_t>(kelems) * sizeof(R), sslot * acc,
+    // Persistent work-groups, a few per compute unit, each with its own K (see the kernel).
+    groups = std::min<std::size_t>(np, 4 * std::max<std::size_t>(ctx.info().compute_units, 1));
+    const std::size_t kbytes = groups * static_cast<std::size_t>(kelems) * sizeof(R);
+    if (kbytes > ctx.info().max_alloc_bytes && ctx.info().max_alloc_bytes > 0)
+      throw ArgumentError("Sinkhorn batch: kernel matrices of " + std::to_string(kbytes) +
+                          " bytes exceed the device's largest buffer; use the log-domain scheme");
+    // K, absorbed duals, two generations of log-scalings, the scalings in R, two generations
+    // of the row scalings in ACC, and the row weights a.
+    const std::size_t bytes[] = {kbytes, sslot * acc,
                                  tslot * acc, 2 * sslot * acc, 2 * tslot * acc,
-                                 sslot * sizeof(R), tslot * sizeof(R)};
+                                 sslot * sizeof(R), tslot * sizeof(R), 2 * sslot * acc,
+                                 sslot * acc};
     for (std::size_t b : bytes) {
       L.scratch.push_back(empty_buffer(cx, b));
       k.set_arg(a++, L.scratch.back());
     }
+    L.scratch.push_back(make_buffer(cx, q, std::vector<int>{0}));
+    k.set_arg(a++, L.scratch.back());
+    k.set_arg(a++, static_cast<cl_int>(np));
+    k.set_arg(a++, static_cast<cl_long>(kelems));
   }
   detail::cl_call("clEnqueueNDRangeKernel",
-                  [&] { q.enqueue_1d_range_kernel(k, 0, np * static_cast<std::size_t>(wg), wg); });
+                  [&] { q.enqueue_1d_range_kernel(k, 0, groups * static_cast<std::size_t>(wg), wg); });
   return L;
 }
 

@@ -76,6 +76,20 @@
 #define TO_ACCV(x) (x)
 #define TO_REALV(x) (x)
 #endif
+#if VW == 8
+#define ACCLOAD vload8
+#define ACCSTORE vstore8
+#define LANES ((ACCV)(0, 1, 2, 3, 4, 5, 6, 7))
+#else
+#define ACCLOAD vload16
+#define ACCSTORE vstore16
+#define LANES ((ACCV)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#endif
+static ACC hmax_acc(ACCV v) {
+  ACC r = 0;
+  for (int q = 0; q < VW; ++q) r = fmax(r, ((ACC*)&v)[q]);
+  return r;
+}
 // Smallest row or column sum taken as is; below, it is clamped so that the scaling becomes
 // large, which triggers an absorption that rebuilds K around the new duals.
 #define TINY_SUM ((ACC)1e-30)
@@ -274,19 +288,15 @@ static REAL min_d2(const REAL px, const REAL py, const REAL pz, __global const R
   return r;
 }
 
-// Arguments 0-13 as sinkhorn_solve (fh, gh receive the scaled duals f/eps + log a at the end).
-// kmat: K per problem (n x mpad). al, be: absorbed duals per slot. lu, lv: log-scalings, two
-// generations per slot (2 * npad, 2 * mpad: the plan whose error was measured is kept).
-// uf, vf: the current scalings in REAL for the products (pads 0).
-__kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solve(
-    __global const float* src, __global const float* tgt, __global const int* ints,
+// Solves problem p with this work-group; K is the work-group's kernel-matrix storage.
+static void solve(
+    const int p, __global const float* src, __global const float* tgt, __global const int* ints,
     __global const float* params, __global const REAL* loga, __global const REAL* logb,
     __global REAL* sx, __global REAL* tx, __global REAL* fh, __global REAL* gh,
     __global float* out, __global float* plan, __global float* bary, const int want_bary,
-    __global REAL* kmat, __global ACC* alb, __global ACC* beb, __global ACC* lub,
-    __global ACC* lvb, __global REAL* ufb, __global REAL* vfb) {
-  __local ACC red_e[2][WG], red_b[2][WG];
-  const int p = get_group_id(0);
+    __global REAL* K, __global ACC* alb, __global ACC* beb, __global ACC* lub,
+    __global ACC* lvb, __global REAL* ufb, __global REAL* vfb, __global ACC* eub,
+    __global ACC* wab, __local ACC (*red_e)[WG], __local ACC (*red_b)[WG]) {
   const int lid = get_local_id(0);
   __global const int* I = ints + p * NI;
   __global const float* P = params + p * NP;
@@ -304,7 +314,8 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solv
   __global ACC* LV = lvb + 2 * (long)ts;
   __global REAL* UF = ufb + ss;
   __global REAL* VF = vfb + ts;
-  __global REAL* K = kmat + (long)I[I_KOFF];
+  __global ACC* EUG = eub + 2 * (long)ss;  // exp(lu) of both generations (pads 0)
+  __global ACC* A = wab + ss;              // a_i (pads 0)
 
   const REAL eps = P[P_EPS], tol = P[P_TOL];
   const int max_it = I[I_MAXIT];
@@ -330,6 +341,9 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solv
     for (int i = lid; i < npad; i += WG) {
       LU[i] = 0;
       LU[npad + i] = 0;
+      EUG[i] = i < n ? 1 : 0;
+      EUG[npad + i] = i < n ? 1 : 0;
+      A[i] = i < n ? exp((ACC)la[i]) : 0;
     }
     barrier(CLK_GLOBAL_MEM_FENCE);
     for (int j = lid * VW; j < mpad; j += WG * VW) {
@@ -385,35 +399,45 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solv
     for (int i = lid; i < icnt; i += WG) {
       AL[i] = (AL[i] + LU[cur * npad + i] - la[i]) * ratio + la[i];
       LU[cur * npad + i] = 0;
+      EUG[cur * npad + i] = 1;
       UF[i] = 1;
       build_row(K + (long)i * mpad, SX[i], SX[npad + i], sz[i], TX, tz, mpad, BE, AL[i], k);
     }
     // Absorbing does not change the plan, so the limit is tested after it: K is always built.
     if (at_target && it_target >= max_it) break;
-    // u update over this work-item's rows (the rows it just rebuilt: no barrier needed).
-    ACC e = 0, big = 0;
+    // u update, VW rows per step so that the logs and exps run in vectors; the error of the
+    // plan (lu, lv of generation cur) comes with it.
+    ACCV ev = (ACCV)(0), bv = (ACCV)(0);
     const int nxt = 1 - cur;
-    for (int i = lid; i < n; i += WG) {
-      const ACC r = row_dot(K + (long)i * mpad, VF, mpad);
-      const ACC lu = LU[cur * npad + i];
-      e += fabs(exp(lu) * r - exp((ACC)la[i]));
-      const ACC lun = (1 - w) * lu + w * ((ACC)la[i] - log(fmax(r, TINY_SUM)));
-      LU[nxt * npad + i] = lun;
-      UF[i] = (REAL)exp(lun);
-      big = fmax(big, fabs(lun));
+    for (int i0 = lid * VW; i0 < npad; i0 += WG * VW) {
+      ACC rr[VW];
+      for (int q = 0; q < VW; ++q)
+        rr[q] = i0 + q < n ? row_dot(K + (long)(i0 + q) * mpad, VF, mpad) : (ACC)1;
+      const ACCV r = ACCLOAD(0, rr);
+      const ACCV lu = ACCLOAD(0, LU + cur * npad + i0);
+      ev += fabs(ACCLOAD(0, EUG + cur * npad + i0) * r - ACCLOAD(0, A + i0));
+      const ACCV lav = TO_ACCV(VLOAD(0, la + i0));
+      const ACCV lun = select((ACCV)(0), (1 - w) * lu + w * (lav - log(fmax(r, TINY_SUM))),
+                              isless(LANES, (ACCV)(n - i0)));
+      const ACCV un = select((ACCV)(0), exp(lun), isless(LANES, (ACCV)(n - i0)));
+      ACCSTORE(lun, 0, LU + nxt * npad + i0);
+      ACCSTORE(un, 0, EUG + nxt * npad + i0);
+      VSTORE(TO_REALV(un), 0, UF + i0);
+      bv = fmax(bv, fabs(lun));
     }
     barrier(CLK_GLOBAL_MEM_FENCE);
     // v update, VW columns per step.
     for (int j = lid * VW; j < mpad; j += WG * VW) {
-      ACCV cs = col_dot(K, UF, n, mpad, j);
-      for (int q = 0; q < VW && j + q < m; ++q) {
-        const ACC lv = LV[cur * mpad + j + q];
-        const ACC lvn = (1 - w) * lv + w * ((ACC)lb[j + q] - log(fmax(((ACC*)&cs)[q], TINY_SUM)));
-        LV[nxt * mpad + j + q] = lvn;
-        VF[j + q] = (REAL)exp(lvn);
-        big = fmax(big, fabs(lvn));
-      }
+      const ACCV cs = col_dot(K, UF, n, mpad, j);
+      const ACCV lv = ACCLOAD(0, LV + cur * mpad + j);
+      const ACCV lbv = TO_ACCV(VLOAD(0, lb + j));
+      const ACCV lvn = select((ACCV)(0), (1 - w) * lv + w * (lbv - log(fmax(cs, TINY_SUM))),
+                              isless(LANES, (ACCV)(m - j)));
+      ACCSTORE(lvn, 0, LV + nxt * mpad + j);
+      VSTORE(TO_REALV(select((ACCV)(0), exp(lvn), isless(LANES, (ACCV)(m - j)))), 0, VF + j);
+      bv = fmax(bv, fabs(lvn));
     }
+    const ACC e = hsum_acc(ev), big = hmax_acc(bv);
     red_e[par][lid] = e;
     red_b[par][lid] = isfinite(big) ? big : (ACC)INFINITY;
     barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);
@@ -458,16 +482,17 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solv
   __global ACC* EU = LU + (1 - cur) * npad;
   __global ACC* EV = LV + (1 - cur) * mpad;
   barrier(CLK_GLOBAL_MEM_FENCE);
-  for (int i = lid; i < n; i += WG) EU[i] = exp(LU[cur * npad + i]);
-  for (int j = lid; j < m; j += WG) EV[j] = exp(LV[cur * mpad + j]);
+  for (int i = lid; i < n; i += WG) EU[i] = EUG[cur * npad + i];
+  for (int j = lid; j < mpad; j += WG) EV[j] = j < m ? exp(LV[cur * mpad + j]) : 0;
   barrier(CLK_GLOBAL_MEM_FENCE);
   {
     // Its error, measured when the limit stopped it.
     ACC e = 0;
     for (int i = lid; i < n; i += WG) {
-      ACC r = 0;
-      for (int j = 0; j < m; ++j) r += K[(long)i * mpad + j] * EV[j];
-      e += fabs(EU[i] * r - exp((ACC)la[i]));
+      ACCV r = (ACCV)(0);
+      for (int j = 0; j < mpad; j += VW)
+        r = fma(TO_ACCV(VLOAD(0, K + (long)i * mpad + j)), ACCLOAD(0, EV + j), r);
+      e += fabs(EU[i] * hsum_acc(r) - A[i]);
     }
     red_e[par][lid] = e;
     barrier(CLK_LOCAL_MEM_FENCE);
@@ -483,29 +508,43 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solv
   const REAL k = cost_factor / cur_eps;
   ACC total = 0;
   const long plan0 = I[I_PLAN];
+  const REAL inv_scale = 1 / (REAL)P[P_SCALE];
   for (int i = lid; i < n; i += WG) {
-    ACC rs = 0, rc = 0, bx = 0, by = 0, bz = 0;
+    ACCV rs = (ACCV)(0), rc = (ACCV)(0), bx = (ACCV)(0), by = (ACCV)(0), bz = (ACCV)(0);
     const ACC ui = EU[i];
-    for (int j = 0; j < m; ++j) {
-      const REAL d2 = dist2(SX[i], SX[npad + i], sz[i], TX[j], TX[mpad + j], tz[j]);
-      const ACC pij = ui * K[(long)i * mpad + j] * EV[j];
-      rs += pij;
-      rc += pij * d2;
-      bx += pij * Y[j * DIM + 0];
-      by += pij * Y[j * DIM + 1];
+    __global const REAL* Ki = K + (long)i * mpad;
+    for (int j = 0; j < mpad; j += VW) {
+      const REALV qx = VLOAD(0, TX + j), qy = VLOAD(0, TX + mpad + j);
+      REALV dx = qx - SX[i];
+      REALV d2 = dx * dx;
+      REALV dy = qy - SX[npad + i];
+      d2 = fma(dy, dy, d2);
 #if DIM == 3
-      bz += pij * Y[j * DIM + 2];
+      const REALV qz = VLOAD(0, tz + j);
+      REALV dz = qz - sz[i];
+      d2 = fma(dz, dz, d2);
 #endif
-      if (plan0 >= 0) plan[plan0 + (long)i * m + j] = (float)pij;
-    }
-    total += rc * cost_factor;
-    if (want_bary) {
-      const long o = ((long)I[I_SRC] + i) * DIM;
-      const ACC inv = rs > 0 ? 1 / rs : 0;
-      bary[o + 0] = (float)(bx * inv);
-      bary[o + 1] = (float)(by * inv);
+      const ACCV pv = ui * TO_ACCV(VLOAD(0, Ki + j)) * ACCLOAD(0, EV + j);
+      rs += pv;
+      rc = fma(pv, TO_ACCV(d2), rc);
+      bx = fma(pv, TO_ACCV(qx), bx);
+      by = fma(pv, TO_ACCV(qy), by);
 #if DIM == 3
-      bary[o + 2] = (float)(bz * inv);
+      bz = fma(pv, TO_ACCV(qz), bz);
+#endif
+    }
+    const int pm = plan0 >= 0 ? m : 0;
+    for (int j = 0; j < pm; ++j) plan[plan0 + (long)i * m + j] = (float)(ui * Ki[j] * EV[j]);
+    total += hsum_acc(rc) * cost_factor;
+    if (want_bary) {
+      // Target points are not rotated: TX / scale are the target points in their own units.
+      const long o = ((long)I[I_SRC] + i) * DIM;
+      const ACC rsum = hsum_acc(rs);
+      const ACC inv = rsum > 0 ? inv_scale / rsum : 0;
+      bary[o + 0] = (float)(hsum_acc(bx) * inv);
+      bary[o + 1] = (float)(hsum_acc(by) * inv);
+#if DIM == 3
+      bary[o + 2] = (float)(hsum_acc(bz) * inv);
 #endif
     }
     // Scaled duals in the log kernel's convention for the host: fh = f/eps + log a.
@@ -521,5 +560,34 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solv
     out[p * NR + 1] = (float)it;
     out[p * NR + 2] = (float)err;
     out[p * NR + 3] = (float)converged;
+  }
+}
+
+// Arguments 0-13 as sinkhorn_solve (fh, gh receive the scaled duals f/eps + log a at the end).
+// kmat: one K (n x mpad, up to kstride reals) per work-group, not per problem: the work-groups
+// are persistent and take the next problem from `counter` (zeroed by the host) until all
+// `problems` are done, so K stays small and hot in cache whatever the batch size, and uneven
+// problem sizes balance across the cores. al, be: absorbed duals per slot. lu, lv: log-scalings,
+// two generations per slot (the plan whose error was measured is kept). uf, vf: the current
+// scalings in REAL for the products (pads 0). eu: exp(lu), two generations. wa: a per slot.
+__kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solve(
+    __global const float* src, __global const float* tgt, __global const int* ints,
+    __global const float* params, __global const REAL* loga, __global const REAL* logb,
+    __global REAL* sx, __global REAL* tx, __global REAL* fh, __global REAL* gh,
+    __global float* out, __global float* plan, __global float* bary, const int want_bary,
+    __global REAL* kmat, __global ACC* alb, __global ACC* beb, __global ACC* lub,
+    __global ACC* lvb, __global REAL* ufb, __global REAL* vfb, __global ACC* eub,
+    __global ACC* wab, __global int* counter, const int problems, const long kstride) {
+  __local ACC red_e[2][WG], red_b[2][WG];
+  __local int next;
+  __global REAL* K = kmat + get_group_id(0) * kstride;
+  while (1) {
+    if (get_local_id(0) == 0) next = atomic_inc(counter);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    const int p = next;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (p >= problems) break;
+    solve(p, src, tgt, ints, params, loga, logb, sx, tx, fh, gh, out, plan, bary, want_bary, K,
+          alb, beb, lub, lvb, ufb, vfb, eub, wab, red_e, red_b);
   }
 }
