@@ -144,7 +144,9 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
     }
     I[9] = par[p]->max_iterations;
     I[10] = 0;  // unused: K lives per work-group (sinkhorn_stab.cl)
-    if (opt.stabilised) kelems = std::max(kelems, static_cast<long>(n) * mpad);
+    if (opt.stabilised)
+      kelems =
+          std::max(kelems, 2 * std::max(static_cast<long>(n) * mpad, static_cast<long>(m) * npad));
     float* P = &params[p * kNP];
     P[0] = static_cast<float>(par[p]->epsilon);
     P[1] = static_cast<float>(par[p]->tolerance);
@@ -221,10 +223,10 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
                           " bytes exceed the device's largest buffer; use the log-domain scheme");
     // K, absorbed duals, two generations of log-scalings, the scalings in R, two generations
     // of the row scalings in ACC, and the row weights a.
-    const std::size_t bytes[] = {kbytes, sslot * acc,
-                                 tslot * acc, 2 * sslot * acc, 2 * tslot * acc,
-                                 sslot * sizeof(R), tslot * sizeof(R), 2 * sslot * acc,
-                                 sslot * acc};
+    const std::size_t bytes[] = {
+        kbytes,          sslot * acc,       tslot * acc,       2 * sslot * acc,
+        2 * tslot * acc, sslot * sizeof(R), tslot * sizeof(R), 2 * sslot * acc,
+        sslot * acc};
     for (std::size_t b : bytes) {
       L.scratch.push_back(empty_buffer(cx, b));
       k.set_arg(a++, L.scratch.back());
@@ -234,8 +236,9 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
     k.set_arg(a++, static_cast<cl_int>(np));
     k.set_arg(a++, static_cast<cl_long>(kelems));
   }
-  detail::cl_call("clEnqueueNDRangeKernel",
-                  [&] { q.enqueue_1d_range_kernel(k, 0, groups * static_cast<std::size_t>(wg), wg); });
+  detail::cl_call("clEnqueueNDRangeKernel", [&] {
+    q.enqueue_1d_range_kernel(k, 0, groups * static_cast<std::size_t>(wg), wg);
+  });
   return L;
 }
 

@@ -218,19 +218,8 @@ static ACC hsum_acc(ACCV v) {
 #endif
 }
 
-// sum_j K_ij v_j over one padded row: BLOCK vectors in REAL lanes, then into ACC lanes.
-static ACC row_dot(__global const REAL* Ki, __global const REAL* v, const int mpad) {
-  ACCV tot = (ACCV)(0);
-  for (int j0 = 0; j0 < mpad; j0 += BLOCK * VW) {
-    const int end = min(mpad, j0 + BLOCK * VW);
-    REALV acc = (REALV)(0);
-    for (int j = j0; j < end; j += VW) acc = fma(VLOAD(0, Ki + j), VLOAD(0, v + j), acc);
-    tot += TO_ACCV(acc);
-  }
-  return hsum_acc(tot);
-}
-
-// sum_i K_ij u_i for the VW columns starting at j, rows streamed (no transposed copy of K).
+// sum_i K_ij u_i for the VW columns starting at j, rows streamed: BLOCK rows in REAL lanes, then
+// into ACC lanes (float lanes alone leave about 2e-7 of rounding in a 1500-row sum).
 static ACCV col_dot(__global const REAL* K, __global const REAL* u, const int n, const int mpad,
                     const int j) {
   ACCV tot = (ACCV)(0);
@@ -294,7 +283,7 @@ static void solve(
     __global const float* params, __global const REAL* loga, __global const REAL* logb,
     __global REAL* sx, __global REAL* tx, __global REAL* fh, __global REAL* gh,
     __global float* out, __global float* plan, __global float* bary, const int want_bary,
-    __global REAL* K, __global ACC* alb, __global ACC* beb, __global ACC* lub,
+    __global REAL* K, __global REAL* KT, __global ACC* alb, __global ACC* beb, __global ACC* lub,
     __global ACC* lvb, __global REAL* ufb, __global REAL* vfb, __global ACC* eub,
     __global ACC* wab, __local ACC (*red_e)[WG], __local ACC (*red_b)[WG]) {
   const int lid = get_local_id(0);
@@ -336,8 +325,9 @@ static void solve(
   const REAL decay = P[P_DECAY];
   {
     const REAL k = cost_factor / cur_eps;
-    for (int i = lid; i < n; i += WG)
-      AL[i] = k * min_d2(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, m);
+    for (int i = lid; i < npad; i += WG)
+      AL[i] = i < n ? k * min_d2(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, m)
+                    : (ACC)(-PAD_LOGW);
     for (int i = lid; i < npad; i += WG) {
       LU[i] = 0;
       LU[npad + i] = 0;
@@ -401,19 +391,28 @@ static void solve(
       LU[cur * npad + i] = 0;
       EUG[cur * npad + i] = 1;
       UF[i] = 1;
-      build_row(K + (long)i * mpad, SX[i], SX[npad + i], sz[i], TX, tz, mpad, BE, AL[i], k);
     }
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    // K by rows for K^T u and its transpose by rows for K v: both products then stream rows
+    // with a broadcast scalar into VW-wide sums, with no horizontal sum per row.
+    for (int i0 = 0; i0 < icnt; i0 += WG)
+      if (i0 + lid < icnt)
+        build_row(K + (long)(i0 + lid) * mpad, SX[i0 + lid], SX[npad + i0 + lid], sz[i0 + lid], TX,
+                  tz, mpad, BE, AL[i0 + lid], k);
+    for (int j0 = 0; j0 < jcnt; j0 += WG)
+      if (j0 + lid < jcnt)
+        build_row(KT + (long)(j0 + lid) * npad, TX[j0 + lid], TX[mpad + j0 + lid], tz[j0 + lid], SX,
+                  sz, npad, AL, BE[j0 + lid], k);
+    barrier(CLK_GLOBAL_MEM_FENCE);
     // Absorbing does not change the plan, so the limit is tested after it: K is always built.
     if (at_target && it_target >= max_it) break;
     // u update, VW rows per step so that the logs and exps run in vectors; the error of the
     // plan (lu, lv of generation cur) comes with it.
     ACCV ev = (ACCV)(0), bv = (ACCV)(0);
     const int nxt = 1 - cur;
+    // Pads read r = 0 and are masked below.
     for (int i0 = lid * VW; i0 < npad; i0 += WG * VW) {
-      ACC rr[VW];
-      for (int q = 0; q < VW; ++q)
-        rr[q] = i0 + q < n ? row_dot(K + (long)(i0 + q) * mpad, VF, mpad) : (ACC)1;
-      const ACCV r = ACCLOAD(0, rr);
+      const ACCV r = col_dot(KT, VF, m, npad, i0);
       const ACCV lu = ACCLOAD(0, LU + cur * npad + i0);
       ev += fabs(ACCLOAD(0, EUG + cur * npad + i0) * r - ACCLOAD(0, A + i0));
       const ACCV lav = TO_ACCV(VLOAD(0, la + i0));
@@ -564,7 +563,7 @@ static void solve(
 }
 
 // Arguments 0-13 as sinkhorn_solve (fh, gh receive the scaled duals f/eps + log a at the end).
-// kmat: one K (n x mpad, up to kstride reals) per work-group, not per problem: the work-groups
+// kmat: one K (n x mpad) and its transpose (m x npad), kstride reals in all, per work-group, not per problem: the work-groups
 // are persistent and take the next problem from `counter` (zeroed by the host) until all
 // `problems` are done, so K stays small and hot in cache whatever the batch size, and uneven
 // problem sizes balance across the cores. al, be: absorbed duals per slot. lu, lv: log-scalings,
@@ -588,6 +587,6 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solv
     barrier(CLK_LOCAL_MEM_FENCE);
     if (p >= problems) break;
     solve(p, src, tgt, ints, params, loga, logb, sx, tx, fh, gh, out, plan, bary, want_bary, K,
-          alb, beb, lub, lvb, ufb, vfb, eub, wab, red_e, red_b);
+          K + kstride / 2, alb, beb, lub, lvb, ufb, vfb, eub, wab, red_e, red_b);
   }
 }
