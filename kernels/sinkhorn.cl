@@ -72,7 +72,8 @@
 #define P_EPS0 9        // first epsilon of the annealing schedule (<= eps: none)
 #define P_DECAY 10      // factor between successive epsilons of the schedule, in (0, 1)
 #define P_CHECK 11      // check convergence every this many iterations
-#define NP 12
+#define P_OMEGA 12      // over-relaxation: 0 adaptive, else the fixed factor in [1, 2)
+#define NP 13
 
 // Results per problem (NR floats): <P, C>, iterations, marginal error, converged (0/1).
 #define NR 4
@@ -274,11 +275,17 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
   int it = 0, it_target = 0;
   REAL err = INFINITY;
   int converged = 0;
+  // Over-relaxation f <- (1-w) f + w f_sinkhorn at the target epsilon; w adapted as in
+  // sinkhorn_stab.cl (see there), or fixed when P_OMEGA > 0.
+  const REAL omega_fixed = P[P_OMEGA];
+  REAL omega = 1.3f, ref_err = -1;
+  int mark = 5, win = 5;
   while (1) {
     const REAL k = cost_factor / cur_eps;
     const int at_target = cur_eps <= eps;
     if (at_target && it_target >= max_it) break;
     const int checking = at_target && it_target > 0 && (it_target % check == 0);
+    const REAL w = at_target ? (omega_fixed > 0 ? (REAL)omega_fixed : omega) : (REAL)1;
     // f update. The new value goes to FN first so that the plan that was measured (old f,
     // current g) is the one kept if it has converged. The reduction runs on every iteration,
     // outside any branch: barriers under a uniform condition after a loop that some work-items
@@ -289,8 +296,8 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
       const REAL shift = la[i] - old;  // the previous log-sum-exp of this row
       const REAL lse = row_lse(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, G, mpad, k, shift);
       // Row sum of the plan (old f, g) is exp(old + lse): the error comes for free here.
-      if (checking) e += fabs(exp(old + lse) - exp(la[i]));
-      FN[i] = la[i] - lse;
+      e += fabs(exp(old + lse) - exp(la[i]));
+      FN[i] = (1 - w) * old + w * (la[i] - lse);
     }
     const REAL total_e = group_sum(e, scratch);
     if (checking) {
@@ -307,12 +314,26 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
       const REAL shift = lb[j] - G[j];
       const REAL lse =
           row_lse(TX[j], TX[mpad + j], tz[j], SX, SX + npad, sz, F, npad, k, shift);
-      G[j] = lb[j] - lse;
+      G[j] = (1 - w) * G[j] + w * (lb[j] - lse);
     }
     barrier(CLK_GLOBAL_MEM_FENCE);
     ++it;
     if (at_target) {
       ++it_target;
+      if (omega_fixed <= 0 && it_target == mark) {
+        if (ref_err > 0) {
+          const REAL lam = pow(total_e / ref_err, (REAL)1 / win);
+          if (lam < 1) {
+            const REAL eta2 = (lam + omega - 1) * (lam + omega - 1) / (lam * omega * omega);
+            omega = fmax(omega, fmin(2 / (1 + sqrt(fmax(1 - eta2, (REAL)1e-9))), (REAL)1.95));
+          } else if (total_e > 2 * ref_err) {
+            omega = fmax((REAL)1, (omega + 1) / 2);
+          }
+        }
+        ref_err = total_e;
+        win = it_target < 20 ? 5 : 20;
+        mark += win;
+      }
     } else {
       // Next epsilon level: the unscaled duals stay, the scaled ones follow the new epsilon.
       const REAL next = fmax(cur_eps * decay, eps);

@@ -113,7 +113,9 @@ TEST(Sinkhorn, MatchesReference) {
     q.angle = 0.7;
     q.centre = Eigen::Vector3d(0.3, -0.2, 0.5);
     q.scale = 0.8;
-    const auto r = solve_one(q, full());
+    SinkhornOptions o = full();
+    o.stabilised = false;  // the log-domain scheme; StabilisedSchemeMatchesReference the other
+    const auto r = solve_one(q, o);
     const auto ref = sinkhorn_reference(q);
     ASSERT_TRUE(r.converged);
     ASSERT_TRUE(ref.converged);
@@ -322,6 +324,75 @@ TEST(Sinkhorn, StabilisedSchemeMatchesReference) {
     EXPECT_LT((rs[p].coupling - ref.coupling).cwiseAbs().maxCoeff(), 2e-3 / qs[p].source.rows());
   }
   EXPECT_FALSE(rs[2].converged);
+}
+
+TEST(Sinkhorn, SmallSizesBothSchemesMatchReference) {
+  // Fewer points than work-items per group: the case a PoCL 3.1 miscompilation broke (see
+  // tests/pocl_quirks_test.cpp).
+  const int sizes[][2] = {{1, 3}, {5, 9}, {15, 16}, {16, 5}, {17, 2}, {3, 40}};
+  for (bool stab : {false, true}) {
+    SinkhornBatch b;
+    std::vector<SinkhornProblem> qs;
+    unsigned seed = 200;
+    for (auto& s : sizes) {
+      qs.push_back(problem(s[0], s[1], 2, seed++, 0.02));
+      qs.back().normalise_cost = true;
+      qs.back().tolerance = 1e-6;
+      b.add(qs.back());
+    }
+    SinkhornOptions o = full();
+    o.stabilised = stab;
+    const auto rs = b.run(test::context(), o);
+    for (std::size_t p = 0; p < qs.size(); ++p) {
+      const auto ref = sinkhorn_reference(qs[p]);
+      ASSERT_TRUE(rs[p].converged) << "stabilised " << stab << " problem " << p;
+      EXPECT_LT(rs[p].marginal_error, 1e-6);
+      EXPECT_NEAR(rs[p].cost, ref.cost, 1e-4 * ref.cost + 1e-7) << stab << " " << p;
+      EXPECT_LT((rs[p].coupling - ref.coupling).cwiseAbs().maxCoeff(), 1e-4) << stab << " " << p;
+    }
+  }
+}
+
+TEST(Sinkhorn, OverrelaxationKeepsTheResult) {
+  // Plain Sinkhorn (w = 1), a fixed w and the adaptive default reach the same plan; the
+  // over-relaxed runs need fewer iterations on this slowly converging problem.
+  auto q = problem(60, 70, 2, 300, 0.002);
+  q.normalise_cost = true;
+  q.tolerance = 1e-6;
+  q.max_iterations = 20000;
+  for (bool stab : {false, true}) {
+    SinkhornOptions o = full();
+    o.stabilised = stab;
+    o.overrelaxation = 1;
+    const auto plain = solve_one(q, o);
+    o.overrelaxation = 1.6;
+    const auto fixed = solve_one(q, o);
+    o.overrelaxation = 0;
+    const auto adaptive = solve_one(q, o);
+    ASSERT_TRUE(plain.converged && fixed.converged && adaptive.converged) << stab;
+    EXPECT_LT(fixed.iterations, plain.iterations) << stab;
+    EXPECT_LT(adaptive.iterations, plain.iterations) << stab;
+    EXPECT_LT((fixed.coupling - plain.coupling).cwiseAbs().maxCoeff(), 1e-5) << stab;
+    EXPECT_LT((adaptive.coupling - plain.coupling).cwiseAbs().maxCoeff(), 1e-5) << stab;
+  }
+  SinkhornOptions bad;
+  bad.overrelaxation = 2.5;
+  EXPECT_THROW(solve_one(q, bad), ArgumentError);
+}
+
+TEST(Sinkhorn, HighQualitySettingReachesTolerance1e7) {
+  // The authors' high-quality setting at the tolerance 1e-7 with the default (stabilised)
+  // scheme: its sums in double put the single-precision floor of the marginal error below 1e-7.
+  auto q = problem(600, 600, 2, 42, 0.0005);
+  q.normalise_cost = true;
+  q.tolerance = 1e-7;
+  q.max_iterations = 2000;
+  SinkhornOptions o;
+  o.epsilon_start = 0.05;
+  o.epsilon_decay = 0.5;
+  const auto r = solve_one(q, o);
+  EXPECT_TRUE(r.converged) << r.marginal_error << " after " << r.iterations;
+  EXPECT_LT(r.marginal_error, 1e-7);
 }
 
 TEST(Sinkhorn, DeviceBufferCallMatchesHostBatch) {
