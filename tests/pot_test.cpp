@@ -130,6 +130,9 @@ TEST(Pot, DeviceChoosesWhatTheReferenceChooses) {
   build_dictionary({sim.scans[0], sim.scans[1]}, map, {}, dict);
   PotOptions o = small_options();
   o.rotations = {0, kPi};
+  // Both converged to the same tolerance, so both plans are the same one up to it.
+  o.transport_tolerance = 1e-5;
+  o.transport_max_iterations = 20000;
   const Scan& scan = sim.scans[3];
   const LabelledPoints train = all_samples(scan, 3);
   const ScanTransfer dev =
@@ -141,6 +144,8 @@ TEST(Pot, DeviceChoosesWhatTheReferenceChooses) {
     EXPECT_EQ(dev.sectors[s].atom, ref.sectors[s].atom) << "sector " << s;
     EXPECT_EQ(dev.sectors[s].rotation, ref.sectors[s].rotation) << "sector " << s;
     EXPECT_NEAR(dev.sectors[s].score, ref.sectors[s].score, 1e-3);
+    EXPECT_TRUE(dev.sectors[s].transport_converged) << "sector " << s;
+    EXPECT_TRUE(ref.sectors[s].transport_converged) << "sector " << s;
   }
   ASSERT_EQ(dev.map.size(), ref.map.size());
   for (std::size_t i = 0; i < dev.map.position.size(); ++i)
