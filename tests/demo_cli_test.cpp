@@ -12,8 +12,8 @@ using namespace potmap;
 namespace {
 
 nlohmann::json demo(const std::string& extra, const std::string& out) {
-  const test::CliResult r =
-      test::run_cli("demo --authors-map --json - --out " + test::quoted(out) + " " + extra, "2>/dev/null");
+  const test::CliResult r = test::run_cli(
+      "demo --authors-map --json - --out " + test::quoted(out) + " " + extra, "2>/dev/null");
   EXPECT_EQ(r.status, 0) << r.out;
   return nlohmann::json::parse(r.out);
 }
@@ -45,4 +45,41 @@ TEST(DemoCli, SyntheticSceneWithoutData) {
   EXPECT_LT(j["nll"].get<double>(), 0.3);
   EXPECT_LT(j["max_abs_dp"].get<double>(), 1e-6);
   EXPECT_TRUE(fs::exists(out + "_prob.png"));
+}
+
+// The README's main job: dictionary from town1, town2 mapped by POT and RePOT. Thresholds are
+// set from measured values (10 target scans: POT overall ACC 0.971 AUC 0.911 NLL 0.287, RePOT
+// ACC 0.975 AUC 0.901 NLL 0.241) with a margin.
+TEST(DemoCli, PotDemoMapsAnotherTown) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string out = test::temp_dir("demo-pot") + "/p";
+  const test::CliResult r =
+      test::run_cli("demo --scans 10 --json - --res 1 --out " + test::quoted(out), "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["source"], "town1");
+  EXPECT_EQ(j["target"], "town2");
+  EXPECT_EQ(j["target_scans"], 10);
+  EXPECT_GT(j["atoms"].get<int>(), 10);
+  for (const char* m : {"pot", "repot"}) {
+    const auto& o = j[m]["overall"];
+    EXPECT_GT(o["acc"].get<double>(), 0.93) << m;
+    EXPECT_GT(o["auc"].get<double>(), 0.85) << m;
+    EXPECT_LT(o["nll"].get<double>(), 0.4) << m;
+    EXPECT_GT(o["points"].get<int>(), 10000) << m;
+    EXPECT_EQ(j[m]["scans"], 10);
+    EXPECT_GT(j[m]["overall_kernels"].get<int>(), 1000) << m;
+  }
+  // RePOT refines with the scans' own training beams: its held-out NLL is not worse.
+  EXPECT_LE(j["repot"]["overall"]["nll"].get<double>(), j["pot"]["overall"]["nll"].get<double>());
+  for (const char* f :
+       {"_town.png", "_repot_prob.png", "_repot_var.png", "_repot_kernels.png", "_repot.potmap"})
+    EXPECT_GT(fs::file_size(out + f), 500u) << f;
+}
+
+TEST(DemoCli, PotDemoRejectsABadMethod) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const test::CliResult r = test::run_cli("demo --method sinkhorn --scans 1", "2>&1");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("--method"), std::string::npos) << r.out;
 }

@@ -72,8 +72,9 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
   dopt.source = a.source;
   build_dictionary(source.scans, source_map, dopt, dict);
   if (dict.empty()) throw Error("demo: the source scans gave no atoms");
-  std::fprintf(human, "dictionary     %zu atoms from %zu scans of %s (BHM source map, %zu kernels; "
-                      "%.1f s)\n",
+  std::fprintf(human,
+               "dictionary     %zu atoms from %zu scans of %s (BHM source map, %zu kernels; "
+               "%.1f s)\n",
                dict.size(), source.scans.size(), a.source.c_str(), source_map.size(),
                seconds_since(t0));
 

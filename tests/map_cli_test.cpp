@@ -1,0 +1,69 @@
+// `potmap map` end to end: simulate -> learn bhm -> dict build -> map, as a user would.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+
+#include "potmap/map_io.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+using namespace potmap;
+
+namespace {
+
+void must(const std::string& args) {
+  const test::CliResult r = test::run_cli(args, "2>&1");
+  ASSERT_EQ(r.status, 0) << args << "\n" << r.out;
+}
+
+}  // namespace
+
+TEST(MapCli, MapsAnotherTownWithADictionary) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("map-cli");
+  const std::string q = test::quoted(d);
+  must("data simulate --town town1 --seed 1 --scans 4 --spacing 3 --out " + q + "/src");
+  must("learn bhm " + q + "/src/train.csv -o " + q + "/src.potmap --gamma 4 --sequential");
+  must("dict build --scans " + q + "/src/scans.log --map " + q + "/src.potmap --out " + q +
+       "/d.potdict");
+  must("data simulate --town town2 --seed 7 --scans 3 --spacing 3 --out " + q + "/tgt");
+  const test::CliResult r =
+      test::run_cli("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+                        "/m.potmap --refine --rotations 4 --instantaneous " + q +
+                        "/inst --picture " + q + "/pic --res 1 --json -",
+                    "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["method"], "RePOT");
+  EXPECT_EQ(j["scans"], 3);
+  const KernelMap m = read_map(d + "/m.potmap");
+  EXPECT_EQ(m.size(), j["overall_kernels"].get<std::size_t>());
+  EXPECT_GT(m.size(), 100u);
+  for (int i = 0; i < 3; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/inst/scan_%06d.potmap", i);
+    EXPECT_GT(read_map(d + name).size(), 0u) << name;
+  }
+  for (const char* f : {"/pic_prob.png", "/pic_var.png", "/pic_kernels.png"})
+    EXPECT_TRUE(fs::exists(d + f)) << f;
+  for (const char* k : {"ranking", "transport", "placement", "refine"})
+    EXPECT_GE(j["ms_per_scan"][k].get<double>(), 0) << k;
+  EXPECT_GT(j["ms_per_scan"]["refine"].get<double>(), 0);
+  const double acc = j["overall"]["acc"].get<double>();
+  EXPECT_TRUE(acc > 0.5 && acc <= 1) << acc;
+}
+
+TEST(MapCli, ClearErrors) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("map-cli-errors");
+  const std::string q = test::quoted(d);
+  test::CliResult r =
+      test::run_cli("map --dict " + q + "/none.potdict --scans x.log --out " + q + "/m.potmap");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("none.potdict"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(d + "/m.potmap"));
+  r = test::run_cli("map --help");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.out.find("--refine"), std::string::npos);
+}
