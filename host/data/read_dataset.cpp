@@ -1,5 +1,7 @@
 // Picks a reader by file name.
 #include <algorithm>
+#include <cstdio>
+#include <filesystem>
 
 #include "potmap/error.hpp"
 #include "potmap/labelled_points.hpp"
@@ -23,6 +25,26 @@ Dataset read_dataset(const std::string& path) {
   if (ends_with(base, ".bin")) {
     const bool nus = lower.find("nuscenes") != std::string::npos;
     return read_velodyne_dataset(path, nus ? 5 : 4, nus ? 110 : 120);
+  }
+  if (ends_with(base, "poses.txt")) {
+    // A KITTI odometry sequence: velodyne/NNNNNN.bin frames beside poses.txt and calib.txt.
+    const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    const auto poses = read_kitti_poses(path, (dir / "calib.txt").string());
+    Dataset ds;
+    ds.scans.reserve(poses.size());
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      char name[32];
+      std::snprintf(name, sizeof name, "%06zu.bin", i);
+      const std::filesystem::path frame = dir / "velodyne" / name;
+      if (!std::filesystem::exists(frame))
+        throw InputError(path + ": line " + std::to_string(i + 1) + " has no frame " +
+                         frame.string());
+      Scan scan = read_kitti_bin(frame.string());
+      apply_pose(scan, poses[i]);
+      scan.timestamp = static_cast<double>(i);
+      ds.scans.push_back(std::move(scan));
+    }
+    return ds;
   }
   if (ends_with(base, ".npz")) {
     LabelledPoints lp = read_npz_labelled(path);

@@ -1,5 +1,6 @@
 #include "potmap/mapper.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <future>
 #include <string>
@@ -15,6 +16,23 @@ struct Prepared {
   LabelledPoints test;
 };
 
+void within_range(LabelledPoints& lp, const std::array<double, 3>& sensor, double range) {
+  const int d = lp.dim;
+  const double r2 = range * range;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < lp.size(); ++i) {
+    const double dx = lp.position[i * d] - sensor[0], dy = lp.position[i * d + 1] - sensor[1];
+    if (dx * dx + dy * dy > r2) continue;
+    std::copy(&lp.position[i * d], &lp.position[i * d] + d, &lp.position[k * d]);
+    lp.label[k] = lp.label[i];
+    lp.scan[k] = lp.scan[i];
+    ++k;
+  }
+  lp.position.resize(k * d);
+  lp.label.resize(k);
+  lp.scan.resize(k);
+}
+
 Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const MapperOptions& o) {
   if (scan.dim != dict.dim)
     throw ArgumentError("map_scans: scan " + std::to_string(i) + " is " + std::to_string(scan.dim) +
@@ -22,7 +40,13 @@ Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const 
   const auto t0 = std::chrono::steady_clock::now();
   LabelledSplit split;
   label_scan(scan, static_cast<std::int64_t>(i), o.labels, split);
-  if (split.train.empty()) split.train.dim = scan.dim;
+  split.train.dim = split.test.dim = scan.dim;
+  // Samples beyond the sector radius can be neither transported nor refined, and no kernel
+  // reaches them: a long-range sensor (KITTI's 120 m) would only pay for them.
+  const double range = o.pot.max_range > 0 ? o.pot.max_range : dict.max_range;
+  const auto sensor = scan.origin();
+  within_range(split.train, sensor, range);
+  within_range(split.test, sensor, range);
   Prepared p;
   p.transfer = prepare_transfer(dict, std::move(split.train), scan.origin(), scan_heading(scan),
                                 static_cast<std::int64_t>(i), o.pot);

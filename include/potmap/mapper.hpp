@@ -26,7 +26,10 @@ struct MapperOptions {
 struct MappedScan {
   std::size_t index = 0;  ///< position in the input
   ScanTransfer transfer;  ///< instantaneous map, per-sector choices, stage timings
-  LabelledPoints test;    ///< the scan's held-out samples (never used for transport)
+  /// The scan's held-out samples (never used for transport) within the sector radius of the
+  /// sensor (PotOptions::max_range, else the dictionary's): no transported kernel reaches
+  /// farther, so samples beyond are not mapped, neither held out nor used for training.
+  LabelledPoints test;
   double wall_ms = 0;     ///< wall-clock time from the start of its solve to the callback
 };
 

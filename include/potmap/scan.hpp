@@ -85,8 +85,9 @@ std::vector<Scan> scans_from_labelled(const LabelledPoints& points, double max_r
 LabelledPoints read_npz_labelled(const std::string& path);
 
 /// Reads any supported file by its name: *.log[.gz] CARMEN, *.bin KITTI (4 floats) or nuScenes
-/// (5 floats, name containing "nuscenes"), *.npz labelled samples (*.csv once the io branch's
-/// read_labelled_csv is merged).
+/// (5 floats, name containing "nuscenes"), a KITTI odometry sequence by its poses.txt
+/// (velodyne/NNNNNN.bin and calib.txt beside it; frames moved into the world frame, max range
+/// 120 m), *.npz and *.csv labelled samples.
 Dataset read_dataset(const std::string& path);
 
 }  // namespace potmap
