@@ -29,5 +29,6 @@ void register_raster(CLI::App& app, Runner& runner);
 void register_demo(CLI::App& app, Runner& runner);
 void register_learn(CLI::App& app, Runner& runner);
 void register_data(CLI::App& app, Runner& runner);
+void register_experiment(CLI::App& app, Runner& runner);
 
 }  // namespace potmap::cli

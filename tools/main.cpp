@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   potmap::cli::register_demo(app, runner);
   potmap::cli::register_learn(app, runner);
   potmap::cli::register_data(app, runner);
+  potmap::cli::register_experiment(app, runner);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
