@@ -115,7 +115,8 @@ def main():
         "drawn with the run's seed, never used for learning. ± is the standard deviation over",
         "seeds (instantaneous maps: over scans and seeds). Times are wall-clock per target scan",
         "of learning only (querying the held-out samples is not included). NLL clips p to",
-        "[1e-6, 1 - 1e-6].",
+        "[1e-6, 1 - 1e-6]. The 2 cores were shared with other jobs while these ran, so times",
+        "are noisy: compare orders of magnitude, not digits.",
         "",
         "POT and RePOT rows are not here yet: they are added when the transfer (issue #6) lands.",
         "Baselines (OGM, BHM, ABHM) learn on the target's own training beams and do not use the",
@@ -134,6 +135,10 @@ def main():
         lines.append(table_md(d))
         lines.append("")
         figs = figures_md(d, md_dir)
+        if not figs and d["experiment"] in ("inter-domain", "sim-to-real"):
+            lines.append("Figures of these runs are not kept: the baselines' maps of a target "
+                         "are those of the intra-domain figures (same learners, same target log).")
+            lines.append("")
         if figs:
             lines.append("Figures (first seed; probability, variance, kernels coloured by log "
                          "width):")
@@ -141,6 +146,25 @@ def main():
             lines.append(figs)
             lines.append("")
         if d["experiment"] == "per-time-unit":
+            budget = d["settings"].get("budget_ms")
+            seen = set()
+            notes = []
+            for r in d["runs"]:
+                key = (r["target"], r["method"])
+                if "budget" not in r["method"] or key in seen:
+                    continue
+                seen.add(key)
+                row = next(t for t in d["table"] if t["target"] == r["target"]
+                           and t["method"] == r["method"])
+                ms = row["ms_per_scan"]["mean"]
+                notes.append(f"{r['target']}: {r['method']} used {int(r['info']['kernels'])} "
+                             f"kernels and took {ms:.0f} ms/scan")
+            lines.append(f"Budget: {budget:g} ms per scan (a stand-in until POT's own time per "
+                         "scan is measured). The kernel counts come from timing probes before "
+                         "the runs (BHM on the first 10 scans, ABHM on 40 Adam steps), capped "
+                         "at 400,000 kernels; the measured times show how close they came: "
+                         + "; ".join(notes) + ".")
+            lines.append("")
             lines.append("The paper's Table VI on its Carla towns (their data and setup, not "
                          "reproduced here; copied from SPEC.md section 5) for reference:")
             lines.append("")
