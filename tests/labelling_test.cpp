@@ -143,3 +143,44 @@ TEST(Labelling, AbsurdRangeIsBoundedNotALongLoop) {
   label_scan(s, 0, o, out);
   EXPECT_EQ(out.train.size(), static_cast<std::size_t>(o.max_free_per_beam));
 }
+
+// The beams split_beams keeps are exactly those whose samples label_scan puts in train: the
+// hits of each part match point for point, and no-returns land on the right side too.
+TEST(Labelling, SplitBeamsAgreesWithLabelScan) {
+  Scan s = fan(60);
+  for (int i = 0; i < 15; ++i) {  // no-return beams as well
+    const double a = 0.1 + 0.4 * i;
+    s.no_return.push_back(std::cos(a));
+    s.no_return.push_back(std::sin(a));
+  }
+  LabelOptions o;
+  o.seed = 11;
+  LabelledSplit lab;
+  label_scan(s, 4, o, lab);
+  const Scan train = split_beams(s, 4, o);
+  const Scan held = split_beams(s, 4, o, true);
+  EXPECT_EQ(train.num_beams() + held.num_beams(), s.num_beams());
+  EXPECT_EQ(held.num_beams(), std::size_t(std::lround(0.2 * s.num_beams())));
+  const auto hits_of = [](const LabelledPoints& p) {
+    std::vector<double> h;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      if (p.label[i]) h.insert(h.end(), &p.position[2 * i], &p.position[2 * i] + 2);
+    return h;
+  };
+  EXPECT_EQ(hits_of(lab.train), train.hits);
+  EXPECT_EQ(hits_of(lab.test), held.hits);
+  // Free samples of a held-out no-return beam lie on its ray: count test free samples on the
+  // held-out no-return directions (10 m of 20 m... all 20 per beam at 1 per metre).
+  std::size_t free_on_held_rays = 0;
+  for (std::size_t i = 0; i < lab.test.size(); ++i) {
+    if (lab.test.label[i]) continue;
+    const double x = lab.test.position[2 * i] - 1, y = lab.test.position[2 * i + 1] - 2;
+    for (std::size_t b = 0; b < held.num_no_return(); ++b) {
+      const double ux = held.no_return[2 * b], uy = held.no_return[2 * b + 1];
+      if (std::abs(x * uy - y * ux) < 1e-9 && x * ux + y * uy > 0) ++free_on_held_rays;
+    }
+  }
+  EXPECT_EQ(free_on_held_rays, 20 * held.num_no_return());
+  const std::vector<std::uint8_t> flags = heldout_beams(s, 4, o);
+  EXPECT_EQ(flags.size(), s.num_beams());
+}

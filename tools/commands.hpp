@@ -31,5 +31,6 @@ void register_learn(CLI::App& app, Runner& runner);
 void register_data(CLI::App& app, Runner& runner);
 void register_map(CLI::App& app, Runner& runner);
 void register_dict(CLI::App& app, Runner& runner);
+void register_experiment(CLI::App& app, Runner& runner);
 
 }  // namespace potmap::cli

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   potmap::cli::register_data(app, runner);
   potmap::cli::register_map(app, runner);
   potmap::cli::register_dict(app, runner);
+  potmap::cli::register_experiment(app, runner);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

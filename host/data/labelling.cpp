@@ -19,7 +19,55 @@ void push(LabelledPoints& lp, const double* p, int d, std::uint8_t y, std::int64
   lp.scan.push_back(t);
 }
 
+// The generator of one scan: the split is its first use, the free samples follow.
+Rng split_rng(std::int64_t scan_index, const LabelOptions& o) {
+  Rng rng{o.seed * 0x2545f4914f6cdd1dULL ^ static_cast<std::uint64_t>(scan_index)};
+  rng.next();
+  return rng;
+}
+
+// Beam-level split: exactly round(fraction * beams) beams, by a partial Fisher-Yates shuffle.
+std::vector<std::uint8_t> draw_split(std::size_t nb, const LabelOptions& o, Rng& rng) {
+  std::vector<std::uint8_t> held(nb, 0);
+  const std::size_t nheld = static_cast<std::size_t>(std::lround(o.holdout_fraction * nb));
+  if (nheld > 0) {
+    std::vector<std::uint32_t> idx(nb);
+    std::iota(idx.begin(), idx.end(), 0u);
+    for (std::size_t i = 0; i < nheld; ++i) {
+      std::swap(idx[i], idx[i + rng.below(nb - i)]);
+      held[idx[i]] = 1;
+    }
+  }
+  return held;
+}
+
 }  // namespace
+
+std::vector<std::uint8_t> heldout_beams(const Scan& scan, std::int64_t scan_index,
+                                        const LabelOptions& o) {
+  if (!(o.holdout_fraction >= 0 && o.holdout_fraction <= 1))
+    throw ArgumentError("heldout_beams: holdout_fraction must be in [0, 1]");
+  Rng rng = split_rng(scan_index, o);
+  return draw_split(scan.num_beams(), o, rng);
+}
+
+Scan split_beams(const Scan& scan, std::int64_t scan_index, const LabelOptions& o, bool held_out) {
+  const std::vector<std::uint8_t> held = heldout_beams(scan, scan_index, o);
+  Scan out = scan;
+  out.hits.clear();
+  out.no_return.clear();
+  const int d = scan.dim;
+  const std::size_t nh = scan.num_hits();
+  for (std::size_t b = 0; b < held.size(); ++b) {
+    if (static_cast<bool>(held[b]) != held_out) continue;
+    if (b < nh)
+      out.hits.insert(out.hits.end(), &scan.hits[b * d], &scan.hits[b * d] + d);
+    else
+      out.no_return.insert(out.no_return.end(), &scan.no_return[(b - nh) * d],
+                           &scan.no_return[(b - nh) * d] + d);
+  }
+  return out;
+}
 
 void label_scan(const Scan& scan, std::int64_t scan_index, const LabelOptions& o,
                 LabelledSplit& out) {
@@ -34,19 +82,8 @@ void label_scan(const Scan& scan, std::int64_t scan_index, const LabelOptions& o
   }
   const std::size_t nh = scan.num_hits(), nb = scan.num_beams();
   if (nb == 0) return;
-  Rng rng{o.seed * 0x2545f4914f6cdd1dULL ^ static_cast<std::uint64_t>(scan_index)};
-  rng.next();
-  // Beam-level split: exactly round(fraction * beams) beams, by a partial Fisher-Yates shuffle.
-  std::vector<std::uint8_t> held(nb, 0);
-  const std::size_t nheld = static_cast<std::size_t>(std::lround(o.holdout_fraction * nb));
-  if (nheld > 0) {
-    std::vector<std::uint32_t> idx(nb);
-    std::iota(idx.begin(), idx.end(), 0u);
-    for (std::size_t i = 0; i < nheld; ++i) {
-      std::swap(idx[i], idx[i + rng.below(nb - i)]);
-      held[idx[i]] = 1;
-    }
-  }
+  Rng rng = split_rng(scan_index, o);
+  const std::vector<std::uint8_t> held = draw_split(nb, o, rng);
   const auto org = scan.origin();
   const double rmax = scan.max_range > 0 ? scan.max_range : HUGE_VAL;
   double end[3], q[3], dir[3];

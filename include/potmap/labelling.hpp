@@ -2,6 +2,7 @@
 // Labelled samples from scans (SPEC section 1, paper Sec. II-A) and the beam-level hold-out split.
 
 #include <cstdint>
+#include <vector>
 
 #include "potmap/labelled_points.hpp"
 #include "potmap/scan.hpp"
@@ -33,6 +34,19 @@ struct LabelledSplit {
 /// An empty scan gives empty outputs. Appends to `out` (whose dim must match or be empty).
 void label_scan(const Scan& scan, std::int64_t scan_index, const LabelOptions& options,
                 LabelledSplit& out);
+
+/// Which beams label_scan holds out for this scan, index and options: one flag per beam, hits
+/// first (in scan.hits order), then no-returns (in scan.no_return order); 1 = held out. The same
+/// draw label_scan makes, so the two always agree.
+std::vector<std::uint8_t> heldout_beams(const Scan& scan, std::int64_t scan_index,
+                                        const LabelOptions& options);
+
+/// The scan with only its training beams (`held_out` false, default) or only its held-out beams
+/// (`held_out` true) under the split of label_scan; pose, timestamp and max_range unchanged.
+/// Methods that consume beams rather than samples (an occupancy grid carving free space along
+/// rays) use it so that no held-out beam ever reaches them.
+Scan split_beams(const Scan& scan, std::int64_t scan_index, const LabelOptions& options,
+                 bool held_out = false);
 
 /// Convenience: labels every scan of a dataset (scan index = position in the vector).
 LabelledSplit label_scans(const std::vector<Scan>& scans, const LabelOptions& options = {});

@@ -1,0 +1,135 @@
+// The baselines of the experiments: occupancy grid (OctoMap), online BHM, offline ABHM.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "potmap/error.hpp"
+#include "potmap/evaluate.hpp"
+#include "potmap/experiment.hpp"
+
+namespace potmap::experiment {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+double task_volume(const MapTask& t) {
+  double v = 1;
+  for (int k = 0; k < t.dim; ++k) v *= std::max(t.hi[k] - t.lo[k], 1e-3);
+  return v;
+}
+
+}  // namespace
+
+FittedMap kernel_fitted_map(Context* ctx, std::shared_ptr<const KernelMap> map) {
+  FittedMap f;
+  f.kernels = map;
+  if (ctx) {
+    auto ev = std::make_shared<MapEvaluator>(*ctx, *map);
+    f.query = [ev](const double* pts, std::size_t n, double* prob, double* var) {
+      std::vector<float> p(n), v(n);
+      ev->evaluate(pts, n, nullptr, v.data(), p.data());
+      for (std::size_t i = 0; i < n; ++i) {
+        prob[i] = p[i];
+        if (var) var[i] = v[i];
+      }
+    };
+  } else {
+    f.query = [map](const double* pts, std::size_t n, double* prob, double* var) {
+      const MapValuesExact e = evaluate_exact(*map, pts, n);
+      for (std::size_t i = 0; i < n; ++i) {
+        prob[i] = e.prob[i];
+        if (var) var[i] = e.var[i];
+      }
+    };
+  }
+  return f;
+}
+
+Method ogm_method(double resolution) {
+  char name[64];
+  std::snprintf(name, sizeof name, "OGM %g m", resolution);
+  Method m;
+  m.name = name;
+  m.group = "OGM";
+  m.fit = [resolution](Context*, const MapTask& task) {
+    const auto t0 = std::chrono::steady_clock::now();
+    OgmOptions o;
+    o.resolution = resolution;
+    auto grid = std::make_shared<OccupancyGrid>(task.dim, o);
+    for (const Scan& s : task.train_scans) grid->insert(s);
+    FittedMap f;
+    f.fit_seconds = seconds_since(t0);
+    f.info["cell_m"] = resolution;
+    f.info["leaves"] = double(grid->leaf_count());
+    f.query = [grid](const double* pts, std::size_t n, double* prob, double* var) {
+      grid->probability(pts, n, prob);
+      if (var)
+        for (std::size_t i = 0; i < n; ++i) var[i] = std::numeric_limits<double>::quiet_NaN();
+    };
+    return f;
+  };
+  return m;
+}
+
+Method bhm_method(const BhmSetup& setup, const std::string& name) {
+  Method m;
+  m.name = m.group = name;
+  m.fit = [setup](Context* ctx, const MapTask& task) {
+    const auto t0 = std::chrono::steady_clock::now();
+    double spacing = setup.spacing;
+    if (setup.count > 0)
+      spacing = std::pow(task_volume(task) / double(setup.count), 1.0 / task.dim);
+    const double gamma = setup.gamma > 0 ? setup.gamma : 8.0 / (spacing * spacing);
+    auto map = std::make_shared<KernelMap>(bhm_grid_prior(task.dim, task.lo, task.hi, spacing,
+                                                          gamma, 0.0, setup.prior_var, setup.bias));
+    bhm_update_sequential(ctx, *map, task.train, setup.options);
+    const double secs = seconds_since(t0);
+    FittedMap f = kernel_fitted_map(ctx, map);
+    f.fit_seconds = secs;
+    f.info["kernels"] = double(map->size());
+    f.info["spacing_m"] = spacing;
+    f.info["gamma"] = gamma;
+    return f;
+  };
+  return m;
+}
+
+Method abhm_method(const AbhmSetup& setup, const std::string& name) {
+  Method m;
+  m.name = m.group = name;
+  m.fit = [setup](Context* ctx, const MapTask& task) {
+    const auto t0 = std::chrono::steady_clock::now();
+    AbhmParams p = abhm_init_halton(task.dim, task.lo, task.hi, setup.count, setup.gamma0);
+    AbhmOptions o;
+    o.steps = setup.steps;
+    o.batch = setup.batch;
+    o.seed = task.seed * 7919 + 1;
+    o.report_every = 0;
+    o.device = ctx;
+    abhm_train(p, task.train, o);
+    auto map = std::make_shared<KernelMap>(p.to_map());
+    const double secs = seconds_since(t0);
+    FittedMap f = kernel_fitted_map(ctx, map);
+    f.fit_seconds = secs;
+    f.info["kernels"] = double(map->size());
+    f.info["steps"] = double(setup.steps);
+    f.info["gamma0"] = setup.gamma0;
+    return f;
+  };
+  return m;
+}
+
+Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query_seconds) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<double> prob(test.size());
+  if (!test.empty()) map.query(test.position.data(), test.size(), prob.data(), nullptr);
+  if (query_seconds) *query_seconds = seconds_since(t0);
+  for (double& p : prob) p = std::min(1.0, std::max(0.0, p));  // float rounding past 1
+  return score(prob, test.label);
+}
+
+}  // namespace potmap::experiment

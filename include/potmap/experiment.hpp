@@ -1,0 +1,115 @@
+#pragma once
+// The mapping methods the experiments compare (paper Sec. IV), behind one interface so that every
+// method sees the same training data and is scored on the same held-out samples.
+//
+// A MapTask holds what a method may learn from: the target scans reduced to their training
+// beams, their training samples, the area, and (for transfer methods) source-domain scans. The
+// held-out samples are never part of it. Method::fit returns a FittedMap: a probability (and,
+// where the model has one, variance) evaluator plus the wall time learning took. Adding a method
+// is one more factory returning a Method.
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "potmap/abhm.hpp"
+#include "potmap/bhm.hpp"
+#include "potmap/context.hpp"
+#include "potmap/kernel_map.hpp"
+#include "potmap/labelled_points.hpp"
+#include "potmap/labelling.hpp"
+#include "potmap/metrics.hpp"
+#include "potmap/ogm.hpp"
+#include "potmap/scan.hpp"
+
+namespace potmap::experiment {
+
+/// What a method may learn from. Scan index t of a sample = first_index + position in
+/// train_scans.
+struct MapTask {
+  int dim = 2;
+  std::int64_t first_index = 0;
+  std::vector<Scan> source;  ///< source-domain scans, all beams (transfer methods); may be empty
+  std::vector<Scan> train_scans;  ///< target scans with only their training beams, in order
+  LabelledPoints train;           ///< labelled samples of those beams
+  double lo[3] = {0, 0, 0};       ///< area the map must cover, metres
+  double hi[3] = {0, 0, 0};
+  std::uint64_t seed = 0;  ///< for the method's own random choices
+};
+
+/// Labels `scans` with `labels` (holdout_fraction is what splits the beams) and builds the task
+/// from their training beams; the held-out samples go to `test`. Scan i is labelled with scan
+/// index first_index + i, so a sequence cut from a longer log keeps the log's split. The area is
+/// the bounds of the training samples, clipped to `area_margin` metres around the hits (far free
+/// samples of no-return beams would otherwise stretch it to the sensor's range).
+MapTask make_task(const std::vector<Scan>& scans, const LabelOptions& labels, LabelledPoints& test,
+                  double area_margin = 5.0, std::int64_t first_index = 0);
+
+/// A learned map as the evaluation sees it.
+struct FittedMap {
+  /// Probability at n points (n * dim coordinates) into prob; var, if not null, receives the
+  /// model's variance where it has one (NaN where it has none, e.g. an occupancy grid).
+  std::function<void(const double* points, std::size_t n, double* prob, double* var)> query;
+  /// The kernels, for kernel maps (figures); null for other models.
+  std::shared_ptr<const KernelMap> kernels;
+  double fit_seconds = 0;              ///< wall time of learning, all scans of the task
+  std::map<std::string, double> info;  ///< method-specific numbers (kernels, cell size, steps)
+};
+
+/// A mapping method.
+struct Method {
+  std::string name;   ///< row label, e.g. "BHM" or "OGM 0.5 m"
+  std::string group;  ///< methods of one group compete (OGM: best cell size); default = name
+  /// Whether fit reads task.source (transfer methods). The others give the same map whatever
+  /// the source, so a runner may fit them once per target.
+  bool uses_source = false;
+  /// Learns a map from the task. `ctx` may be null: CPU references where the method has them.
+  std::function<FittedMap(Context* ctx, const MapTask& task)> fit;
+};
+
+/// OctoMap occupancy grid with `resolution` metres cells; every training beam of every scan
+/// inserted in order (group "OGM").
+Method ogm_method(double resolution);
+
+/// BHM settings of the experiments: kernels on a grid over the task's area.
+struct BhmSetup {
+  double spacing = 1.0;   ///< grid spacing, metres
+  double gamma = 0;       ///< width, 1/m^2; 0: 8 / spacing^2 (as `potmap learn bhm`)
+  std::size_t count = 0;  ///< if > 0: spacing chosen to give about this many kernels
+  BhmOptions options;     ///< EM settings (default: 3 E-steps per scan)
+  double prior_var = 1e4;
+  /// A bias weight with the same prior (default true): without it the gaps between narrow
+  /// kernels sit at p = 0.5 exactly, which accuracy counts as occupied.
+  bool bias = true;
+};
+/// Online BHM: the posterior after one scan is the prior of the next (bhm_update_sequential).
+Method bhm_method(const BhmSetup& setup, const std::string& name = "BHM");
+
+/// ABHM settings: Halton kernels over the task's area, trained offline on all training samples.
+struct AbhmSetup {
+  std::size_t count = 1000;  ///< kernels
+  double gamma0 = 1.0;       ///< starting width, 1/m^2
+  std::size_t steps = 2450;  ///< Adam steps
+  std::size_t batch = 256;   ///< samples per step
+};
+Method abhm_method(const AbhmSetup& setup, const std::string& name = "ABHM");
+
+/// A kernel map as a FittedMap (device evaluator when ctx is given, exact CPU sum otherwise).
+FittedMap kernel_fitted_map(Context* ctx, std::shared_ptr<const KernelMap> map);
+
+/// Scores a fitted map on labelled points; query_seconds receives the wall time of the query.
+Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query_seconds = nullptr);
+
+/// Figures of a fitted map over [lo, hi] (x, y; metres), at most max_pixels along the longer
+/// side: PREFIX_prob.png (viridis), PREFIX_var.png (variance as raster.hpp colours it; only when
+/// the model has one) and, for kernel maps, PREFIX_kernels.png (each kernel a dot at its
+/// position coloured by log10 gamma, viridis from the smallest to the largest width). Returns
+/// the files written.
+std::vector<std::string> write_figures(const FittedMap& map, const double lo[3], const double hi[3],
+                                       const std::string& prefix, std::size_t max_pixels = 400);
+
+}  // namespace potmap::experiment

@@ -1,0 +1,306 @@
+// `potmap experiment intra|inter|sim2real|dynamic|per-time`: the paper's comparisons (Sec. IV,
+// Tables III to VI) on any dataset a reader takes, every method scored on the same held-out beams.
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <memory>
+
+#include "commands.hpp"
+#include "experiment_runner.hpp"
+#include "potmap/error.hpp"
+
+namespace potmap::cli {
+
+namespace {
+
+using exp::Harness;
+using exp::Settings;
+
+void add_common(CLI::App* cmd, Settings& s) {
+  cmd->add_option(
+         "--seeds", s.seeds,
+         "Seeds of the beam split, free samples, simulated routes and ABHM (default 0 1 2)")
+      ->expected(1, -1);
+  cmd->add_option("--scans", s.scans, "Use at most this many scans of each dataset (0: all)");
+  cmd->add_option("--methods", s.methods, "Comma-separated: ogm, bhm, abhm")->capture_default_str();
+  cmd->add_option("--ogm-cells", s.ogm_cells, "OGM cell sizes, metres; the best by AUC is reported")
+      ->expected(1, -1)
+      ->capture_default_str();
+  cmd->add_option("--bhm-spacing", s.bhm.spacing, "BHM kernel grid spacing, metres")
+      ->capture_default_str();
+  cmd->add_option("--bhm-em", s.bhm.options.em_iterations, "BHM E-steps per scan")
+      ->capture_default_str();
+  cmd->add_option("--bhm-bias", s.bhm.bias, "BHM bias weight (true/false)")->capture_default_str();
+  cmd->add_option("--abhm-kernels", s.abhm.count, "ABHM kernels (Halton over the area)")
+      ->capture_default_str();
+  cmd->add_option("--abhm-steps", s.abhm.steps, "ABHM Adam steps")->capture_default_str();
+  cmd->add_option("--abhm-gamma0", s.abhm.gamma0, "ABHM starting kernel width, 1/m^2")
+      ->capture_default_str();
+  cmd->add_option("--sim-scans", s.sim_scans, "Scans of each simulated drive (sim:TOWN)")
+      ->capture_default_str();
+  cmd->add_option("--sim-spacing", s.sim_spacing, "Metres between simulated scans")
+      ->capture_default_str();
+  cmd->add_option("--free-per-metre", s.free_per_metre, "Free samples per metre of beam")
+      ->capture_default_str();
+  cmd->add_option("--json", s.json, "Write the results as JSON to this file ('-': stdout)");
+  cmd->add_option("--figures", s.figures,
+                  "Folder for PNG figures (probability, variance, kernels by width) of the "
+                  "first seed");
+  cmd->add_option("--figure-pixels", s.figure_pixels, "Longer side of a figure, pixels")
+      ->capture_default_str();
+  cmd->add_flag("--cpu", s.cpu, "CPU references instead of OpenCL for the kernel maps");
+  cmd->add_option("--device", s.device, "OpenCL device (substring of its name)");
+}
+
+constexpr const char* kDatasetHelp =
+    "Datasets: files any reader takes (CARMEN .log[.gz], ...) or sim:TOWN[+TOWN] for built-in "
+    "simulated towns (town1, town2, town3)";
+
+std::vector<Scan> slice(const std::vector<Scan>& v, std::size_t a, std::size_t b) {
+  a = std::min(a, v.size());
+  b = std::min(b, v.size());
+  return std::vector<Scan>(v.begin() + a, v.begin() + b);
+}
+
+// Per-time-unit: the kernel count at which a learner's time per scan matches the budget. Time
+// grows about linearly with kernels at a fixed width; two corrections on measured times.
+std::size_t match_budget(const std::function<double(std::size_t)>& ms_per_scan, std::size_t start,
+                         double budget_ms) {
+  auto clampc = [](double c) { return std::size_t(std::clamp(c, 16.0, 4e5)); };
+  std::size_t c0 = start;
+  double t0 = ms_per_scan(c0);
+  std::size_t c1 = clampc(c0 * budget_ms / std::max(t0, 1e-6));
+  if (c1 == c0) return c0;
+  double t1 = ms_per_scan(c1);
+  double slope = std::log(t1 / t0) / std::log(double(c1) / double(c0));
+  if (!std::isfinite(slope)) slope = 1;
+  slope = std::clamp(slope, 0.2, 2.0);
+  const std::size_t c2 = clampc(c1 * std::pow(budget_ms / std::max(t1, 1e-6), 1.0 / slope));
+  std::cerr << "potmap:   calibration " << c0 << " kernels " << t0 << " ms/scan, " << c1 << " -> "
+            << t1 << " ms/scan; chose " << c2 << "\n";
+  return c2;
+}
+
+}  // namespace
+
+void register_experiment(CLI::App& app, Runner& runner) {
+  CLI::App* ex = app.add_subcommand(
+      "experiment",
+      "The paper's experiments: OGM (OctoMap), BHM and ABHM scored on the same held-out beams "
+      "(20 % per scan), tables of ACC, AUC, NLL and time per scan, JSON and figures");
+  ex->require_subcommand(1);
+
+  // --- intra ---
+  {
+    CLI::App* c = ex->add_subcommand(
+        "intra",
+        "Intra-domain: the first --source-scans scans are the source, the rest the target");
+    auto s = std::make_shared<Settings>();
+    auto data = std::make_shared<std::vector<std::string>>();
+    c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(1, -1);
+    c->add_option("--source-scans", s->source_scans, "Scans forming the source")
+        ->capture_default_str();
+    add_common(c, *s);
+    c->callback([&runner, s, data] {
+      runner.action = [s, data] {
+        Harness h("intra-domain", *s);
+        const auto methods = h.methods();
+        bool warm = false;
+        for (const std::string& d : *data)
+          for (std::uint64_t seed : s->seeds) {
+            const auto scans = h.load(d, seed);
+            if (scans.size() <= s->source_scans)
+              throw InputError(d + ": " + std::to_string(scans.size()) + " scans, need more than " +
+                               std::to_string(s->source_scans));
+            if (!warm) h.warm_up(scans), warm = true;
+            const std::string l = Harness::label(d);
+            h.run_case(l, slice(scans, 0, s->source_scans), l,
+                       slice(scans, s->source_scans, scans.size()), std::int64_t(s->source_scans),
+                       seed, methods);
+          }
+        h.finish("seeds");
+        return 0;
+      };
+    });
+  }
+
+  // --- inter ---
+  {
+    CLI::App* c = ex->add_subcommand(
+        "inter", "Inter-domain: source A, target B, for every ordered pair of the datasets");
+    auto s = std::make_shared<Settings>();
+    auto data = std::make_shared<std::vector<std::string>>();
+    c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(2, -1);
+    add_common(c, *s);
+    c->callback([&runner, s, data] {
+      runner.action = [s, data] {
+        Harness h("inter-domain", *s);
+        const auto methods = h.methods();
+        bool warm = false;
+        for (std::uint64_t seed : s->seeds)
+          for (const std::string& a : *data)
+            for (const std::string& b : *data) {
+              if (a == b) continue;
+              const auto src = h.load(a, seed);
+              const auto dst = h.load(b, seed);
+              if (!warm) h.warm_up(dst), warm = true;
+              h.run_case(Harness::label(a), src, Harness::label(b), dst, 0, seed, methods);
+            }
+        h.finish("seeds");
+        return 0;
+      };
+    });
+  }
+
+  // --- sim2real ---
+  {
+    CLI::App* c = ex->add_subcommand(
+        "sim2real", "Sim-to-real: source the built-in simulated towns, target real logs");
+    auto s = std::make_shared<Settings>();
+    auto data = std::make_shared<std::vector<std::string>>();
+    auto towns = std::make_shared<std::string>("town1+town2+town3");
+    c->add_option("TARGETS", *data, "Real logs (any reader's format)")->required()->expected(1, -1);
+    c->add_option("--towns", *towns, "Simulated source towns, joined by +")->capture_default_str();
+    add_common(c, *s);
+    c->callback([&runner, s, data, towns] {
+      runner.action = [s, data, towns] {
+        Harness h("sim-to-real", *s);
+        const auto methods = h.methods();
+        bool warm = false;
+        for (std::uint64_t seed : s->seeds) {
+          const std::string src_spec = "sim:" + *towns;
+          const auto src = h.load(src_spec, seed);
+          for (const std::string& b : *data) {
+            const auto dst = h.load(b, seed);
+            if (!warm) h.warm_up(dst), warm = true;
+            h.run_case(src_spec, src, Harness::label(b), dst, 0, seed, methods);
+          }
+        }
+        h.finish("seeds");
+        return 0;
+      };
+    });
+  }
+
+  // --- dynamic ---
+  {
+    CLI::App* c = ex->add_subcommand(
+        "dynamic",
+        "Instantaneous maps in a dynamic scene (Table V): each scan mapped on its own, mean and "
+        "sd over scans (and seeds)");
+    auto s = std::make_shared<Settings>();
+    s->sim_scans = 50;
+    auto data = std::make_shared<std::vector<std::string>>();
+    auto sources = std::make_shared<std::vector<std::string>>(
+        std::vector<std::string>{"sim:town1", "sim:town2", "sim:town3"});
+    c->add_option("TARGETS", *data, "Target scenes (default simdyn:town1, Town 1 with traffic)");
+    c->add_option("--sources", *sources, "Source datasets, one table row each")
+        ->expected(1, -1)
+        ->capture_default_str();
+    c->add_option("--moving", s->moving, "Moving vehicles in simdyn: scenes")
+        ->capture_default_str();
+    add_common(c, *s);
+    c->callback([&runner, s, data, sources] {
+      runner.action = [s, data, sources] {
+        if (data->empty()) data->push_back("simdyn:town1");
+        Harness h("dynamic", *s);
+        const auto methods = h.methods();
+        bool warm = false;
+        for (std::uint64_t seed : s->seeds)
+          for (const std::string& b : *data) {
+            const auto dst = h.load(b, seed);
+            if (!warm) h.warm_up(dst), warm = true;
+            for (const std::string& a : *sources)
+              h.run_instantaneous(Harness::label(a), h.load(a, seed), Harness::label(b), dst, seed,
+                                  methods);
+          }
+        h.finish("scans and seeds");
+        return 0;
+      };
+    });
+  }
+
+  // --- per-time ---
+  {
+    CLI::App* c = ex->add_subcommand(
+        "per-time",
+        "Per time unit (Table VI): BHM and ABHM with kernel counts matched to a time budget per "
+        "scan, beside their defaults and OGM");
+    auto s = std::make_shared<Settings>();
+    auto data = std::make_shared<std::vector<std::string>>();
+    c->add_option("TARGETS", *data, kDatasetHelp)->required()->expected(1, -1);
+    c->add_option("--budget-ms", s->budget_ms,
+                  "Time per scan the matched BHM and ABHM may take, milliseconds (the paper: "
+                  "POT's time per scan)")
+        ->capture_default_str();
+    add_common(c, *s);
+    c->callback([&runner, s, data] {
+      runner.action = [s, data] {
+        Harness h("per-time-unit", *s);
+        const auto base = h.methods();
+        const std::string list = "," + s->methods + ",";
+        const bool want_bhm = list.find(",bhm,") != std::string::npos;
+        const bool want_abhm = list.find(",abhm,") != std::string::npos;
+        for (const std::string& d : *data) {
+          const std::uint64_t seed0 = s->seeds.front();
+          const auto scans0 = h.load(d, seed0);
+          h.warm_up(scans0);
+          std::vector<experiment::Method> methods = base;
+          LabelOptions lo;
+          lo.seed = seed0;
+          lo.free_per_metre = s->free_per_metre;
+          lo.holdout_fraction = s->holdout;
+          LabelledPoints test;
+          const experiment::MapTask full = experiment::make_task(scans0, lo, test);
+          std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": matching "
+                    << s->budget_ms << " ms per scan\n";
+          if (want_bhm) {
+            // A fixed width (the default grid's) so that more kernels cost more time.
+            experiment::BhmSetup b = s->bhm;
+            b.gamma = b.gamma > 0 ? b.gamma : 8.0 / (b.spacing * b.spacing);
+            const auto prefix = slice(scans0, 0, 10);
+            LabelledPoints t2;
+            const experiment::MapTask small = experiment::make_task(prefix, lo, t2);
+            double vol = 1;
+            for (int k = 0; k < full.dim; ++k) vol *= full.hi[k] - full.lo[k];
+            const std::size_t start =
+                std::max<std::size_t>(16, std::size_t(vol / (b.spacing * b.spacing)));
+            b.count = match_budget(
+                [&](std::size_t n) {
+                  experiment::BhmSetup x = b;
+                  // Kernel density of the full area applied to the prefix's area.
+                  double v2 = 1;
+                  for (int k = 0; k < small.dim; ++k) v2 *= small.hi[k] - small.lo[k];
+                  x.count = std::max<std::size_t>(1, std::size_t(n * v2 / vol));
+                  const auto f = experiment::bhm_method(x).fit(h.context(), small);
+                  return 1e3 * f.fit_seconds / double(small.train_scans.size());
+                },
+                start, s->budget_ms);
+            methods.push_back(experiment::bhm_method(b, "BHM (budget)"));
+          }
+          if (want_abhm) {
+            experiment::AbhmSetup a = s->abhm;
+            const std::size_t probe = std::min<std::size_t>(a.steps, 40);
+            a.count = match_budget(
+                [&](std::size_t n) {
+                  experiment::AbhmSetup x = a;
+                  x.count = n;
+                  x.steps = probe;
+                  const auto f = experiment::abhm_method(x).fit(h.context(), full);
+                  return 1e3 * f.fit_seconds * double(a.steps) / double(probe) /
+                         double(full.train_scans.size());
+                },
+                s->abhm.count, s->budget_ms);
+            methods.push_back(experiment::abhm_method(a, "ABHM (budget)"));
+          }
+          for (std::uint64_t seed : s->seeds)
+            h.run_case("", {}, Harness::label(d), h.load(d, seed), 0, seed, methods);
+        }
+        h.finish("seeds");
+        return 0;
+      };
+    });
+  }
+}
+
+}  // namespace potmap::cli

@@ -1,0 +1,466 @@
+#include "experiment_runner.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "commands.hpp"
+#include "potmap/error.hpp"
+#include "potmap/simulator.hpp"
+#include "progress.hpp"
+
+namespace potmap::cli::exp {
+
+namespace fs = std::filesystem;
+using experiment::FittedMap;
+using experiment::MapTask;
+using experiment::Method;
+
+namespace {
+
+std::string slug(const std::string& s) {
+  std::string o;
+  for (char c : s) o += std::isalnum(static_cast<unsigned char>(c)) || c == '.' ? c : '-';
+  return o;
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, sep))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) {
+      const auto p = line.find(':');
+      return p == std::string::npos ? line : line.substr(p + 2);
+    }
+  return "unknown";
+}
+
+std::string command_line() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string out;
+  bool first = true;
+  for (const std::string& a : split(all, '\0')) {
+    std::string arg = first ? "potmap" : a;
+    first = false;
+    if (!out.empty()) out += ' ';
+    out += arg;
+  }
+  return out;
+}
+
+struct Stat {
+  double mean = NAN, sd = NAN;
+  std::size_t n = 0;
+};
+
+Stat stat(const std::vector<double>& v) {
+  Stat s;
+  double sum = 0;
+  for (double x : v)
+    if (std::isfinite(x)) {
+      sum += x;
+      ++s.n;
+    }
+  if (s.n == 0) return s;
+  s.mean = sum / s.n;
+  double ss = 0;
+  for (double x : v)
+    if (std::isfinite(x)) ss += (x - s.mean) * (x - s.mean);
+  s.sd = s.n > 1 ? std::sqrt(ss / (s.n - 1)) : 0.0;
+  return s;
+}
+
+nlohmann::json to_json(const Stat& s) {
+  nlohmann::json j;
+  j["mean"] = std::isfinite(s.mean) ? nlohmann::json(s.mean) : nlohmann::json();
+  j["sd"] = std::isfinite(s.sd) ? nlohmann::json(s.sd) : nlohmann::json();
+  j["n"] = s.n;
+  return j;
+}
+
+nlohmann::json finite_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
+
+}  // namespace
+
+Harness::Harness(std::string experiment, Settings settings)
+    : experiment_(std::move(experiment)), s_(std::move(settings)) {
+  if (s_.seeds.empty()) throw ArgumentError("--seeds: at least one seed");
+  if (!s_.figures.empty()) fs::create_directories(s_.figures);
+}
+
+Harness::~Harness() = default;
+
+Context* Harness::context() {
+  if (!ctx_made_) {
+    ctx_made_ = true;
+    if (!s_.cpu) ctx_ = std::make_unique<Context>(make_context(s_.device));
+  }
+  return ctx_.get();
+}
+
+std::string Harness::label(const std::string& spec) {
+  if (spec.rfind("sim", 0) == 0 && spec.find(':') != std::string::npos) return spec;
+  std::string stem = fs::path(spec).filename().string();
+  for (const char* ext : {".gz", ".log", ".bin", ".npz"})
+    if (stem.size() > std::strlen(ext) && stem.substr(stem.size() - std::strlen(ext)) == ext)
+      stem.resize(stem.size() - std::strlen(ext));
+  for (const char* suf : {"-corrected"})
+    if (stem.size() > std::strlen(suf) && stem.substr(stem.size() - std::strlen(suf)) == suf)
+      stem.resize(stem.size() - std::strlen(suf));
+  return stem;
+}
+
+std::vector<Scan> Harness::load(const std::string& spec, std::uint64_t seed) {
+  std::vector<Scan> scans;
+  const auto colon = spec.find(':');
+  const std::string kind = colon == std::string::npos ? "" : spec.substr(0, colon);
+  if (kind == "sim" || kind == "simdyn") {
+    for (const std::string& town : split(spec.substr(colon + 1), '+')) {
+      SimOptions o;
+      o.scans = s_.sim_scans;
+      o.spacing = s_.sim_spacing;
+      o.seed = seed;
+      if (kind == "simdyn") o.moving_vehicles = s_.moving;
+      if (s_.scans > 0) o.scans = std::min(o.scans, s_.scans);
+      Simulation sim = simulate(Town::builtin(town, 0), o);
+      for (Scan& sc : sim.scans) scans.push_back(std::move(sc));
+    }
+    return scans;
+  }
+  auto it = files_.find(spec);
+  if (it == files_.end()) {
+    Dataset ds = read_dataset(spec);
+    if (ds.scans.empty()) throw InputError(spec + ": no scans");
+    if (s_.scans > 0 && ds.scans.size() > s_.scans) ds.scans.resize(s_.scans);
+    it = files_.emplace(spec, std::move(ds.scans)).first;
+  }
+  return it->second;
+}
+
+std::vector<Method> Harness::methods() const {
+  std::vector<Method> out;
+  for (const std::string& m : split(s_.methods, ',')) {
+    if (m == "ogm") {
+      for (double c : s_.ogm_cells) out.push_back(experiment::ogm_method(c));
+    } else if (m == "bhm") {
+      out.push_back(experiment::bhm_method(s_.bhm));
+    } else if (m == "abhm") {
+      out.push_back(experiment::abhm_method(s_.abhm));
+    } else {
+      throw ArgumentError("--methods: unknown method '" + m + "' (ogm, bhm, abhm)");
+    }
+  }
+  return out;
+}
+
+Record Harness::fit_and_score(const Method& m, const MapTask& task, const LabelledPoints& test,
+                              bool figures, const std::string& case_label) {
+  FittedMap f = m.fit(context(), task);
+  Record r;
+  r.method = m.name;
+  r.group = m.group.empty() ? m.name : m.group;
+  r.seed = task.seed;
+  r.scans = task.train_scans.size();
+  r.fit_s = f.fit_seconds;
+  r.per_scan_ms = r.scans ? 1e3 * f.fit_seconds / double(r.scans) : NAN;
+  r.scores = experiment::score_map(f, test, &r.query_s);
+  r.info = f.info;
+  if (figures && !s_.figures.empty()) {
+    const std::string prefix =
+        (fs::path(s_.figures) / slug(experiment_ + "_" + case_label + "_" + m.name)).string();
+    r.figures = experiment::write_figures(f, task.lo, task.hi, prefix, s_.figure_pixels);
+  }
+  return r;
+}
+
+void Harness::run_case(const std::string& source_label, const std::vector<Scan>& source,
+                       const std::string& target_label, const std::vector<Scan>& target,
+                       std::int64_t first_index, std::uint64_t seed,
+                       const std::vector<Method>& methods) {
+  LabelOptions lo;
+  lo.seed = seed;
+  lo.free_per_metre = s_.free_per_metre;
+  lo.holdout_fraction = s_.holdout;
+  LabelledPoints test;
+  MapTask task = experiment::make_task(target, lo, test, 5.0, first_index);
+  task.seed = seed;
+  task.source = source;
+  const bool figs = seed == s_.seeds.front();
+  std::cerr << "potmap: " << experiment_ << " "
+            << (source_label.empty() ? "" : source_label + " -> ") << target_label << " seed "
+            << seed << ": " << target.size() << " scans, " << task.train.size() << " training and "
+            << test.size() << " held-out samples\n";
+  for (const Method& m : methods) {
+    const std::string key = target_label + "\n" + std::to_string(seed) + "\n" + m.name;
+    Record r;
+    auto hit = cache_.find(key);
+    if (!m.uses_source && hit != cache_.end()) {
+      r = hit->second.front();
+    } else {
+      r = fit_and_score(m, task, test, figs,
+                        m.uses_source ? source_label + "-" + target_label : target_label);
+      if (!m.uses_source) cache_[key] = {r};
+      std::fprintf(stderr, "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f  %.1f ms/scan\n",
+                   m.name.c_str(), r.scores.acc, r.scores.auc, r.scores.nll, r.per_scan_ms);
+    }
+    r.source = source_label;
+    r.target = target_label;
+    records_.push_back(r);
+  }
+}
+
+void Harness::run_instantaneous(const std::string& source_label, const std::vector<Scan>& source,
+                                const std::string& target_label, const std::vector<Scan>& target,
+                                std::uint64_t seed, const std::vector<Method>& methods) {
+  LabelOptions lo;
+  lo.seed = seed;
+  lo.free_per_metre = s_.free_per_metre;
+  lo.holdout_fraction = s_.holdout;
+  std::cerr << "potmap: " << experiment_ << " " << source_label << " -> " << target_label
+            << " seed " << seed << ": " << target.size() << " instantaneous maps\n";
+  std::vector<MapTask> tasks(target.size());
+  std::vector<LabelledPoints> tests(target.size());
+  for (std::size_t i = 0; i < target.size(); ++i) {
+    tasks[i] = experiment::make_task({target[i]}, lo, tests[i], 5.0, std::int64_t(i));
+    tasks[i].seed = seed;
+    tasks[i].source = source;
+  }
+  for (const Method& m : methods) {
+    const std::string key = "inst\n" + target_label + "\n" + std::to_string(seed) + "\n" + m.name;
+    auto hit = cache_.find(key);
+    std::vector<Record> recs;
+    if (!m.uses_source && hit != cache_.end()) {
+      recs = hit->second;
+    } else {
+      for (std::size_t i = 0; i < target.size(); ++i) {
+        // The figure is of the middle scan of the first seed.
+        const bool figs = seed == s_.seeds.front() && i == target.size() / 2;
+        Record r = fit_and_score(m, tasks[i], tests[i], figs,
+                                 m.uses_source ? source_label + "-" + target_label : target_label);
+        r.scan = long(i);
+        recs.push_back(std::move(r));
+      }
+      if (!m.uses_source) cache_[key] = recs;
+      std::vector<double> auc;
+      for (const Record& r : recs) auc.push_back(r.scores.auc);
+      std::fprintf(stderr, "potmap:   %-12s mean AUC %.3f over %zu scans\n", m.name.c_str(),
+                   stat(auc).mean, recs.size());
+    }
+    for (Record& r : recs) {
+      r.source = source_label;
+      r.target = target_label;
+      records_.push_back(std::move(r));
+    }
+  }
+}
+
+void Harness::warm_up(const std::vector<Scan>& scans) {
+  // The first OpenCL launch of a program builds it (seconds on PoCL): do that before anything
+  // is timed, on one scan, and throw the result away.
+  if (scans.empty() || !context()) return;
+  LabelOptions lo;
+  LabelledPoints test;
+  MapTask task = experiment::make_task({scans.front()}, lo, test);
+  experiment::AbhmSetup a = s_.abhm;
+  a.steps = 3;
+  a.count = std::min<std::size_t>(a.count, 64);
+  for (const Method& m : {experiment::bhm_method(s_.bhm), experiment::abhm_method(a)})
+    experiment::score_map(m.fit(context(), task), test);
+}
+
+void Harness::finish(const std::string& spread) {
+  // Cases in first-seen order; groups in method order.
+  std::vector<std::pair<std::string, std::string>> cases;
+  std::vector<std::string> groups;
+  for (const Record& r : records_) {
+    const auto c = std::make_pair(r.source, r.target);
+    if (std::find(cases.begin(), cases.end(), c) == cases.end()) cases.push_back(c);
+    if (std::find(groups.begin(), groups.end(), r.group) == groups.end()) groups.push_back(r.group);
+  }
+  nlohmann::json table = nlohmann::json::array();
+  std::set<std::string> losing_figures;
+  struct Cell {
+    Stat acc, auc, nll, ms;
+    std::string chosen;
+    bool present = false;
+  };
+  std::map<std::pair<std::size_t, std::size_t>, Cell> cells;
+  for (std::size_t ci = 0; ci < cases.size(); ++ci)
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      // Members of the group on this case; the best by mean AUC (then NLL) represents it, as
+      // the paper reports the best OGM cell size.
+      std::map<std::string, std::vector<const Record*>> members;
+      std::vector<std::string> order;
+      for (const Record& r : records_)
+        if (r.source == cases[ci].first && r.target == cases[ci].second && r.group == groups[gi]) {
+          if (!members.count(r.method)) order.push_back(r.method);
+          members[r.method].push_back(&r);
+        }
+      if (members.empty()) continue;
+      std::string best;
+      double best_auc = -1, best_nll = HUGE_VAL;
+      for (const std::string& name : order) {
+        std::vector<double> a, n;
+        for (const Record* r : members[name]) {
+          a.push_back(r->scores.auc);
+          n.push_back(r->scores.nll);
+        }
+        const double ma = stat(a).mean, mn = stat(n).mean;
+        const double key_a = std::isfinite(ma) ? ma : -1;
+        if (best.empty() || key_a > best_auc || (key_a == best_auc && mn < best_nll)) {
+          best = name;
+          best_auc = key_a;
+          best_nll = mn;
+        }
+      }
+      for (const std::string& name : order)
+        if (name != best)
+          for (const Record* r : members[name])
+            for (const std::string& f : r->figures) losing_figures.insert(f);
+      std::vector<double> acc, auc, nll, ms;
+      std::set<std::string> figs_of_best;
+      for (const Record* r : members[best]) {
+        acc.push_back(r->scores.acc);
+        auc.push_back(r->scores.auc);
+        nll.push_back(r->scores.nll);
+        ms.push_back(r->per_scan_ms);
+        for (const std::string& f : r->figures) figs_of_best.insert(f);
+      }
+      for (const std::string& f : figs_of_best) losing_figures.erase(f);
+      Cell& cell = cells[{ci, gi}];
+      cell = {stat(acc), stat(auc), stat(nll), stat(ms), best, true};
+      nlohmann::json row;
+      row["source"] = cases[ci].first;
+      row["target"] = cases[ci].second;
+      row["method"] = groups[gi];
+      row["chosen"] = best;
+      row["acc"] = to_json(cell.acc);
+      row["auc"] = to_json(cell.auc);
+      row["nll"] = to_json(cell.nll);
+      row["ms_per_scan"] = to_json(cell.ms);
+      row["figures"] = std::vector<std::string>(figs_of_best.begin(), figs_of_best.end());
+      table.push_back(row);
+    }
+  for (const std::string& f : losing_figures) fs::remove(f);
+
+  // The paper-style table: one block per metric, methods as rows, cases as columns.
+  std::ostringstream out;
+  out << experiment_ << " (mean ± sd over " << spread << "; held-out beams only)\n";
+  auto case_name = [&](std::size_t ci) {
+    const auto& [src, dst] = cases[ci];
+    return src.empty() || src == dst ? dst : src + "→" + dst;
+  };
+  const char* metric_names[] = {"ACC", "AUC", "NLL", "ms/scan"};
+  for (int mi = 0; mi < 4; ++mi) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%-8s %-16s", metric_names[mi], "method");
+    out << buf;
+    for (std::size_t ci = 0; ci < cases.size(); ++ci) {
+      std::snprintf(buf, sizeof buf, " %20s", case_name(ci).c_str());
+      out << buf;
+    }
+    out << "\n";
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      std::snprintf(buf, sizeof buf, "%-8s %-16s", "", groups[gi].c_str());
+      out << buf;
+      for (std::size_t ci = 0; ci < cases.size(); ++ci) {
+        auto it = cells.find({ci, gi});
+        std::string v = "-";
+        if (it != cells.end()) {
+          const Stat& s = mi == 0   ? it->second.acc
+                          : mi == 1 ? it->second.auc
+                          : mi == 2 ? it->second.nll
+                                    : it->second.ms;
+          if (mi == 3)
+            std::snprintf(buf, sizeof buf, "%.1f±%.1f", s.mean, s.sd);
+          else
+            std::snprintf(buf, sizeof buf, "%.3f±%.3f", s.mean, s.sd);
+          v = buf;
+        }
+        std::snprintf(buf, sizeof buf, " %20s", v.c_str());
+        out << buf;
+      }
+      out << "\n";
+    }
+  }
+  for (std::size_t ci = 0; ci < cases.size(); ++ci)
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      auto it = cells.find({ci, gi});
+      if (it != cells.end() && it->second.chosen != groups[gi])
+        out << case_name(ci) << ": " << groups[gi] << " is " << it->second.chosen
+            << " (best mean AUC of its group)\n";
+    }
+  // With the JSON on stdout the table goes to stderr, so that stdout parses.
+  (s_.json == "-" ? std::cerr : std::cout) << out.str() << std::flush;
+
+  if (s_.json.empty()) return;
+  nlohmann::json j;
+  j["experiment"] = experiment_;
+  j["command"] = command_line();
+  j["spread"] = spread;
+  j["machine"] = {{"cpu", cpu_model()}, {"hardware_threads", std::thread::hardware_concurrency()}};
+  j["device"] = ctx_ ? ctx_->info().summary() : std::string("CPU reference (no OpenCL)");
+  j["settings"] = {{"seeds", s_.seeds},
+                   {"scans_cap", s_.scans},
+                   {"source_scans", s_.source_scans},
+                   {"sim_scans", s_.sim_scans},
+                   {"methods", s_.methods},
+                   {"ogm_cells", s_.ogm_cells},
+                   {"bhm_spacing", s_.bhm.spacing},
+                   {"bhm_em", s_.bhm.options.em_iterations},
+                   {"abhm_kernels", s_.abhm.count},
+                   {"abhm_steps", s_.abhm.steps},
+                   {"free_per_metre", s_.free_per_metre},
+                   {"holdout", s_.holdout},
+                   {"budget_ms", s_.budget_ms}};
+  j["table"] = table;
+  nlohmann::json runs = nlohmann::json::array();
+  for (const Record& r : records_) {
+    nlohmann::json x;
+    x["source"] = r.source;
+    x["target"] = r.target;
+    x["method"] = r.method;
+    x["group"] = r.group;
+    x["seed"] = r.seed;
+    if (r.scan >= 0) x["scan"] = r.scan;
+    x["acc"] = finite_or_null(r.scores.acc);
+    x["auc"] = finite_or_null(r.scores.auc);
+    x["nll"] = finite_or_null(r.scores.nll);
+    x["n_test"] = r.scores.n;
+    x["scans"] = r.scans;
+    x["fit_s"] = r.fit_s;
+    x["ms_per_scan"] = finite_or_null(r.per_scan_ms);
+    x["query_s"] = r.query_s;
+    x["info"] = r.info;
+    runs.push_back(x);
+  }
+  j["runs"] = runs;
+  j["table_text"] = out.str();
+  if (s_.json == "-")
+    std::cout << j.dump(1) << "\n";
+  else
+    write_text_atomically(s_.json, j.dump(1) + "\n");
+}
+
+}  // namespace potmap::cli::exp

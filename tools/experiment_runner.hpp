@@ -1,0 +1,101 @@
+#pragma once
+// The machinery shared by the `potmap experiment` runners: datasets by name, the methods chosen on
+// the command line, one evaluation path for every (source, target, method, seed), aggregation,
+// the paper-style table and the JSON record.
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "potmap/context.hpp"
+#include "potmap/experiment.hpp"
+#include "potmap/scan.hpp"
+
+namespace potmap::cli::exp {
+
+struct Settings {
+  std::vector<std::uint64_t> seeds{0, 1, 2};
+  std::size_t scans = 0;          ///< cap on scans taken from each dataset (0: all)
+  std::size_t source_scans = 10;  ///< intra-domain: scans that form the source
+  std::size_t sim_scans = 200;    ///< scans of each simulated drive
+  double sim_spacing = 2.0;       ///< metres driven between simulated scans
+  int moving = 40;                ///< moving vehicles of the dynamic scene
+  std::string methods = "ogm,bhm,abhm";
+  std::vector<double> ogm_cells{0.1, 0.5, 1, 5, 10};
+  experiment::BhmSetup bhm;
+  experiment::AbhmSetup abhm;
+  double free_per_metre = 1.0;
+  double holdout = 0.2;
+  std::string json, figures;
+  std::size_t figure_pixels = 400;
+  bool cpu = false;
+  std::string device;
+  double budget_ms = 1000;  ///< per-time-unit: time per scan the matched learners get
+};
+
+/// One score of one method on one case (one seed; one scan for instantaneous maps).
+struct Record {
+  std::string source, target, method, group;
+  std::uint64_t seed = 0;
+  long scan = -1;  ///< instantaneous maps: the scan; -1 for a whole sequence
+  Scores scores;
+  std::size_t scans = 0;  ///< scans the method learned from
+  double fit_s = 0, per_scan_ms = 0, query_s = 0;
+  std::map<std::string, double> info;
+  std::vector<std::string> figures;
+};
+
+class Harness {
+ public:
+  Harness(std::string experiment, Settings settings);
+  ~Harness();
+  Settings& settings() { return s_; }
+  Context* context();
+
+  /// A dataset by name: a file any reader takes, or sim:TOWN[+TOWN...] (built-in towns driven
+  /// with this seed's route; simdyn:TOWN adds the moving vehicles). Capped by settings.scans.
+  std::vector<Scan> load(const std::string& spec, std::uint64_t seed);
+  /// Short label of a dataset name (file stem or the spec itself).
+  static std::string label(const std::string& spec);
+
+  /// The methods of settings.methods (ogm: one per cell size; bhm; abhm).
+  std::vector<experiment::Method> methods() const;
+
+  /// Maps `target` (scans labelled from first_index on) with every method and scores the held-out
+  /// samples; `source` is handed to transfer methods. Baselines are fitted once per (target,
+  /// seed) and reused for other sources. Figures for the first seed.
+  void run_case(const std::string& source_label, const std::vector<Scan>& source,
+                const std::string& target_label, const std::vector<Scan>& target,
+                std::int64_t first_index, std::uint64_t seed,
+                const std::vector<experiment::Method>& methods);
+  /// Instantaneous maps: every scan of `target` mapped on its own, scored on its own held-out
+  /// beams (one record per scan).
+  void run_instantaneous(const std::string& source_label, const std::vector<Scan>& source,
+                         const std::string& target_label, const std::vector<Scan>& target,
+                         std::uint64_t seed, const std::vector<experiment::Method>& methods);
+  /// Builds the OpenCL programs of the kernel learners on one scan so that no timing includes
+  /// a program build.
+  void warm_up(const std::vector<Scan>& scans);
+  /// Adds a record made elsewhere (per-time-unit calibration results).
+  void add(Record r) { records_.push_back(std::move(r)); }
+  /// Fits and scores one method on one task (no caching); figures when `figures` is set.
+  Record fit_and_score(const experiment::Method& m, const experiment::MapTask& task,
+                       const LabelledPoints& test, bool figures, const std::string& case_label);
+
+  /// Aggregates, prints the table on stdout, writes JSON (settings.json) and removes the
+  /// figures of group members that lost (OGM cell sizes). `spread` says what the ± is over.
+  void finish(const std::string& spread);
+
+ private:
+  std::string experiment_;
+  Settings s_;
+  std::unique_ptr<Context> ctx_;
+  bool ctx_made_ = false;
+  std::map<std::string, std::vector<Scan>> files_;
+  std::vector<Record> records_;
+  std::map<std::string, std::vector<Record>> cache_;  // baselines by (target, seed)
+};
+
+}  // namespace potmap::cli::exp
