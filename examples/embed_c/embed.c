@@ -1,8 +1,8 @@
 /* Embedding potmap in a C program that drives its own OpenCL device.
  *
- * Usage: embed_c [MAP] [RESULTS.csv]
+ * Usage: embed_c [MAP|-] [RESULTS.csv]
  *   MAP          a kernel map (.csv, .npz, .potmap), e.g. ../shared/data/carla/town1_abhm_map.csv;
- *                without it a small 2D map (a square room) is made from arrays.
+ *                without it, or with "-", a small 2D map (a square room) is made from arrays.
  *   RESULTS.csv  where the values go (default embed_results.csv): one row per query point,
  *                x,y[,z],prob,var,prob_device.
  *
@@ -80,7 +80,7 @@ static potmap_status make_room(potmap_map** out) {
 }
 
 int main(int argc, char** argv) {
-  const char* map_path = argc > 1 ? argv[1] : NULL;
+  const char* map_path = argc > 1 && strcmp(argv[1], "-") != 0 ? argv[1] : NULL;
   const char* out_path = argc > 2 ? argv[2] : "embed_results.csv";
   int status = 2, major = 0, minor = 0, patch = 0, dim = 0, d;
   size_t count = 0, n = (size_t)SIDE * SIDE, i, k;

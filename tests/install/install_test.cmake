@@ -64,7 +64,7 @@ message(STATUS "pkg-config consumer: ${run_output}")
 run(${CMAKE_COMMAND} -S "${EXAMPLE_DIR}" -B "${WORK_DIR}/cmake-example" -G "${GENERATOR}"
     -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_C_COMPILER=${CC} -DCMAKE_BUILD_TYPE=Release)
 run(${CMAKE_COMMAND} --build "${WORK_DIR}/cmake-example")
-set(example_args "")
+set(example_args "-")
 if(EXISTS "${EXAMPLE_MAP}")
   set(example_args "${EXAMPLE_MAP}")
 endif()
@@ -81,6 +81,6 @@ run(${PKG_CONFIG} --cflags --libs potmap)
 string(STRIP "${run_output}" flags)
 separate_arguments(flags UNIX_COMMAND "${flags}")
 run(${CC} -std=c99 -Wall -Werror "${EXAMPLE_DIR}/embed.c" ${flags} -lm -o "${WORK_DIR}/pc-embed")
-run(${CMAKE_COMMAND} -E env "LD_LIBRARY_PATH=${libpath}" "${WORK_DIR}/pc-embed"
+run(${CMAKE_COMMAND} -E env "LD_LIBRARY_PATH=${libpath}" "${WORK_DIR}/pc-embed" -
     "${WORK_DIR}/pc-results.csv")
 message(STATUS "embed_c (pkg-config): ${run_output}")
