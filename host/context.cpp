@@ -132,7 +132,7 @@ struct Context::Impl {
         info(describe(device)),
         build_options(o.build_options),
         dump(o.dump_kernels || env_or("POTMAP_DUMP_KERNELS", "0") == "1"),
-        disk(!o.disk_cache              ? std::string()
+        disk(!o.disk_cache                ? std::string()
              : o.binary_cache_dir.empty() ? env_or("POTMAP_CACHE_DIR", "")
                                           : o.binary_cache_dir) {}
 
@@ -203,6 +203,22 @@ Context::Context(cl_command_queue queue, const ContextOptions& options) {
   bc::command_queue q(queue, /*retain=*/true);
   bc::device d = detail::cl_call("clGetCommandQueueInfo", [&] { return q.get_device(); });
   bc::context c = detail::cl_call("clGetCommandQueueInfo", [&] { return q.get_context(); });
+  impl_ = std::make_unique<Impl>(d, c, q, options);
+}
+
+Context::Context(cl_context context, cl_device_id device, const ContextOptions& options) {
+  if (!context) throw ArgumentError("Context: the host's cl_context is null");
+  if (!device) throw ArgumentError("Context: the host's cl_device_id is null");
+  bc::context c(context, /*retain=*/true);
+  const std::vector<bc::device> members =
+      detail::cl_call("clGetContextInfo", [&] { return c.get_devices(); });
+  auto it = std::find_if(members.begin(), members.end(),
+                         [&](const bc::device& m) { return m.get() == device; });
+  if (it == members.end())
+    throw ArgumentError("Context: the cl_device_id is not a device of the cl_context");
+  const bc::device& d = *it;
+  bc::command_queue q =
+      detail::cl_call("clCreateCommandQueue", [&] { return bc::command_queue(c, d); });
   impl_ = std::make_unique<Impl>(d, c, q, options);
 }
 

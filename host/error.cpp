@@ -4,7 +4,9 @@
 
 namespace potmap {
 
-std::string opencl_error_name(int code) {
+namespace detail {
+// Static text, so that the C API can hand it out without an allocation; null when unknown.
+const char* opencl_error_cname(int code) {
   switch (code) {
 #define POTMAP_CASE(c) \
   case c:              \
@@ -72,8 +74,14 @@ std::string opencl_error_name(int code) {
     case -1001:
       return "CL_PLATFORM_NOT_FOUND_KHR";
     default:
-      return "CL_UNKNOWN_ERROR(" + std::to_string(code) + ")";
+      return nullptr;
   }
+}
+}  // namespace detail
+
+std::string opencl_error_name(int code) {
+  if (const char* name = detail::opencl_error_cname(code)) return name;
+  return "CL_UNKNOWN_ERROR(" + std::to_string(code) + ")";
 }
 
 OpenCLError::OpenCLError(int code, const std::string& where)

@@ -4,6 +4,8 @@
 # POTMAP_SUITE_TIMEOUT: limit for the whole run in seconds (default 3600).
 # POTMAP_FUZZ_SECONDS: after the tests, every reader's libFuzzer target runs this long with a
 #   fixed seed (default 10; 0 skips; skipped too when clang is missing).
+# POTMAP_SANITIZE_CAPI: 1 (default) runs the C API tests under ASan + UBSan + LSan after that
+#   (scripts/sanitize_capi.sh, sharing the fuzz build); 0 skips; skipped without clang.
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -28,6 +30,15 @@ if ((status == 0 && fuzz_secs > 0)); then
     echo "test.sh: clang++ not found: fuzzing skipped"
   fi
 fi
+san_status=0
+if ((status == 0 && fuzz_status == 0)) && [[ "${POTMAP_SANITIZE_CAPI:-1}" != 0 ]]; then
+  if command -v clang++ >/dev/null; then
+    echo "test.sh: C API tests under AddressSanitizer + UBSan (scripts/sanitize_capi.sh)"
+    ./scripts/sanitize_capi.sh || san_status=$?
+  else
+    echo "test.sh: clang++ not found: sanitizer run of the C API tests skipped"
+  fi
+fi
 elapsed=$(($(date +%s) - start))
 
 echo
@@ -37,15 +48,18 @@ else
   summary="tests: 0 passed, 1 failed"  # ctest printed no count: it did not run
   ((status != 0)) || status=1
 fi
-if ((status == 0 && fuzz_status == 0)); then
+if ((status == 0 && fuzz_status == 0 && san_status == 0)); then
   echo "test.sh: PASSED (all tests, ${elapsed} s)"
 elif ((status == 124)); then
   echo "test.sh: FAILED: the suite ran past ${POTMAP_SUITE_TIMEOUT:-3600} s" >&2
 elif ((status != 0)); then
   echo "test.sh: FAILED (ctest exit status ${status}, ${elapsed} s); see the failures above" >&2
-else
+elif ((fuzz_status != 0)); then
   echo "test.sh: FAILED: a fuzz target crashed (see above; the crashing input is in build-fuzz)" >&2
   status=$fuzz_status
+else
+  echo "test.sh: FAILED: the C API tests failed under the sanitizers (see above)" >&2
+  status=$san_status
 fi
 echo "$summary"
 exit "$status"

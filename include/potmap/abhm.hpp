@@ -19,9 +19,11 @@
 #include <vector>
 
 #include "potmap/context.hpp"
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 #include "potmap/labelled_points.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Priors of SPEC section 3 (the authors' public code).
@@ -119,3 +121,4 @@ struct AbhmOptions {
 std::size_t abhm_train(AbhmParams& params, const LabelledPoints& data, const AbhmOptions& options);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -16,11 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 #include "potmap/labelled_points.hpp"
 #include "potmap/labelling.hpp"
 #include "potmap/scan.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// How scans are cut into sectors. The dictionary and the targets mapped with it must agree on
@@ -107,3 +109,4 @@ void build_dictionary(const std::vector<Scan>& scans, const KernelMap& map,
                       const DictionaryOptions& options, Dictionary& dict);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

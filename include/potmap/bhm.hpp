@@ -19,9 +19,11 @@
 #include <cstddef>
 
 #include "potmap/context.hpp"
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 #include "potmap/labelled_points.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct BhmOptions {
@@ -60,3 +62,4 @@ void bhm_update_sequential(Context* ctx, KernelMap& map, const LabelledPoints& s
                            const BhmOptions& options = {});
 
 }  // namespace potmap
+POTMAP_CXX_API_END

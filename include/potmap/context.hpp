@@ -1,9 +1,12 @@
 #pragma once
 // The device runtime: one OpenCL device, its in-order queue and a cache of built programs.
 //
-// Thread safety: a Context may be shared between threads for program look-ups (the cache is
-// locked), but its queue is in-order and shared, so work submitted from several threads is
-// serialised on the device. Give each thread its own Context for concurrent device work.
+// Thread safety: a Context may be shared between threads: kernel(), program() and the info
+// getters may be called concurrently (the program cache is locked), and objects built on it
+// (MapEvaluator, ...) may run on different threads at once. Its queue is in-order and shared,
+// so their device work is serialised; give each thread its own Context (or a Context on its own
+// queue) for device work that overlaps. Moving or destroying a Context while another thread
+// uses it, or while objects built on it still exist, is not allowed.
 
 #include <boost/compute/command_queue.hpp>
 #include <boost/compute/context.hpp>
@@ -17,6 +20,9 @@
 #include <string>
 #include <vector>
 
+#include "potmap/export.h"
+
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// How to pick and set up the device.
@@ -64,6 +70,10 @@ class Context {
   /// Wraps a queue the host application already owns (its context and device are used). The
   /// queue is retained, not copied: work potmap enqueues is ordered with the host's own.
   Context(cl_command_queue queue, const ContextOptions& options = {});
+  /// Uses a context the host application already owns, on one of its devices, with a new
+  /// in-order queue of potmap's own (the context is retained). `options.device` is ignored.
+  /// Throws ArgumentError if either is null or the device is not one of the context's.
+  Context(cl_context context, cl_device_id device, const ContextOptions& options = {});
 
   Context(Context&&) noexcept;
   Context& operator=(Context&&) noexcept;
@@ -104,3 +114,4 @@ std::vector<std::string> embedded_kernel_names();
 std::string embedded_kernel_source(const std::string& name);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -5,6 +5,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "potmap/export.h"
+
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Base class of every potmap exception.
@@ -53,3 +56,4 @@ class ArgumentError : public Error {
 std::string opencl_error_name(int code);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

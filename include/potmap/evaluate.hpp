@@ -21,8 +21,10 @@
 #include <vector>
 
 #include "potmap/context.hpp"
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Values of the map at a set of points (float: what the device computes).
@@ -71,7 +73,9 @@ MapValuesExact evaluate_exact(const KernelMap& map, const double* points, std::s
 MapValuesExact evaluate_exact(const KernelMap& map, const GridSpec& grid);
 
 /// Evaluates one map on one device. The map is validated and uploaded once; evaluate() may then
-/// be called any number of times. Not thread-safe: use one evaluator per thread.
+/// be called any number of times. Not thread-safe: use one evaluator per thread (or lock).
+/// Several evaluators on one Context may run on different threads at once (see context.hpp).
+/// The evaluator keeps a pointer to its Context, which must outlive it.
 class MapEvaluator {
  public:
   MapEvaluator(Context& ctx, const KernelMap& map, const EvalOptions& options = {});
@@ -112,3 +116,4 @@ class MapEvaluator {
 };
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -11,6 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "potmap/export.h"
+
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// A kernel map in 2D or 3D. Plain data: fields may be filled directly; validate() checks them.
@@ -45,3 +48,4 @@ struct KernelMap {
 inline constexpr double kDefaultCutoffTau = 18.0;
 
 }  // namespace potmap
+POTMAP_CXX_API_END

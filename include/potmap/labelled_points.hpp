@@ -9,7 +9,9 @@
 #include <vector>
 
 #include "potmap/error.hpp"  // the exceptions documented below
+#include "potmap/export.h"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct LabelledPoints {
@@ -35,3 +37,4 @@ LabelledPoints read_labelled_csv(const std::string& path);
 void write_labelled_csv(const LabelledPoints& points, const std::string& path);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

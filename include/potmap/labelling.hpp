@@ -4,9 +4,11 @@
 #include <cstdint>
 #include <vector>
 
+#include "potmap/export.h"
 #include "potmap/labelled_points.hpp"
 #include "potmap/scan.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct LabelOptions {
@@ -57,3 +59,4 @@ LabelledSplit label_scans(const std::vector<Scan>& scans, const LabelOptions& op
 Scan slice_2d(const Scan& scan3d, double z_min = -0.1, double z_max = 0.1);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -34,8 +34,10 @@
 #include <string>
 
 #include "potmap/error.hpp"  // InputError, ArgumentError: what these functions throw
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Reads a map, format from the extension (.csv, .npz, .potmap; compressed .gz is rejected).
@@ -53,3 +55,4 @@ KernelMap read_map_native(const std::string& path);
 void write_map_native(const KernelMap& map, const std::string& path);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

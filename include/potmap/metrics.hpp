@@ -7,7 +7,9 @@
 #include <vector>
 
 #include "potmap/error.hpp"  // the exceptions documented below
+#include "potmap/export.h"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Probabilities are clipped to [kNllClip, 1 - kNllClip] before the logarithm in mean_nll, so
@@ -41,3 +43,4 @@ double roc_auc(const std::vector<double>& prob, const std::vector<std::uint8_t>&
 double mean_nll(const std::vector<double>& prob, const std::vector<std::uint8_t>& label);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

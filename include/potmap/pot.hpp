@@ -17,10 +17,12 @@
 #include "potmap/atoms.hpp"
 #include "potmap/bhm.hpp"
 #include "potmap/context.hpp"
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 #include "potmap/labelled_points.hpp"
 #include "potmap/sinkhorn.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// The authors' settings (SPEC section 4) are the defaults.
@@ -155,3 +157,4 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
                            std::int64_t scan_index, const PotOptions& options = {});
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -28,8 +28,10 @@
 
 #include "potmap/context.hpp"
 #include "potmap/evaluate.hpp"
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Perceptual colour maps (lightness increases monotonically from 0 to 1).
@@ -100,3 +102,4 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
                         const std::string& out_prefix, const RasterOptions& options = {});
 
 }  // namespace potmap
+POTMAP_CXX_API_END

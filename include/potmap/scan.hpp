@@ -11,8 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "potmap/export.h"
 #include "potmap/labelled_points.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct Scan {
@@ -91,3 +93,4 @@ LabelledPoints read_npz_labelled(const std::string& path);
 Dataset read_dataset(const std::string& path);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -11,8 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "potmap/export.h"
 #include "potmap/scan.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct Obstacle {
@@ -102,7 +104,9 @@ struct Simulation {
 Simulation simulate(const Town& town, const SimOptions& options);
 
 }  // namespace potmap
+POTMAP_CXX_API_END
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Writes a top view of the town (buildings dark grey, cars blue, poles and trees green) with
@@ -121,3 +125,4 @@ std::string write_simulation(const Simulation& sim, const SimOptions& options,
                              const std::string& dir);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -16,7 +16,9 @@
 #include <vector>
 
 #include "potmap/context.hpp"
+#include "potmap/export.h"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// One entropic OT problem. Points are rows (n x dim, dim 2 or 3, same dim in both sets).
@@ -139,3 +141,4 @@ Eigen::MatrixXd out_of_sample_map(const SinkhornProblem& problem,
 Eigen::MatrixXd sinkhorn_cost(const SinkhornProblem& problem);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

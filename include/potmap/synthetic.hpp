@@ -6,9 +6,11 @@
 
 #include <cstdint>
 
+#include "potmap/export.h"
 #include "potmap/kernel_map.hpp"
 #include "potmap/labelled_points.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct SyntheticScene {
@@ -26,3 +28,4 @@ SyntheticScene make_synthetic_scene(std::uint32_t seed = 1, double spacing = 0.5
 bool synthetic_occupied(std::uint32_t seed, double x, double y);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -1,7 +1,9 @@
 # Installs the built potmap into a fresh prefix, checks the installed package files carry no
 # path of the build machine, then builds and runs a consumer twice: with find_package(potmap)
-# and with pkg-config. Run by CTest as `cmake -P` with:
-#   BUILD_DIR, SOURCE_DIR (potmap's), CONSUMER_DIR, WORK_DIR, CXX (compiler), GENERATOR
+# and with pkg-config; then the C embedding example (EXAMPLE_DIR) the same two ways, running it
+# on EXAMPLE_MAP (if that file exists) and on its own small map. Run by CTest as `cmake -P` with:
+#   BUILD_DIR, SOURCE_DIR (potmap's), CONSUMER_DIR, WORK_DIR, CXX and CC (compilers), GENERATOR,
+#   EXAMPLE_DIR, EXAMPLE_MAP
 cmake_minimum_required(VERSION 3.20)
 
 function(run)
@@ -57,3 +59,28 @@ endforeach()
 string(REPLACE ";" ":" libpath "${libdirs}")
 run(${CMAKE_COMMAND} -E env "LD_LIBRARY_PATH=${libpath}" "${WORK_DIR}/pc-app")
 message(STATUS "pkg-config consumer: ${run_output}")
+
+# 3. The C embedding example, find_package(potmap): on the real map when there is one.
+run(${CMAKE_COMMAND} -S "${EXAMPLE_DIR}" -B "${WORK_DIR}/cmake-example" -G "${GENERATOR}"
+    -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_C_COMPILER=${CC} -DCMAKE_BUILD_TYPE=Release)
+run(${CMAKE_COMMAND} --build "${WORK_DIR}/cmake-example")
+set(example_args "-")
+if(EXISTS "${EXAMPLE_MAP}")
+  set(example_args "${EXAMPLE_MAP}")
+endif()
+run("${WORK_DIR}/cmake-example/embed_c" ${example_args} "${WORK_DIR}/example-results.csv")
+message(STATUS "embed_c (find_package): ${run_output}")
+file(STRINGS "${WORK_DIR}/example-results.csv" rows)
+list(LENGTH rows nrows)
+if(NOT nrows EQUAL 4097)  # header + 64 x 64 points
+  message(FATAL_ERROR "embed_c wrote ${nrows} lines, expected 4097")
+endif()
+
+# 4. The same example with pkg-config and the C compiler alone, on its own small map.
+run(${PKG_CONFIG} --cflags --libs potmap)
+string(STRIP "${run_output}" flags)
+separate_arguments(flags UNIX_COMMAND "${flags}")
+run(${CC} -std=c99 -Wall -Werror "${EXAMPLE_DIR}/embed.c" ${flags} -lm -o "${WORK_DIR}/pc-embed")
+run(${CMAKE_COMMAND} -E env "LD_LIBRARY_PATH=${libpath}" "${WORK_DIR}/pc-embed" -
+    "${WORK_DIR}/pc-results.csv")
+message(STATUS "embed_c (pkg-config): ${run_output}")

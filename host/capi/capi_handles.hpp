@@ -1,0 +1,75 @@
+#pragma once
+// What the C API's opaque handles hold. Each begins with a type tag that *_destroy clears, so a
+// handle of the wrong type, or (best effort) one already destroyed, is refused.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "capi_guard.hpp"
+#include "potmap/context.hpp"
+#include "potmap/evaluate.hpp"
+#include "potmap/kernel_map.hpp"
+#include "potmap/potmap.h"
+
+namespace potmap::capi {
+constexpr std::uint32_t kContextTag = 0x43504d50;    // "PMPC"
+constexpr std::uint32_t kMapTag = 0x4d504d50;        // "PMPM"
+constexpr std::uint32_t kEvaluatorTag = 0x45504d50;  // "PMPE"
+constexpr std::uint32_t kDeadTag = 0xdeadbeef;
+}  // namespace potmap::capi
+
+struct potmap_context {
+  std::uint32_t tag = potmap::capi::kContextTag;
+  // Shared with the evaluators made from it, so that handles may be destroyed in any order.
+  std::shared_ptr<potmap::Context> ctx;
+  potmap_device_info info{};  // its strings point into ctx->info()
+};
+
+struct potmap_map {
+  std::uint32_t tag = potmap::capi::kMapTag;
+  potmap::KernelMap map;
+};
+
+struct potmap_evaluator {
+  std::uint32_t tag = potmap::capi::kEvaluatorTag;
+  std::shared_ptr<potmap::Context> ctx;  // declared first: destroyed after the evaluator
+  std::unique_ptr<potmap::MapEvaluator> eval;
+  int dim = 2;
+};
+
+namespace potmap::capi {
+
+/// The handle, checked: null or of another type (or destroyed) fails.
+template <class H>
+H& checked(H* h, std::uint32_t tag, const char* what) {
+  if (!h) fail(POTMAP_ERROR_NULL_ARGUMENT, std::string(what) + " is null");
+  if (h->tag != tag)
+    fail(POTMAP_ERROR_INVALID_HANDLE, std::string(what) +
+                                          " is not a live handle of its type (wrong type, or "
+                                          "already destroyed)");
+  return *h;
+}
+
+inline potmap_context& checked(const potmap_context* h) {
+  return checked(const_cast<potmap_context*>(h), kContextTag, "context");
+}
+inline potmap_map& checked(const potmap_map* h) {
+  return checked(const_cast<potmap_map*>(h), kMapTag, "map");
+}
+inline potmap_evaluator& checked(potmap_evaluator* h) {
+  return checked(h, kEvaluatorTag, "evaluator");
+}
+
+/// Clears the tag and frees the handle; null does nothing.
+template <class H>
+potmap_status destroy(H* h, std::uint32_t tag, const char* function) noexcept {
+  return guard(function, POTMAP_ERROR_INTERNAL, [&] {
+    if (!h) return;
+    checked(h, tag, "handle");
+    h->tag = kDeadTag;
+    delete h;
+  });
+}
+
+}  // namespace potmap::capi

@@ -1,0 +1,80 @@
+// Status names, the per-thread last-error message and the version calls of the C API.
+#include <cstdio>
+#include <string>
+
+#include "capi_guard.hpp"
+#include "potmap/potmap.h"
+
+namespace potmap {
+namespace detail {
+const char* opencl_error_cname(int code);
+}
+
+namespace capi {
+namespace {
+// Per thread by design: a C caller reads the message of its own last call.
+thread_local std::string last_error;
+}  // namespace
+
+void set_last_error(const char* function, const char* message) noexcept {
+  try {
+    last_error.assign(function);
+    last_error += ": ";
+    last_error += message;
+  } catch (...) {
+    last_error.clear();  // no room for the message: the status still tells what failed
+  }
+}
+
+void clear_last_error() noexcept {
+  last_error.clear();
+}
+
+}  // namespace capi
+}  // namespace potmap
+
+extern "C" {
+
+const char* potmap_status_string(potmap_status status) {
+  switch (status) {
+#define POTMAP_CASE(c) \
+  case c:              \
+    return #c;
+    POTMAP_CASE(POTMAP_SUCCESS)
+    POTMAP_CASE(POTMAP_ERROR_NULL_ARGUMENT)
+    POTMAP_CASE(POTMAP_ERROR_INVALID_HANDLE)
+    POTMAP_CASE(POTMAP_ERROR_INVALID_ARGUMENT)
+    POTMAP_CASE(POTMAP_ERROR_DIMENSION_MISMATCH)
+    POTMAP_CASE(POTMAP_ERROR_BUFFER_TOO_SMALL)
+    POTMAP_CASE(POTMAP_ERROR_CONTEXT_MISMATCH)
+    POTMAP_CASE(POTMAP_ERROR_INPUT)
+    POTMAP_CASE(POTMAP_ERROR_IO)
+    POTMAP_CASE(POTMAP_ERROR_NO_DEVICE)
+    POTMAP_CASE(POTMAP_ERROR_OUT_OF_MEMORY)
+    POTMAP_CASE(POTMAP_ERROR_INTERNAL)
+#undef POTMAP_CASE
+    default:
+      break;
+  }
+  if (status < 0)
+    if (const char* name = potmap::detail::opencl_error_cname(status)) return name;
+  return "POTMAP_UNKNOWN_STATUS";
+}
+
+const char* potmap_last_error(void) {
+  return potmap::capi::last_error.c_str();
+}
+
+potmap_status potmap_version(int* major, int* minor, int* patch) {
+  potmap::capi::clear_last_error();
+  if (major) *major = POTMAP_VERSION_MAJOR;
+  if (minor) *minor = POTMAP_VERSION_MINOR;
+  if (patch) *patch = POTMAP_VERSION_PATCH;
+  return POTMAP_SUCCESS;
+}
+
+const char* potmap_version_string(void) {
+  return POTMAP_VERSION_STRING;
+}
+
+}  // extern "C"

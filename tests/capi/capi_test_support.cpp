@@ -1,0 +1,151 @@
+#include "capi_test_support.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "data/sim_rng.hpp"  // header-only: the project's seeded generator
+
+namespace fs = std::filesystem;
+
+namespace capi_test {
+
+std::string shared_data(const std::string& rel) {
+  return (fs::path(POTMAP_SOURCE_DIR) / ".." / "shared" / "data" / rel).lexically_normal().string();
+}
+
+std::string temp_dir(const std::string& name) {
+  fs::path p = fs::path(POTMAP_BINARY_DIR) / "test-tmp" /
+               ("capi-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p.string();
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+Arrays random_map(int dim, std::size_t count, std::uint64_t seed, double extent) {
+  potmap::data::SimRng rng{seed};
+  Arrays a;
+  a.dim = dim;
+  for (std::size_t i = 0; i < count; ++i) {
+    for (int d = 0; d < dim; ++d) a.position.push_back(rng.range(0, extent));
+    a.gamma.push_back(rng.range(0.3, 3.0));
+    a.w_mean.push_back(rng.range(-3.0, 3.0));
+    a.w_var.push_back(rng.range(0.01, 2.0));
+  }
+  return a;
+}
+
+std::vector<double> random_points(int dim, std::size_t n, std::uint64_t seed, double extent) {
+  potmap::data::SimRng rng{seed};
+  std::vector<double> p(n * dim);
+  for (double& v : p) v = rng.range(-2.0, extent + 2.0);
+  return p;
+}
+
+Values reference(const Arrays& m, const std::vector<double>& points) {
+  const std::size_t n = points.size() / m.dim;
+  Values v;
+  for (std::size_t i = 0; i < n; ++i) {
+    double mu = m.has_bias ? m.bias_mean : 0.0, s2 = m.has_bias ? m.bias_var : 0.0;
+    for (std::size_t k = 0; k < m.size(); ++k) {
+      double d2 = 0;
+      for (int d = 0; d < m.dim; ++d) {
+        const double diff = points[i * m.dim + d] - m.position[k * m.dim + d];
+        d2 += diff * diff;
+      }
+      const double phi = std::exp(-m.gamma[k] * d2);
+      mu += m.w_mean[k] * phi;
+      s2 += m.w_var[k] * phi * phi;
+    }
+    v.mean.push_back(mu);
+    v.var.push_back(s2);
+    v.prob.push_back(1.0 / (1.0 + std::exp(-mu / std::sqrt(1.0 + M_PI * s2 / 8.0))));
+  }
+  return v;
+}
+
+potmap_map* make_map(const Arrays& a) {
+  potmap_map* map = nullptr;
+  const potmap_status st = potmap_map_create(a.dim, a.size(), a.position.data(), a.gamma.data(),
+                                             a.w_mean.data(), a.w_var.data(), &map);
+  EXPECT_EQ(st, POTMAP_SUCCESS) << potmap_last_error();
+  if (map && a.has_bias) potmap_map_set_bias(map, 1, a.bias_mean, a.bias_var);
+  return map;
+}
+
+HostCl::HostCl() {
+  // The device potmap would pick, found through potmap; everything else is plain OpenCL.
+  potmap_context* probe = nullptr;
+  if (potmap_context_create(nullptr, &probe) != POTMAP_SUCCESS) {
+    ADD_FAILURE() << "no device: " << potmap_last_error();
+    return;
+  }
+  potmap_context_cl(probe, nullptr, &device, nullptr);
+  cl_int err = clGetDeviceInfo(device, CL_DEVICE_PLATFORM, sizeof platform, &platform, nullptr);
+  EXPECT_EQ(err, CL_SUCCESS);
+  context = clCreateContext(nullptr, 1, &device, nullptr, nullptr, &err);
+  EXPECT_EQ(err, CL_SUCCESS);
+  queue = clCreateCommandQueue(context, device, 0, &err);
+  EXPECT_EQ(err, CL_SUCCESS);
+  potmap_context_destroy(probe);  // the device id stays valid: root devices are not counted
+}
+
+HostCl::~HostCl() {
+  if (queue) clReleaseCommandQueue(queue);
+  if (context) clReleaseContext(context);
+}
+
+cl_mem HostCl::buffer(std::size_t bytes, const void* data) const {
+  cl_int err = CL_SUCCESS;
+  cl_mem m = clCreateBuffer(context, CL_MEM_READ_WRITE | (data ? CL_MEM_COPY_HOST_PTR : 0), bytes,
+                            const_cast<void*>(data), &err);
+  EXPECT_EQ(err, CL_SUCCESS);
+  return m;
+}
+
+std::vector<float> HostCl::read(cl_mem m, std::size_t count) const {
+  std::vector<float> out(count);
+  EXPECT_EQ(clEnqueueReadBuffer(queue, m, CL_TRUE, 0, count * sizeof(float), out.data(), 0, nullptr,
+                                nullptr),
+            CL_SUCCESS);
+  return out;
+}
+
+cl_uint reference_count(cl_context c) {
+  cl_uint r = 0;
+  clGetContextInfo(c, CL_CONTEXT_REFERENCE_COUNT, sizeof r, &r, nullptr);
+  return r;
+}
+cl_uint reference_count(cl_command_queue q) {
+  cl_uint r = 0;
+  clGetCommandQueueInfo(q, CL_QUEUE_REFERENCE_COUNT, sizeof r, &r, nullptr);
+  return r;
+}
+cl_uint reference_count(cl_mem m) {
+  cl_uint r = 0;
+  clGetMemObjectInfo(m, CL_MEM_REFERENCE_COUNT, sizeof r, &r, nullptr);
+  return r;
+}
+cl_uint reference_count(cl_event e) {
+  cl_uint r = 0;
+  clGetEventInfo(e, CL_EVENT_REFERENCE_COUNT, sizeof r, &r, nullptr);
+  return r;
+}
+
+std::size_t resident_bytes() {
+  std::size_t pages_total = 0, pages_resident = 0;
+  if (FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%zu %zu", &pages_total, &pages_resident) != 2) pages_resident = 0;
+    std::fclose(f);
+  }
+  return pages_resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+}  // namespace capi_test
