@@ -20,9 +20,11 @@
 #include <array>
 #include <cstddef>
 #include <vector>
+#include "potmap/export.h"
 
 #include "potmap/atoms.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Rotation-invariant summary of one sector (scaled units, like the sector's points).
@@ -71,3 +73,4 @@ std::vector<std::size_t> preselect_atoms(const Dictionary& dict, const Sector& t
                                          std::size_t k);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

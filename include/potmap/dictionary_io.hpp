@@ -31,10 +31,12 @@
 // offset and the value. Kernels of atoms have no bias (write_dictionary rejects one).
 
 #include <string>
+#include "potmap/export.h"
 
 #include "potmap/atoms.hpp"
 #include "potmap/error.hpp"  // InputError, ArgumentError: what these functions throw
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 /// Current format version written by write_dictionary.
@@ -55,3 +57,4 @@ void write_dictionary(const Dictionary& dict, const std::string& path);
 Dictionary read_dictionary(const std::string& path);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

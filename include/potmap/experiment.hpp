@@ -15,6 +15,7 @@
 #include <memory>
 #include <string>
 #include <vector>
+#include "potmap/export.h"
 
 #include "potmap/abhm.hpp"
 #include "potmap/bhm.hpp"
@@ -26,6 +27,7 @@
 #include "potmap/ogm.hpp"
 #include "potmap/scan.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap::experiment {
 
 /// What a method may learn from. Scan index t of a sample = first_index + position in
@@ -113,3 +115,4 @@ std::vector<std::string> write_figures(const FittedMap& map, const double lo[3],
                                        const std::string& prefix, std::size_t max_pixels = 400);
 
 }  // namespace potmap::experiment
+POTMAP_CXX_API_END

@@ -5,11 +5,13 @@
 // kernels hugging walls and wide ones filling open space read apart at a glance.
 
 #include <string>
+#include "potmap/export.h"
 
 #include "potmap/context.hpp"
 #include "potmap/kernel_map.hpp"
 #include "potmap/raster.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct KernelPictureOptions {
@@ -36,3 +38,4 @@ KernelPictureSummary write_kernel_picture(Context* ctx, const KernelMap& map,
                                           const KernelPictureOptions& options = {});
 
 }  // namespace potmap
+POTMAP_CXX_API_END

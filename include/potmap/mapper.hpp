@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <functional>
 #include <vector>
+#include "potmap/export.h"
 
 #include "potmap/atoms.hpp"
 #include "potmap/context.hpp"
@@ -14,6 +15,7 @@
 #include "potmap/pot.hpp"
 #include "potmap/scan.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct MapperOptions {
@@ -30,7 +32,7 @@ struct MappedScan {
   /// sensor (PotOptions::max_range, else the dictionary's): no transported kernel reaches
   /// farther, so samples beyond are not mapped, neither held out nor used for training.
   LabelledPoints test;
-  double wall_ms = 0;     ///< wall-clock time from the start of its solve to the callback
+  double wall_ms = 0;  ///< wall-clock time from the start of its solve to the callback
 };
 
 /// Maps `scans` in order with the dictionary. `ctx` null: CPU reference. Scans whose dimension
@@ -40,3 +42,4 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
                const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan);
 
 }  // namespace potmap
+POTMAP_CXX_API_END

@@ -5,9 +5,11 @@
 
 #include <cstddef>
 #include <memory>
+#include "potmap/export.h"
 
 #include "potmap/scan.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct OgmOptions {
@@ -47,3 +49,4 @@ class OccupancyGrid {
 };
 
 }  // namespace potmap
+POTMAP_CXX_API_END

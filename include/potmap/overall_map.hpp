@@ -43,9 +43,11 @@
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
+#include "potmap/export.h"
 
 #include "potmap/kernel_map.hpp"
 
+POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct OverallMapOptions {
@@ -114,3 +116,4 @@ class OverallMap {
 };
 
 }  // namespace potmap
+POTMAP_CXX_API_END
