@@ -54,6 +54,13 @@ struct PotOptions {
   double transport_epsilon = 0.0005;    ///< unitless (normalised cost)
   int transport_max_iterations = 2000;
   double transport_tolerance = 1e-5;  ///< float32 floors near 1e-7 on 1500 x 1500 (issue #3)
+  /// Transport the free samples too (default true): a second plan between the winner's free
+  /// samples and the target's, and every kernel follows the sample nearest to it, hit or free,
+  /// through that sample's plan. The SPEC (step 4) transports hits only; the paper (Sec. III-A,
+  /// III-B) associates kernels with the LIDAR samples, hits or free. With hits only, kernels in
+  /// free space keep their offset from the nearest hit and miss the target's free space when
+  /// the two sectors' hits lie at different distances from the sensor. false: the SPEC's rule.
+  bool transport_free = true;
 
   /// Consider only this many atoms per target sector, pre-selected by a cheap descriptor before
   /// the Sinkhorn ranking (0, the default: every atom).
