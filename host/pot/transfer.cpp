@@ -14,6 +14,7 @@
 #include "potmap/error.hpp"
 #include "potmap/pot.hpp"
 #include "potmap/sinkhorn.hpp"
+#include "refine.hpp"
 
 namespace potmap {
 
@@ -308,7 +309,9 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   if (o.refine && !out.map.empty() && !train.empty()) {
     t0 = Clock::now();
     for (double& v : out.map.w_var) v = std::max(v, o.refine_min_variance);
-    if (ctx)
+    if (o.refine_joint)
+      detail::refine_joint(out.map, train, o.refine_bhm);
+    else if (ctx)
       bhm_update(*ctx, out.map, train, o.refine_bhm);
     else
       bhm_update_reference(out.map, train, o.refine_bhm);

@@ -69,18 +69,22 @@ struct PotOptions {
   /// RePOT (SPEC step 7): refine the transported weights with a BHM update on the scan's own
   /// training samples (default false: plain POT).
   bool refine = false;
-  /// The refinement's BHM settings. One E-step by default: the diagonal E-step overshoots when
-  /// transported kernels overlap strongly, so more EM rounds make maps worse, not better.
-  BhmOptions refine_bhm = [] {
-    BhmOptions o;
-    o.em_iterations = 1;
-    return o;
-  }();
+  /// The refinement's EM settings (default: BhmOptions{}, 3 EM iterations). With the
+  /// diagonal E-step (refine_joint false) one iteration is better: it overshoots where
+  /// transported kernels overlap and more rounds make maps worse.
+  BhmOptions refine_bhm;
 
   /// RePOT prior: transported weight variances below this are raised to it before the update
   /// (default 0: the transported variances as they are, SPEC step 7). A floor lets the scan's
   /// own samples correct kernels the source map was very sure of.
   double refine_min_variance = 0;
+
+  /// RePOT's E-step solves the Jaakkola-Jordan system for the weight means as a whole (sparse
+  /// conjugate gradients on the host) instead of BHM's diagonal of it; the variances stay BHM's
+  /// diagonal ones (default true). The diagonal update lets every kernel answer every sample it
+  /// reaches as if it were alone, so where transported kernels overlap (they pile up where the
+  /// plan contracts) the map overshoots. false: bhm_update() as SPEC step 7 reads.
+  bool refine_joint = true;
 
   std::uint64_t seed = 0;  ///< subsampling seed (with the scan index: reproducible per scan)
 };
