@@ -3,6 +3,7 @@
 // another; everything else is bookkeeping on the host.
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -13,6 +14,7 @@
 #include "potmap/error.hpp"
 #include "potmap/pot.hpp"
 #include "potmap/sinkhorn.hpp"
+#include "refine.hpp"
 
 namespace potmap {
 
@@ -198,7 +200,7 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   // candidates, summed; the smallest wins.
   t0 = Clock::now();
   SinkhornBatch transport;
-  std::vector<long> transport_of(sectors.size(), -1);
+  std::vector<std::array<long, 2>> transport_of(sectors.size(), {-1, -1});  // hits, free
   for (std::size_t s = 0; s < sectors.size(); ++s) {
     if (cands[s].empty()) continue;
     double hmax = 0, fmax = 0;
@@ -225,24 +227,29 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
     st.rank_converged = (win->hits_problem < 0 || ranked[win->hits_problem].converged) &&
                         (win->free_problem < 0 || ranked[win->free_problem].converged);
 
-    // High-quality transport between hits, or free samples where either side has none.
+    // High-quality transport between hits and, with transport_free, between free samples too
+    // (free samples alone where either side has no hits).
     const Atom& atom = dict.atoms[win->atom];
     const Sector& sec = sectors[s];
+    if (atom.kernels.empty()) continue;
     const bool hits = sec.num_hits() > 0 && atom.sector.num_hits() > 0;
-    const auto& src_pts = hits ? atom.sector.hits : atom.sector.free;
-    const auto& tgt_pts = hits ? sec.hits : sec.free;
-    if (src_pts.empty() || tgt_pts.empty() || atom.kernels.empty()) continue;
-    SinkhornProblem p;
-    p.source = subsample(src_pts, dim, o.transport_points, mix(o.seed, win->atom, 3));
-    p.target = subsample(tgt_pts, dim, o.transport_points,
-                         mix(o.seed ^ 0x7a5, t_index, 2 * sec.index + (hits ? 0 : 1)));
-    p.angle = win->angle;
-    p.epsilon = o.transport_epsilon;
-    p.max_iterations = o.transport_max_iterations;
-    p.tolerance = o.transport_tolerance;
-    p.normalise_cost = true;
-    p.extra_points = kernel_positions(atom.kernels);
-    transport_of[s] = static_cast<long>(transport.add(std::move(p)));
+    const bool frees = sec.num_free() > 0 && atom.sector.num_free() > 0;
+    auto add = [&](const std::vector<double>& src_pts, const std::vector<double>& tgt_pts,
+                   int which) {
+      SinkhornProblem p;
+      p.source = subsample(src_pts, dim, o.transport_points, mix(o.seed, win->atom, 3 + which));
+      p.target = subsample(tgt_pts, dim, o.transport_points,
+                           mix(o.seed ^ 0x7a5, t_index, 2 * sec.index + which));
+      p.angle = win->angle;
+      p.epsilon = o.transport_epsilon;
+      p.max_iterations = o.transport_max_iterations;
+      p.tolerance = o.transport_tolerance;
+      p.normalise_cost = true;
+      return static_cast<long>(transport.add(std::move(p)));
+    };
+    if (hits) transport_of[s][0] = add(atom.sector.hits, sec.hits, 0);
+    if (frees && (o.transport_free || !hits))
+      transport_of[s][1] = add(atom.sector.free, sec.free, 1);
   }
   out.timing.prepare_ms += ms_since(t0);
 
@@ -258,17 +265,34 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   const double r2max = pt.max_range * pt.max_range;
   double w[3];
   for (std::size_t s = 0; s < sectors.size(); ++s) {
-    if (transport_of[s] < 0) continue;
-    const SinkhornResult& r = moved[transport_of[s]];
+    const auto& tp = transport_of[s];
+    if (tp[0] < 0 && tp[1] < 0) continue;
     SectorTransfer& st = out.sectors[s];
-    st.transport_converged = r.converged;
-    st.transport_iterations = r.iterations;
+    st.transport_converged = true;
+    // The out-of-sample map over the union of the transported samples: a kernel follows the
+    // sample nearest to it, hit or free, through that sample's own plan.
+    SinkhornProblem joint;
+    Eigen::MatrixXd bary;
+    for (long i : tp) {
+      if (i < 0) continue;
+      const SinkhornResult& r = moved[i];
+      const SinkhornProblem& p = transport.problem(i);
+      st.transport_converged = st.transport_converged && r.converged;
+      st.transport_iterations = std::max(st.transport_iterations, r.iterations);
+      joint.angle = p.angle;
+      const Eigen::Index n0 = joint.source.rows();
+      joint.source.conservativeResize(n0 + p.source.rows(), dim);
+      joint.source.bottomRows(p.source.rows()) = p.source;
+      bary.conservativeResize(n0 + r.barycentric.rows(), dim);
+      bary.bottomRows(r.barycentric.rows()) = r.barycentric;
+    }
     const Sector& sec = sectors[s];
     const KernelMap& k = dict.atoms[st.atom].kernels;
-    for (Eigen::Index e = 0; e < r.extra_mapped.rows(); ++e) {
+    const Eigen::MatrixXd mapped = out_of_sample_map(joint, bary, kernel_positions(k));
+    for (Eigen::Index e = 0; e < mapped.rows(); ++e) {
       double r2 = 0;
       for (int d = 0; d < dim; ++d) {
-        w[d] = r.extra_mapped(e, d) / sec.scale + sec.centre[d];
+        w[d] = mapped(e, d) / sec.scale + sec.centre[d];
         if (d < 2) r2 += (w[d] - pt.sensor[d]) * (w[d] - pt.sensor[d]);
       }
       if (!(r2 <= r2max)) {
@@ -285,7 +309,9 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   if (o.refine && !out.map.empty() && !train.empty()) {
     t0 = Clock::now();
     for (double& v : out.map.w_var) v = std::max(v, o.refine_min_variance);
-    if (ctx)
+    if (o.refine_joint)
+      detail::refine_joint(out.map, train, o.refine_bhm);
+    else if (ctx)
       bhm_update(*ctx, out.map, train, o.refine_bhm);
     else
       bhm_update_reference(out.map, train, o.refine_bhm);

@@ -56,6 +56,13 @@ struct PotOptions {
   double transport_epsilon = 0.0005;    ///< unitless (normalised cost)
   int transport_max_iterations = 2000;
   double transport_tolerance = 1e-5;  ///< float32 floors near 1e-7 on 1500 x 1500 (issue #3)
+  /// Transport the free samples too (default true): a second plan between the winner's free
+  /// samples and the target's, and every kernel follows the sample nearest to it, hit or free,
+  /// through that sample's plan. The SPEC (step 4) transports hits only; the paper (Sec. III-A,
+  /// III-B) associates kernels with the LIDAR samples, hits or free. With hits only, kernels in
+  /// free space keep their offset from the nearest hit and miss the target's free space when
+  /// the two sectors' hits lie at different distances from the sensor. false: the SPEC's rule.
+  bool transport_free = true;
 
   /// Consider only this many atoms per target sector, pre-selected by a cheap descriptor before
   /// the Sinkhorn ranking (0, the default: every atom).
@@ -64,18 +71,22 @@ struct PotOptions {
   /// RePOT (SPEC step 7): refine the transported weights with a BHM update on the scan's own
   /// training samples (default false: plain POT).
   bool refine = false;
-  /// The refinement's BHM settings. One E-step by default: the diagonal E-step overshoots when
-  /// transported kernels overlap strongly, so more EM rounds make maps worse, not better.
-  BhmOptions refine_bhm = [] {
-    BhmOptions o;
-    o.em_iterations = 1;
-    return o;
-  }();
+  /// The refinement's EM settings (default: BhmOptions{}, 3 EM iterations). With the
+  /// diagonal E-step (refine_joint false) one iteration is better: it overshoots where
+  /// transported kernels overlap and more rounds make maps worse.
+  BhmOptions refine_bhm;
 
   /// RePOT prior: transported weight variances below this are raised to it before the update
   /// (default 0: the transported variances as they are, SPEC step 7). A floor lets the scan's
   /// own samples correct kernels the source map was very sure of.
   double refine_min_variance = 0;
+
+  /// RePOT's E-step solves the Jaakkola-Jordan system for the weight means as a whole (sparse
+  /// conjugate gradients on the host) instead of BHM's diagonal of it; the variances stay BHM's
+  /// diagonal ones (default true). The diagonal update lets every kernel answer every sample it
+  /// reaches as if it were alone, so where transported kernels overlap (they pile up where the
+  /// plan contracts) the map overshoots. false: bhm_update() as SPEC step 7 reads.
+  bool refine_joint = true;
 
   std::uint64_t seed = 0;  ///< subsampling seed (with the scan index: reproducible per scan)
 };
