@@ -54,12 +54,22 @@ TEST(Pot, ScanOntoItselfPutsKernelsBack) {
   so.scans = 1;
   const Scan scan = simulate(Town::builtin("town1"), so).scans[0];
   const KernelMap map = tagged_grid(scan.origin(), 20, 2);
+  // Kernels follow their nearest sample, hit or free, through that sample's plan: with every
+  // sample in the transport (no subsampling) each plan is close to the identity.
+  LabelOptions lo;
+  lo.holdout_fraction = 0;
+  lo.free_per_metre = 0.2;
   Dictionary dict;
-  build_dictionary({scan}, map, {}, dict);
+  DictionaryOptions dopt;
+  dopt.labels = lo;
+  build_dictionary({scan}, map, dopt, dict);
   ASSERT_GE(dict.size(), 3u);
   PotOptions o = small_options();
+  o.transport_points = 100000;
   o.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
-  const LabelledPoints train = all_samples(scan, 0);
+  LabelledSplit split;
+  label_scan(scan, 0, lo, split);
+  const LabelledPoints& train = split.train;
   const ScanTransfer t =
       transfer_scan(&test::context(), dict, train, scan.origin(), scan_heading(scan), 0, o);
   ASSERT_EQ(t.sectors.size(), dict.size());
@@ -86,7 +96,7 @@ TEST(Pot, ScanOntoItselfPutsKernelsBack) {
   // The entropic blur at epsilon 0.0005 of the normalised cost moves samples by a fraction of
   // their spacing; kernels follow their nearest sample.
   RecordProperty("worst_displacement_m", std::to_string(worst));
-  EXPECT_LT(worst, 0.5);  // measured 0.14 m
+  EXPECT_LT(worst, 0.6);  // measured 0.20 m
 }
 
 TEST(Pot, RotatedAtomIsRankedBestAtItsRotation) {
