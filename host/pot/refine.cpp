@@ -10,10 +10,11 @@ namespace potmap::detail {
 
 namespace {
 
-// Conjugate-gradient iterations per E-step and their relative residual target. The system is
-// well conditioned (prior precisions of informed kernels dominate), so few are needed.
-constexpr int kMaxCg = 200;
-constexpr double kCgTolerance = 1e-8;
+// Conjugate-gradient iterations per E-step and the relative residual they stop at. Warm starts
+// from the previous EM round need a few tens; tightening 1e-4 to 1e-8 changed held-out scores
+// by less than 1e-3 on the simulated towns and doubled the time.
+constexpr int kMaxCg = 100;
+constexpr double kCgTolerance = 1e-4;
 
 }  // namespace
 

@@ -77,9 +77,12 @@ struct PotOptions {
   BhmOptions refine_bhm;
 
   /// RePOT prior: transported weight variances below this are raised to it before the update
-  /// (default 0: the transported variances as they are, SPEC step 7). A floor lets the scan's
-  /// own samples correct kernels the source map was very sure of.
-  double refine_min_variance = 0;
+  /// (weight units squared; default 1; 0: the transported variances as they are, as SPEC step 7
+  /// reads). A source posterior's variance says how sure the source data made the weight where
+  /// it was learned, not how well it fits the place it was moved to; the floor lets the scan's
+  /// own samples correct it. Measured (town1 -> town2, 8 scans, 3 EM rounds): ABHM source,
+  /// RePOT AUC 0.933 -> 0.955, NLL 0.163 -> 0.120; BHM source AUC 0.864 -> 0.871, NLL equal.
+  double refine_min_variance = 1;
 
   /// RePOT's E-step solves the Jaakkola-Jordan system for the weight means as a whole (sparse
   /// conjugate gradients on the host) instead of BHM's diagonal of it; the variances stay BHM's
