@@ -85,6 +85,23 @@ def figures_md(doc, md_dir):
     return "\n".join(out)
 
 
+def pot_stages(doc):
+    parts = []
+    for g in ("POT", "RePOT"):
+        runs = [r for r in doc["runs"] if r["group"] == g]
+        if not runs:
+            continue
+        def mean(k):
+            v = [r["info"].get(k, 0.0) for r in runs]
+            return sum(v) / len(v)
+        parts.append(f"{g} {mean('atoms'):.0f} atoms (built in {mean('atoms_s'):.1f} s), "
+                     f"{mean('kernels_per_scan'):.0f} kernels per scan, mean stage times per "
+                     f"scan: prepare {mean('prepare_ms'):.1f} ms (overlapped), ranking "
+                     f"{mean('ranking_ms'):.1f}, transport {mean('transport_ms'):.1f}, placement "
+                     f"{mean('placement_ms'):.1f}, refine {mean('refine_ms'):.1f} ms")
+    return "; ".join(parts)
+
+
 def paper_md():
     out = ["| metric | method | Town1 | Town2 | Town3 |", "|---|---|---|---|---|"]
     for metric, rows in PAPER_TABLE_VI.items():
@@ -118,9 +135,18 @@ def main():
         "[1e-6, 1 - 1e-6]. The 2 cores were shared with other jobs while these ran, so times",
         "are noisy: compare orders of magnitude, not digits.",
         "",
-        "POT and RePOT rows are not here yet: they are added when the transfer (issue #6) lands.",
         "Baselines (OGM, BHM, ABHM) learn on the target's own training beams and do not use the",
-        "source, so their numbers are the same for every source of one target.",
+        "source, so their numbers are the same for every source of one target. POT and RePOT",
+        "build a dictionary of atoms from the source (a map learned on each source place, atoms",
+        "cut from scans spread over it; see each run's settings), then transfer the target's",
+        "scans in order from their training samples only and accumulate the instantaneous maps",
+        "into an overall map with merging (Table III style); the dynamic runner scores each",
+        "scan's instantaneous map (Table V). Their time per scan is the transfer (ranking,",
+        "transport, placement, RePOT's update, merging), with the next scan's host preparation",
+        "overlapped as `potmap map` does; building the atoms is offline and not included.",
+        "Every scan is cut at the settings' max_range (20 m: the towns' range and POT's sector",
+        "radius) for every method: returns of the 80 m lasers of the real logs beyond it become",
+        "free beams to 20 m.",
         "",
     ]
     for d in docs:
@@ -131,6 +157,13 @@ def main():
                      "hardware threads")
         lines.append(f"- device: {d['device']}")
         lines.append(f"- JSON: `{os.path.join(res_dir, d['_file'])}`")
+        st = d.get("settings", {})
+        if "pot_atom_map" in st and any(r["group"] in ("POT", "RePOT") for r in d["runs"]):
+            lines.append(f"- POT/RePOT: atoms from a {st['pot_atom_map'].upper()} source map, "
+                         f"{st['pot_atom_scans']} source scans per place cut into "
+                         f"{st['pot_sectors']} sectors, {st['pot_rotations']} rotations, merge radius "
+                         f"{st['pot_merge_radius']}; scans cut at {st.get('max_range', 0):g} m")
+            lines.append("- " + pot_stages(d))
         lines.append("")
         lines.append(table_md(d))
         lines.append("")
@@ -157,13 +190,18 @@ def main():
                 row = next(t for t in d["table"] if t["target"] == r["target"]
                            and t["method"] == r["method"])
                 ms = row["ms_per_scan"]["mean"]
-                notes.append(f"{r['target']}: {r['method']} used {int(r['info']['kernels'])} "
-                             f"kernels and took {ms:.0f} ms/scan")
-            lines.append(f"Budget: {budget:g} ms per scan (a stand-in until POT's own time per "
-                         "scan is measured). The kernel counts come from timing probes before "
-                         "the runs (BHM on the first 10 scans, ABHM on 40 Adam steps), capped "
-                         "at 400,000 kernels; the measured times show how close they came: "
-                         + "; ".join(notes) + ".")
+                info = r["info"]
+                notes.append(f"{r['target']}: {r['method']} {int(info['kernels'])} kernels, "
+                             f"budget {info.get('budget_ms', float('nan')):.1f} ms, calibration "
+                             f"{info.get('calibrated_ms', float('nan')):.1f} ms, runs "
+                             f"{ms:.1f} ms/scan")
+            lines.append("Budget: POT's own time per scan, its mean over the seeds' runs on each "
+                         "target (or `--budget-ms` when given; settings: "
+                         f"{budget:g}). BHM and ABHM get the kernel count whose full fit on that "
+                         "seed came closest to it (secant steps on measured full fits, no "
+                         "extrapolation; BHM at the default grid's fixed width, ABHM with its "
+                         "Adam steps fixed). Budget, the calibration fit's time and the mean "
+                         "time over the seeds' runs: " + "; ".join(notes) + ".")
             lines.append("")
             lines.append("The paper's Table VI on its Carla towns (their data and setup, not "
                          "reproduced here; copied from SPEC.md section 5) for reference:")

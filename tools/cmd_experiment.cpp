@@ -2,8 +2,10 @@
 // Tables III to VI) on any dataset a reader takes, every method scored on the same held-out beams.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <memory>
+#include <vector>
 
 #include "commands.hpp"
 #include "experiment_runner.hpp"
@@ -22,7 +24,8 @@ void add_common(CLI::App* cmd, Settings& s) {
          "Seeds of the beam split, free samples, simulated routes and ABHM (default 0 1 2)")
       ->expected(1, -1);
   cmd->add_option("--scans", s.scans, "Use at most this many scans of each dataset (0: all)");
-  cmd->add_option("--methods", s.methods, "Comma-separated: ogm, bhm, abhm")->capture_default_str();
+  cmd->add_option("--methods", s.methods, "Comma-separated: ogm, bhm, abhm, pot, repot")
+      ->capture_default_str();
   cmd->add_option("--ogm-cells", s.ogm_cells, "OGM cell sizes, metres; the best by AUC is reported")
       ->expected(1, -1)
       ->capture_default_str();
@@ -35,6 +38,27 @@ void add_common(CLI::App* cmd, Settings& s) {
       ->capture_default_str();
   cmd->add_option("--abhm-steps", s.abhm.steps, "ABHM Adam steps")->capture_default_str();
   cmd->add_option("--abhm-gamma0", s.abhm.gamma0, "ABHM starting kernel width, 1/m^2")
+      ->capture_default_str();
+  cmd->add_option("--atom-map", s.pot.atom_map,
+                  "POT/RePOT: map the atoms' kernels come from, learned on the source: bhm "
+                  "(fast) or abhm (the paper's, varied widths)")
+      ->capture_default_str();
+  cmd->add_option("--atom-scans", s.pot.atom_scans,
+                  "POT/RePOT: source scans per place cut into atoms, evenly spaced (0: all)")
+      ->capture_default_str();
+  cmd->add_option("--atom-abhm-kernels", s.pot.atom_abhm.count,
+                  "POT/RePOT with --atom-map abhm: ABHM kernels per source place")
+      ->capture_default_str();
+  cmd->add_option("--rotations", s.rotations, "POT/RePOT: rotations tried per atom")
+      ->capture_default_str();
+  cmd->add_option("--sectors", s.pot.pot.sectors, "POT/RePOT: sectors per target scan")
+      ->capture_default_str();
+  cmd->add_option("--merge-radius", s.pot.overall.merge_radius,
+                  "POT/RePOT: overall map merge radius (d^2 * gamma; 0: no merging)")
+      ->capture_default_str();
+  cmd->add_option("--max-range", s.max_range,
+                  "Cut every scan at this range, metres, for every method (POT's sector "
+                  "radius; 0: each scan's own)")
       ->capture_default_str();
   cmd->add_option("--sim-scans", s.sim_scans, "Scans of each simulated drive (sim:TOWN)")
       ->capture_default_str();
@@ -62,23 +86,50 @@ std::vector<Scan> slice(const std::vector<Scan>& v, std::size_t a, std::size_t b
   return std::vector<Scan>(v.begin() + a, v.begin() + b);
 }
 
-// Per-time-unit: the kernel count at which a learner's time per scan matches the budget. Time
-// grows about linearly with kernels at a fixed width; two corrections on measured times.
+// Per-time-unit: the kernel count at which a learner's time per scan matches the budget.
+// Every probe is a full fit of the real task (first seed), so the matched time is measured, not
+// extrapolated: secant steps on log time against log kernels (time is about a power of the
+// count), until within `tolerance` of the budget or out of probes; the probe closest to the
+// budget wins. `measured_ms` receives its time.
 std::size_t match_budget(const std::function<double(std::size_t)>& ms_per_scan, std::size_t start,
-                         double budget_ms) {
+                         double budget_ms, double* measured_ms, double tolerance = 0.1,
+                         int probes = 6) {
   auto clampc = [](double c) { return std::size_t(std::clamp(c, 16.0, 4e5)); };
-  std::size_t c0 = start;
-  double t0 = ms_per_scan(c0);
-  std::size_t c1 = clampc(c0 * budget_ms / std::max(t0, 1e-6));
-  if (c1 == c0) return c0;
-  double t1 = ms_per_scan(c1);
-  double slope = std::log(t1 / t0) / std::log(double(c1) / double(c0));
-  if (!std::isfinite(slope)) slope = 1;
-  slope = std::clamp(slope, 0.2, 2.0);
-  const std::size_t c2 = clampc(c1 * std::pow(budget_ms / std::max(t1, 1e-6), 1.0 / slope));
-  std::cerr << "potmap:   calibration " << c0 << " kernels " << t0 << " ms/scan, " << c1 << " -> "
-            << t1 << " ms/scan; chose " << c2 << "\n";
-  return c2;
+  std::vector<std::pair<std::size_t, double>> seen;
+  std::size_t c = clampc(double(start));
+  double slope = 1;
+  for (int k = 0; k < probes; ++k) {
+    const double t = ms_per_scan(c);
+    std::cerr << "potmap:   calibration: " << c << " kernels " << t << " ms/scan (budget "
+              << budget_ms << ")\n";
+    seen.emplace_back(c, t);
+    if (std::abs(t - budget_ms) <= tolerance * budget_ms) break;
+    if (seen.size() >= 2) {
+      const auto& [ca, ta] = seen[seen.size() - 2];
+      const double sl = std::log(t / ta) / std::log(double(c) / double(ca));
+      if (std::isfinite(sl)) slope = std::clamp(sl, 0.2, 2.0);
+    }
+    const std::size_t nc = clampc(c * std::pow(budget_ms / std::max(t, 1e-6), 1.0 / slope));
+    if (nc == c) break;  // at the cap or the floor
+    c = nc;
+  }
+  const auto best = std::min_element(seen.begin(), seen.end(), [&](auto& x, auto& y) {
+    return std::abs(std::log(x.second / budget_ms)) < std::abs(std::log(y.second / budget_ms));
+  });
+  if (measured_ms) *measured_ms = best->second;
+  return best->first;
+}
+
+// Adds the budget to what a method reports.
+experiment::Method with_budget(experiment::Method m, double budget_ms, double calibrated_ms) {
+  auto fit = m.fit;
+  m.fit = [fit, budget_ms, calibrated_ms](Context* ctx, const experiment::MapTask& task) {
+    experiment::FittedMap f = fit(ctx, task);
+    f.info["budget_ms"] = budget_ms;
+    f.info["calibrated_ms"] = calibrated_ms;
+    return f;
+  };
+  return m;
 }
 
 }  // namespace
@@ -86,8 +137,9 @@ std::size_t match_budget(const std::function<double(std::size_t)>& ms_per_scan, 
 void register_experiment(CLI::App& app, Runner& runner) {
   CLI::App* ex = app.add_subcommand(
       "experiment",
-      "The paper's experiments: OGM (OctoMap), BHM and ABHM scored on the same held-out beams "
-      "(20 % per scan), tables of ACC, AUC, NLL and time per scan, JSON and figures");
+      "The paper's experiments: OGM (OctoMap), BHM, ABHM, POT and RePOT scored on the same "
+      "held-out beams (20 % per scan), tables of ACC, AUC, NLL and time per scan, JSON and "
+      "figures");
   ex->require_subcommand(1);
 
   // --- intra ---
@@ -114,7 +166,7 @@ void register_experiment(CLI::App& app, Runner& runner) {
                                std::to_string(s->source_scans));
             if (!warm) h.warm_up(scans), warm = true;
             const std::string l = Harness::label(d);
-            h.run_case(l, slice(scans, 0, s->source_scans), l,
+            h.run_case(l, {slice(scans, 0, s->source_scans)}, l,
                        slice(scans, s->source_scans, scans.size()), std::int64_t(s->source_scans),
                        seed, methods);
           }
@@ -141,7 +193,7 @@ void register_experiment(CLI::App& app, Runner& runner) {
           for (const std::string& a : *data)
             for (const std::string& b : *data) {
               if (a == b) continue;
-              const auto src = h.load(a, seed);
+              const auto src = h.load_places(a, seed);
               const auto dst = h.load(b, seed);
               if (!warm) h.warm_up(dst), warm = true;
               h.run_case(Harness::label(a), src, Harness::label(b), dst, 0, seed, methods);
@@ -169,7 +221,7 @@ void register_experiment(CLI::App& app, Runner& runner) {
         bool warm = false;
         for (std::uint64_t seed : s->seeds) {
           const std::string src_spec = "sim:" + *towns;
-          const auto src = h.load(src_spec, seed);
+          const auto src = h.load_places(src_spec, seed);
           for (const std::string& b : *data) {
             const auto dst = h.load(b, seed);
             if (!warm) h.warm_up(dst), warm = true;
@@ -211,8 +263,8 @@ void register_experiment(CLI::App& app, Runner& runner) {
             const auto dst = h.load(b, seed);
             if (!warm) h.warm_up(dst), warm = true;
             for (const std::string& a : *sources)
-              h.run_instantaneous(Harness::label(a), h.load(a, seed), Harness::label(b), dst, seed,
-                                  methods);
+              h.run_instantaneous(Harness::label(a), h.load_places(a, seed), Harness::label(b), dst,
+                                  seed, methods);
           }
         h.finish("scans and seeds");
         return 0;
@@ -224,77 +276,114 @@ void register_experiment(CLI::App& app, Runner& runner) {
   {
     CLI::App* c = ex->add_subcommand(
         "per-time",
-        "Per time unit (Table VI): BHM and ABHM with kernel counts matched to a time budget per "
-        "scan, beside their defaults and OGM");
+        "Per time unit (Table VI): BHM and ABHM with kernel counts matched to POT's time per "
+        "scan, beside their defaults, POT, RePOT and OGM");
     auto s = std::make_shared<Settings>();
     auto data = std::make_shared<std::vector<std::string>>();
     c->add_option("TARGETS", *data, kDatasetHelp)->required()->expected(1, -1);
     c->add_option("--budget-ms", s->budget_ms,
-                  "Time per scan the matched BHM and ABHM may take, milliseconds (the paper: "
-                  "POT's time per scan)")
+                  "Time per scan the matched BHM and ABHM may take, milliseconds (0: POT's, "
+                  "measured on the first seed, as the paper)")
         ->capture_default_str();
+    auto max_kernels = std::make_shared<std::size_t>(400000);
+    c->add_option("--max-kernels", *max_kernels, "Most kernels the matched BHM and ABHM may get")
+        ->capture_default_str();
+    c->add_option("--source", s->source,
+                  "POT's source dataset (default: the other targets, each a place of its own)");
     add_common(c, *s);
-    c->callback([&runner, s, data] {
-      runner.action = [s, data] {
+    c->callback([&runner, s, data, max_kernels] {
+      runner.action = [s, data, max_kernels] {
         Harness h("per-time-unit", *s);
         const auto base = h.methods();
         const std::string list = "," + s->methods + ",";
         const bool want_bhm = list.find(",bhm,") != std::string::npos;
         const bool want_abhm = list.find(",abhm,") != std::string::npos;
+        const bool want_pot = list.find(",pot,") != std::string::npos;
+        const bool want_transfer = want_pot || list.find(",repot,") != std::string::npos;
+        if (s->budget_ms <= 0 && !want_pot)
+          throw ArgumentError("per-time: --budget-ms 0 takes POT's time: add pot to --methods");
         for (const std::string& d : *data) {
           const std::uint64_t seed0 = s->seeds.front();
           const auto scans0 = h.load(d, seed0);
           h.warm_up(scans0);
-          std::vector<experiment::Method> methods = base;
+          // POT's source: --source, or every other target (leave one out).
+          std::vector<std::string> srcs;
+          if (!s->source.empty())
+            srcs.push_back(s->source);
+          else
+            for (const std::string& o : *data)
+              if (o != d) srcs.push_back(o);
+          if (want_transfer && srcs.empty())
+            throw ArgumentError("per-time: POT needs --source when there is one target");
+          std::string src_label;
+          for (const std::string& o : srcs)
+            src_label += (src_label.empty() ? "" : "+") + Harness::label(o);
+          auto places = [&](std::uint64_t seed) {
+            std::vector<std::vector<Scan>> p;
+            for (const std::string& o : srcs)
+              for (auto& pl : h.load_places(o, seed)) p.push_back(std::move(pl));
+            return p;
+          };
+          // Every method at its defaults first, POT and RePOT included; POT's mean time per
+          // scan over the seeds is then the budget (its time varies several-fold between
+          // seeds, mostly in the high-quality transport).
+          for (std::uint64_t seed : s->seeds)
+            h.run_case(want_transfer ? src_label : "",
+                       want_transfer ? places(seed) : std::vector<std::vector<Scan>>{},
+                       Harness::label(d), h.load(d, seed), 0, seed, base);
+          std::vector<experiment::Method> methods;
           LabelOptions lo;
           lo.seed = seed0;
           lo.free_per_metre = s->free_per_metre;
           lo.holdout_fraction = s->holdout;
           LabelledPoints test;
-          const experiment::MapTask full = experiment::make_task(scans0, lo, test);
-          std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": matching "
-                    << s->budget_ms << " ms per scan\n";
+          experiment::MapTask full = experiment::make_task(scans0, lo, test);
+          full.seed = seed0;
+          double budget = s->budget_ms;
+          if (budget <= 0) {
+            budget = h.mean_ms_per_scan(Harness::label(d), "POT");
+            std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": POT took " << budget
+                      << " ms per scan (mean over the seeds): the budget\n";
+          }
+          std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": matching " << budget
+                    << " ms per scan\n";
           if (want_bhm) {
             // A fixed width (the default grid's) so that more kernels cost more time.
             experiment::BhmSetup b = s->bhm;
             b.gamma = b.gamma > 0 ? b.gamma : 8.0 / (b.spacing * b.spacing);
-            const auto prefix = slice(scans0, 0, 10);
-            LabelledPoints t2;
-            const experiment::MapTask small = experiment::make_task(prefix, lo, t2);
             double vol = 1;
             for (int k = 0; k < full.dim; ++k) vol *= full.hi[k] - full.lo[k];
             const std::size_t start =
                 std::max<std::size_t>(16, std::size_t(vol / (b.spacing * b.spacing)));
+            double got = 0;
             b.count = match_budget(
                 [&](std::size_t n) {
                   experiment::BhmSetup x = b;
-                  // Kernel density of the full area applied to the prefix's area.
-                  double v2 = 1;
-                  for (int k = 0; k < small.dim; ++k) v2 *= small.hi[k] - small.lo[k];
-                  x.count = std::max<std::size_t>(1, std::size_t(n * v2 / vol));
-                  const auto f = experiment::bhm_method(x).fit(h.context(), small);
-                  return 1e3 * f.fit_seconds / double(small.train_scans.size());
+                  x.count = n;
+                  const auto f = experiment::bhm_method(x).fit(h.context(), full);
+                  return 1e3 * f.fit_seconds / double(full.train_scans.size());
                 },
-                start, s->budget_ms);
-            methods.push_back(experiment::bhm_method(b, "BHM (budget)"));
+                start, budget, &got, double(*max_kernels));
+            methods.push_back(with_budget(experiment::bhm_method(b, "BHM (budget)"), budget, got));
           }
           if (want_abhm) {
             experiment::AbhmSetup a = s->abhm;
-            const std::size_t probe = std::min<std::size_t>(a.steps, 40);
+            double got = 0;
             a.count = match_budget(
                 [&](std::size_t n) {
                   experiment::AbhmSetup x = a;
                   x.count = n;
-                  x.steps = probe;
                   const auto f = experiment::abhm_method(x).fit(h.context(), full);
-                  return 1e3 * f.fit_seconds * double(a.steps) / double(probe) /
-                         double(full.train_scans.size());
+                  return 1e3 * f.fit_seconds / double(full.train_scans.size());
                 },
-                s->abhm.count, s->budget_ms);
-            methods.push_back(experiment::abhm_method(a, "ABHM (budget)"));
+                s->abhm.count, budget, &got, double(*max_kernels));
+            methods.push_back(
+                with_budget(experiment::abhm_method(a, "ABHM (budget)"), budget, got));
           }
           for (std::uint64_t seed : s->seeds)
-            h.run_case("", {}, Harness::label(d), h.load(d, seed), 0, seed, methods);
+            h.run_case(want_transfer ? src_label : "",
+                       want_transfer ? places(seed) : std::vector<std::vector<Scan>>{},
+                       Harness::label(d), h.load(d, seed), 0, seed, methods);
         }
         h.finish("seeds");
         return 0;

@@ -15,6 +15,8 @@
 
 #include "commands.hpp"
 #include "potmap/error.hpp"
+#include "potmap/kernel_picture.hpp"
+#include "potmap/raster.hpp"
 #include "potmap/simulator.hpp"
 #include "progress.hpp"
 
@@ -133,6 +135,13 @@ std::string Harness::label(const std::string& spec) {
 
 std::vector<Scan> Harness::load(const std::string& spec, std::uint64_t seed) {
   std::vector<Scan> scans;
+  for (auto& place : load_places(spec, seed))
+    for (Scan& sc : place) scans.push_back(std::move(sc));
+  return scans;
+}
+
+std::vector<std::vector<Scan>> Harness::load_places(const std::string& spec, std::uint64_t seed) {
+  std::vector<std::vector<Scan>> places;
   const auto colon = spec.find(':');
   const std::string kind = colon == std::string::npos ? "" : spec.substr(0, colon);
   if (kind == "sim" || kind == "simdyn") {
@@ -144,18 +153,21 @@ std::vector<Scan> Harness::load(const std::string& spec, std::uint64_t seed) {
       if (kind == "simdyn") o.moving_vehicles = s_.moving;
       if (s_.scans > 0) o.scans = std::min(o.scans, s_.scans);
       Simulation sim = simulate(Town::builtin(town, 0), o);
-      for (Scan& sc : sim.scans) scans.push_back(std::move(sc));
+      places.emplace_back();
+      for (Scan& sc : sim.scans) places.back().push_back(experiment::limit_range(sc, s_.max_range));
     }
-    return scans;
+    return places;
   }
   auto it = files_.find(spec);
   if (it == files_.end()) {
     Dataset ds = read_dataset(spec);
     if (ds.scans.empty()) throw InputError(spec + ": no scans");
     if (s_.scans > 0 && ds.scans.size() > s_.scans) ds.scans.resize(s_.scans);
+    for (Scan& sc : ds.scans) sc = experiment::limit_range(sc, s_.max_range);
     it = files_.emplace(spec, std::move(ds.scans)).first;
   }
-  return it->second;
+  places.push_back(it->second);
+  return places;
 }
 
 std::vector<Method> Harness::methods() const {
@@ -167,11 +179,24 @@ std::vector<Method> Harness::methods() const {
       out.push_back(experiment::bhm_method(s_.bhm));
     } else if (m == "abhm") {
       out.push_back(experiment::abhm_method(s_.abhm));
+    } else if (m == "pot" || m == "repot") {
+      out.push_back(
+          experiment::pot_method(pot_setup(m == "repot"), m == "pot" ? "POT" : "RePOT", atoms_));
     } else {
-      throw ArgumentError("--methods: unknown method '" + m + "' (ogm, bhm, abhm)");
+      throw ArgumentError("--methods: unknown method '" + m + "' (ogm, bhm, abhm, pot, repot)");
     }
   }
   return out;
+}
+
+experiment::PotSetup Harness::pot_setup(bool refine) const {
+  experiment::PotSetup p = s_.pot;
+  p.pot.refine = refine;
+  if (s_.rotations < 1) throw ArgumentError("--rotations: at least 1");
+  p.pot.rotations.clear();
+  for (std::size_t i = 0; i < s_.rotations; ++i)
+    p.pot.rotations.push_back(2 * 3.14159265358979323846 * double(i) / double(s_.rotations));
+  return p;
 }
 
 Record Harness::fit_and_score(const Method& m, const MapTask& task, const LabelledPoints& test,
@@ -190,11 +215,27 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
     const std::string prefix =
         (fs::path(s_.figures) / slug(experiment_ + "_" + case_label + "_" + m.name)).string();
     r.figures = experiment::write_figures(f, task.lo, task.hi, prefix, s_.figure_pixels);
+    if (m.uses_source && f.kernels && !f.kernels->empty() && context()) {
+      // Transported kernels coloured by width over the grey map (the paper's Fig. 3 and 9),
+      // in place of the plain dots.
+      RasterSpec spec;
+      spec.xmin = task.lo[0];
+      spec.xmax = task.hi[0];
+      spec.ymin = task.lo[1];
+      spec.ymax = task.hi[1];
+      spec.resolution =
+          std::max(task.hi[0] - task.lo[0], task.hi[1] - task.lo[1]) / double(s_.figure_pixels);
+      const std::string path = prefix + "_kernels.png";
+      write_kernel_picture(context(), *f.kernels, spec, path);
+      if (std::find(r.figures.begin(), r.figures.end(), path) == r.figures.end())
+        r.figures.push_back(path);
+    }
   }
   return r;
 }
 
-void Harness::run_case(const std::string& source_label, const std::vector<Scan>& source,
+void Harness::run_case(const std::string& source_label,
+                       const std::vector<std::vector<Scan>>& source,
                        const std::string& target_label, const std::vector<Scan>& target,
                        std::int64_t first_index, std::uint64_t seed,
                        const std::vector<Method>& methods) {
@@ -206,6 +247,7 @@ void Harness::run_case(const std::string& source_label, const std::vector<Scan>&
   MapTask task = experiment::make_task(target, lo, test, 5.0, first_index);
   task.seed = seed;
   task.source = source;
+  task.source_key = source_label + "\n" + std::to_string(seed);
   const bool figs = seed == s_.seeds.front();
   std::cerr << "potmap: " << experiment_ << " "
             << (source_label.empty() ? "" : source_label + " -> ") << target_label << " seed "
@@ -230,7 +272,8 @@ void Harness::run_case(const std::string& source_label, const std::vector<Scan>&
   }
 }
 
-void Harness::run_instantaneous(const std::string& source_label, const std::vector<Scan>& source,
+void Harness::run_instantaneous(const std::string& source_label,
+                                const std::vector<std::vector<Scan>>& source,
                                 const std::string& target_label, const std::vector<Scan>& target,
                                 std::uint64_t seed, const std::vector<Method>& methods) {
   LabelOptions lo;
@@ -245,6 +288,7 @@ void Harness::run_instantaneous(const std::string& source_label, const std::vect
     tasks[i] = experiment::make_task({target[i]}, lo, tests[i], 5.0, std::int64_t(i));
     tasks[i].seed = seed;
     tasks[i].source = source;
+    tasks[i].source_key = source_label + "\n" + std::to_string(seed);
   }
   for (const Method& m : methods) {
     const std::string key = "inst\n" + target_label + "\n" + std::to_string(seed) + "\n" + m.name;
@@ -275,6 +319,13 @@ void Harness::run_instantaneous(const std::string& source_label, const std::vect
   }
 }
 
+double Harness::mean_ms_per_scan(const std::string& target_label, const std::string& group) const {
+  std::vector<double> v;
+  for (const Record& r : records_)
+    if (r.target == target_label && r.group == group) v.push_back(r.per_scan_ms);
+  return stat(v).mean;
+}
+
 void Harness::warm_up(const std::vector<Scan>& scans) {
   // The first OpenCL launch of a program builds it (seconds on PoCL): do that before anything
   // is timed, on one scan, and throw the result away.
@@ -287,6 +338,15 @@ void Harness::warm_up(const std::vector<Scan>& scans) {
   a.count = std::min<std::size_t>(a.count, 64);
   for (const Method& m : {experiment::bhm_method(s_.bhm), experiment::abhm_method(a)})
     experiment::score_map(m.fit(context(), task), test);
+  // POT's Sinkhorn programs: atoms from the first scans, RePOT (which runs every stage).
+  const std::string list = "," + s_.methods + ",";
+  if (list.find(",pot,") != std::string::npos || list.find(",repot,") != std::string::npos) {
+    task.source = {
+        std::vector<Scan>(scans.begin(), scans.begin() + std::min<std::size_t>(2, scans.size()))};
+    experiment::PotSetup w = pot_setup(true);
+    w.atom_map = "bhm";
+    experiment::score_map(experiment::pot_method(w, "warm-up").fit(context(), task), test);
+  }
 }
 
 void Harness::finish(const std::string& spread) {
@@ -432,6 +492,12 @@ void Harness::finish(const std::string& spread) {
                    {"abhm_kernels", s_.abhm.count},
                    {"abhm_steps", s_.abhm.steps},
                    {"free_per_metre", s_.free_per_metre},
+                   {"max_range", s_.max_range},
+                   {"pot_atom_map", s_.pot.atom_map},
+                   {"pot_atom_scans", s_.pot.atom_scans},
+                   {"pot_rotations", s_.rotations},
+                   {"pot_sectors", s_.pot.pot.sectors},
+                   {"pot_merge_radius", s_.pot.overall.merge_radius},
                    {"holdout", s_.holdout},
                    {"budget_ms", s_.budget_ms}};
   j["table"] = table;

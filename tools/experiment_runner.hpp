@@ -22,17 +22,25 @@ struct Settings {
   std::size_t sim_scans = 200;    ///< scans of each simulated drive
   double sim_spacing = 2.0;       ///< metres driven between simulated scans
   int moving = 40;                ///< moving vehicles of the dynamic scene
-  std::string methods = "ogm,bhm,abhm";
+  std::string methods = "ogm,bhm,abhm,pot,repot";
   std::vector<double> ogm_cells{0.1, 0.5, 1, 5, 10};
   experiment::BhmSetup bhm;
   experiment::AbhmSetup abhm;
+  experiment::PotSetup pot;   ///< POT and RePOT (refine is set per method)
+  std::size_t rotations = 8;  ///< POT: rotations tried per atom, evenly spaced
+  /// Every scan (real logs: 80 m lasers) cut at this range, metres, for every method: POT's
+  /// sector radius and the simulated towns' range (0: keep each scan's own).
+  double max_range = 20;
   double free_per_metre = 1.0;
   double holdout = 0.2;
   std::string json, figures;
   std::size_t figure_pixels = 400;
   bool cpu = false;
   std::string device;
-  double budget_ms = 1000;  ///< per-time-unit: time per scan the matched learners get
+  /// Per-time-unit: time per scan the matched learners get, ms (0: POT's, measured on the
+  /// first seed).
+  double budget_ms = 0;
+  std::string source;  ///< per-time-unit: POT's source (empty: the other targets)
 };
 
 /// One score of one method on one case (one seed; one scan for instantaneous maps).
@@ -57,29 +65,36 @@ class Harness {
   /// A dataset by name: a file any reader takes, or sim:TOWN[+TOWN...] (built-in towns driven
   /// with this seed's route; simdyn:TOWN adds the moving vehicles). Capped by settings.scans.
   std::vector<Scan> load(const std::string& spec, std::uint64_t seed);
+  /// The same, one vector per place (each simulated town on its own; a file is one place).
+  std::vector<std::vector<Scan>> load_places(const std::string& spec, std::uint64_t seed);
   /// Short label of a dataset name (file stem or the spec itself).
   static std::string label(const std::string& spec);
 
-  /// The methods of settings.methods (ogm: one per cell size; bhm; abhm).
+  /// The methods of settings.methods (ogm: one per cell size; bhm; abhm; pot; repot).
   std::vector<experiment::Method> methods() const;
 
   /// Maps `target` (scans labelled from first_index on) with every method and scores the held-out
   /// samples; `source` is handed to transfer methods. Baselines are fitted once per (target,
   /// seed) and reused for other sources. Figures for the first seed.
-  void run_case(const std::string& source_label, const std::vector<Scan>& source,
+  void run_case(const std::string& source_label, const std::vector<std::vector<Scan>>& source,
                 const std::string& target_label, const std::vector<Scan>& target,
                 std::int64_t first_index, std::uint64_t seed,
                 const std::vector<experiment::Method>& methods);
   /// Instantaneous maps: every scan of `target` mapped on its own, scored on its own held-out
   /// beams (one record per scan).
-  void run_instantaneous(const std::string& source_label, const std::vector<Scan>& source,
+  void run_instantaneous(const std::string& source_label,
+                         const std::vector<std::vector<Scan>>& source,
                          const std::string& target_label, const std::vector<Scan>& target,
                          std::uint64_t seed, const std::vector<experiment::Method>& methods);
-  /// Builds the OpenCL programs of the kernel learners on one scan so that no timing includes
-  /// a program build.
+  /// Builds the OpenCL programs of the kernel learners and of POT on one scan so that no timing
+  /// includes a program build.
   void warm_up(const std::vector<Scan>& scans);
+  /// Mean time per scan, ms, of a method group's records on a target (NaN when none).
+  double mean_ms_per_scan(const std::string& target_label, const std::string& group) const;
   /// Adds a record made elsewhere (per-time-unit calibration results).
   void add(Record r) { records_.push_back(std::move(r)); }
+  /// settings.pot with the rotations applied and refine set (RePOT).
+  experiment::PotSetup pot_setup(bool refine) const;
   /// Fits and scores one method on one task (no caching); figures when `figures` is set.
   Record fit_and_score(const experiment::Method& m, const experiment::MapTask& task,
                        const LabelledPoints& test, bool figures, const std::string& case_label);
@@ -96,6 +111,7 @@ class Harness {
   std::map<std::string, std::vector<Scan>> files_;
   std::vector<Record> records_;
   std::map<std::string, std::vector<Record>> cache_;  // baselines by (target, seed)
+  std::shared_ptr<experiment::AtomCache> atoms_ = std::make_shared<experiment::AtomCache>();
 };
 
 }  // namespace potmap::cli::exp

@@ -18,6 +18,7 @@
 #include "potmap/export.h"
 
 #include "potmap/abhm.hpp"
+#include "potmap/atoms.hpp"
 #include "potmap/bhm.hpp"
 #include "potmap/context.hpp"
 #include "potmap/kernel_map.hpp"
@@ -25,6 +26,8 @@
 #include "potmap/labelling.hpp"
 #include "potmap/metrics.hpp"
 #include "potmap/ogm.hpp"
+#include "potmap/overall_map.hpp"
+#include "potmap/pot.hpp"
 #include "potmap/scan.hpp"
 
 POTMAP_CXX_API_BEGIN
@@ -35,7 +38,13 @@ namespace potmap::experiment {
 struct MapTask {
   int dim = 2;
   std::int64_t first_index = 0;
-  std::vector<Scan> source;  ///< source-domain scans, all beams (transfer methods); may be empty
+  /// Source-domain scans, all beams (transfer methods), one vector per place: places have
+  /// world frames of their own (three simulated towns overlap), so each gets its own source
+  /// map. May be empty.
+  std::vector<std::vector<Scan>> source;
+  /// Names the source (and seed) so that transfer methods can reuse the atoms they built from
+  /// it for other targets; empty: no reuse.
+  std::string source_key;
   std::vector<Scan> train_scans;  ///< target scans with only their training beams, in order
   LabelledPoints train;           ///< labelled samples of those beams
   double lo[3] = {0, 0, 0};       ///< area the map must cover, metres
@@ -50,6 +59,13 @@ struct MapTask {
 /// samples of no-return beams would otherwise stretch it to the sensor's range).
 MapTask make_task(const std::vector<Scan>& scans, const LabelOptions& labels, LabelledPoints& test,
                   double area_margin = 5.0, std::int64_t first_index = 0);
+
+/// The scan with every return farther than `max_range` metres from the sensor (horizontally in
+/// 3D) turned into a no-return along the same direction, and max_range lowered to it; free
+/// space is then sampled up to max_range along those beams. A scan whose max_range is already
+/// at most `max_range` (or `max_range` <= 0) comes back unchanged. The experiments cut real logs
+/// (80 m lasers) at the towns' 20 m, the radius POT's sectors are cut with, for every method.
+Scan limit_range(const Scan& scan, double max_range);
 
 /// A learned map as the evaluation sees it.
 struct FittedMap {
@@ -99,6 +115,60 @@ struct AbhmSetup {
   std::size_t batch = 256;   ///< samples per step
 };
 Method abhm_method(const AbhmSetup& setup, const std::string& name = "ABHM");
+
+/// POT / RePOT (paper Sec. III, SPEC section 4) as a method: a dictionary of atoms is built
+/// from the task's source (a map learned on each source place, atoms cut from some of its
+/// scans), then the target's scans are transferred one by one in order, each from its own
+/// training samples only (the task's, never a held-out beam), and the instantaneous maps are
+/// accumulated into an overall map with merging (OverallMap). The fitted map is the overall map
+/// (for a one-scan task: that scan's instantaneous map). fit_seconds is the transfer of the
+/// target scans (the host preparation of scan i+1 overlaps the solve of scan i, as map_scans
+/// does); building the dictionary is offline work and reported in info["atoms_s"].
+struct PotSetup {
+  PotOptions pot;  ///< transfer settings; pot.refine switches RePOT on; pot.seed is task.seed
+  /// Map the atoms' kernels come from: "bhm" (default; online BHM on a grid, fast) or "abhm"
+  /// (the paper's choice: varied widths, much slower to learn).
+  std::string atom_map = "bhm";
+  BhmSetup atom_bhm = [] {
+    BhmSetup b;
+    b.spacing = 1.0;  // metres
+    b.gamma = 4.0;    // 1/m^2 (as `potmap demo`)
+    b.bias = false;   // atoms carry no bias
+    return b;
+  }();
+  AbhmSetup atom_abhm = [] {
+    AbhmSetup a;
+    a.count = 3000;
+    return a;
+  }();
+  /// Source scans per place that atoms are cut from, evenly spaced over the place's drive
+  /// (default 10; 0: all). Every source scan still trains the source map. Ranking cost grows
+  /// with atoms x rotations per sector.
+  std::size_t atom_scans = 10;
+  DictionaryOptions dictionary;  ///< sector cut and kernel filter of the atoms
+  OverallMapOptions overall;     ///< merging of the overall map
+  bool pipeline = true;          ///< prepare the next scan on a second thread
+};
+
+/// Atoms shared between the POT and RePOT methods of one run, keyed by MapTask::source_key.
+struct AtomCache {
+  std::map<std::string, std::shared_ptr<const Dictionary>> dictionaries;
+  std::map<std::string, double> build_seconds;
+};
+
+/// Builds the dictionary of `setup` from source places (labels: every beam, `seed`).
+/// `map_kernels`, if not null, receives the total number of kernels of the source maps.
+Dictionary build_atoms(Context* ctx, const std::vector<std::vector<Scan>>& places,
+                       const PotSetup& setup, std::uint64_t seed,
+                       std::size_t* map_kernels = nullptr);
+
+/// The training samples POT gets for scan i of the task (scan index first_index + i): those of
+/// task.train with that index, within `range` metres of the scan's sensor (horizontally).
+LabelledPoints scan_training_samples(const MapTask& task, std::size_t i, double range);
+
+/// POT (setup.pot.refine false) or RePOT (true); uses_source. `cache` may be null.
+Method pot_method(const PotSetup& setup, const std::string& name,
+                  std::shared_ptr<AtomCache> cache = nullptr);
 
 /// A kernel map as a FittedMap (device evaluator when ctx is given, exact CPU sum otherwise).
 FittedMap kernel_fitted_map(Context* ctx, std::shared_ptr<const KernelMap> map);

@@ -1,0 +1,200 @@
+// POT and RePOT in the experiments: atoms from the source places, target scans transferred in
+// order from the task's training samples, instantaneous maps merged into an overall map.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <future>
+
+#include "potmap/error.hpp"
+#include "potmap/experiment.hpp"
+#include "potmap/labelling.hpp"
+
+namespace potmap::experiment {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The source map of one place, learned on every beam of its scans.
+KernelMap source_map(Context* ctx, const std::vector<Scan>& scans, const PotSetup& setup,
+                     std::uint64_t seed) {
+  LabelOptions lo = setup.dictionary.labels;
+  lo.seed = seed;
+  const LabelledSplit s = label_scans(scans, lo);
+  const int d = scans.front().dim;
+  double lo3[3] = {0, 0, 0}, hi3[3] = {0, 0, 0};
+  for (int k = 0; k < d; ++k) {
+    lo3[k] = HUGE_VAL;
+    hi3[k] = -HUGE_VAL;
+  }
+  for (std::size_t i = 0; i < s.train.size(); ++i)
+    for (int k = 0; k < d; ++k) {
+      lo3[k] = std::min(lo3[k], s.train.position[i * d + k]);
+      hi3[k] = std::max(hi3[k], s.train.position[i * d + k]);
+    }
+  if (s.train.empty()) throw InputError("POT: a source place gave no labelled samples");
+  if (setup.atom_map == "bhm") {
+    const BhmSetup& b = setup.atom_bhm;
+    const double gamma = b.gamma > 0 ? b.gamma : 8.0 / (b.spacing * b.spacing);
+    KernelMap map = bhm_grid_prior(d, lo3, hi3, b.spacing, gamma, 0.0, b.prior_var, b.bias);
+    bhm_update_sequential(ctx, map, s.train, b.options);
+    return map;
+  }
+  if (setup.atom_map == "abhm") {
+    const AbhmSetup& a = setup.atom_abhm;
+    AbhmParams p = abhm_init_halton(d, lo3, hi3, a.count, a.gamma0);
+    AbhmOptions o;
+    o.steps = a.steps;
+    o.batch = a.batch;
+    o.seed = seed * 7919 + 3;
+    o.report_every = 0;
+    o.device = ctx;
+    abhm_train(p, s.train, o);
+    return p.to_map();
+  }
+  throw ArgumentError("POT: atom map must be bhm or abhm, not '" + setup.atom_map + "'");
+}
+
+// Offsets of each scan's samples in task.train (label_scan appends scan by scan).
+std::vector<std::size_t> scan_offsets(const MapTask& task) {
+  const std::size_t n = task.train_scans.size();
+  std::vector<std::size_t> off(n + 1, 0);
+  const auto& t = task.train.scan;
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    off[i] = j;
+    const std::int64_t idx = task.first_index + std::int64_t(i);
+    while (j < t.size() && t[j] == idx) ++j;
+  }
+  off[n] = j;
+  if (j != t.size()) throw ArgumentError("POT: the task's training samples are not in scan order");
+  return off;
+}
+
+LabelledPoints samples_of(const MapTask& task, std::size_t a, std::size_t b,
+                          const std::array<double, 3>& sensor, double range) {
+  const int d = task.dim;
+  LabelledPoints out;
+  out.dim = d;
+  const double r2 = range * range;
+  for (std::size_t k = a; k < b; ++k) {
+    const double* p = &task.train.position[k * d];
+    const double dx = p[0] - sensor[0], dy = p[1] - sensor[1];
+    if (range > 0 && dx * dx + dy * dy > r2) continue;
+    out.position.insert(out.position.end(), p, p + d);
+    out.label.push_back(task.train.label[k]);
+    out.scan.push_back(task.train.scan[k]);
+  }
+  return out;
+}
+
+}  // namespace
+
+Dictionary build_atoms(Context* ctx, const std::vector<std::vector<Scan>>& places,
+                       const PotSetup& setup, std::uint64_t seed, std::size_t* map_kernels) {
+  Dictionary dict;
+  std::size_t kernels = 0;
+  for (const std::vector<Scan>& scans : places) {
+    if (scans.empty()) continue;
+    const KernelMap map = source_map(ctx, scans, setup, seed);
+    kernels += map.size();
+    std::vector<Scan> chosen;
+    const std::size_t n = scans.size();
+    const std::size_t m = setup.atom_scans == 0 ? n : std::min(n, setup.atom_scans);
+    for (std::size_t k = 0; k < m; ++k) chosen.push_back(scans[k * n / m]);
+    DictionaryOptions o = setup.dictionary;
+    o.labels.seed = seed;
+    build_dictionary(chosen, map, o, dict);
+  }
+  if (map_kernels) *map_kernels = kernels;
+  return dict;
+}
+
+LabelledPoints scan_training_samples(const MapTask& task, std::size_t i, double range) {
+  if (i >= task.train_scans.size()) throw ArgumentError("scan_training_samples: no such scan");
+  const auto off = scan_offsets(task);
+  return samples_of(task, off[i], off[i + 1], task.train_scans[i].origin(), range);
+}
+
+Method pot_method(const PotSetup& setup, const std::string& name,
+                  std::shared_ptr<AtomCache> cache) {
+  Method m;
+  m.name = m.group = name;
+  m.uses_source = true;
+  if (!cache) cache = std::make_shared<AtomCache>();
+  m.fit = [setup, cache](Context* ctx, const MapTask& task) {
+    if (task.source.empty()) throw ArgumentError("POT: the task has no source scans");
+    std::shared_ptr<const Dictionary> dict;
+    double atoms_s = 0;
+    auto hit = task.source_key.empty() ? cache->dictionaries.end()
+                                       : cache->dictionaries.find(task.source_key);
+    if (hit != cache->dictionaries.end()) {
+      dict = hit->second;
+      atoms_s = cache->build_seconds[task.source_key];
+    } else {
+      const auto t0 = std::chrono::steady_clock::now();
+      dict = std::make_shared<const Dictionary>(build_atoms(ctx, task.source, setup, task.seed));
+      atoms_s = seconds_since(t0);
+      if (!task.source_key.empty()) {
+        cache->dictionaries[task.source_key] = dict;
+        cache->build_seconds[task.source_key] = atoms_s;
+      }
+    }
+    if (dict->empty()) throw InputError("POT: the source gave no atoms");
+
+    PotOptions po = setup.pot;
+    po.seed = task.seed;
+    const double range = po.max_range > 0 ? po.max_range : dict->max_range;
+    const auto off = scan_offsets(task);
+    auto prepare = [&](std::size_t i) {
+      const Scan& s = task.train_scans[i];
+      const auto sensor = s.origin();
+      return prepare_transfer(*dict, samples_of(task, off[i], off[i + 1], sensor, range), sensor,
+                              scan_heading(s), task.first_index + std::int64_t(i), po);
+    };
+
+    const auto t0 = std::chrono::steady_clock::now();
+    OverallMap overall(task.dim, setup.overall);
+    const auto launch = setup.pipeline ? std::launch::async : std::launch::deferred;
+    const std::size_t n = task.train_scans.size();
+    std::future<PreparedTransfer> next = std::async(launch, prepare, std::size_t{0});
+    PotTiming timing;
+    std::size_t sectors = 0, inst_kernels = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      PreparedTransfer cur = next.get();
+      if (i + 1 < n) next = std::async(launch, prepare, i + 1);
+      const ScanTransfer t = finish_transfer(ctx, *dict, std::move(cur), po);
+      if (!t.map.empty()) overall.add(t.map);
+      timing.prepare_ms += t.timing.prepare_ms;
+      timing.ranking_ms += t.timing.ranking_ms;
+      timing.transport_ms += t.timing.transport_ms;
+      timing.placement_ms += t.timing.placement_ms;
+      timing.refine_ms += t.timing.refine_ms;
+      sectors += t.sectors.size();
+      inst_kernels += t.map.size();
+    }
+    const double secs = seconds_since(t0);
+    auto map = std::make_shared<KernelMap>(overall.map());
+    FittedMap f = kernel_fitted_map(ctx, map);
+    f.fit_seconds = secs;
+    const double dn = double(std::max<std::size_t>(n, 1));
+    f.info["kernels"] = double(map->size());
+    f.info["atoms"] = double(dict->size());
+    f.info["atoms_s"] = atoms_s;
+    f.info["sectors_per_scan"] = double(sectors) / dn;
+    f.info["kernels_per_scan"] = double(inst_kernels) / dn;
+    f.info["prepare_ms"] = timing.prepare_ms / dn;
+    f.info["ranking_ms"] = timing.ranking_ms / dn;
+    f.info["transport_ms"] = timing.transport_ms / dn;
+    f.info["placement_ms"] = timing.placement_ms / dn;
+    f.info["refine_ms"] = timing.refine_ms / dn;
+    f.info["range_m"] = range;
+    f.info["atom_map_abhm"] = setup.atom_map == "abhm" ? 1.0 : 0.0;
+    return f;
+  };
+  return m;
+}
+
+}  // namespace potmap::experiment
