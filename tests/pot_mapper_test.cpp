@@ -40,10 +40,10 @@ MapperOptions small_options(bool refine) {
   return o;
 }
 
-struct Setup {
+struct Scene {
   Simulation sim;
   std::shared_ptr<Dictionary> dict = std::make_shared<Dictionary>();
-  Setup() {
+  Scene() {
     SimOptions so;
     so.scans = 6;
     so.spacing = 4;
@@ -62,7 +62,7 @@ void expect_same(const KernelMap& a, const KernelMap& b) {
 }
 
 TEST(PotMapper, AddScanGivesWhatMapScansGives) {
-  const Setup s;
+  const Scene s;
   ASSERT_GE(s.dict->size(), 4u);
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
   for (const bool refine : {false, true}) {
@@ -102,7 +102,7 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
 TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {
   EXPECT_THROW(Mapper(&test::context(), nullptr), ArgumentError);
   EXPECT_THROW(Mapper(&test::context(), std::make_shared<Dictionary>()), ArgumentError);
-  const Setup s;
+  const Scene s;
   Mapper mapper(&test::context(), s.dict, small_options(false));
   mapper.add_scan(s.sim.scans[2]);
   const KernelMap before = mapper.overall().map();

@@ -320,13 +320,13 @@ POTMAP_EXPORT potmap_status potmap_dataset_scan(const potmap_dataset* dataset, s
 /** Learns a Bayesian Hilbert map (SPEC section 3) from scans on the context's device, to build
  *  a dictionary with: every beam is labelled (hits, and free samples 1 per metre along it; none
  *  held out), kernels are placed on a grid `spacing` metres apart (> 0; 0: 1 m) over the
- *  samples' bounds, all of width `gamma` (1/m^2, > 0; 0: 8 / spacing^2, as `potmap learn bhm`),
- *  prior weight N(0, 1e4), and updated scan by scan (3 EM iterations each). A 3D grid over a large
- * area is large: choose the spacing accordingly. `scans` holds n pointers to scans of one
- * dimension. *out receives a new map handle; free it with potmap_map_destroy. Errors:
- * POTMAP_ERROR_NULL_ARGUMENT (a null scan or array), POTMAP_ERROR_DIMENSION_MISMATCH (scans of
- * different dimensions), POTMAP_ERROR_INVALID_ARGUMENT (n == 0, no samples, a bad scan: the message
- * names its index and field). */
+ *  samples' bounds, all of width `gamma` (1/m^2, > 0; 0: 8 / spacing^2, as `potmap learn
+ *  bhm`), prior weight N(0, 1e4), and updated scan by scan (3 EM iterations each). A 3D grid
+ *  over a large area is large: choose the spacing accordingly. `scans` holds n pointers to
+ *  scans of one dimension. *out receives a new map handle; free it with potmap_map_destroy.
+ *  Errors: POTMAP_ERROR_NULL_ARGUMENT (a null scan or array), POTMAP_ERROR_DIMENSION_MISMATCH
+ *  (scans of different dimensions), POTMAP_ERROR_INVALID_ARGUMENT (n == 0, no samples, a bad
+ *  scan: the message names its index and field). */
 POTMAP_EXPORT potmap_status potmap_map_learn_bhm(potmap_context* context,
                                                  const potmap_scan* const* scans, size_t n,
                                                  double spacing, double gamma, potmap_map** out);
