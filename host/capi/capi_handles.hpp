@@ -7,15 +7,21 @@
 #include <string>
 
 #include "capi_guard.hpp"
+#include "potmap/atoms.hpp"
 #include "potmap/context.hpp"
 #include "potmap/evaluate.hpp"
 #include "potmap/kernel_map.hpp"
+#include "potmap/mapper.hpp"
 #include "potmap/potmap.h"
+#include "potmap/scan.hpp"
 
 namespace potmap::capi {
-constexpr std::uint32_t kContextTag = 0x43504d50;    // "PMPC"
-constexpr std::uint32_t kMapTag = 0x4d504d50;        // "PMPM"
-constexpr std::uint32_t kEvaluatorTag = 0x45504d50;  // "PMPE"
+constexpr std::uint32_t kContextTag = 0x43504d50;     // "PMPC"
+constexpr std::uint32_t kMapTag = 0x4d504d50;         // "PMPM"
+constexpr std::uint32_t kEvaluatorTag = 0x45504d50;   // "PMPE"
+constexpr std::uint32_t kDatasetTag = 0x53504d50;     // "PMPS"
+constexpr std::uint32_t kDictionaryTag = 0x44504d50;  // "PMPD"
+constexpr std::uint32_t kMapperTag = 0x52504d50;      // "PMPR"
 constexpr std::uint32_t kDeadTag = 0xdeadbeef;
 }  // namespace potmap::capi
 
@@ -36,6 +42,23 @@ struct potmap_evaluator {
   std::shared_ptr<potmap::Context> ctx;  // declared first: destroyed after the evaluator
   std::unique_ptr<potmap::MapEvaluator> eval;
   int dim = 2;
+};
+
+struct potmap_dataset {
+  std::uint32_t tag = potmap::capi::kDatasetTag;
+  potmap::Dataset data;
+};
+
+struct potmap_dictionary {
+  std::uint32_t tag = potmap::capi::kDictionaryTag;
+  // Shared with the mappers made from it; never changed once built or loaded.
+  std::shared_ptr<const potmap::Dictionary> dict;
+};
+
+struct potmap_mapper {
+  std::uint32_t tag = potmap::capi::kMapperTag;
+  std::shared_ptr<potmap::Context> ctx;  // declared first: destroyed after the mapper
+  std::unique_ptr<potmap::Mapper> mapper;
 };
 
 namespace potmap::capi {
@@ -59,6 +82,15 @@ inline potmap_map& checked(const potmap_map* h) {
 }
 inline potmap_evaluator& checked(potmap_evaluator* h) {
   return checked(h, kEvaluatorTag, "evaluator");
+}
+inline potmap_dataset& checked(const potmap_dataset* h) {
+  return checked(const_cast<potmap_dataset*>(h), kDatasetTag, "dataset");
+}
+inline potmap_dictionary& checked(const potmap_dictionary* h) {
+  return checked(const_cast<potmap_dictionary*>(h), kDictionaryTag, "dictionary");
+}
+inline potmap_mapper& checked(const potmap_mapper* h) {
+  return checked(const_cast<potmap_mapper*>(h), kMapperTag, "mapper");
 }
 
 /// Clears the tag and frees the handle; null does nothing.

@@ -35,7 +35,7 @@ void within_range(LabelledPoints& lp, const std::array<double, 3>& sensor, doubl
 
 Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const MapperOptions& o) {
   if (scan.dim != dict.dim)
-    throw ArgumentError("map_scans: scan " + std::to_string(i) + " is " + std::to_string(scan.dim) +
+    throw ArgumentError("mapper: scan " + std::to_string(i) + " is " + std::to_string(scan.dim) +
                         "D, the dictionary " + std::to_string(dict.dim) + "D");
   const auto t0 = std::chrono::steady_clock::now();
   LabelledSplit split;
@@ -79,6 +79,45 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     on_scan(std::move(m));
   }
+}
+
+Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const MapperOptions& options,
+               const OverallMapOptions& overall)
+    : ctx_(ctx),
+      dict_(std::move(dict)),
+      options_(options),
+      overall_(dict_ ? dict_->dim : 2, overall) {
+  if (!dict_) throw ArgumentError("Mapper: the dictionary is null");
+  if (dict_->empty()) throw ArgumentError("Mapper: the dictionary has no atoms");
+  last_.transfer.map.dim = last_.test.dim = dict_->dim;
+}
+
+const MappedScan& Mapper::add_scan(const Scan& scan) {
+  Prepared cur = prepare(*dict_, scan, scans_, options_);
+  const auto t0 = std::chrono::steady_clock::now();
+  MappedScan m;
+  m.index = scans_;
+  m.transfer = finish_transfer(ctx_, *dict_, std::move(cur.transfer), options_.pot);
+  m.test = std::move(cur.test);
+  m.wall_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const auto t1 = std::chrono::steady_clock::now();
+  MapperMerge merge;
+  if (!m.transfer.map.empty()) merge.stats = overall_.add(m.transfer.map);
+  merge.merge_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+  last_ = std::move(m);
+  merge_ = merge;
+  ++scans_;
+  return last_;
+}
+
+void Mapper::reset() {
+  overall_ = OverallMap(dict_->dim, overall_.options());
+  last_ = MappedScan();
+  last_.transfer.map.dim = last_.test.dim = dict_->dim;
+  merge_ = MapperMerge();
+  scans_ = 0;
 }
 
 }  // namespace potmap

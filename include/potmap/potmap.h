@@ -11,24 +11,31 @@
  *   - No C++ exception ever leaves a function of this API.
  *   - A null handle or a null required pointer gives POTMAP_ERROR_NULL_ARGUMENT and changes
  *     nothing. On failure, the *out of a create or load call is left unchanged.
- *   - Handles (potmap_context*, potmap_map*, potmap_evaluator*) are created by *_create or
- *     *_load and freed by the matching *_destroy, exactly once; *_destroy(NULL) does nothing
+ *   - Handles (potmap_context*, potmap_map*, potmap_evaluator*, potmap_dataset*,
+ *     potmap_dictionary*, potmap_mapper*) are created by *_create, *_load or *_build (and
+ *     potmap_map_learn_bhm, potmap_mapper_*_map for maps) and freed by the matching *_destroy,
+ *     exactly once; *_destroy(NULL) does nothing
  *     and succeeds, like free(). A handle of the wrong type, or one already destroyed, gives
  *     POTMAP_ERROR_INVALID_HANDLE where it can be seen: each handle carries a type tag that
  *     *_destroy clears. This is best effort: the memory of a destroyed handle may be reused,
  *     and a sanitizer build reports such a use as the error it is.
  *   - Objects made from a context keep it alive: handles may be destroyed in any order.
+ *   - Structs the caller passes in or out (potmap_scan, potmap_dictionary_options,
+ *     potmap_mapper_options, potmap_scan_stats) begin with struct_size, the caller's
+ *     sizeof: fields are only ever appended in later versions, so the library reads or writes
+ *     only the first struct_size bytes and takes defaults for fields the caller does not have.
+ *     Fill them with their *_init function (or, for potmap_scan_stats, set struct_size).
  *   - Units: coordinates in metres, kernel widths gamma in 1/m^2 (SPEC section 2).
  *
- * Threads: a potmap_context may be shared by threads (creating evaluators on it concurrently is
- * fine; their device work is serialised on its one in-order queue). A potmap_map may be read by
- * several threads at once (save, size, read, bias, evaluator_create); potmap_map_set_bias must
- * not overlap any other call on the same map. A potmap_evaluator is used by one thread at a
- * time; different evaluators may run concurrently, on the same context too. The last-error
- * message is per thread.
- *
- * Dictionaries and mappers (POT / RePOT, issue #6) will add potmap_dictionary and
- * potmap_mapper functions; their handle types are declared below already. */
+ * Threads: a potmap_context may be shared by threads (creating evaluators and mappers on it,
+ * and using them, concurrently is fine; their device work is serialised on its one in-order
+ * queue: give each thread its own context or queue for device work that overlaps). A
+ * potmap_map may be read by several threads at once (save, size, read, bias, evaluator_create,
+ * dictionary_build); potmap_map_set_bias must not overlap any other call on the same map. A
+ * potmap_dataset and a potmap_dictionary never change once made: any number of threads may use
+ * them at once (and any number of mappers may share one dictionary). A potmap_evaluator and a
+ * potmap_mapper are used by one thread at a time; different ones may run concurrently, on the
+ * same context too. The last-error message is per thread. */
 #ifndef POTMAP_POTMAP_H
 #define POTMAP_POTMAP_H
 
@@ -37,6 +44,7 @@
 #endif
 #include <CL/cl.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "potmap/export.h"
 #include "potmap/version.h"
@@ -102,8 +110,13 @@ typedef struct potmap_context potmap_context;
 typedef struct potmap_map potmap_map;
 /** A map uploaded to one context's device, ready to evaluate. Holds its own copy of the map. */
 typedef struct potmap_evaluator potmap_evaluator;
-/** Reserved for issue #6 (dictionary of atoms, POT/RePOT mapper): no functions yet. */
+/** Scans read from a dataset file (a CARMEN log, KITTI, ...), kept in host memory. */
+typedef struct potmap_dataset potmap_dataset;
+/** A dictionary of atoms (POT, SPEC section 4 step 1): sectors of source scans with the kernels
+ *  of a map learned over them. Never changes once made. */
 typedef struct potmap_dictionary potmap_dictionary;
+/** Maps scans one at a time by POT or RePOT with a dictionary, and accumulates them into an
+ *  overall map. */
 typedef struct potmap_mapper potmap_mapper;
 
 /* ---- context --------------------------------------------------------------------------- */
@@ -258,6 +271,194 @@ POTMAP_EXPORT potmap_status potmap_evaluate_device(potmap_evaluator* evaluator, 
                                                    cl_mem mean, cl_mem var, cl_mem prob,
                                                    cl_uint num_wait_events,
                                                    const cl_event* wait_events, cl_event* event);
+
+/* ---- scans and datasets ---------------------------------------------------------------- */
+
+/** One LIDAR sweep, described by the caller: the arrays are the caller's, only read during the
+ *  call that takes the scan (potmap copies what it keeps). World frame, metres. */
+typedef struct potmap_scan {
+  size_t struct_size; /**< sizeof(potmap_scan) as the caller compiled it (potmap_scan_init) */
+  int dim;            /**< 2 or 3 (default 2) */
+  /** Sensor pose. 2D: x, y (metres) and yaw (radians, counter-clockwise from +x) in pose[0..2];
+   *  3D: the 3 x 4 row-major [R | t] mapping sensor to world coordinates (default: identity). */
+  double pose[12];
+  double max_range;   /**< metres, > 0: a beam at or beyond it is a no-return (default 0: unset) */
+  double timestamp;   /**< seconds; informational (default 0) */
+  const double* hits; /**< end points of returned beams: num_hits * dim doubles, row-major */
+  size_t num_hits;
+  const double* no_return; /**< unit directions of beams with no return: num_no_return * dim */
+  size_t num_no_return;
+} potmap_scan;
+
+/** Fills *scan with the defaults above (2D, identity pose, no beams) and sets struct_size to
+ *  `struct_size`, which must be sizeof(potmap_scan) of the caller: potmap_scan_init(&s, sizeof s).
+ *  Errors: POTMAP_ERROR_INVALID_ARGUMENT (struct_size smaller than the first version's). */
+POTMAP_EXPORT potmap_status potmap_scan_init(potmap_scan* scan, size_t struct_size);
+
+/** Reads a dataset file by its name, as `potmap data info` does: *.log[.gz] CARMEN, *.bin KITTI
+ *  or nuScenes frames, a KITTI odometry sequence by its poses.txt, *.npz / *.csv labelled
+ *  samples (see potmap/scan.hpp, read_dataset). The whole file is read now.
+ *  *out receives a new handle; free it with potmap_dataset_destroy.
+ *  Errors: POTMAP_ERROR_INPUT (the message names the file, line or offset, and value). */
+POTMAP_EXPORT potmap_status potmap_dataset_load(const char* path, potmap_dataset** out);
+
+/** Frees the dataset (scans it filled keep pointers into it: they become invalid). NULL: no-op. */
+POTMAP_EXPORT potmap_status potmap_dataset_destroy(potmap_dataset* dataset);
+
+/** *count receives the number of scans. */
+POTMAP_EXPORT potmap_status potmap_dataset_size(const potmap_dataset* dataset, size_t* count);
+
+/** Describes scan `index` (< the count) in *scan, whose struct_size the caller sets first
+ *  (potmap_scan_init). Its hits and no_return point into the dataset: borrowed, valid until
+ *  potmap_dataset_destroy; do not free them. Errors: POTMAP_ERROR_INVALID_ARGUMENT (index out
+ *  of range, struct_size too small). */
+POTMAP_EXPORT potmap_status potmap_dataset_scan(const potmap_dataset* dataset, size_t index,
+                                                potmap_scan* scan);
+
+/* ---- learning a source map ------------------------------------------------------------- */
+
+/** Learns a Bayesian Hilbert map (SPEC section 3) from scans on the context's device, to build
+ *  a dictionary with: every beam is labelled (hits, and free samples 1 per metre along it; none
+ *  held out), kernels are placed on a grid `spacing` metres apart (> 0; 0: 1 m) over the
+ *  samples' bounds, all of width `gamma` (1/m^2, > 0; 0: 8 / spacing^2, as `potmap learn
+ *  bhm`), prior weight N(0, 1e4), and updated scan by scan (3 EM iterations each). A 3D grid
+ *  over a large area is large: choose the spacing accordingly. `scans` holds n pointers to
+ *  scans of one dimension. *out receives a new map handle; free it with potmap_map_destroy.
+ *  Errors: POTMAP_ERROR_NULL_ARGUMENT (a null scan or array), POTMAP_ERROR_DIMENSION_MISMATCH
+ *  (scans of different dimensions), POTMAP_ERROR_INVALID_ARGUMENT (n == 0, no samples, a bad
+ *  scan: the message names its index and field). */
+POTMAP_EXPORT potmap_status potmap_map_learn_bhm(potmap_context* context,
+                                                 const potmap_scan* const* scans, size_t n,
+                                                 double spacing, double gamma, potmap_map** out);
+
+/* ---- dictionaries ---------------------------------------------------------------------- */
+
+/** How scans are cut into atoms (potmap/atoms.hpp, DictionaryOptions). */
+typedef struct potmap_dictionary_options {
+  size_t struct_size; /**< the caller's sizeof (potmap_dictionary_options_init sets it) */
+  int sectors;        /**< equal angular sectors per scan, >= 1 (default 5) */
+  double max_range;   /**< sector radius, metres (default 0: each scan's own max_range) */
+  double scale;       /**< multiplies centred coordinates, > 0 (default 1/50) */
+  size_t min_samples; /**< sectors with fewer samples are dropped (default 4) */
+  /** Kernels with a larger weight variance stay out of atoms (default 1000: kernels the source
+   *  data never reached keep their prior variance and carry no shape). */
+  double max_weight_variance;
+  size_t min_kernels; /**< atoms with fewer kernels are skipped (default 1) */
+} potmap_dictionary_options;
+
+/** Fills *options with the defaults above; struct_size: the caller's sizeof(*options). */
+POTMAP_EXPORT potmap_status potmap_dictionary_options_init(potmap_dictionary_options* options,
+                                                           size_t struct_size);
+
+/** Builds a dictionary from n source scans (pointers) and a map learned over the same place
+ *  (world frame), e.g. by potmap_map_learn_bhm. `options` NULL: the defaults.
+ *  *out receives a new handle; free it with potmap_dictionary_destroy.
+ *  Errors: POTMAP_ERROR_DIMENSION_MISMATCH (a scan of another dimension than the map's),
+ *  POTMAP_ERROR_INVALID_ARGUMENT (bad options or scan; no atom at all: nothing to transport). */
+POTMAP_EXPORT potmap_status potmap_dictionary_build(const potmap_scan* const* scans, size_t n,
+                                                    const potmap_map* map,
+                                                    const potmap_dictionary_options* options,
+                                                    potmap_dictionary** out);
+
+/** Reads a .potdict file (potmap/dictionary_io.hpp), e.g. one written by `potmap dict build`.
+ *  *out receives a new handle; free it with potmap_dictionary_destroy.
+ *  Errors: POTMAP_ERROR_INPUT (unreadable, truncated or corrupt: file, byte offset, value). */
+POTMAP_EXPORT potmap_status potmap_dictionary_load(const char* path, potmap_dictionary** out);
+
+/** Writes the dictionary as .potdict through a temporary file renamed into place.
+ *  Errors: POTMAP_ERROR_IO (cannot write). */
+POTMAP_EXPORT potmap_status potmap_dictionary_save(const potmap_dictionary* dictionary,
+                                                   const char* path);
+
+/** Frees the handle. Mappers made from it keep the dictionary alive. NULL: no-op. */
+POTMAP_EXPORT potmap_status potmap_dictionary_destroy(potmap_dictionary* dictionary);
+
+/** What the dictionary holds; any out-pointer may be null to skip it. *dim: 2 or 3; *atoms;
+ *  *kernels: over every atom; *scale; *max_range: metres; *sectors: per source scan. */
+POTMAP_EXPORT potmap_status potmap_dictionary_info(const potmap_dictionary* dictionary, int* dim,
+                                                   size_t* atoms, size_t* kernels, double* scale,
+                                                   double* max_range, int* sectors);
+
+/* ---- mappers (POT / RePOT) ------------------------------------------------------------- */
+
+/** How a mapper transports and accumulates (potmap/pot.hpp, labelling.hpp, overall_map.hpp). */
+typedef struct potmap_mapper_options {
+  size_t struct_size; /**< the caller's sizeof (potmap_mapper_options_init sets it) */
+  int sectors;        /**< target sectors per scan, >= 1 (default 5) */
+  int rotations;      /**< rotations tried per atom, evenly spaced over 360 degrees (default 8) */
+  int refine;        /**< 1: RePOT (refine the transported weights on the scan), 0: POT (default) */
+  double max_range;  /**< target sector radius, metres (default 0: the dictionary's) */
+  size_t candidates; /**< atoms ranked per sector after a cheap pre-selection (default 0: all) */
+  /** Fraction of each scan's beams held out of the transport, in [0, 1) (default 0.2; their
+   *  samples are what potmap_scan_stats counts as held out). 0 uses every beam. */
+  double holdout_fraction;
+  double free_per_metre; /**< free samples per metre of beam, > 0 (default 1) */
+  uint64_t seed;         /**< labelling and subsampling seed, with the scan index (default 0) */
+  /** Overall map: kernels merge when d^2 * max(gamma) is below this (default 0.25; 0: never). */
+  double merge_radius;
+  double gamma_ratio; /**< largest ratio of widths that may merge, >= 1 (default 2) */
+  size_t max_kernels; /**< cap on the overall map's kernels (default 0: none) */
+} potmap_mapper_options;
+
+/** Fills *options with the defaults above; struct_size: the caller's sizeof(*options). */
+POTMAP_EXPORT potmap_status potmap_mapper_options_init(potmap_mapper_options* options,
+                                                       size_t struct_size);
+
+/** Creates a mapper on the context's device with the dictionary (shared, kept alive by the
+ *  mapper). `options` NULL: the defaults. *out receives a new handle; free it with
+ *  potmap_mapper_destroy. The mapper keeps the context alive too.
+ *  Errors: POTMAP_ERROR_INVALID_ARGUMENT (bad options, an empty dictionary). */
+POTMAP_EXPORT potmap_status potmap_mapper_create(potmap_context* context,
+                                                 const potmap_dictionary* dictionary,
+                                                 const potmap_mapper_options* options,
+                                                 potmap_mapper** out);
+
+/** Frees the mapper and everything it accumulated. NULL: no-op. */
+POTMAP_EXPORT potmap_status potmap_mapper_destroy(potmap_mapper* mapper);
+
+/** What potmap_mapper_add_scan did with one scan. Times in milliseconds (wall clock). */
+typedef struct potmap_scan_stats {
+  size_t struct_size;     /**< set by the caller to sizeof(potmap_scan_stats) */
+  size_t scan_index;      /**< scans added before this one since create or reset */
+  size_t sectors;         /**< target sectors that received an atom */
+  size_t kernels_placed;  /**< kernels of the instantaneous map */
+  size_t kernels_dropped; /**< transported kernels dropped beyond max_range */
+  size_t train_samples;   /**< training samples in the target sectors (what is transported to) */
+  size_t heldout_samples; /**< held-out samples within the sector radius (not used) */
+  size_t overall_added;   /**< instantaneous kernels appended to the overall map */
+  size_t overall_merged;  /**< instantaneous kernels merged into existing ones */
+  size_t overall_retired; /**< kernels removed by max_kernels */
+  size_t overall_kernels; /**< overall map size after this scan */
+  double prepare_ms;      /**< labelling, sector cut, batch assembly (host) */
+  double ranking_ms;      /**< ranking every (atom, rotation) candidate */
+  double transport_ms;    /**< high-quality transport of the chosen candidates */
+  double placement_ms;    /**< out-of-sample map and world frame */
+  double refine_ms;       /**< RePOT's update (0 for POT) */
+  double merge_ms;        /**< merging into the overall map */
+  double total_ms;        /**< the whole call */
+} potmap_scan_stats;
+
+/** Maps one scan (POT or RePOT) and merges its instantaneous map into the overall map. The
+ *  scan's dimension must be the dictionary's; it must have max_range > 0. `stats` may be null;
+ *  if not, its struct_size must be set. Blocks until done. On failure the mapper is unchanged.
+ *  Errors: POTMAP_ERROR_DIMENSION_MISMATCH, POTMAP_ERROR_INVALID_ARGUMENT (bad scan: field and
+ *  value named), POTMAP_ERROR_BUFFER_TOO_SMALL (stats->struct_size too small), OpenCL codes. */
+POTMAP_EXPORT potmap_status potmap_mapper_add_scan(potmap_mapper* mapper, const potmap_scan* scan,
+                                                   potmap_scan_stats* stats);
+
+/** The last scan's instantaneous map (empty before the first scan), as a new map handle
+ *  (a copy): the caller frees it with potmap_map_destroy; it stays valid after the mapper is
+ *  destroyed. */
+POTMAP_EXPORT potmap_status potmap_mapper_instantaneous_map(const potmap_mapper* mapper,
+                                                            potmap_map** out);
+
+/** The overall map of every scan since create or reset, as a new map handle (a copy, no bias):
+ *  the caller frees it with potmap_map_destroy. */
+POTMAP_EXPORT potmap_status potmap_mapper_overall_map(const potmap_mapper* mapper,
+                                                      potmap_map** out);
+
+/** Forgets every scan (empty maps, scan index 0); keeps the context, dictionary and options. */
+POTMAP_EXPORT potmap_status potmap_mapper_reset(potmap_mapper* mapper);
 
 #ifdef __cplusplus
 } /* extern "C" */

@@ -19,6 +19,10 @@ int potmap_c99_check(void) {
   potmap_map* map = NULL;
   int dim = 0;
   size_t count = 0;
+  potmap_scan scan;
+  potmap_mapper_options mapper_options;
+  potmap_dictionary_options dictionary_options;
+  potmap_scan_stats stats;
 
   CHECK(potmap_version(&major, &minor, &patch) == POTMAP_SUCCESS);
   CHECK(major == POTMAP_VERSION_MAJOR && minor == POTMAP_VERSION_MINOR &&
@@ -36,5 +40,19 @@ int potmap_c99_check(void) {
   CHECK(memcmp(back, position, sizeof back) == 0);
   CHECK(potmap_map_destroy(map) == POTMAP_SUCCESS);
   CHECK(potmap_map_destroy(NULL) == POTMAP_SUCCESS);
+
+  /* The versioned structs, initialised with the caller's sizeof. */
+  CHECK(potmap_scan_init(&scan, sizeof scan) == POTMAP_SUCCESS);
+  CHECK(scan.struct_size == sizeof scan && scan.dim == 2 && scan.hits == NULL);
+  CHECK(potmap_mapper_options_init(&mapper_options, sizeof mapper_options) == POTMAP_SUCCESS);
+  CHECK(mapper_options.rotations == 8 && mapper_options.refine == 0 && mapper_options.seed == 0);
+  CHECK(potmap_dictionary_options_init(&dictionary_options, sizeof dictionary_options) ==
+        POTMAP_SUCCESS);
+  CHECK(dictionary_options.sectors == 5);
+  stats.struct_size = sizeof stats;
+  CHECK(potmap_mapper_add_scan(NULL, &scan, &stats) == POTMAP_ERROR_NULL_ARGUMENT);
+  CHECK(potmap_mapper_destroy(NULL) == POTMAP_SUCCESS);
+  CHECK(potmap_dictionary_destroy(NULL) == POTMAP_SUCCESS);
+  CHECK(potmap_dataset_destroy(NULL) == POTMAP_SUCCESS);
   return 0;
 }

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -137,6 +138,84 @@ cl_uint reference_count(cl_event e) {
   cl_uint r = 0;
   clGetEventInfo(e, CL_EVENT_REFERENCE_COUNT, sizeof r, &r, nullptr);
   return r;
+}
+
+namespace {
+
+// Distance from (x, y) along (dx, dy) to the nearest wall or pillar face; infinity if none.
+double cast(double x, double y, double dx, double dy) {
+  struct Box {
+    double x0, y0, x1, y1;
+  };
+  const Box boxes[2] = {{0, 0, 12, 9}, {7, 3, 8, 6}};
+  double best = INFINITY;
+  for (const Box& b : boxes) {
+    const double xs[2] = {b.x0, b.x1}, ys[2] = {b.y0, b.y1};
+    for (double wx : xs)
+      if (dx != 0) {
+        const double t = (wx - x) / dx, yy = y + t * dy;
+        if (t > 1e-9 && yy >= b.y0 && yy <= b.y1) best = std::min(best, t);
+      }
+    for (double wy : ys)
+      if (dy != 0) {
+        const double t = (wy - y) / dy, xx = x + t * dx;
+        if (t > 1e-9 && xx >= b.x0 && xx <= b.x1) best = std::min(best, t);
+      }
+  }
+  return best;
+}
+
+}  // namespace
+
+potmap_scan RoomScan::scan() const {
+  potmap_scan s;
+  potmap_scan_init(&s, sizeof s);
+  s.dim = 2;
+  s.pose[0] = x;
+  s.pose[1] = y;
+  s.pose[2] = yaw;
+  s.max_range = max_range;
+  s.hits = hits.data();
+  s.num_hits = hits.size() / 2;
+  s.no_return = no_return.data();
+  s.num_no_return = no_return.size() / 2;
+  return s;
+}
+
+RoomScan room_scan(double x, double y, double yaw, int beams, double max_range) {
+  RoomScan r;
+  r.x = x;
+  r.y = y;
+  r.yaw = yaw;
+  r.max_range = max_range;
+  for (int b = 0; b < beams; ++b) {
+    const double a = yaw + 2 * 3.14159265358979323846 * b / beams, dx = std::cos(a),
+                 dy = std::sin(a);
+    const double t = cast(x, y, dx, dy);
+    if (t < max_range) {
+      r.hits.push_back(x + t * dx);
+      r.hits.push_back(y + t * dy);
+    } else {
+      r.no_return.push_back(dx);
+      r.no_return.push_back(dy);
+    }
+  }
+  return r;
+}
+
+std::vector<RoomScan> room_path(std::size_t n) {
+  std::vector<RoomScan> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = n > 1 ? double(i) / double(n - 1) : 0.0;
+    const bool lower = i % 2 == 0;
+    out.push_back(room_scan(2 + 8 * t, lower ? 2 + 0.3 * t : 7 - 0.4 * t, 0.4 * double(i)));
+  }
+  return out;
+}
+
+ScanList::ScanList(const std::vector<RoomScan>& room) {
+  for (const RoomScan& r : room) scans.push_back(r.scan());
+  for (const potmap_scan& s : scans) ptrs.push_back(&s);
 }
 
 std::size_t resident_bytes() {

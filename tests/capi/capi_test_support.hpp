@@ -77,6 +77,26 @@ cl_uint reference_count(cl_command_queue q);
 cl_uint reference_count(cl_mem m);
 cl_uint reference_count(cl_event e);
 
+/// A simulated 2D scan of a small room (walls of [0, 12] x [0, 9] m and a pillar of [7, 8] x
+/// [3, 6]), seen from (x, y) with heading yaw: `beams` beams over the full circle, ranges of
+/// max_range or more are no-returns. Owns its arrays; scan() describes it for the C API.
+struct RoomScan {
+  double x = 0, y = 0, yaw = 0, max_range = 6;
+  std::vector<double> hits, no_return;
+  potmap_scan scan() const;
+};
+RoomScan room_scan(double x, double y, double yaw, int beams = 180, double max_range = 6);
+/// `n` scans along a path through the room (x from 2 to 10 m, y around 2 m and 7 m).
+std::vector<RoomScan> room_path(std::size_t n);
+/// Pointers to each scan's description, for the calls taking `const potmap_scan* const*`.
+struct ScanList {
+  std::vector<potmap_scan> scans;
+  std::vector<const potmap_scan*> ptrs;
+  explicit ScanList(const std::vector<RoomScan>& room);
+  const potmap_scan* const* data() const { return ptrs.data(); }
+  std::size_t size() const { return ptrs.size(); }
+};
+
 /// Resident set size of this process, bytes (/proc/self/statm).
 std::size_t resident_bytes();
 

@@ -1,9 +1,10 @@
 # Installs the built potmap into a fresh prefix, checks the installed package files carry no
 # path of the build machine, then builds and runs a consumer twice: with find_package(potmap)
 # and with pkg-config; then the C embedding example (EXAMPLE_DIR) the same two ways, running it
-# on EXAMPLE_MAP (if that file exists) and on its own small map. Run by CTest as `cmake -P` with:
+# on EXAMPLE_MAP (if that file exists) and on its own small map, and its mapper program on
+# EXAMPLE_LOG (a real log streamed through the C mapper). Run by CTest as `cmake -P` with:
 #   BUILD_DIR, SOURCE_DIR (potmap's), CONSUMER_DIR, WORK_DIR, CXX and CC (compilers), GENERATOR,
-#   EXAMPLE_DIR, EXAMPLE_MAP
+#   EXAMPLE_DIR, EXAMPLE_MAP, EXAMPLE_LOG
 cmake_minimum_required(VERSION 3.20)
 
 function(run)
@@ -75,6 +76,21 @@ list(LENGTH rows nrows)
 if(NOT nrows EQUAL 4097)  # header + 64 x 64 points
   message(FATAL_ERROR "embed_c wrote ${nrows} lines, expected 4097")
 endif()
+
+# 3b. The mapper example (map_log.c) on the first scans of a real log: dictionary from scans
+#     0-9, the next 20 mapped by RePOT; it exits 1 if the overall map misclassifies its own
+#     scans' end points or free space.
+if(NOT EXISTS "${EXAMPLE_LOG}")
+  message(FATAL_ERROR "EXAMPLE_LOG ${EXAMPLE_LOG} not found (../shared/data)")
+endif()
+run("${WORK_DIR}/cmake-example/embed_map_log" "${EXAMPLE_LOG}" "${WORK_DIR}/example-overall.potmap"
+    10 20)
+message(STATUS "embed_map_log (find_package): ${run_output}")
+foreach(f IN ITEMS example-overall.potmap example-overall.potdict)
+  if(NOT EXISTS "${WORK_DIR}/${f}")
+    message(FATAL_ERROR "embed_map_log did not write ${f}")
+  endif()
+endforeach()
 
 # 4. The same example with pkg-config and the C compiler alone, on its own small map.
 run(${PKG_CONFIG} --cflags --libs potmap)

@@ -1,0 +1,181 @@
+// C API: POT / RePOT mappers fed one scan at a time, with their instantaneous and overall maps.
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "capi_handles.hpp"
+#include "capi_structs.hpp"
+
+namespace potmap::capi {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kMaxRotations = 3600;  // 0.1 degree steps: beyond, a typo rather than a choice
+
+potmap_mapper_options default_mapper_options() {
+  const potmap::MapperOptions m;
+  const potmap::OverallMapOptions ov;
+  potmap_mapper_options o{};
+  o.struct_size = sizeof o;
+  o.sectors = m.pot.sectors;
+  o.rotations = static_cast<int>(m.pot.rotations.size());
+  o.refine = m.pot.refine ? 1 : 0;
+  o.max_range = m.pot.max_range;
+  o.candidates = m.pot.candidates;
+  o.holdout_fraction = m.labels.holdout_fraction;
+  o.free_per_metre = m.labels.free_per_metre;
+  o.seed = m.pot.seed;
+  o.merge_radius = ov.merge_radius;
+  o.gamma_ratio = ov.gamma_ratio;
+  o.max_kernels = ov.max_kernels;
+  return o;
+}
+
+struct Options {
+  potmap::MapperOptions mapper;
+  potmap::OverallMapOptions overall;
+};
+
+Options to_options(const potmap_mapper_options* in) {
+  const potmap_mapper_options o =
+      in ? read_struct(in, default_mapper_options(), kMapperOptionsV1, "options")
+         : default_mapper_options();
+  auto bad = [](const std::string& field, double v) {
+    fail(POTMAP_ERROR_INVALID_ARGUMENT,
+         "options->" + field + " is out of range: " + std::to_string(v));
+  };
+  if (o.sectors < 1) bad("sectors", o.sectors);
+  if (o.rotations < 1 || o.rotations > kMaxRotations) bad("rotations", o.rotations);
+  if (o.refine != 0 && o.refine != 1) bad("refine", o.refine);
+  if (!(o.max_range >= 0) || !std::isfinite(o.max_range)) bad("max_range", o.max_range);
+  if (!(o.holdout_fraction >= 0 && o.holdout_fraction < 1))
+    bad("holdout_fraction", o.holdout_fraction);
+  if (!(o.free_per_metre > 0) || !std::isfinite(o.free_per_metre))
+    bad("free_per_metre", o.free_per_metre);
+  if (!(o.merge_radius >= 0) || !std::isfinite(o.merge_radius)) bad("merge_radius", o.merge_radius);
+  if (!(o.gamma_ratio >= 1) || !std::isfinite(o.gamma_ratio)) bad("gamma_ratio", o.gamma_ratio);
+  Options r;
+  potmap::PotOptions& p = r.mapper.pot;
+  p.sectors = o.sectors;
+  p.rotations.clear();
+  for (int i = 0; i < o.rotations; ++i) p.rotations.push_back(2 * kPi * i / o.rotations);
+  p.refine = o.refine == 1;
+  p.max_range = o.max_range;
+  p.candidates = o.candidates;
+  p.seed = o.seed;
+  r.mapper.labels.holdout_fraction = o.holdout_fraction;
+  r.mapper.labels.free_per_metre = o.free_per_metre;
+  r.mapper.labels.seed = o.seed;
+  r.mapper.pipeline = false;
+  r.overall.merge_radius = o.merge_radius;
+  r.overall.gamma_ratio = o.gamma_ratio;
+  r.overall.max_kernels = o.max_kernels;
+  return r;
+}
+
+potmap_map* copy_map(const potmap::KernelMap& m) {
+  auto h = std::make_unique<potmap_map>();
+  h->map = m;
+  return h.release();
+}
+
+}  // namespace
+}  // namespace potmap::capi
+
+using namespace potmap::capi;
+
+extern "C" {
+
+potmap_status potmap_mapper_options_init(potmap_mapper_options* options, size_t struct_size) {
+  return guard("potmap_mapper_options_init", POTMAP_ERROR_INTERNAL, [&] {
+    require(options, "options");
+    check_struct_size(struct_size, kMapperOptionsV1, "options", POTMAP_ERROR_INVALID_ARGUMENT);
+    options->struct_size = struct_size;
+    write_struct(options, default_mapper_options(), kMapperOptionsV1, "options",
+                 POTMAP_ERROR_INVALID_ARGUMENT);
+  });
+}
+
+potmap_status potmap_mapper_create(potmap_context* context, const potmap_dictionary* dictionary,
+                                   const potmap_mapper_options* options, potmap_mapper** out) {
+  return guard("potmap_mapper_create", POTMAP_ERROR_INTERNAL, [&] {
+    potmap_context& c = checked(context);
+    const potmap_dictionary& d = checked(dictionary);
+    require(out, "out");
+    const Options o = to_options(options);
+    auto h = std::make_unique<potmap_mapper>();
+    h->ctx = c.ctx;
+    h->mapper = std::make_unique<potmap::Mapper>(h->ctx.get(), d.dict, o.mapper, o.overall);
+    *out = h.release();
+  });
+}
+
+potmap_status potmap_mapper_destroy(potmap_mapper* mapper) {
+  return destroy(mapper, kMapperTag, "potmap_mapper_destroy");
+}
+
+potmap_status potmap_mapper_add_scan(potmap_mapper* mapper, const potmap_scan* scan,
+                                     potmap_scan_stats* stats) {
+  return guard("potmap_mapper_add_scan", POTMAP_ERROR_INTERNAL, [&] {
+    potmap::Mapper& m = *checked(mapper).mapper;
+    const auto t0 = std::chrono::steady_clock::now();
+    // Checked before any work, so that a bad stats struct leaves the mapper unchanged.
+    if (stats)
+      check_struct_size(stats->struct_size, kScanStatsV1, "stats", POTMAP_ERROR_BUFFER_TOO_SMALL);
+    const potmap::Scan s = to_scan(scan, "scan");
+    if (s.dim != m.dictionary().dim)
+      fail(POTMAP_ERROR_DIMENSION_MISMATCH, "the scan is " + std::to_string(s.dim) +
+                                                "D, the mapper's dictionary " +
+                                                std::to_string(m.dictionary().dim) + "D");
+    const potmap::MappedScan& r = m.add_scan(s);
+    if (!stats) return;
+    const potmap::ScanTransfer& t = r.transfer;
+    const potmap::MapperMerge& mg = m.last_merge();
+    potmap_scan_stats st{};
+    st.scan_index = r.index;
+    for (const potmap::SectorTransfer& sec : t.sectors) {
+      st.sectors += sec.atom >= 0;
+      st.kernels_dropped += sec.kernels_dropped;
+      st.train_samples += sec.target_hits + sec.target_free;
+    }
+    st.kernels_placed = t.map.size();
+    st.heldout_samples = r.test.size();
+    st.overall_added = mg.stats.added;
+    st.overall_merged = mg.stats.merged;
+    st.overall_retired = mg.stats.retired;
+    st.overall_kernels = m.overall().size();
+    st.prepare_ms = t.timing.prepare_ms;
+    st.ranking_ms = t.timing.ranking_ms;
+    st.transport_ms = t.timing.transport_ms;
+    st.placement_ms = t.timing.placement_ms;
+    st.refine_ms = t.timing.refine_ms;
+    st.merge_ms = mg.merge_ms;
+    st.total_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    write_struct(stats, st, kScanStatsV1, "stats", POTMAP_ERROR_BUFFER_TOO_SMALL);
+  });
+}
+
+potmap_status potmap_mapper_instantaneous_map(const potmap_mapper* mapper, potmap_map** out) {
+  return guard("potmap_mapper_instantaneous_map", POTMAP_ERROR_INTERNAL, [&] {
+    const potmap::Mapper& m = *checked(mapper).mapper;
+    require(out, "out");
+    *out = copy_map(m.last().transfer.map);
+  });
+}
+
+potmap_status potmap_mapper_overall_map(const potmap_mapper* mapper, potmap_map** out) {
+  return guard("potmap_mapper_overall_map", POTMAP_ERROR_INTERNAL, [&] {
+    const potmap::Mapper& m = *checked(mapper).mapper;
+    require(out, "out");
+    *out = copy_map(m.overall().map());
+  });
+}
+
+potmap_status potmap_mapper_reset(potmap_mapper* mapper) {
+  return guard("potmap_mapper_reset", POTMAP_ERROR_INTERNAL,
+               [&] { checked(mapper).mapper->reset(); });
+}
+
+}  // extern "C"

@@ -1,0 +1,120 @@
+// potmap::Mapper, the incremental form of map_scans: same instantaneous maps scan by scan, the
+// overall map of OverallMap on them, reset, and refusals that leave the mapper unchanged.
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "potmap/atoms.hpp"
+#include "potmap/error.hpp"
+#include "potmap/mapper.hpp"
+#include "potmap/simulator.hpp"
+#include "test_support.hpp"
+
+namespace potmap {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Kernels every 2 m around a point, each weight mean tagging its index.
+KernelMap grid_around(const std::array<double, 3>& c, double half) {
+  KernelMap map;
+  map.dim = 2;
+  for (double x = -half; x <= half + 1e-9; x += 2)
+    for (double y = -half; y <= half + 1e-9; y += 2) {
+      const double p[2] = {c[0] + x, c[1] + y};
+      map.push_back(p, 2.0, 0.1 * static_cast<double>(map.size() % 17) - 0.8, 0.5);
+    }
+  return map;
+}
+
+MapperOptions small_options(bool refine) {
+  MapperOptions o;
+  o.pot.rank_hits = 40;
+  o.pot.rank_free = 20;
+  o.pot.transport_points = 120;
+  o.pot.transport_max_iterations = 600;
+  o.pot.transport_tolerance = 1e-4;
+  o.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  o.pot.refine = refine;
+  o.labels.seed = o.pot.seed = 3;
+  return o;
+}
+
+struct Scene {
+  Simulation sim;
+  std::shared_ptr<Dictionary> dict = std::make_shared<Dictionary>();
+  Scene() {
+    SimOptions so;
+    so.scans = 6;
+    so.spacing = 4;
+    sim = simulate(Town::builtin("town1"), so);
+    build_dictionary({sim.scans[0], sim.scans[1]}, grid_around(sim.scans[0].origin(), 30), {},
+                     *dict);
+  }
+};
+
+void expect_same(const KernelMap& a, const KernelMap& b) {
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.position, b.position);
+  EXPECT_EQ(a.gamma, b.gamma);
+  EXPECT_EQ(a.w_mean, b.w_mean);
+  EXPECT_EQ(a.w_var, b.w_var);
+}
+
+TEST(PotMapper, AddScanGivesWhatMapScansGives) {
+  const Scene s;
+  ASSERT_GE(s.dict->size(), 4u);
+  const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
+  for (const bool refine : {false, true}) {
+    SCOPED_TRACE(refine ? "RePOT" : "POT");
+    const MapperOptions o = small_options(refine);
+    std::vector<MappedScan> want;
+    map_scans(&test::context(), *s.dict, targets, o,
+              [&](MappedScan&& m) { want.push_back(std::move(m)); });
+    ASSERT_EQ(want.size(), targets.size());
+    OverallMap overall(2);
+    for (const MappedScan& m : want)
+      if (!m.transfer.map.empty()) overall.add(m.transfer.map);
+
+    Mapper mapper(&test::context(), s.dict, o);
+    for (int pass = 0; pass < 2; ++pass) {  // the second after reset(): the same again
+      for (std::size_t i = 0; i < targets.size(); ++i) {
+        const MappedScan& got = mapper.add_scan(targets[i]);
+        EXPECT_EQ(got.index, i);
+        EXPECT_EQ(&got, &mapper.last());
+        expect_same(got.transfer.map, want[i].transfer.map);
+        EXPECT_EQ(got.test.position, want[i].test.position);
+        EXPECT_EQ(got.transfer.timing.refine_ms > 0, refine);
+        EXPECT_EQ(mapper.last_merge().stats.added + mapper.last_merge().stats.merged,
+                  got.transfer.map.size());
+      }
+      EXPECT_EQ(mapper.scans(), targets.size());
+      expect_same(mapper.overall().map(), overall.map());
+      EXPECT_GT(mapper.overall().size(), 0u);
+      mapper.reset();
+      EXPECT_EQ(mapper.scans(), 0u);
+      EXPECT_TRUE(mapper.overall().map().empty());
+      EXPECT_TRUE(mapper.last().transfer.map.empty());
+    }
+  }
+}
+
+TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {
+  EXPECT_THROW(Mapper(&test::context(), nullptr), ArgumentError);
+  EXPECT_THROW(Mapper(&test::context(), std::make_shared<Dictionary>()), ArgumentError);
+  const Scene s;
+  Mapper mapper(&test::context(), s.dict, small_options(false));
+  mapper.add_scan(s.sim.scans[2]);
+  const KernelMap before = mapper.overall().map();
+  Scan wrong = s.sim.scans[3];
+  wrong.dim = 3;
+  wrong.hits.resize(wrong.hits.size() / 6 * 6);
+  wrong.no_return.resize(wrong.no_return.size() / 6 * 6);
+  EXPECT_THROW(mapper.add_scan(wrong), ArgumentError);
+  EXPECT_EQ(mapper.scans(), 1u);
+  expect_same(mapper.overall().map(), before);
+  EXPECT_EQ(mapper.last().index, 0u);
+}
+
+}  // namespace
+}  // namespace potmap
