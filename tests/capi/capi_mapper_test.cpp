@@ -547,7 +547,8 @@ TEST(CApiMapper, HandlesMayBeDestroyedInAnyOrder) {
   POTMAP_ASSERT_OK(potmap_mapper_create(ctx, dict, &o, &m));
   POTMAP_ASSERT_OK(potmap_dictionary_destroy(dict));
   POTMAP_ASSERT_OK(potmap_context_destroy(ctx));
-  const potmap_scan s = targets(1)[0].scan();
+  const RoomScan target = targets(1)[0];  // owns the arrays the description points to
+  const potmap_scan s = target.scan();
   POTMAP_ASSERT_OK(potmap_mapper_add_scan(m, &s, nullptr));
   potmap_map* overall = nullptr;
   POTMAP_ASSERT_OK(potmap_mapper_overall_map(m, &overall));

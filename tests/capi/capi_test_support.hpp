@@ -79,7 +79,8 @@ cl_uint reference_count(cl_event e);
 
 /// A simulated 2D scan of a small room (walls of [0, 12] x [0, 9] m and a pillar of [7, 8] x
 /// [3, 6]), seen from (x, y) with heading yaw: `beams` beams over the full circle, ranges of
-/// max_range or more are no-returns. Owns its arrays; scan() describes it for the C API.
+/// max_range or more are no-returns. Owns its arrays; scan() describes it for the C API (the
+/// description points into them: keep the RoomScan alive while it is used).
 struct RoomScan {
   double x = 0, y = 0, yaw = 0, max_range = 6;
   std::vector<double> hits, no_return;
