@@ -195,7 +195,7 @@ def main():
                              f"budget {info.get('budget_ms', float('nan')):.1f} ms, calibration "
                              f"{info.get('calibrated_ms', float('nan')):.1f} ms, runs "
                              f"{ms:.1f} ms/scan")
-            lines.append("Budget: POT's own time per scan, measured on the first seed of each "
+            lines.append("Budget: POT's own time per scan, its mean over the seeds' runs on each "
                          "target (or `--budget-ms` when given; settings: "
                          f"{budget:g}). BHM and ABHM get the kernel count whose full fit on that "
                          "seed came closest to it (secant steps on measured full fits, no "

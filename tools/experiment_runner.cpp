@@ -180,8 +180,8 @@ std::vector<Method> Harness::methods() const {
     } else if (m == "abhm") {
       out.push_back(experiment::abhm_method(s_.abhm));
     } else if (m == "pot" || m == "repot") {
-      out.push_back(experiment::pot_method(pot_setup(m == "repot"), m == "pot" ? "POT" : "RePOT",
-                                           atoms_));
+      out.push_back(
+          experiment::pot_method(pot_setup(m == "repot"), m == "pot" ? "POT" : "RePOT", atoms_));
     } else {
       throw ArgumentError("--methods: unknown method '" + m + "' (ogm, bhm, abhm, pot, repot)");
     }
@@ -319,6 +319,13 @@ void Harness::run_instantaneous(const std::string& source_label,
   }
 }
 
+double Harness::mean_ms_per_scan(const std::string& target_label, const std::string& group) const {
+  std::vector<double> v;
+  for (const Record& r : records_)
+    if (r.target == target_label && r.group == group) v.push_back(r.per_scan_ms);
+  return stat(v).mean;
+}
+
 void Harness::warm_up(const std::vector<Scan>& scans) {
   // The first OpenCL launch of a program builds it (seconds on PoCL): do that before anything
   // is timed, on one scan, and throw the result away.
@@ -334,8 +341,8 @@ void Harness::warm_up(const std::vector<Scan>& scans) {
   // POT's Sinkhorn programs: atoms from the first scans, RePOT (which runs every stage).
   const std::string list = "," + s_.methods + ",";
   if (list.find(",pot,") != std::string::npos || list.find(",repot,") != std::string::npos) {
-    task.source = {std::vector<Scan>(scans.begin(), scans.begin() + std::min<std::size_t>(
-                                                                          2, scans.size()))};
+    task.source = {
+        std::vector<Scan>(scans.begin(), scans.begin() + std::min<std::size_t>(2, scans.size()))};
     experiment::PotSetup w = pot_setup(true);
     w.atom_map = "bhm";
     experiment::score_map(experiment::pot_method(w, "warm-up").fit(context(), task), test);

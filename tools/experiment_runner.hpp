@@ -26,8 +26,8 @@ struct Settings {
   std::vector<double> ogm_cells{0.1, 0.5, 1, 5, 10};
   experiment::BhmSetup bhm;
   experiment::AbhmSetup abhm;
-  experiment::PotSetup pot;       ///< POT and RePOT (refine is set per method)
-  std::size_t rotations = 8;      ///< POT: rotations tried per atom, evenly spaced
+  experiment::PotSetup pot;   ///< POT and RePOT (refine is set per method)
+  std::size_t rotations = 8;  ///< POT: rotations tried per atom, evenly spaced
   /// Every scan (real logs: 80 m lasers) cut at this range, metres, for every method: POT's
   /// sector radius and the simulated towns' range (0: keep each scan's own).
   double max_range = 20;
@@ -89,6 +89,8 @@ class Harness {
   /// Builds the OpenCL programs of the kernel learners and of POT on one scan so that no timing
   /// includes a program build.
   void warm_up(const std::vector<Scan>& scans);
+  /// Mean time per scan, ms, of a method group's records on a target (NaN when none).
+  double mean_ms_per_scan(const std::string& target_label, const std::string& group) const;
   /// Adds a record made elsewhere (per-time-unit calibration results).
   void add(Record r) { records_.push_back(std::move(r)); }
   /// settings.pot with the rotations applied and refine set (RePOT).

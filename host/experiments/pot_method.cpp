@@ -69,8 +69,7 @@ std::vector<std::size_t> scan_offsets(const MapTask& task) {
     while (j < t.size() && t[j] == idx) ++j;
   }
   off[n] = j;
-  if (j != t.size())
-    throw ArgumentError("POT: the task's training samples are not in scan order");
+  if (j != t.size()) throw ArgumentError("POT: the task's training samples are not in scan order");
   return off;
 }
 
