@@ -34,4 +34,6 @@ find "$fig" -name 'sim-to-real-*' ! -name '*POT*' -delete
 find "$fig" -name 'per-time-unit-*' ! -name 'per-time-unit-sim-town1-[A-Z]*' \
   ! -name 'per-time-unit-sim-town2-sim-town3-sim-town1-*' -delete
 rm -f "$fig"/*-BHM_kernels.png "$fig"/*-BHM--budget-_kernels.png
+# POT's variance pictures are noisy and large PNGs: only the intra-domain ones stay.
+find "$fig" -name '*POT_var.png' ! -name 'intra-domain-*' -delete
 python3 scripts/make_results.py $out docs/results.md
