@@ -193,14 +193,16 @@ def main():
                 info = r["info"]
                 notes.append(f"{r['target']}: {r['method']} {int(info['kernels'])} kernels, "
                              f"budget {info.get('budget_ms', float('nan')):.1f} ms, calibration "
-                             f"{info.get('calibrated_ms', float('nan')):.1f} ms, runs "
+                             f"{info.get('calibrated_ms', float('nan')):.1f} ms "
+                             f"({int(info.get('calibration_probes', 0))} probes), runs "
                              f"{ms:.1f} ms/scan")
             lines.append("Budget: POT's own time per scan, its mean over the seeds' runs on each "
-                         "target (or `--budget-ms` when given; settings: "
+                         "target (or `--budget-ms` when given, here "
                          f"{budget:g}). BHM and ABHM get the kernel count whose full fit on that "
                          "seed came closest to it (secant steps on measured full fits, no "
                          "extrapolation; BHM at the default grid's fixed width, ABHM with its "
-                         "Adam steps fixed). Budget, the calibration fit's time and the mean "
+                         "Adam steps fixed; counts capped at `--max-kernels`, 400,000 by default, where BHM "
+                         "stops short of the budget). Budget, the calibration fit's time and the mean "
                          "time over the seeds' runs: " + "; ".join(notes) + ".")
             lines.append("")
             lines.append("The paper's Table VI on its Carla towns (their data and setup, not "

@@ -87,14 +87,15 @@ std::vector<Scan> slice(const std::vector<Scan>& v, std::size_t a, std::size_t b
 }
 
 // Per-time-unit: the kernel count at which a learner's time per scan matches the budget.
-// Every probe is a full fit of the real task (first seed), so the matched time is measured, not
-// extrapolated: secant steps on log time against log kernels (time is about a power of the
-// count), until within `tolerance` of the budget or out of probes; the probe closest to the
-// budget wins. `measured_ms` receives its time.
+// At most `probes` probes, kernel counts within [16, max_count]. Every probe is a full fit of the
+// real task (first seed), so the matched time is measured, not extrapolated: secant steps on log
+// time against log kernels (time is about a power of the count), until within `tolerance` of the
+// budget or out of probes; the probe closest to the budget wins. `measured_ms` receives its time.
 std::size_t match_budget(const std::function<double(std::size_t)>& ms_per_scan, std::size_t start,
-                         double budget_ms, double* measured_ms, double tolerance = 0.1,
-                         int probes = 6) {
-  auto clampc = [](double c) { return std::size_t(std::clamp(c, 16.0, 4e5)); };
+                         double budget_ms, double* measured_ms, double max_count,
+                         int* probes_made = nullptr, double tolerance = 0.15, int probes = 4) {
+  if (!(max_count >= 16)) throw ArgumentError("--max-kernels: at least 16");
+  auto clampc = [max_count](double c) { return std::size_t(std::clamp(c, 16.0, max_count)); };
   std::vector<std::pair<std::size_t, double>> seen;
   std::size_t c = clampc(double(start));
   double slope = 1;
@@ -117,16 +118,19 @@ std::size_t match_budget(const std::function<double(std::size_t)>& ms_per_scan, 
     return std::abs(std::log(x.second / budget_ms)) < std::abs(std::log(y.second / budget_ms));
   });
   if (measured_ms) *measured_ms = best->second;
+  if (probes_made) *probes_made = int(seen.size());
   return best->first;
 }
 
 // Adds the budget to what a method reports.
-experiment::Method with_budget(experiment::Method m, double budget_ms, double calibrated_ms) {
+experiment::Method with_budget(experiment::Method m, double budget_ms, double calibrated_ms,
+                               int probes) {
   auto fit = m.fit;
-  m.fit = [fit, budget_ms, calibrated_ms](Context* ctx, const experiment::MapTask& task) {
+  m.fit = [fit, budget_ms, calibrated_ms, probes](Context* ctx, const experiment::MapTask& task) {
     experiment::FittedMap f = fit(ctx, task);
     f.info["budget_ms"] = budget_ms;
     f.info["calibrated_ms"] = calibrated_ms;
+    f.info["calibration_probes"] = probes;
     return f;
   };
   return m;
@@ -356,6 +360,7 @@ void register_experiment(CLI::App& app, Runner& runner) {
             const std::size_t start =
                 std::max<std::size_t>(16, std::size_t(vol / (b.spacing * b.spacing)));
             double got = 0;
+            int probes = 0;
             b.count = match_budget(
                 [&](std::size_t n) {
                   experiment::BhmSetup x = b;
@@ -363,12 +368,14 @@ void register_experiment(CLI::App& app, Runner& runner) {
                   const auto f = experiment::bhm_method(x).fit(h.context(), full);
                   return 1e3 * f.fit_seconds / double(full.train_scans.size());
                 },
-                start, budget, &got, double(*max_kernels));
-            methods.push_back(with_budget(experiment::bhm_method(b, "BHM (budget)"), budget, got));
+                start, budget, &got, double(*max_kernels), &probes);
+            methods.push_back(
+                with_budget(experiment::bhm_method(b, "BHM (budget)"), budget, got, probes));
           }
           if (want_abhm) {
             experiment::AbhmSetup a = s->abhm;
             double got = 0;
+            int probes = 0;
             a.count = match_budget(
                 [&](std::size_t n) {
                   experiment::AbhmSetup x = a;
@@ -376,9 +383,9 @@ void register_experiment(CLI::App& app, Runner& runner) {
                   const auto f = experiment::abhm_method(x).fit(h.context(), full);
                   return 1e3 * f.fit_seconds / double(full.train_scans.size());
                 },
-                s->abhm.count, budget, &got, double(*max_kernels));
+                s->abhm.count, budget, &got, double(*max_kernels), &probes);
             methods.push_back(
-                with_budget(experiment::abhm_method(a, "ABHM (budget)"), budget, got));
+                with_budget(experiment::abhm_method(a, "ABHM (budget)"), budget, got, probes));
           }
           for (std::uint64_t seed : s->seeds)
             h.run_case(want_transfer ? src_label : "",
