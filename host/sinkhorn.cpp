@@ -202,7 +202,7 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   L.result.barycentric =
       empty_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0);
 
-  int wg = opt.work_group > 0 ? opt.work_group : (ctx.info().is_cpu ? 16 : 64);
+  int wg = opt.work_group > 0 ? opt.work_group : (ctx.info().is_cpu ? 4 : 64);
   if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");
   char defs[128];
   std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d -DACC_DOUBLE=%d", dim, wg,

@@ -222,9 +222,19 @@ static ACC hsum_acc(ACCV v) {
 // setting (measured); widening costs about a third more time per product on PoCL here.
 static ACCV col_dot(__global const REAL* K, __global const ACC* u, const int n, const int mpad,
                     const int j) {
-  ACCV tot = (ACCV)(0);
-  for (int i = 0; i < n; ++i) tot = fma(TO_ACCV(VLOAD(0, K + (long)i * mpad + j)), (ACCV)(u[i]), tot);
-  return tot;
+  // Four independent chains: one chain waits on the FMA latency every row (measured: the
+  // products of small ranking problems ran latency-bound).
+  ACCV t0 = (ACCV)(0), t1 = (ACCV)(0), t2 = (ACCV)(0), t3 = (ACCV)(0);
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    __global const REAL* Ki = K + (long)i * mpad + j;
+    t0 = fma(TO_ACCV(VLOAD(0, Ki)), (ACCV)(u[i]), t0);
+    t1 = fma(TO_ACCV(VLOAD(0, Ki + mpad)), (ACCV)(u[i + 1]), t1);
+    t2 = fma(TO_ACCV(VLOAD(0, Ki + 2 * mpad)), (ACCV)(u[i + 2]), t2);
+    t3 = fma(TO_ACCV(VLOAD(0, Ki + 3 * mpad)), (ACCV)(u[i + 3]), t3);
+  }
+  for (; i < n; ++i) t0 = fma(TO_ACCV(VLOAD(0, K + (long)i * mpad + j)), (ACCV)(u[i]), t0);
+  return (t0 + t1) + (t2 + t3);
 }
 
 // One row of K: exp(al + be_j - k d2_ij), the exponent formed in ACC (the duals reach
@@ -394,10 +404,14 @@ static void solve(
       if (i0 + lid < icnt)
         build_row(K + (long)(i0 + lid) * mpad, SX[i0 + lid], SX[npad + i0 + lid], sz[i0 + lid], TX,
                   tz, mpad, BE, AL[i0 + lid], k);
-    for (int j0 = 0; j0 < jcnt; j0 += WG)
-      if (j0 + lid < jcnt)
-        build_row(KT + (long)(j0 + lid) * npad, TX[j0 + lid], TX[mpad + j0 + lid], tz[j0 + lid], SX,
-                  sz, npad, AL, BE[j0 + lid], k);
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    // K^T by copying, not by exps again (the exps of the rebuild dominate small problems).
+    // Pads of K^T rows (i >= n) must be 0 as build_row leaves them: exp(-PAD_LOGW) = 0.
+    for (int j = lid; j < jcnt; j += WG) {
+      __global REAL* KTj = KT + (long)j * npad;
+      for (int i = 0; i < n; ++i) KTj[i] = K[(long)i * mpad + j];
+      for (int i = n; i < npad; ++i) KTj[i] = 0;
+    }
     barrier(CLK_GLOBAL_MEM_FENCE);
     // Absorbing does not change the plan, so the limit is tested after it: K is always built.
     if (at_target && it_target >= max_it) break;

@@ -21,11 +21,12 @@ constexpr double kPi = 3.14159265358979323846;
 
 struct MapArgs {
   std::string dict, scans, out, instantaneous, json, picture;
-  bool refine = false, cpu = false, quiet = false, no_pipeline = false;
+  bool refine = false, cpu = false, quiet = false, no_pipeline = false, hits_only = false;
   double refine_min_variance = 0;
   int sectors = 5, rotations = 8, em = 1;
   double max_range = 0, holdout = 0.2, res = 0.25;
   std::size_t first = 0, max_scans = 0, candidates = 0, max_kernels = 0;
+  std::size_t free_points = PotOptions{}.transport_free_points;
   double merge_radius = OverallMapOptions{}.merge_radius;
   std::uint64_t seed = 0;
 };
@@ -53,6 +54,8 @@ int run_map(const MapArgs& a, const std::string& device) {
   po.refine_min_variance = a.refine_min_variance;
   po.refine_bhm.em_iterations = a.em;
   po.candidates = a.candidates;
+  po.transport_free_points = a.free_points;
+  po.transport_free = !a.hits_only;
   po.seed = a.seed;
   job.mapper.labels.holdout_fraction = a.holdout;
   job.mapper.labels.seed = a.seed;
@@ -148,6 +151,11 @@ void register_map(CLI::App& app, Runner& runner) {
                   "Atoms ranked per sector after descriptor pre-selection (default 0: all)");
   cmd->add_option("--max-range", a->max_range,
                   "Sector radius, metres (default 0: the dictionary's)");
+  cmd->add_option("--free-points", a->free_points,
+                  "Free samples a side in the transport, thinned evenly (default 200)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_flag("--hits-only", a->hits_only,
+                "Transport hits only (SPEC step 4); kernels follow the nearest hit");
   cmd->add_option("--first", a->first, "Skip this many scans (default 0)");
   cmd->add_option("--max-scans", a->max_scans, "Map at most this many scans (default 0: all)");
   cmd->add_option("--holdout", a->holdout,

@@ -9,6 +9,7 @@
 #include <limits>
 #include <numeric>
 #include <string>
+#include <unordered_map>
 
 #include "data/sim_rng.hpp"
 #include "potmap/error.hpp"
@@ -51,6 +52,70 @@ Eigen::MatrixXd subsample(const std::vector<double>& pts, int dim, std::size_t c
   return out;
 }
 
+// At most `cap` points spread evenly over the cloud: one point (the first in input order) per
+// cell of the finest square (cubic) grid that has at most `cap` occupied cells, found by
+// bisection on the cell size. A random subsample keeps the cloud's density, so two random
+// subsamples of matching places differ point by point and their plan is noisy and slow to
+// converge; evenly spread ones look alike (measured on the built-in towns: at 200 free samples
+// a side the transport converged in a third of the time and the maps scored as well as with
+// every sample).
+Eigen::MatrixXd subsample_even(const std::vector<double>& pts, int dim, std::size_t cap) {
+  const std::size_t n = pts.size() / dim;
+  std::vector<std::size_t> keep;
+  if (n > cap) {
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    for (int d = 0; d < dim; ++d) lo[d] = hi[d] = pts[d];
+    for (std::size_t i = 0; i < n; ++i)
+      for (int d = 0; d < dim; ++d) {
+        lo[d] = std::min(lo[d], pts[i * dim + d]);
+        hi[d] = std::max(hi[d], pts[i * dim + d]);
+      }
+    double extent = 0;
+    for (int d = 0; d < dim; ++d) extent = std::max(extent, hi[d] - lo[d]);
+    // Occupied cells (and the first point of each, in input order) for a cell size, counted in
+    // an open-addressing table: this runs a dozen times per call, twice per sector and scan.
+    std::size_t slots = 1;
+    while (slots < 2 * n) slots <<= 1;
+    std::vector<std::uint64_t> table(slots);
+    auto cells = [&](double cell, std::vector<std::size_t>* firsts) {
+      std::fill(table.begin(), table.end(), 0);
+      std::size_t count = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        std::uint64_t key = 1;  // 0 marks an empty slot
+        for (int d = 0; d < dim; ++d)
+          key = (key << 21) | static_cast<std::uint64_t>((pts[i * dim + d] - lo[d]) / cell);
+        std::size_t h = static_cast<std::size_t>((key * 0x9e3779b97f4a7c15ULL) >> 20) & (slots - 1);
+        while (table[h] != 0 && table[h] != key) h = (h + 1) & (slots - 1);
+        if (table[h] == 0) {
+          table[h] = key;
+          ++count;
+          if (firsts) firsts->push_back(i);
+        }
+      }
+      return count;
+    };
+    // Cells of extent / 2^20 keep every distinct point apart; a cell of the whole extent holds
+    // them all. Bisect the cell size between the two on a log scale.
+    double small = extent / (1 << 20), large = extent * 1.0001;
+    if (extent > 0) {
+      for (int round = 0; round < 24 && large / small > 1.03; ++round) {
+        const double mid = std::sqrt(small * large);
+        (cells(mid, nullptr) > cap ? small : large) = mid;
+      }
+      cells(large, &keep);
+    } else {
+      keep.push_back(0);  // every point at the same place
+    }
+  } else {
+    keep.resize(n);
+    std::iota(keep.begin(), keep.end(), std::size_t{0});
+  }
+  Eigen::MatrixXd out(keep.size(), dim);
+  for (std::size_t i = 0; i < keep.size(); ++i)
+    for (int d = 0; d < dim; ++d) out(i, d) = pts[keep[i] * dim + d];
+  return out;
+}
+
 Eigen::MatrixXd kernel_positions(const KernelMap& k) {
   Eigen::MatrixXd out(k.size(), k.dim);
   for (std::size_t i = 0; i < k.size(); ++i)
@@ -67,8 +132,8 @@ void check(const Dictionary& dict, const LabelledPoints& train, const PotOptions
   if (o.rotations.empty()) bad("no rotations given");
   for (double a : o.rotations)
     if (!std::isfinite(a)) bad("a rotation is not finite");
-  if (o.rank_hits < 1 || o.rank_free < 1 || o.transport_points < 1)
-    bad("rank_hits, rank_free and transport_points must be >= 1");
+  if (o.rank_hits < 1 || o.rank_free < 1 || o.transport_points < 1 || o.transport_free_points < 1)
+    bad("rank_hits, rank_free, transport_points and transport_free_points must be >= 1");
   if (!(o.rank_epsilon > 0) || !(o.transport_epsilon > 0)) bad("epsilons must be positive");
   if (o.rank_max_iterations < 1 || o.transport_max_iterations < 1)
     bad("iteration limits must be >= 1");
@@ -184,7 +249,6 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   out.timing = pt.timing;
   const auto& sectors = pt.sectors;
   const auto& cands = pt.candidates;
-  const auto t_index = static_cast<std::uint64_t>(pt.scan_index);
   for (const Sector& sec : sectors) {
     SectorTransfer st;
     st.sector = sec.index;
@@ -237,9 +301,9 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
     auto add = [&](const std::vector<double>& src_pts, const std::vector<double>& tgt_pts,
                    int which) {
       SinkhornProblem p;
-      p.source = subsample(src_pts, dim, o.transport_points, mix(o.seed, win->atom, 3 + which));
-      p.target = subsample(tgt_pts, dim, o.transport_points,
-                           mix(o.seed ^ 0x7a5, t_index, 2 * sec.index + which));
+      const std::size_t cap = which == 1 ? o.transport_free_points : o.transport_points;
+      p.source = subsample_even(src_pts, dim, cap);
+      p.target = subsample_even(tgt_pts, dim, cap);
       p.angle = win->angle;
       p.epsilon = o.transport_epsilon;
       p.max_iterations = o.transport_max_iterations;

@@ -51,9 +51,18 @@ struct PotOptions {
   int rank_max_iterations = 1000;
   double rank_tolerance = 1e-7;  ///< on ||P 1 - a||_1
 
-  // High-quality transport of the best candidate: cost divided by its maximum.
-  std::size_t transport_points = 1500;  ///< at most this many points a side
-  double transport_epsilon = 0.0005;    ///< unitless (normalised cost)
+  // High-quality transport of the best candidate: cost divided by its maximum. Points beyond
+  // the caps are thinned evenly (one per cell of the finest grid that leaves few enough), not at
+  // random: evenly thinned samples of two matching places look alike, so their plan is cleaner
+  // and converges sooner.
+  std::size_t transport_points = 1500;  ///< at most this many hits a side (the authors' cap)
+  /// At most this many free samples a side in the transport (default 200). The authors' cap of
+  /// 1500 covers a sector's free samples too (about 1000 per sector of a 360-beam scan, so a
+  /// 1000 x 1000 problem per sector and about 1 s per scan here); 200 evenly thinned ones keep
+  /// the map's scores (measured, town1 -> town2, 8 scans, 6 atoms: POT AUC 0.797 at 200 against
+  /// 0.818 with every sample, RePOT 0.826 against 0.847; ACC higher at 200) at about 5 ms.
+  std::size_t transport_free_points = 200;
+  double transport_epsilon = 0.0005;  ///< unitless (normalised cost)
   int transport_max_iterations = 2000;
   double transport_tolerance = 1e-5;  ///< float32 floors near 1e-7 on 1500 x 1500 (issue #3)
   /// Transport the free samples too (default true): a second plan between the winner's free
