@@ -36,6 +36,33 @@ def si(x):
     return "%.2f" % x
 
 
+def pot_table(rows):
+    """Per-scan latency of POT/RePOT split by stage, with the map's scores, and the reference's
+    time over the OpenCL one for the same atoms, rotations and refine setting."""
+    pot = [r for r in rows if r["name"].startswith(("BM_PotOpenCL", "BM_PotReference"))]
+    if not pot:
+        return
+    ref = {r["name"].split("/", 1)[1].split("/iterations")[0]: r["extra"].get("total_ms")
+           for r in pot if r["name"].startswith("BM_PotReference")}
+    cols = ("total_ms", "total_ms_median", "total_ms_p90", "ranking_ms", "transport_ms",
+            "placement_ms", "refine_ms", "prepare_ms")
+    w = max(len(r["name"]) for r in pot)
+    print()
+    print("%-*s %8s %8s %8s %8s %9s %9s %8s %8s %6s %6s %6s %8s" % (
+        w, "POT per scan (ms)", "mean", "median", "p90", "ranking", "transport", "placement",
+        "refine", "prepare", "ACC", "AUC", "NLL", "ref/ocl"))
+    for r in pot:
+        e = r["extra"]
+        key = r["name"].split("/", 1)[1].split("/iterations")[0]
+        ratio = ref.get(key)
+        r["reference_over_opencl"] = (ratio / e["total_ms"]) if (
+            ratio and r["name"].startswith("BM_PotOpenCL") and e.get("total_ms")) else None
+        print("%-*s %8s %8s %8s %8s %9s %9s %8s %8s %6.3f %6.3f %6.3f %8s" % ((w, r["name"]) + tuple(
+            ("%.1f" % e[c]) if c in e else "-" for c in cols) + (
+            e.get("acc", 0), e.get("auc", 0), e.get("nll", 0),
+            ("%.0fx" % r["reference_over_opencl"]) if r["reference_over_opencl"] else "-")))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default="build", help="CMake build folder (default: build)")
@@ -58,7 +85,10 @@ def main():
             "ms": b["real_time"] if b.get("time_unit") == "ms" else b["real_time"] / 1e6,
             "queries_per_s": b.get("queries_per_s"),
             "kernel_evals_per_s": b.get("kernel_evals_per_s"),
-            "extra": {k: v for k, v in b.items() if k.endswith("_per_s") or k in ("iterations_used", "converged")},
+            "extra": {k: v for k, v in b.items()
+                      if k.endswith("_per_s") or k.endswith("_ms") or k.endswith("_ms_median")
+                      or k.endswith("_ms_p90")
+                      or k in ("iterations_used", "converged", "acc", "auc", "nll", "kernels")},
         })
     # Speed-up of OpenCL over the reference per query: a reference row BM_<F>Reference[/size]
     # pairs with every OpenCL row BM_<F...>OpenCL[/size] whose family starts with F.
@@ -85,6 +115,7 @@ def main():
             si(r["kernel_evals_per_s"]) if r["kernel_evals_per_s"] else "-",
             ("%.1fx" % r["speedup_vs_reference"]) if r["speedup_vs_reference"] else "-",
             r["device"]))
+    pot_table(rows)
     summary = {"context": data.get("context", {}), "rows": rows}
     tmp = args.out + ".tmp"
     with open(tmp, "w") as f:

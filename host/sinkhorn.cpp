@@ -98,13 +98,13 @@ template <class R>
 void fill_logw(std::vector<R>& out, std::size_t slot, int count, int pad,
                const Eigen::VectorXd* w) {
   const R pad_value = std::is_same<R, double>::value ? R(-1e300) : R(-1e30f);
+  const bool given = w && w->size() > 0;
+  const R uniform = static_cast<R>(-std::log(static_cast<double>(count)));
   for (int i = 0; i < pad; ++i) {
     if (i >= count)
       out[slot + i] = pad_value;
-    else if (w && w->size() > 0)
-      out[slot + i] = static_cast<R>(std::log((*w)(i)));
     else
-      out[slot + i] = static_cast<R>(-std::log(static_cast<double>(count)));
+      out[slot + i] = given ? static_cast<R>(std::log((*w)(i))) : uniform;
   }
 }
 
