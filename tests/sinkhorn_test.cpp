@@ -198,6 +198,34 @@ TEST(Sinkhorn, RaggedBatchEqualsOneByOne) {
   }
 }
 
+// A batch too large for one launch (more than 2^18 padded points) is solved in several; the
+// results must be those of the problems solved in small batches.
+TEST(Sinkhorn, BatchSplitIntoLaunchesEqualsSmallBatches) {
+  SinkhornBatch big;
+  std::vector<SinkhornProblem> qs;
+  for (unsigned p = 0; p < 1100; ++p) {
+    qs.push_back(problem(100 + static_cast<int>(p % 7), 110, 2, 500 + p % 13, 0.05));
+    qs.back().angle = 0.01 * p;
+    qs.back().max_iterations = 50;
+    big.add(qs.back());
+  }
+  SinkhornOptions o;
+  o.want_barycentric = true;
+  const auto all = big.run(test::context(), o);
+  ASSERT_EQ(all.size(), qs.size());
+  for (std::size_t first : {std::size_t{0}, std::size_t{540}, std::size_t{1090}}) {
+    SinkhornBatch small;
+    for (std::size_t p = first; p < first + 10; ++p) small.add(qs[p]);
+    const auto part = small.run(test::context(), o);
+    for (std::size_t k = 0; k < part.size(); ++k) {
+      const std::size_t p = first + k;
+      EXPECT_EQ(all[p].iterations, part[k].iterations) << p;
+      EXPECT_FLOAT_EQ(all[p].cost, part[k].cost) << p;
+      EXPECT_EQ((all[p].barycentric - part[k].barycentric).cwiseAbs().maxCoeff(), 0.0) << p;
+    }
+  }
+}
+
 TEST(Sinkhorn, RankingSettingConverges) {
   // Authors' ranking setting: sector points (metres, 20 m) scaled by 1/50, eps 0.005.
   auto q = problem(200, 200, 2, 31, 0.005);
