@@ -3,7 +3,10 @@
 
 #include <cmath>
 #include <map>
+#include <memory>
+#include <set>
 
+#include "potmap/atom_descriptor.hpp"
 #include "potmap/atoms.hpp"
 #include "potmap/error.hpp"
 #include "potmap/evaluate.hpp"
@@ -104,6 +107,45 @@ TEST_P(PotSelf, ScanOntoItselfPutsKernelsBack) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Pot, PotSelf, ::testing::Values(0, 1, 2));
+
+// Descriptor pre-selection (PotOptions::candidates): only k atoms per sector reach the
+// ranking, and a sector's own atom (descriptor distance 0) is among them and wins.
+TEST(Pot, PreselectionRanksOnlyKAtomsAndKeepsTheOwnAtom) {
+  SimOptions so;
+  so.scans = 3;
+  so.spacing = 12;
+  const std::vector<Scan> scans = simulate(Town::builtin("town1"), so).scans;
+  const KernelMap map = tagged_grid(scans[1].origin(), 40, 2);
+  Dictionary dict;
+  build_dictionary(scans, map, {}, dict);
+  ASSERT_GE(dict.size(), 10u);
+  PotOptions o = small_options();
+  o.rotations = {0, kPi};
+  o.candidates = 2;
+  const LabelledPoints train = all_samples(scans[1], 1);
+  const PreparedTransfer pt =
+      prepare_transfer(dict, train, scans[1].origin(), scan_heading(scans[1]), 1, o);
+  ASSERT_EQ(pt.sectors.size(), 5u);
+  for (const auto& cands : pt.candidates) {
+    std::set<std::size_t> atoms;
+    for (const auto& c : cands) atoms.insert(c.atom);
+    EXPECT_LE(atoms.size(), 2u);
+    EXPECT_LE(cands.size(), 2u * o.rotations.size());
+  }
+  o.preselector = std::make_shared<const AtomPreselector>(dict);  // as map_scans passes it
+  const ScanTransfer t =
+      transfer_scan(&test::context(), dict, train, scans[1].origin(), scan_heading(scans[1]), 1, o);
+  // Atoms of scan 1 are the dictionary's 5..9, in sector order (build_dictionary keeps order).
+  for (const SectorTransfer& st : t.sectors) {
+    EXPECT_EQ(st.atom, static_cast<long>(5 + st.sector)) << "sector " << st.sector;
+    EXPECT_NEAR(st.rotation, 0, 1e-12);
+  }
+  Dictionary fewer = dict;
+  fewer.atoms.pop_back();
+  o.preselector = std::make_shared<const AtomPreselector>(fewer);
+  EXPECT_THROW(transfer_scan(nullptr, dict, train, scans[1].origin(), scan_heading(scans[1]), 1, o),
+               ArgumentError);
+}
 
 TEST(Pot, RotatedAtomIsRankedBestAtItsRotation) {
   SimOptions so;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <future>
+#include <memory>
 #include <string>
 
 #include "potmap/error.hpp"
@@ -57,11 +58,19 @@ Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const 
   return p;
 }
 
+// The options with the dictionary's descriptors built once when pre-selection asks for them.
+MapperOptions with_preselector(const Dictionary& dict, MapperOptions o) {
+  if (o.pot.candidates > 0 && o.pot.candidates < dict.size() && !o.pot.preselector)
+    o.pot.preselector = std::make_shared<const AtomPreselector>(dict);
+  return o;
+}
+
 }  // namespace
 
 void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
-               const MapperOptions& o, const std::function<void(MappedScan&&)>& on_scan) {
+               const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan) {
   if (scans.empty()) return;
+  const MapperOptions& o = with_preselector(dict, options);
   const auto launch = o.pipeline ? std::launch::async : std::launch::deferred;
   std::future<Prepared> next = std::async(launch, prepare, std::cref(dict), std::cref(scans[0]),
                                           std::size_t{0}, std::cref(o));
@@ -89,6 +98,7 @@ Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const Mappe
       overall_(dict_ ? dict_->dim : 2, overall) {
   if (!dict_) throw ArgumentError("Mapper: the dictionary is null");
   if (dict_->empty()) throw ArgumentError("Mapper: the dictionary has no atoms");
+  options_ = with_preselector(*dict_, options_);
   last_.transfer.map.dim = last_.test.dim = dict_->dim;
 }
 

@@ -7,9 +7,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <string>
-#include <unordered_map>
 
 #include "data/sim_rng.hpp"
 #include "potmap/error.hpp"
@@ -138,8 +138,9 @@ void check(const Dictionary& dict, const LabelledPoints& train, const PotOptions
   if (o.rank_max_iterations < 1 || o.transport_max_iterations < 1)
     bad("iteration limits must be >= 1");
   if (!(o.rank_tolerance > 0) || !(o.transport_tolerance > 0)) bad("tolerances must be positive");
-  if (o.candidates > 0 && o.candidates < dict.size())
-    bad("PotOptions::candidates (descriptor pre-selection) is not available in this build");
+  if (o.preselector && o.preselector->size() != dict.size())
+    bad("PotOptions::preselector describes " + std::to_string(o.preselector->size()) +
+        " atoms, the dictionary has " + std::to_string(dict.size()));
 }
 
 // Solves a batch on the device, or one problem at a time on the CPU reference.
@@ -198,8 +199,17 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
   proto.max_iterations = o.rank_max_iterations;
   proto.tolerance = o.rank_tolerance;
   pt.candidates.resize(pt.sectors.size());
+  const bool preselect = o.candidates > 0 && o.candidates < dict.size();
+  std::shared_ptr<const AtomPreselector> pre = o.preselector;
+  if (preselect && !pre) pre = std::make_shared<const AtomPreselector>(dict);
+  std::vector<std::size_t> every;
+  if (!preselect) {
+    every.resize(dict.size());
+    std::iota(every.begin(), every.end(), std::size_t{0});
+  }
   for (std::size_t s = 0; s < pt.sectors.size(); ++s) {
     const Sector& sec = pt.sectors[s];
+    const std::vector<std::size_t> chosen = preselect ? pre->select(sec, o.candidates) : every;
     const Eigen::MatrixXd th =
         subsample(sec.hits, dim, o.rank_hits, mix(o.seed ^ 0x5eed, t_index, 2 * sec.index));
     const Eigen::MatrixXd tf =
@@ -207,7 +217,7 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
     // Each term (hits, free) is an OT problem when both sides have such samples. When only one
     // side has them the shapes disagree as much as they can: the term scores its largest
     // normalised value, 1 (a target sector without hits prefers atoms without hits).
-    for (std::size_t a = 0; a < dict.size(); ++a) {
+    for (std::size_t a : chosen) {
       const AtomSample& as = sample_of(a);
       const bool hm = (th.rows() > 0) != (as.hits.rows() > 0);
       const bool fm = (tf.rows() > 0) != (as.free.rows() > 0);

@@ -12,8 +12,10 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
+#include "potmap/atom_descriptor.hpp"
 #include "potmap/atoms.hpp"
 #include "potmap/bhm.hpp"
 #include "potmap/context.hpp"
@@ -73,9 +75,17 @@ struct PotOptions {
   /// the two sectors' hits lie at different distances from the sensor. false: the SPEC's rule.
   bool transport_free = true;
 
-  /// Consider only this many atoms per target sector, pre-selected by a cheap descriptor before
-  /// the Sinkhorn ranking (0, the default: every atom).
+  /// Rank only this many atoms per target sector, pre-selected by a rotation-invariant
+  /// descriptor (quantiles of the samples' distances from the sector centre,
+  /// atom_descriptor.hpp) before the Sinkhorn ranking (0, the default: every atom). For large
+  /// dictionaries. Measured with 2000 atoms (town1 -> town2, 20 sectors): k = 128 kept the full
+  /// ranking's atom in 85 % of the sectors (90 % within the k) at 1/17 of the ranking time;
+  /// k = 512: 90 % (100 % within the k; the rest differ because each score term is normalised
+  /// by its largest value over the candidates ranked).
   std::size_t candidates = 0;
+  /// The dictionary's descriptors for `candidates`, built once (AtomPreselector(dict)); null:
+  /// built on every call, O(samples of the dictionary). map_scans and Mapper build it.
+  std::shared_ptr<const AtomPreselector> preselector;
 
   /// RePOT (SPEC step 7): refine the transported weights with a BHM update on the scan's own
   /// training samples (default false: plain POT).
