@@ -9,6 +9,7 @@
 #include <cmath>
 #include <memory>
 
+#include "potmap/atom_descriptor.hpp"
 #include "potmap/atoms.hpp"
 #include "potmap/bhm.hpp"
 #include "potmap/context.hpp"
@@ -82,13 +83,16 @@ std::vector<double> rotations(int n) {
   return r;
 }
 
-// Args: atoms, rotations, refine (0/1). `device` false: the CPU reference.
+// Args: atoms, rotations, refine (0/1), candidates (descriptor pre-selection, 0: every atom).
+// `device` false: the CPU reference.
 void run_pot(benchmark::State& state, bool device) {
   Fixture& f = fixture();
   const Dictionary dict = first_atoms(static_cast<std::size_t>(state.range(0)));
   PotOptions o;
   o.rotations = rotations(static_cast<int>(state.range(1)));
   o.refine = state.range(2) != 0;
+  o.candidates = static_cast<std::size_t>(state.range(3));
+  if (o.candidates > 0) o.preselector = std::make_shared<const AtomPreselector>(dict);
   Context* ctx = device ? &f.ctx : nullptr;
   if (device) {  // build the programs outside the timing
     transfer_scan(ctx, dict, f.splits[0].train, f.targets[0].origin(), scan_heading(f.targets[0]),
@@ -154,18 +158,20 @@ void BM_PotReference(benchmark::State& state) {
 
 // The setting: 5 sectors, 6 atoms, 8 rotations, POT and RePOT; then scaling.
 BENCHMARK(BM_PotOpenCL)
-    ->ArgNames({"atoms", "rotations", "refine"})
-    ->Args({6, 8, 0})
-    ->Args({6, 8, 1})
-    ->Args({6, 4, 0})
-    ->Args({24, 8, 0})
-    ->Args({96, 8, 0})
+    ->ArgNames({"atoms", "rotations", "refine", "candidates"})
+    ->Args({6, 8, 0, 0})
+    ->Args({6, 8, 1, 0})
+    ->Args({6, 4, 0, 0})
+    ->Args({24, 8, 0, 0})
+    ->Args({96, 8, 0, 0})
+    ->Args({200, 8, 0, 0})
+    ->Args({200, 8, 0, 24})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(32);  // every target scan four times
 BENCHMARK(BM_PotReference)
-    ->ArgNames({"atoms", "rotations", "refine"})
-    ->Args({6, 8, 0})
-    ->Args({6, 8, 1})
+    ->ArgNames({"atoms", "rotations", "refine", "candidates"})
+    ->Args({6, 8, 0, 0})
+    ->Args({6, 8, 1, 0})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(8);
 
