@@ -298,14 +298,14 @@ namespace {
 std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornProblem>& all,
                                       std::size_t first, std::size_t np, int dim,
                                       const SinkhornOptions& opt) {
-  const SinkhornProblem* problems_ = all.data() + first;
+  const SinkhornProblem* chunk = all.data() + first;
   auto& cx = ctx.context();
   auto& q = ctx.queue();
   std::vector<int> soff(np), scnt(np), toff(np), tcnt(np);
   std::vector<const SinkhornProblem*> par(np);
   std::vector<float> src, tgt;
   for (std::size_t p = 0; p < np; ++p) {
-    const auto& pr = problems_[p];
+    const auto& pr = chunk[p];
     par[p] = &pr;
     soff[p] = static_cast<int>(src.size() / dim);
     toff[p] = static_cast<int>(tgt.size() / dim);
@@ -349,7 +349,7 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
   std::vector<SinkhornResult> out(np);
   for (std::size_t p = 0; p < np; ++p) {
     auto& r = out[p];
-    const auto& pr = problems_[p];
+    const auto& pr = chunk[p];
     r.cost = stats[p * kNR + 0];
     r.iterations = static_cast<int>(stats[p * kNR + 1]);
     r.marginal_error = stats[p * kNR + 2];

@@ -67,6 +67,24 @@ SampleKernelPairs build_pairs(const KernelMap& map, const LabelledPoints& sample
   return p;
 }
 
+std::vector<double> pair_features(const KernelMap& map, const LabelledPoints& samples,
+                                  const SampleKernelPairs& pairs) {
+  const std::size_t n = samples.size();
+  const int dim = map.dim;
+  std::vector<double> phi(pairs.sample_kernels.size());
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t j = pairs.sample_start[i]; j < pairs.sample_start[i + 1]; ++j) {
+      const std::uint32_t k = pairs.sample_kernels[j];
+      double d2 = 0;
+      for (int d = 0; d < dim; ++d) {
+        const double t = samples.position[i * dim + d] - map.position[k * dim + d];
+        d2 += t * t;
+      }
+      phi[j] = std::exp(-map.gamma[k] * d2);
+    }
+  return phi;
+}
+
 void bhm_posterior(KernelMap& map, const std::vector<double>& prior_mean,
                    const std::vector<double>& prior_var, const double* sum_lambda_phi2,
                    const double* sum_y_phi, double bias_lambda, double bias_y, double bias_mean0,
@@ -122,20 +140,8 @@ void bhm_update_reference(KernelMap& map, const LabelledPoints& samples,
                           const BhmOptions& options) {
   detail::check_bhm_inputs(map, samples, options);
   const std::size_t n = samples.size(), m = map.size();
-  const int dim = map.dim;
   const detail::SampleKernelPairs pairs = detail::build_pairs(map, samples, options.tau);
-  // phi of every (sample, kernel) pair, in the per-sample order of `pairs`.
-  Eigen::VectorXd phi(pairs.sample_kernels.size());
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::uint32_t j = pairs.sample_start[i]; j < pairs.sample_start[i + 1]; ++j) {
-      const std::uint32_t k = pairs.sample_kernels[j];
-      double d2 = 0;
-      for (int d = 0; d < dim; ++d) {
-        const double t = samples.position[i * dim + d] - map.position[k * dim + d];
-        d2 += t * t;
-      }
-      phi[j] = std::exp(-map.gamma[k] * d2);
-    }
+  const std::vector<double> phi = detail::pair_features(map, samples, pairs);
   const std::vector<double> mean0 = map.w_mean, var0 = map.w_var;
   const double bmean0 = map.bias_mean, bvar0 = map.bias_var;
   Eigen::VectorXd lambda = Eigen::VectorXd::Constant(n, detail::jj_lambda(options.xi_init));

@@ -21,6 +21,10 @@ struct SampleKernelPairs {
 };
 SampleKernelPairs build_pairs(const KernelMap& map, const LabelledPoints& samples, double tau);
 
+/// phi = exp(-gamma |x - h|^2) of every pair, in the per-sample order of `pairs`.
+std::vector<double> pair_features(const KernelMap& map, const LabelledPoints& samples,
+                                  const SampleKernelPairs& pairs);
+
 /// E-step posterior from the prior and the two sums over samples (per kernel and for the bias).
 void bhm_posterior(KernelMap& map, const std::vector<double>& prior_mean,
                    const std::vector<double>& prior_var, const double* sum_lambda_phi2,

@@ -23,20 +23,8 @@ void refine_joint(KernelMap& map, const LabelledPoints& samples, const BhmOption
   if (map.has_bias) throw ArgumentError("refine_joint: maps with a bias weight are not supported");
   const std::size_t n = samples.size(), m = map.size();
   if (n == 0 || m == 0) return;
-  const int dim = map.dim;
   const SampleKernelPairs pairs = build_pairs(map, samples, options.tau);
-  const std::size_t nnz = pairs.sample_kernels.size();
-  Eigen::VectorXd phi(nnz);
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::uint32_t j = pairs.sample_start[i]; j < pairs.sample_start[i + 1]; ++j) {
-      const std::uint32_t k = pairs.sample_kernels[j];
-      double d2 = 0;
-      for (int d = 0; d < dim; ++d) {
-        const double t = samples.position[i * dim + d] - map.position[k * dim + d];
-        d2 += t * t;
-      }
-      phi[j] = std::exp(-map.gamma[k] * d2);
-    }
+  const std::vector<double> phi = pair_features(map, samples, pairs);
   const Eigen::VectorXd mean0 = Eigen::Map<const Eigen::VectorXd>(map.w_mean.data(), m);
   const Eigen::VectorXd prec0 =
       Eigen::Map<const Eigen::VectorXd>(map.w_var.data(), m).cwiseInverse();

@@ -209,7 +209,9 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
   }
   for (std::size_t s = 0; s < pt.sectors.size(); ++s) {
     const Sector& sec = pt.sectors[s];
-    const std::vector<std::size_t> chosen = preselect ? pre->select(sec, o.candidates) : every;
+    std::vector<std::size_t> selected;
+    if (preselect) selected = pre->select(sec, o.candidates);
+    const std::vector<std::size_t>& chosen = preselect ? selected : every;
     const Eigen::MatrixXd th =
         subsample(sec.hits, dim, o.rank_hits, mix(o.seed ^ 0x5eed, t_index, 2 * sec.index));
     const Eigen::MatrixXd tf =
