@@ -29,7 +29,17 @@ void add_common(CLI::App* cmd, Settings& s) {
   cmd->add_option("--ogm-cells", s.ogm_cells, "OGM cell sizes, metres; the best by AUC is reported")
       ->expected(1, -1)
       ->capture_default_str();
+  cmd->add_option("--bhm-joint", s.bhm.joint,
+                  "BHM posterior: true = joint (overlapping kernels, sparse precision), false = "
+                  "diagonal (narrow disjoint kernels)")
+      ->capture_default_str();
   cmd->add_option("--bhm-spacing", s.bhm.spacing, "BHM kernel grid spacing, metres")
+      ->capture_default_str();
+  cmd->add_option("--bhm-gamma", s.bhm.gamma,
+                  "BHM kernel width, 1/m^2 (0: the model's default for the spacing)")
+      ->capture_default_str();
+  cmd->add_option("--bhm-prior-var", s.bhm.prior_var,
+                  "BHM prior weight variance (0: the model's default, joint 10, diagonal 1e4)")
       ->capture_default_str();
   cmd->add_option("--bhm-em", s.bhm.options.em_iterations, "BHM E-steps per scan")
       ->capture_default_str();

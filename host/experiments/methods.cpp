@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "potmap/bhm_joint.hpp"
 #include "potmap/error.hpp"
 #include "potmap/evaluate.hpp"
 #include "potmap/experiment.hpp"
@@ -14,12 +15,6 @@ namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double task_volume(const MapTask& t) {
-  double v = 1;
-  for (int k = 0; k < t.dim; ++k) v *= std::max(t.hi[k] - t.lo[k], 1e-3);
-  return v;
 }
 
 }  // namespace
@@ -75,24 +70,52 @@ Method ogm_method(double resolution) {
   return m;
 }
 
+KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
+                    const double hi[3], const LabelledPoints& samples, double* spacing_out,
+                    double* gamma_out) {
+  double spacing = setup.spacing;
+  if (setup.count > 0) {
+    double v = 1;
+    for (int k = 0; k < dim; ++k) v *= std::max(hi[k] - lo[k], 1e-3);
+    spacing = std::pow(v / double(setup.count), 1.0 / dim);
+  }
+  if (spacing_out) *spacing_out = spacing;
+  if (setup.joint) {
+    JointBhmOptions o;
+    o.spacing = spacing;
+    o.gamma = setup.gamma;
+    if (setup.prior_var > 0) o.prior_var = setup.prior_var;
+    o.bias = setup.bias;
+    o.em_iterations = setup.options.em_iterations;
+    o.tau = setup.options.tau;
+    JointBhm learner(dim, lo, hi, o);
+    learner.update_by_scan(samples);
+    if (gamma_out) *gamma_out = learner.gamma();
+    return learner.map();
+  }
+  const double gamma = setup.gamma > 0 ? setup.gamma : 8.0 / (spacing * spacing);
+  if (gamma_out) *gamma_out = gamma;
+  KernelMap map = bhm_grid_prior(dim, lo, hi, spacing, gamma, 0.0,
+                                 setup.prior_var > 0 ? setup.prior_var : 1e4, setup.bias);
+  bhm_update_sequential(ctx, map, samples, setup.options);
+  return map;
+}
+
 Method bhm_method(const BhmSetup& setup, const std::string& name) {
   Method m;
   m.name = m.group = name;
   m.fit = [setup](Context* ctx, const MapTask& task) {
     const auto t0 = std::chrono::steady_clock::now();
-    double spacing = setup.spacing;
-    if (setup.count > 0)
-      spacing = std::pow(task_volume(task) / double(setup.count), 1.0 / task.dim);
-    const double gamma = setup.gamma > 0 ? setup.gamma : 8.0 / (spacing * spacing);
-    auto map = std::make_shared<KernelMap>(bhm_grid_prior(task.dim, task.lo, task.hi, spacing,
-                                                          gamma, 0.0, setup.prior_var, setup.bias));
-    bhm_update_sequential(ctx, *map, task.train, setup.options);
+    double spacing = 0, gamma = 0;
+    auto map = std::make_shared<KernelMap>(
+        learn_bhm(ctx, setup, task.dim, task.lo, task.hi, task.train, &spacing, &gamma));
     const double secs = seconds_since(t0);
     FittedMap f = kernel_fitted_map(ctx, map);
     f.fit_seconds = secs;
     f.info["kernels"] = double(map->size());
     f.info["spacing_m"] = spacing;
     f.info["gamma"] = gamma;
+    f.info["joint"] = setup.joint ? 1.0 : 0.0;
     return f;
   };
   return m;

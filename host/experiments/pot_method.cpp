@@ -36,11 +36,7 @@ KernelMap source_map(Context* ctx, const std::vector<Scan>& scans, const PotSetu
     }
   if (s.train.empty()) throw InputError("POT: a source place gave no labelled samples");
   if (setup.atom_map == "bhm") {
-    const BhmSetup& b = setup.atom_bhm;
-    const double gamma = b.gamma > 0 ? b.gamma : 8.0 / (b.spacing * b.spacing);
-    KernelMap map = bhm_grid_prior(d, lo3, hi3, b.spacing, gamma, 0.0, b.prior_var, b.bias);
-    bhm_update_sequential(ctx, map, s.train, b.options);
-    return map;
+    return learn_bhm(ctx, setup.atom_bhm, d, lo3, hi3, s.train);
   }
   if (setup.atom_map == "abhm") {
     const AbhmSetup& a = setup.atom_abhm;

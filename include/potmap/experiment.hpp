@@ -95,15 +95,29 @@ Method ogm_method(double resolution);
 
 /// BHM settings of the experiments: kernels on a grid over the task's area.
 struct BhmSetup {
-  double spacing = 1.0;   ///< grid spacing, metres
-  double gamma = 0;       ///< width, 1/m^2; 0: 8 / spacing^2 (as `potmap learn bhm`)
+  /// The joint posterior of bhm_joint.hpp (default true: overlapping kernels, a continuous and
+  /// calibrated map); false: the diagonal posterior of bhm.hpp with narrow, disjoint kernels.
+  bool joint = true;
+  double spacing = 0.5;   ///< grid spacing, metres (default 0.5: see JointBhmOptions::spacing)
+  /// Width, 1/m^2; 0: the model's default for the spacing (joint: -ln(0.19) / spacing^2, so
+  /// neighbours overlap; diagonal: 8 / spacing^2, as `potmap learn bhm`).
+  double gamma = 0;
   std::size_t count = 0;  ///< if > 0: spacing chosen to give about this many kernels
-  BhmOptions options;     ///< EM settings (default: 3 E-steps per scan)
-  double prior_var = 1e4;
-  /// A bias weight with the same prior (default true): without it the gaps between narrow
-  /// kernels sit at p = 0.5 exactly, which accuracy counts as occupied.
+  BhmOptions options;     ///< EM settings (em_iterations per scan, default 3; tau)
+  /// Prior weight variance; 0: the model's default (joint 10, diagonal 1e4).
+  double prior_var = 0;
+  /// A bias weight with the same prior (default true): it sets the level of unobserved space
+  /// (without it the gaps between narrow kernels sit at p = 0.5 exactly).
   bool bias = true;
 };
+
+/// Learns the BHM of `setup` on a grid over [lo, hi] from `samples`, scan by scan (the
+/// posterior after one scan is the prior of the next). The diagonal model runs on `ctx` when
+/// it is given; the joint one on the host. `spacing_out`/`gamma_out` receive what was used.
+KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
+                    const double hi[3], const LabelledPoints& samples,
+                    double* spacing_out = nullptr, double* gamma_out = nullptr);
+
 /// Online BHM: the posterior after one scan is the prior of the next (bhm_update_sequential).
 Method bhm_method(const BhmSetup& setup, const std::string& name = "BHM");
 
@@ -129,11 +143,11 @@ struct PotSetup {
   /// Map the atoms' kernels come from: "bhm" (default; online BHM on a grid, fast) or "abhm"
   /// (the paper's choice: varied widths, much slower to learn).
   std::string atom_map = "bhm";
+  /// The source map of "bhm" atoms: the experiments' BHM without its bias (atoms carry none:
+  /// a sector's kernels must say everything about it).
   BhmSetup atom_bhm = [] {
     BhmSetup b;
-    b.spacing = 1.0;  // metres
-    b.gamma = 4.0;    // 1/m^2 (as `potmap demo`)
-    b.bias = false;   // atoms carry no bias
+    b.bias = false;
     return b;
   }();
   AbhmSetup atom_abhm = [] {
