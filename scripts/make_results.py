@@ -20,7 +20,10 @@ TITLES = {
     "dynamic": "Instantaneous maps in a dynamic scene (paper Table V)",
     "per-time-unit": "Per time unit (paper Table VI)",
 }
-METRICS = [("acc", "ACC", 3), ("auc", "AUC", 3), ("nll", "NLL", 3), ("ms_per_scan", "ms/scan", 1)]
+# F1 and chamfer (m): occupied cells against an OGM at 0.1 m of the same training beams (absent
+# from JSON written before the structural score: shown as "–").
+METRICS = [("acc", "ACC", 3), ("auc", "AUC", 3), ("nll", "NLL", 3), ("f1", "F1", 3),
+           ("chamfer_m", "chamfer m", 2), ("ms_per_scan", "ms/scan", 1)]
 
 # SPEC.md section 5: the paper's results on Carla towns (targets Town1/2/3).
 PAPER_TABLE_VI = {
@@ -61,8 +64,10 @@ def table_md(doc):
     out.append("| metric | method | " + " | ".join(cases) + " |")
     out.append("|---|---|" + "---|" * len(cases))
     for key, name, digits in METRICS:
+        if not any(key in r for r in rows):
+            continue  # a metric this file predates (F1, chamfer)
         for i, m in enumerate(methods):
-            vals = [fmt(cell[(c, m)][key], digits) if (c, m) in cell else "–" for c in cases]
+            vals = [fmt(cell[(c, m)].get(key), digits) if (c, m) in cell else "–" for c in cases]
             out.append(f"| {name if i == 0 else ''} | {m} | " + " | ".join(vals) + " |")
     notes = sorted({f"{case_name(r)}: {r['method']} = {r['chosen']}" for r in rows
                     if r["chosen"] != r["method"]})
@@ -82,6 +87,21 @@ def figures_md(doc, md_dir):
             continue
         links = " ".join(f"![{os.path.basename(f)}]({os.path.relpath(f, md_dir)})" for f in figs)
         out.append(f"- {case_name(r)}, {r['method']} ({r['chosen']}): {links}")
+    return "\n".join(out)
+
+
+def compare_md(doc, md_dir):
+    """The side-by-side figures of each case, with their panel order as a caption line."""
+    out = []
+    for c in doc.get("compare_figures", []):
+        f = c.get("file", "")
+        if not os.path.exists(f):
+            continue
+        case = case_name({"source": c.get("source", ""), "target": c.get("target", "")})
+        out.append(f"![{os.path.basename(f)}]({os.path.relpath(f, md_dir)})")
+        out.append("")
+        out.append(f"*{case}, left to right: " + ", ".join(c.get("panels", [])) + "*")
+        out.append("")
     return "\n".join(out)
 
 
@@ -167,6 +187,17 @@ def main():
         lines.append("")
         lines.append(table_md(d))
         lines.append("")
+        st_struct = st.get("structure")
+        if st_struct:
+            lines.append(f"F1 and chamfer: each map's occupied cells (p > 0.501) on a "
+                         f"{st_struct.get('cell_m', 0.1):g} m raster of the case's window against "
+                         f"those of an OctoMap grid at that cell size built from the same training "
+                         f"beams (p >= 0.5 occupied, unknown free); F1 of precision and recall "
+                         f"within {st_struct.get('tolerance_m', 0.2):g} m, chamfer the mean "
+                         "nearest-occupied-cell distance both ways. The reference is a map of the "
+                         "same data, not ground truth: the OGM scores well against a finer "
+                         "version of itself by construction.")
+            lines.append("")
         figs = figures_md(d, md_dir)
         if not figs and d["experiment"] in ("inter-domain", "sim-to-real"):
             lines.append("Figures of these runs are not kept: the baselines' maps of a target "
@@ -178,6 +209,12 @@ def main():
             lines.append("")
             lines.append(figs)
             lines.append("")
+        comp = compare_md(d, md_dir)
+        if comp:
+            lines.append("Side by side (first seed; probability at one scale, the OGM reference "
+                         "first, then each row's chosen member in method order):")
+            lines.append("")
+            lines.append(comp)
         if d["experiment"] == "per-time-unit":
             budget = d["settings"].get("budget_ms")
             seen = set()

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -199,8 +200,28 @@ experiment::PotSetup Harness::pot_setup(bool refine) const {
   return p;
 }
 
+std::shared_ptr<const StructureReference> Harness::make_reference(const MapTask& task,
+                                                                  bool picture) const {
+  if (task.dim != 2) return nullptr;  // 3D: not scored (structure_reference)
+  const auto t0 = std::chrono::steady_clock::now();
+  auto ref = std::make_shared<StructureReference>();
+  ref->grid = experiment::structure_grid(task.lo, task.hi, s_.structure_cell,
+                                         s_.structure_tolerance, s_.structure_max_cells);
+  const FittedMap ogm = experiment::structure_reference(task, ref->grid);
+  ref->occupied = experiment::occupied_cells(ogm, task.dim, ref->grid);
+  char name[64];
+  std::snprintf(name, sizeof name, "OGM %g m (reference)", ref->grid.cell_m);
+  ref->name = name;
+  if (picture && !s_.figures.empty())
+    ref->picture = std::make_shared<experiment::Picture>(
+        experiment::probability_picture(ogm, task.dim, task.lo, task.hi, s_.figure_pixels));
+  ref->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return ref;
+}
+
 Record Harness::fit_and_score(const Method& m, const MapTask& task, const LabelledPoints& test,
-                              bool figures, const std::string& case_label) {
+                              bool figures, const std::string& case_label,
+                              const StructureReference* reference) {
   FittedMap f = m.fit(context(), task);
   Record r;
   r.method = m.name;
@@ -211,7 +232,16 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
   r.per_scan_ms = r.scans ? 1e3 * f.fit_seconds / double(r.scans) : NAN;
   r.scores = experiment::score_map(f, test, &r.query_s);
   r.info = f.info;
+  if (reference) {
+    const auto t0 = std::chrono::steady_clock::now();
+    r.structure = experiment::score_structure(f, task.dim, reference->grid, reference->occupied);
+    r.structure_cell_m = reference->grid.cell_m;
+    r.structure_tolerance_m = reference->grid.tolerance_m;
+    r.structure_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
   if (figures && !s_.figures.empty()) {
+    r.picture = std::make_shared<experiment::Picture>(
+        experiment::probability_picture(f, task.dim, task.lo, task.hi, s_.figure_pixels));
     const std::string prefix =
         (fs::path(s_.figures) / slug(experiment_ + "_" + case_label + "_" + m.name)).string();
     r.figures = experiment::write_figures(f, task.lo, task.hi, prefix, s_.figure_pixels);
@@ -253,6 +283,23 @@ void Harness::run_case(const std::string& source_label,
             << (source_label.empty() ? "" : source_label + " -> ") << target_label << " seed "
             << seed << ": " << target.size() << " scans, " << task.train.size() << " training and "
             << test.size() << " held-out samples\n";
+  // One structural reference per (target, seed, first scan), for every method and source.
+  const std::string ref_key =
+      target_label + "\n" + std::to_string(seed) + "\n" + std::to_string(first_index);
+  auto ref_it = references_.find(ref_key);
+  if (ref_it == references_.end() ||
+      (figs && ref_it->second && !ref_it->second->picture && !s_.figures.empty())) {
+    ref_it = references_.insert_or_assign(ref_key, make_reference(task, figs)).first;
+    if (const auto& nr = ref_it->second) {
+      std::size_t occupied = 0;
+      for (std::uint8_t o : nr->occupied) occupied += o;
+      std::fprintf(stderr,
+                   "potmap:   structure reference %s: %zu x %zu cells, %zu occupied, %.2f s\n",
+                   nr->name.c_str(), nr->grid.width, nr->grid.height, occupied, nr->seconds);
+    }
+  }
+  const std::shared_ptr<const StructureReference> ref = ref_it->second;
+  if (figs) compare_refs_[{source_label, target_label}] = ref;
   for (const Method& m : methods) {
     const std::string key = target_label + "\n" + std::to_string(seed) + "\n" + m.name;
     Record r;
@@ -261,10 +308,14 @@ void Harness::run_case(const std::string& source_label,
       r = hit->second.front();
     } else {
       r = fit_and_score(m, task, test, figs,
-                        m.uses_source ? source_label + "-" + target_label : target_label);
+                        m.uses_source ? source_label + "-" + target_label : target_label,
+                        ref.get());
       if (!m.uses_source) cache_[key] = {r};
-      std::fprintf(stderr, "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f  %.1f ms/scan\n",
-                   m.name.c_str(), r.scores.acc, r.scores.auc, r.scores.nll, r.per_scan_ms);
+      std::fprintf(stderr,
+                   "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f F1 %.3f chamfer %.2f m  %.1f "
+                   "ms/scan\n",
+                   m.name.c_str(), r.scores.acc, r.scores.auc, r.scores.nll, r.structure.f1,
+                   r.structure.chamfer_m, r.per_scan_ms);
     }
     r.source = source_label;
     r.target = target_label;
@@ -290,6 +341,20 @@ void Harness::run_instantaneous(const std::string& source_label,
     tasks[i].source = source;
     tasks[i].source_key = source_label + "\n" + std::to_string(seed);
   }
+  // Each scan's own structural reference, made when a method first needs it and kept for this
+  // call only (one per scan; cheap to make again for the next source).
+  const bool figs_seed = seed == s_.seeds.front();
+  std::vector<std::shared_ptr<const StructureReference>> refs(target.size());
+  std::vector<bool> made(target.size(), false);
+  auto reference = [&](std::size_t i) {
+    if (!made[i]) {
+      refs[i] = make_reference(tasks[i], figs_seed && i == target.size() / 2);
+      made[i] = true;
+    }
+    return refs[i];
+  };
+  if (figs_seed && !target.empty())
+    compare_refs_[{source_label, target_label}] = reference(target.size() / 2);
   for (const Method& m : methods) {
     const std::string key = "inst\n" + target_label + "\n" + std::to_string(seed) + "\n" + m.name;
     auto hit = cache_.find(key);
@@ -301,15 +366,19 @@ void Harness::run_instantaneous(const std::string& source_label,
         // The figure is of the middle scan of the first seed.
         const bool figs = seed == s_.seeds.front() && i == target.size() / 2;
         Record r = fit_and_score(m, tasks[i], tests[i], figs,
-                                 m.uses_source ? source_label + "-" + target_label : target_label);
+                                 m.uses_source ? source_label + "-" + target_label : target_label,
+                                 reference(i).get());
         r.scan = long(i);
         recs.push_back(std::move(r));
       }
       if (!m.uses_source) cache_[key] = recs;
-      std::vector<double> auc;
-      for (const Record& r : recs) auc.push_back(r.scores.auc);
-      std::fprintf(stderr, "potmap:   %-12s mean AUC %.3f over %zu scans\n", m.name.c_str(),
-                   stat(auc).mean, recs.size());
+      std::vector<double> auc, f1;
+      for (const Record& r : recs) {
+        auc.push_back(r.scores.auc);
+        f1.push_back(r.structure.f1);
+      }
+      std::fprintf(stderr, "potmap:   %-12s mean AUC %.3f F1 %.3f over %zu scans\n", m.name.c_str(),
+                   stat(auc).mean, stat(f1).mean, recs.size());
     }
     for (Record& r : recs) {
       r.source = source_label;
@@ -361,7 +430,7 @@ void Harness::finish(const std::string& spread) {
   nlohmann::json table = nlohmann::json::array();
   std::set<std::string> losing_figures;
   struct Cell {
-    Stat acc, auc, nll, ms;
+    Stat acc, auc, nll, ms, f1, precision, recall, chamfer;
     std::string chosen;
     bool present = false;
   };
@@ -398,18 +467,23 @@ void Harness::finish(const std::string& spread) {
         if (name != best)
           for (const Record* r : members[name])
             for (const std::string& f : r->figures) losing_figures.insert(f);
-      std::vector<double> acc, auc, nll, ms;
+      std::vector<double> acc, auc, nll, ms, f1, precision, recall, chamfer;
       std::set<std::string> figs_of_best;
       for (const Record* r : members[best]) {
         acc.push_back(r->scores.acc);
         auc.push_back(r->scores.auc);
         nll.push_back(r->scores.nll);
         ms.push_back(r->per_scan_ms);
+        f1.push_back(r->structure.f1);
+        precision.push_back(r->structure.precision);
+        recall.push_back(r->structure.recall);
+        chamfer.push_back(r->structure.chamfer_m);
         for (const std::string& f : r->figures) figs_of_best.insert(f);
       }
       for (const std::string& f : figs_of_best) losing_figures.erase(f);
       Cell& cell = cells[{ci, gi}];
-      cell = {stat(acc), stat(auc), stat(nll), stat(ms), best, true};
+      cell = {stat(acc),       stat(auc),    stat(nll),     stat(ms), stat(f1),
+              stat(precision), stat(recall), stat(chamfer), best,     true};
       nlohmann::json row;
       row["source"] = cases[ci].first;
       row["target"] = cases[ci].second;
@@ -419,10 +493,47 @@ void Harness::finish(const std::string& spread) {
       row["auc"] = to_json(cell.auc);
       row["nll"] = to_json(cell.nll);
       row["ms_per_scan"] = to_json(cell.ms);
+      row["f1"] = to_json(cell.f1);
+      row["precision"] = to_json(cell.precision);
+      row["recall"] = to_json(cell.recall);
+      row["chamfer_m"] = to_json(cell.chamfer);
       row["figures"] = std::vector<std::string>(figs_of_best.begin(), figs_of_best.end());
       table.push_back(row);
     }
   for (const std::string& f : losing_figures) fs::remove(f);
+
+  // Comparison figures: per case with figures, the reference, then each group's representative.
+  nlohmann::json compare = nlohmann::json::array();
+  for (std::size_t ci = 0; ci < cases.size() && !s_.figures.empty(); ++ci) {
+    const auto ref = compare_refs_.find(cases[ci]);
+    std::vector<const experiment::Picture*> panels;
+    std::vector<std::string> names;
+    if (ref != compare_refs_.end() && ref->second && ref->second->picture) {
+      panels.push_back(ref->second->picture.get());
+      names.push_back(ref->second->name);
+    }
+    std::size_t methods_drawn = 0;
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      auto it = cells.find({ci, gi});
+      if (it == cells.end()) continue;
+      for (const Record& r : records_)
+        if (r.source == cases[ci].first && r.target == cases[ci].second &&
+            r.method == it->second.chosen && r.picture) {
+          panels.push_back(r.picture.get());
+          names.push_back(r.method);
+          ++methods_drawn;
+          break;
+        }
+    }
+    if (methods_drawn == 0) continue;
+    const auto& [src, dst] = cases[ci];
+    const std::string label = src.empty() || src == dst ? dst : src + "-" + dst;
+    const std::string path =
+        (fs::path(s_.figures) / (slug(experiment_ + "_" + label + "_compare") + "_prob.png"))
+            .string();
+    experiment::write_side_by_side(panels, path);
+    compare.push_back({{"source", src}, {"target", dst}, {"file", path}, {"panels", names}});
+  }
 
   // The paper-style table: one block per metric, methods as rows, cases as columns.
   std::ostringstream out;
@@ -431,10 +542,11 @@ void Harness::finish(const std::string& spread) {
     const auto& [src, dst] = cases[ci];
     return src.empty() || src == dst ? dst : src + "→" + dst;
   };
-  const char* metric_names[] = {"ACC", "AUC", "NLL", "ms/scan"};
-  for (int mi = 0; mi < 4; ++mi) {
+  // F1 and chamfer: occupied cells against the OGM reference (structure_score.hpp).
+  const char* metric_names[] = {"ACC", "AUC", "NLL", "F1", "chamfer m", "ms/scan"};
+  for (int mi = 0; mi < 6; ++mi) {
     char buf[256];
-    std::snprintf(buf, sizeof buf, "%-8s %-16s", metric_names[mi], "method");
+    std::snprintf(buf, sizeof buf, "%-9s %-16s", metric_names[mi], "method");
     out << buf;
     for (std::size_t ci = 0; ci < cases.size(); ++ci) {
       std::snprintf(buf, sizeof buf, " %20s", case_name(ci).c_str());
@@ -442,7 +554,7 @@ void Harness::finish(const std::string& spread) {
     }
     out << "\n";
     for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      std::snprintf(buf, sizeof buf, "%-8s %-16s", "", groups[gi].c_str());
+      std::snprintf(buf, sizeof buf, "%-9s %-16s", "", groups[gi].c_str());
       out << buf;
       for (std::size_t ci = 0; ci < cases.size(); ++ci) {
         auto it = cells.find({ci, gi});
@@ -451,9 +563,13 @@ void Harness::finish(const std::string& spread) {
           const Stat& s = mi == 0   ? it->second.acc
                           : mi == 1 ? it->second.auc
                           : mi == 2 ? it->second.nll
+                          : mi == 3 ? it->second.f1
+                          : mi == 4 ? it->second.chamfer
                                     : it->second.ms;
-          if (mi == 3)
+          if (mi == 5)
             std::snprintf(buf, sizeof buf, "%.1f±%.1f", s.mean, s.sd);
+          else if (mi == 4)
+            std::snprintf(buf, sizeof buf, "%.2f±%.2f", s.mean, s.sd);
           else
             std::snprintf(buf, sizeof buf, "%.3f±%.3f", s.mean, s.sd);
           v = buf;
@@ -471,6 +587,9 @@ void Harness::finish(const std::string& spread) {
         out << case_name(ci) << ": " << groups[gi] << " is " << it->second.chosen
             << " (best mean AUC of its group)\n";
     }
+  out << "F1, chamfer m: the map's occupied cells (p > 0.501) against those of an OGM at "
+      << s_.structure_cell << " m of the training scans (tolerance " << s_.structure_tolerance
+      << " m; mean nearest-cell distance); 2D tasks only\n";
   // With the JSON on stdout the table goes to stderr, so that stdout parses.
   (s_.json == "-" ? std::cerr : std::cout) << out.str() << std::flush;
 
@@ -499,8 +618,16 @@ void Harness::finish(const std::string& spread) {
                    {"pot_sectors", s_.pot.pot.sectors},
                    {"pot_merge_radius", s_.pot.overall.merge_radius},
                    {"holdout", s_.holdout},
-                   {"budget_ms", s_.budget_ms}};
+                   {"budget_ms", s_.budget_ms},
+                   {"structure",
+                    {{"reference",
+                      "OGM of the training scans, cells with p >= 0.5 occupied, "
+                      "unknown free"},
+                     {"cell_m", s_.structure_cell},
+                     {"tolerance_m", s_.structure_tolerance},
+                     {"max_cells", s_.structure_max_cells}}}};
   j["table"] = table;
+  j["compare_figures"] = compare;
   nlohmann::json runs = nlohmann::json::array();
   for (const Record& r : records_) {
     nlohmann::json x;
@@ -518,6 +645,15 @@ void Harness::finish(const std::string& spread) {
     x["fit_s"] = r.fit_s;
     x["ms_per_scan"] = finite_or_null(r.per_scan_ms);
     x["query_s"] = r.query_s;
+    x["precision"] = finite_or_null(r.structure.precision);
+    x["recall"] = finite_or_null(r.structure.recall);
+    x["f1"] = finite_or_null(r.structure.f1);
+    x["chamfer_m"] = finite_or_null(r.structure.chamfer_m);
+    x["map_cells"] = r.structure.map_cells;
+    x["reference_cells"] = r.structure.reference_cells;
+    x["structure_cell_m"] = finite_or_null(r.structure_cell_m);
+    x["structure_tolerance_m"] = finite_or_null(r.structure_tolerance_m);
+    x["structure_s"] = r.structure_s;
     x["info"] = r.info;
     runs.push_back(x);
   }

@@ -3,6 +3,7 @@
 // the command line, one evaluation path for every (source, target, method, seed), aggregation,
 // the paper-style table and the JSON record.
 
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -11,7 +12,9 @@
 
 #include "potmap/context.hpp"
 #include "potmap/experiment.hpp"
+#include "potmap/figure_panels.hpp"
 #include "potmap/scan.hpp"
+#include "potmap/structure_score.hpp"
 
 namespace potmap::cli::exp {
 
@@ -35,6 +38,11 @@ struct Settings {
   double holdout = 0.2;
   std::string json, figures;
   std::size_t figure_pixels = 400;
+  /// Structural score (structure_score.hpp): raster cell and tolerance, metres, and the most
+  /// cells a case's raster may have before it is coarsened.
+  double structure_cell = 0.1;
+  double structure_tolerance = 0.2;
+  std::size_t structure_max_cells = 4000000;
   bool cpu = false;
   std::string device;
   /// Per-time-unit: time per scan the matched learners get, ms (0: POT's, measured on the
@@ -49,10 +57,26 @@ struct Record {
   std::uint64_t seed = 0;
   long scan = -1;  ///< instantaneous maps: the scan; -1 for a whole sequence
   Scores scores;
-  std::size_t scans = 0;  ///< scans the method learned from
+  /// Occupied cells against the OGM reference of the case (NaN: not scored, e.g. a 3D task).
+  StructureScore structure;
+  double structure_cell_m = NAN, structure_tolerance_m = NAN;
+  double structure_s = 0;  ///< wall time of the score: the map's query on the raster, the EDTs
+  std::size_t scans = 0;   ///< scans the method learned from
   double fit_s = 0, per_scan_ms = 0, query_s = 0;
   std::map<std::string, double> info;
   std::vector<std::string> figures;
+  /// Probability picture for the case's comparison figure (figure records only).
+  std::shared_ptr<const experiment::Picture> picture;
+};
+
+/// The structural reference of one task: the OGM of its training scans at the raster's cell
+/// size, as occupied cells of the raster, and its probability picture when figures are made.
+struct StructureReference {
+  experiment::StructureGrid grid;
+  std::vector<std::uint8_t> occupied;
+  std::shared_ptr<const experiment::Picture> picture;
+  std::string name;  ///< panel label, e.g. "OGM 0.1 m (reference)"
+  double seconds = 0;
 };
 
 class Harness {
@@ -95,12 +119,21 @@ class Harness {
   void add(Record r) { records_.push_back(std::move(r)); }
   /// settings.pot with the rotations applied and refine set (RePOT).
   experiment::PotSetup pot_setup(bool refine) const;
-  /// Fits and scores one method on one task (no caching); figures when `figures` is set.
+  /// Fits and scores one method on one task (no caching); figures when `figures` is set; the
+  /// structural score against `reference` when it is not null.
   Record fit_and_score(const experiment::Method& m, const experiment::MapTask& task,
-                       const LabelledPoints& test, bool figures, const std::string& case_label);
+                       const LabelledPoints& test, bool figures, const std::string& case_label,
+                       const StructureReference* reference = nullptr);
+  /// The structural reference of a task (null for a task that is not 2D), with its picture
+  /// when `picture` is set.
+  std::shared_ptr<const StructureReference> make_reference(const experiment::MapTask& task,
+                                                           bool picture) const;
 
   /// Aggregates, prints the table on stdout, writes JSON (settings.json) and removes the
   /// figures of group members that lost (OGM cell sizes). `spread` says what the ± is over.
+  /// Writes one comparison figure per case with figures (EXPERIMENT_CASE_compare_prob.png):
+  /// the OGM reference's probability, then the member of each group that represents it in the
+  /// table (OGM: the chosen cell size), in method order.
   void finish(const std::string& spread);
 
  private:
@@ -111,6 +144,11 @@ class Harness {
   std::map<std::string, std::vector<Scan>> files_;
   std::vector<Record> records_;
   std::map<std::string, std::vector<Record>> cache_;  // baselines by (target, seed)
+  // Structural references by (target, seed, first scan), shared by every method and source.
+  std::map<std::string, std::shared_ptr<const StructureReference>> references_;
+  // The reference panel of each (source, target) case with figures.
+  std::map<std::pair<std::string, std::string>, std::shared_ptr<const StructureReference>>
+      compare_refs_;
   std::shared_ptr<experiment::AtomCache> atoms_ = std::make_shared<experiment::AtomCache>();
 };
 
