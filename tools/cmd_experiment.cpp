@@ -59,6 +59,33 @@ void add_common(CLI::App* cmd, Settings& s) {
   cmd->add_option("--atom-abhm-kernels", s.pot.atom_abhm.count,
                   "POT/RePOT with --atom-map abhm: ABHM kernels per source place")
       ->capture_default_str();
+  cmd->add_option("--atom-sample-distance", s.pot.dictionary.max_sample_distance,
+                  "POT/RePOT: atoms keep only kernels within this many metres of their own "
+                  "samples (0: no limit)")
+      ->capture_default_str();
+  cmd->add_option("--atom-kernels-at-samples", s.pot.dictionary.kernels_at_samples,
+                  "POT/RePOT: atoms hold kernels at their own samples thinned to this cell, "
+                  "metres (0: the source map's kernels)")
+      ->capture_default_str();
+  cmd->add_option("--pot-wall-clearance", s.pot.pot.wall_clearance,
+                  "POT/RePOT: drop free-space kernels landing this close to the target's hits "
+                  "and wall kernels landing farther, metres (0: off)")
+      ->capture_default_str();
+  cmd->add_option("--pot-calibrate", s.pot.pot.calibrate,
+                  "POT/RePOT: grow a sector's variances by how badly it predicts its own "
+                  "training samples (true/false)")
+      ->capture_default_str();
+  cmd->add_option("--repot-seed-var", s.pot.seed_min_variance,
+                  "RePOT: least prior variance of a kernel seeded from transported kernels")
+      ->capture_default_str();
+  cmd->add_option("--repot-persistent", s.pot.persistent_refine,
+                  "RePOT: one persistent joint BHM seeded by the transported kernels (true) or "
+                  "per-scan refinement merged as POT's map (false)")
+      ->capture_default_str();
+  cmd->add_option("--pot-sample-distance", s.pot.pot.max_sample_distance,
+                  "POT/RePOT: transported kernels farther than this many metres from the target "
+                  "scan's samples are dropped (0: no limit)")
+      ->capture_default_str();
   cmd->add_option("--rotations", s.rotations, "POT/RePOT: rotations tried per atom")
       ->capture_default_str();
   cmd->add_option("--sectors", s.pot.pot.sectors, "POT/RePOT: sectors per target scan")

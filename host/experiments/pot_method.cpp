@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <future>
+#include <memory>
 
+#include "potmap/bhm_joint.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiment.hpp"
 #include "potmap/labelling.hpp"
@@ -102,6 +104,13 @@ Dictionary build_atoms(Context* ctx, const std::vector<std::vector<Scan>>& place
     for (std::size_t k = 0; k < m; ++k) chosen.push_back(scans[k * n / m]);
     DictionaryOptions o = setup.dictionary;
     o.labels.seed = seed;
+    if (setup.atom_map == "bhm" && setup.atom_bhm.joint) {
+      // The joint BHM's prior variance is small (10): a kernel no sample reached keeps it, one
+      // near the data ends far below it.
+      const double prior =
+          setup.atom_bhm.prior_var > 0 ? setup.atom_bhm.prior_var : JointBhmOptions{}.prior_var;
+      o.max_weight_variance = std::min(o.max_weight_variance, 0.5 * prior);
+    }
     build_dictionary(chosen, map, o, dict);
   }
   if (map_kernels) *map_kernels = kernels;
@@ -142,6 +151,20 @@ Method pot_method(const PotSetup& setup, const std::string& name,
 
     PotOptions po = setup.pot;
     po.seed = task.seed;
+    const bool persistent = po.refine && setup.persistent_refine;
+    std::unique_ptr<JointBhm> learner;
+    if (persistent) {
+      po.refine = false;  // the persistent map does the refinement
+      const BhmSetup& b = setup.target_bhm;
+      JointBhmOptions jo;
+      jo.spacing = b.spacing;
+      jo.gamma = b.gamma;
+      if (b.prior_var > 0) jo.prior_var = b.prior_var;
+      jo.bias = b.bias;
+      jo.em_iterations = b.options.em_iterations;
+      jo.tau = b.options.tau;
+      learner = std::make_unique<JointBhm>(task.dim, task.lo, task.hi, jo);
+    }
     const double range = po.max_range > 0 ? po.max_range : dict->max_range;
     const auto off = scan_offsets(task);
     auto prepare = [&](std::size_t i) {
@@ -161,8 +184,15 @@ Method pot_method(const PotSetup& setup, const std::string& name,
     for (std::size_t i = 0; i < n; ++i) {
       PreparedTransfer cur = next.get();
       if (i + 1 < n) next = std::async(launch, prepare, i + 1);
-      const ScanTransfer t = finish_transfer(ctx, *dict, std::move(cur), po);
-      if (!t.map.empty()) overall.add(t.map);
+      ScanTransfer t = finish_transfer(ctx, *dict, std::move(cur), po);
+      if (learner) {
+        const auto r0 = std::chrono::steady_clock::now();
+        learner->seed_unreached(t.map, setup.seed_min_variance);
+        learner->update(samples_of(task, off[i], off[i + 1], {0, 0, 0}, 0));
+        t.timing.refine_ms += 1e3 * seconds_since(r0);
+      } else if (!t.map.empty()) {
+        overall.add(t.map);
+      }
       timing.prepare_ms += t.timing.prepare_ms;
       timing.ranking_ms += t.timing.ranking_ms;
       timing.transport_ms += t.timing.transport_ms;
@@ -172,7 +202,7 @@ Method pot_method(const PotSetup& setup, const std::string& name,
       inst_kernels += t.map.size();
     }
     const double secs = seconds_since(t0);
-    auto map = std::make_shared<KernelMap>(overall.map());
+    auto map = std::make_shared<KernelMap>(learner ? learner->map() : overall.map());
     FittedMap f = kernel_fitted_map(ctx, map);
     f.fit_seconds = secs;
     const double dn = double(std::max<std::size_t>(n, 1));

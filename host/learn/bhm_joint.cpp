@@ -7,6 +7,7 @@
 #include <map>
 #include <string>
 
+#include "../kernel_index.hpp"
 #include "bhm_detail.hpp"
 #include "potmap/error.hpp"
 
@@ -70,6 +71,20 @@ JointBhm::JointBhm(int dim, const double lo[3], const double hi[3], const JointB
   mean_.assign(st, 0.0);
   bcoup_.assign(st, 0.0);
   touched_.assign(st, 0);
+  seeded_.assign(st, 0);
+  {
+    const std::int64_t hb = block_half_width(rcut_, o.spacing);
+    grid_sum_ = grid_sum2_ = 0;
+    for (std::int64_t dk = -(dim == 3 ? hb : 0); dk <= (dim == 3 ? hb : 0); ++dk)
+      for (std::int64_t dj = -hb; dj <= hb; ++dj)
+        for (std::int64_t di = -hb; di <= hb; ++di) {
+          const double d2 =
+              (double(di * di) + double(dj * dj) + double(dk * dk)) * o.spacing * o.spacing;
+          if (gamma_ * d2 > o.tau) continue;
+          grid_sum_ += std::exp(-gamma_ * d2);
+          grid_sum2_ += std::exp(-2 * gamma_ * d2);
+        }
+  }
   const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
   for (std::int64_t k = 0; k < sn_[2]; ++k)
     for (std::int64_t j = 0; j < sn_[1]; ++j)
@@ -388,11 +403,68 @@ double JointBhm::predictive_var_at(std::uint32_t k, std::vector<double>& scratch
   return ph.dot(llt.solve(ph));
 }
 
+std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, double min_support) {
+  if (field.dim != dim_)
+    throw ArgumentError("joint BHM: the seed map is " + std::to_string(field.dim) + "D, the map " +
+                        std::to_string(dim_) + "D");
+  field.validate("joint BHM seed");
+  if (field.empty()) return 0;
+  const detail::KernelIndex index(field, o_.tau);
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  field.bounds(lo, hi);
+  const double reach = index.max_reach();
+  std::int64_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
+  for (int d = 0; d < dim_; ++d) {
+    a[d] = std::max<std::int64_t>(
+        0, static_cast<std::int64_t>(std::floor((lo[d] - reach - lo_[d]) / o_.spacing)));
+    b[d] = std::min<std::int64_t>(
+        n_[d] - 1, static_cast<std::int64_t>(std::ceil((hi[d] + reach - lo_[d]) / o_.spacing)));
+    if (a[d] > b[d]) return 0;
+  }
+  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
+  const double floor_var = std::min(std::max(min_var, 1e-12), o_.prior_var);
+  std::vector<std::uint32_t> near;
+  std::size_t seeded = 0;
+  for (std::int64_t k = a[2]; k <= b[2]; ++k)
+    for (std::int64_t j = a[1]; j <= b[1]; ++j)
+      for (std::int64_t i = a[0]; i <= b[0]; ++i) {
+        const std::int64_t g[3] = {i + pad_, j + pad_, dim_ == 3 ? k + pad_ : 0};
+        const std::size_t s = static_cast<std::size_t>((g[2] * sn_[1] + g[1]) * sn_[0] + g[0]);
+        if (touched_[s] || seeded_[s]) continue;
+        const double x[3] = {lo_[0] + double(i) * o_.spacing, lo_[1] + double(j) * o_.spacing,
+                             lo_[2] + double(k) * o_.spacing};
+        near.clear();
+        index.query_box(x, x, near);
+        double mu = 0, s2 = 0, support = 0;
+        for (std::uint32_t m : near) {
+          double d2 = 0;
+          for (int d = 0; d < dim_; ++d) {
+            const double t = x[d] - field.position[m * dim_ + d];
+            d2 += t * t;
+          }
+          const double phi = std::exp(-field.gamma[m] * d2);
+          mu += field.w_mean[m] * phi;
+          s2 += field.w_var[m] * phi * phi;
+          support += phi;
+        }
+        if (support < min_support) continue;
+        const double m0 = mu / grid_sum_;
+        const double v0 = std::min(o_.prior_var, std::max(floor_var, s2 / grid_sum2_));
+        // Replace the prior's part of the natural parameters: precision 1/v0, eta m0/v0.
+        prec_[s * slots_ + centre] += 1.0 / v0 - 1.0 / o_.prior_var;
+        eta_[s] += m0 / v0;
+        mean_[s] = m0;
+        seeded_[s] = 1;
+        ++seeded;
+      }
+  return seeded;
+}
+
 KernelMap JointBhm::map() {
   // Polish the means over every kernel a sample reached (and the margin).
   std::vector<std::uint32_t> rows;
   for (std::size_t a = 0; a < touched_.size(); ++a)
-    if (touched_[a]) rows.push_back(static_cast<std::uint32_t>(a));
+    if (touched_[a] || seeded_[a]) rows.push_back(static_cast<std::uint32_t>(a));
   if (!rows.empty()) solve(rows, 1e-8, 4 * o_.cg_max_iterations, nullptr);
 
   const std::int64_t hb = block_half_width(rcut_, o_.spacing);
@@ -422,7 +494,7 @@ KernelMap JointBhm::map() {
           for (std::int64_t dj = -hb; dj <= hb && !near_data; ++dj)
             for (std::int64_t di = -hb; di <= hb && !near_data; ++di) {
               const std::int64_t idx = s + (dk * sn_[1] + dj) * sn_[0] + di;
-              near_data = touched_[std::size_t(idx)] != 0;
+              near_data = touched_[std::size_t(idx)] != 0 || seeded_[std::size_t(idx)] != 0;
             }
         double var = o_.prior_var;
         if (near_data) var = std::min(o_.prior_var, predictive_var_at(s, scratch) / sum_phi2);

@@ -1,8 +1,12 @@
 #include "potmap/atoms.hpp"
 
 #include <cmath>
+#include <memory>
 #include <string>
+#include <unordered_set>
 
+#include "../kernel_index.hpp"
+#include "point_proximity.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -33,6 +37,81 @@ void check_options(const SectorOptions& o, double max_range, const char* who) {
   if (!(o.scale > 0) || !std::isfinite(o.scale))
     throw ArgumentError(std::string(who) + ": scale must be positive, got " +
                         std::to_string(o.scale));
+}
+
+// One point per occupied cell of edge `cell` (the first in input order), dim per point.
+std::vector<double> thin_to_cells(const std::vector<double>& pts, int dim, double cell) {
+  std::unordered_set<std::uint64_t> seen;
+  std::vector<double> out;
+  for (std::size_t i = 0; i * dim < pts.size(); ++i) {
+    std::uint64_t key = 0;
+    for (int d = 0; d < dim; ++d)
+      key = key * 2097152u +
+            (static_cast<std::uint64_t>(std::floor(pts[i * dim + d] / cell) + 1048576) & 0x1FFFFF);
+    if (seen.insert(key).second) out.insert(out.end(), &pts[i * dim], &pts[i * dim] + dim);
+  }
+  return out;
+}
+
+// The atom's kernels at its own (thinned) samples, weighted so that the atom alone reproduces
+// the map's logit mean and variance there (see DictionaryOptions::kernels_at_samples).
+void anchored_kernels(const KernelMap& map, const detail::KernelIndex& index, const Sector& s,
+                      const DictionaryOptions& o, KernelMap& out) {
+  const int d = map.dim;
+  const double cell = o.kernels_at_samples * s.scale;
+  std::vector<double> anchors = thin_to_cells(s.hits, d, cell);
+  const std::size_t n_hits = anchors.size() / d;
+  const std::vector<double> frees = thin_to_cells(s.free, d, cell);
+  anchors.insert(anchors.end(), frees.begin(), frees.end());
+  const std::size_t n = anchors.size() / d;
+  std::vector<double> mu, s2, gamma, keep_pos;
+  std::vector<std::uint8_t> is_hit;
+  std::vector<std::uint32_t> near;
+  for (std::size_t i = 0; i < n; ++i) {
+    double x[3] = {0, 0, 0};
+    for (int c = 0; c < d; ++c) x[c] = anchors[i * d + c] / s.scale + s.centre[c];
+    near.clear();
+    index.query_box(x, x, near);
+    double m = 0, v = 0, sum2 = 0, best = HUGE_VAL, g = 0;
+    for (std::uint32_t k : near) {
+      double d2 = 0;
+      for (int c = 0; c < d; ++c) {
+        const double t = x[c] - map.position[k * d + c];
+        d2 += t * t;
+      }
+      const double phi = std::exp(-map.gamma[k] * d2);
+      m += map.w_mean[k] * phi;
+      v += map.w_var[k] * phi * phi;
+      sum2 += phi * phi;
+      if (d2 < best) best = d2, g = map.gamma[k];
+    }
+    // Nothing learned reaches the sample (or only prior-like kernels): it carries no shape.
+    if (near.empty() || !(v / sum2 <= o.max_weight_variance)) continue;
+    mu.push_back(m);
+    s2.push_back(v);
+    gamma.push_back(g);
+    is_hit.push_back(i < n_hits);
+    keep_pos.insert(keep_pos.end(), &anchors[i * d], &anchors[i * d] + d);
+  }
+  const std::size_t k = mu.size();
+  for (std::size_t i = 0; i < k; ++i) {
+    // Partition over the atom's own kernels of the same kind (hits or free samples), in
+    // metres: each kind alone reproduces the map at its samples, since the two travel by
+    // different plans.
+    double sum = 0, sum2 = 0;
+    for (std::size_t j = 0; j < k; ++j) {
+      if (is_hit[j] != is_hit[i]) continue;
+      double d2 = 0;
+      for (int c = 0; c < d; ++c) {
+        const double t = (keep_pos[i * d + c] - keep_pos[j * d + c]) / s.scale;
+        d2 += t * t;
+      }
+      const double phi = std::exp(-gamma[j] * d2);
+      sum += phi;
+      sum2 += phi * phi;
+    }
+    out.push_back(&keep_pos[i * d], gamma[i], mu[i] / sum, s2[i] / sum2);
+  }
 }
 
 }  // namespace
@@ -105,6 +184,7 @@ void build_dictionary(const std::vector<Scan>& scans, const KernelMap& map,
     dict.sectors = options.sectors.sectors;
     dict.max_range = 0;
   }
+  std::unique_ptr<detail::KernelIndex> index;  // built once, for kernels at samples
   for (std::size_t t = 0; t < scans.size(); ++t) {
     const Scan& scan = scans[t];
     if (scan.dim != d)
@@ -136,13 +216,28 @@ void build_dictionary(const std::vector<Scan>& scans, const KernelMap& map,
       atoms[i].source = options.source;
     }
     const double r2max = so.max_range * so.max_range;
+    std::vector<std::vector<double>> samples(sectors.size());
+    std::vector<std::unique_ptr<detail::PointProximity>> near(sectors.size());
+    if (options.max_sample_distance > 0)
+      for (std::size_t i = 0; i < sectors.size(); ++i) {
+        samples[i] = sectors[i].hits;
+        samples[i].insert(samples[i].end(), sectors[i].free.begin(), sectors[i].free.end());
+        near[i] = std::make_unique<detail::PointProximity>(
+            samples[i], d, options.max_sample_distance * sectors[i].scale);
+      }
+    if (options.kernels_at_samples > 0) {
+      if (!index) index = std::make_unique<detail::KernelIndex>(map, kDefaultCutoffTau);
+      for (std::size_t i = 0; i < sectors.size(); ++i)
+        anchored_kernels(map, *index, sectors[i], options, atoms[i].kernels);
+    }
     double q[3];
-    for (std::size_t m = 0; m < map.size(); ++m) {
+    for (std::size_t m = 0; m < map.size() && options.kernels_at_samples <= 0; ++m) {
       const double* h = &map.position[m * d];
       const int k = sector_of(h, sensor, heading, r2max, so.sectors);
       if (k < 0 || slot[k] < 0 || !(map.w_var[m] <= options.max_weight_variance)) continue;
       const Sector& s = sectors[slot[k]];
       for (int c = 0; c < d; ++c) q[c] = (h[c] - s.centre[c]) * s.scale;
+      if (near[slot[k]] && !near[slot[k]]->near(q)) continue;
       atoms[slot[k]].kernels.push_back(q, map.gamma[m], map.w_mean[m], map.w_var[m]);
     }
     for (std::size_t i = 0; i < sectors.size(); ++i) {

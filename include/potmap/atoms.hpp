@@ -97,6 +97,19 @@ struct DictionaryOptions {
   /// its prior: mean 0 and a huge variance, which carries no shape and, transported into
   /// observed space, pulls every probability near it to 0.5. Infinity keeps every kernel.
   double max_weight_variance = 1000;
+  /// Kernels farther than this from every sample of their sector (hits and free samples of
+  /// the atom's own scan), metres, are left out (0, the default: no limit). A map learned from
+  /// many scans knows places one scan never saw; an atom must describe what its own samples
+  /// describe, since only they steer where its kernels are transported.
+  double max_sample_distance = 0;
+  /// Kernels at the samples (metres; 0, the default: the map's own kernels). > 0: an atom's
+  /// kernels are placed at its own hits and free samples, thinned to one per cell of this edge
+  /// (hits and free samples apart), each with the map's width there and a weight that makes the
+  /// atom reproduce the map's logit mean and variance at its samples (a Nadaraya-Watson
+  /// partition over the atom's own kernels). Transport then moves every kernel exactly as
+  /// its sample: wall kernels ride on hits onto the target's walls, free-space kernels on free
+  /// samples. Map kernels the sector's samples do not reach carry nothing into the atom.
+  double kernels_at_samples = 0;
   /// Atoms with fewer kernels than this are skipped (default 1).
   std::size_t min_kernels = 1;
   std::string source;  ///< provenance stored on every atom

@@ -81,6 +81,16 @@ class JointBhm {
   /// Adds the samples of every scan index in increasing order, one update() per scan.
   void update_by_scan(const LabelledPoints& samples);
 
+  /// Seeds the prior of the kernels no sample has reached yet from another map over the same
+  /// place (RePOT: the scan's transported kernels). Where `field`'s kernels weigh at least
+  /// `min_support` (sum of their phi at the grid kernel), the grid kernel's prior becomes the
+  /// weight and variance that reproduce field's logit mean and variance there, the variance
+  /// clamped to [min_var, prior_var]. Kernels a sample already reached keep their posterior;
+  /// the bias is untouched. Returns the number of kernels seeded. Throws ArgumentError on a
+  /// dimension mismatch.
+  std::size_t seed_unreached(const KernelMap& field, double min_var = 1.0,
+                             double min_support = 0.3);
+
   /// The map: every grid kernel with its posterior mean, and the variance that reproduces the
   /// predictive variance at its centre (the prior variance where no sample reached it); the
   /// bias weight with its posterior. Polishes the means with a global solve first.
@@ -114,17 +124,19 @@ class JointBhm {
   int dim_ = 2;
   double gamma_ = 0, rcut_ = 0;
   double lo_[3] = {0, 0, 0};
-  std::int64_t n_[3] = {1, 1, 1};      // interior kernels per axis
-  std::int64_t pad_ = 0;               // storage rings on each side (stencil half-width)
-  std::int64_t sn_[3] = {1, 1, 1};     // storage cells per axis (interior + 2 pad)
-  std::vector<std::int64_t> offset_;   // stencil slot -> storage index difference
-  std::int64_t box_ = 0;               // 2 * pad + 1
-  std::int64_t slots_ = 0;             // box^dim
-  std::vector<double> prec_;           // storage x stencil
-  std::vector<double> eta_;            // storage
-  std::vector<double> mean_;           // storage
-  std::vector<double> bcoup_;          // storage: P(bias, k)
-  std::vector<std::uint8_t> touched_;  // storage: a sample reached it
+  std::int64_t n_[3] = {1, 1, 1};        // interior kernels per axis
+  std::int64_t pad_ = 0;                 // storage rings on each side (stencil half-width)
+  std::int64_t sn_[3] = {1, 1, 1};       // storage cells per axis (interior + 2 pad)
+  std::vector<std::int64_t> offset_;     // stencil slot -> storage index difference
+  std::int64_t box_ = 0;                 // 2 * pad + 1
+  std::int64_t slots_ = 0;               // box^dim
+  std::vector<double> prec_;             // storage x stencil
+  std::vector<double> eta_;              // storage
+  std::vector<double> mean_;             // storage
+  std::vector<double> bcoup_;            // storage: P(bias, k)
+  std::vector<std::uint8_t> touched_;    // storage: a sample reached it
+  std::vector<std::uint8_t> seeded_;     // storage: its prior came from seed_unreached()
+  double grid_sum_ = 1, grid_sum2_ = 1;  // sum of phi, phi^2 of the grid at an interior kernel
   double pbb_ = 0, etab_ = 0, meanb_ = 0;
   JointBhmStats stats_;
 };

@@ -98,7 +98,7 @@ struct BhmSetup {
   /// The joint posterior of bhm_joint.hpp (default true: overlapping kernels, a continuous and
   /// calibrated map); false: the diagonal posterior of bhm.hpp with narrow, disjoint kernels.
   bool joint = true;
-  double spacing = 0.5;   ///< grid spacing, metres (default 0.5: see JointBhmOptions::spacing)
+  double spacing = 0.5;  ///< grid spacing, metres (default 0.5: see JointBhmOptions::spacing)
   /// Width, 1/m^2; 0: the model's default for the spacing (joint: -ln(0.19) / spacing^2, so
   /// neighbours overlap; diagonal: 8 / spacing^2, as `potmap learn bhm`).
   double gamma = 0;
@@ -139,7 +139,13 @@ Method abhm_method(const AbhmSetup& setup, const std::string& name = "ABHM");
 /// target scans (the host preparation of scan i+1 overlaps the solve of scan i, as map_scans
 /// does); building the dictionary is offline work and reported in info["atoms_s"].
 struct PotSetup {
-  PotOptions pot;  ///< transfer settings; pot.refine switches RePOT on; pot.seed is task.seed
+  /// Transfer settings; pot.refine switches RePOT on; pot.seed is task.seed. Default: the
+  /// library's, with a wall clearance of 0.5 m (about one kernel spacing of the BHM atoms).
+  PotOptions pot = [] {
+    PotOptions p;
+    p.wall_clearance = 0.5;
+    return p;
+  }();
   /// Map the atoms' kernels come from: "bhm" (default; online BHM on a grid, fast) or "abhm"
   /// (the paper's choice: varied widths, much slower to learn).
   std::string atom_map = "bhm";
@@ -159,9 +165,33 @@ struct PotSetup {
   /// (default 10; 0: all). Every source scan still trains the source map. Ranking cost grows
   /// with atoms x rotations per sector.
   std::size_t atom_scans = 10;
-  DictionaryOptions dictionary;  ///< sector cut and kernel filter of the atoms
-  OverallMapOptions overall;     ///< merging of the overall map
-  bool pipeline = true;          ///< prepare the next scan on a second thread
+  /// RePOT's overall map (default true): one persistent joint BHM over the task's area (the
+  /// experiments' BHM, `target_bhm`), which every scan updates with its own training samples,
+  /// its kernels' priors seeded from the scan's transported kernels where no sample has
+  /// reached them yet. false: each scan refined on its own (PotOptions::refine) and the
+  /// instantaneous maps merged into an OverallMap, as POT's.
+  bool persistent_refine = true;
+  BhmSetup target_bhm;  ///< the persistent RePOT map (joint; the spacing and prior of BHM)
+  /// Seeded prior variances are at least this (weight units squared; default 10, the joint
+  /// BHM's prior: a seed then moves the prior mean only). Transported variances say how sure
+  /// the source was, not how well the atom fits here; smaller floors (1, 3) made RePOT worse
+  /// than BHM on the real logs (docs/results.md).
+  double seed_min_variance = 10.0;
+  /// Sector cut and kernel filter of the atoms. Default: kernels at the atoms' own samples,
+  /// thinned to 0.5 m (DictionaryOptions::kernels_at_samples).
+  DictionaryOptions dictionary = [] {
+    DictionaryOptions d;
+    d.kernels_at_samples = 0.5;
+    return d;
+  }();
+  /// Merging of POT's overall map. Default merge radius 0.5 (d^2 gamma; 0.27 m for the joint
+  /// BHM's kernels): kernels at samples of successive scans land closer than the BHM grid.
+  OverallMapOptions overall = [] {
+    OverallMapOptions o;
+    o.merge_radius = 0.5;
+    return o;
+  }();
+  bool pipeline = true;  ///< prepare the next scan on a second thread
 };
 
 /// Atoms shared between the POT and RePOT methods of one run, keyed by MapTask::source_key.

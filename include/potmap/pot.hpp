@@ -34,6 +34,10 @@ struct PotOptions {
   int sectors = 5;
   double max_range = 0;
   std::size_t min_samples = 4;  ///< target sectors with fewer samples are skipped
+  /// Transported kernels that land farther than this from every training sample of their
+  /// target sector, metres, are dropped (0, the default: no limit). The scan says nothing of
+  /// the places it did not see; a kernel carried there describes the atom's place, not this one.
+  double max_sample_distance = 0;
 
   /// Rotations tried for every atom, radians about the atom's centroid (vertical axis in 3D).
   /// Default: 45 degree steps, 8 rotations.
@@ -74,6 +78,18 @@ struct PotOptions {
   /// free space keep their offset from the nearest hit and miss the target's free space when
   /// the two sectors' hits lie at different distances from the sensor. false: the SPEC's rule.
   bool transport_free = true;
+  /// Wall clearance, metres (0, the default: off). > 0: a transported kernel with a negative
+  /// weight (free-space evidence) that lands within this distance of one of the target
+  /// sector's hits is dropped, and so is one with a positive weight (wall evidence) that lands
+  /// farther than this from every hit. The two plans move hits onto hits and free samples
+  /// onto free samples, but not the free space along a wall onto the free space along the
+  /// target's wall: without the clearance, free-space kernels erase the target's walls.
+  double wall_clearance = 0;
+  /// Grow the transported variances of a sector by how badly its kernels predict the
+  /// sector's own training samples (default false): the logit scale c <= 1 that fits those
+  /// samples best becomes extra weight variance, so a poor match says "uncertain" instead of
+  /// being confidently wrong. SectorTransfer::calibration reports c.
+  bool calibrate = false;
 
   /// Rank only this many atoms per target sector, pre-selected by a rotation-invariant
   /// descriptor (quantiles of the samples' distances from the sector centre,
@@ -125,7 +141,8 @@ struct SectorTransfer {
   bool transport_converged = false;
   int transport_iterations = 0;
   std::size_t kernels_placed = 0;   ///< kernels that survived the range filter
-  std::size_t kernels_dropped = 0;  ///< kernels transported beyond max_range
+  std::size_t kernels_dropped = 0;  ///< kernels transported beyond max_range or filtered out
+  double calibration = 1;           ///< logit scale of PotOptions::calibrate (1: trusted as is)
 };
 
 /// Wall-clock time of each stage of one scan, milliseconds.
