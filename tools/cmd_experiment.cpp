@@ -71,9 +71,9 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "POT/RePOT: drop free-space kernels landing this close to the target's hits "
                   "and wall kernels landing farther, metres (0: off)")
       ->capture_default_str();
-  cmd->add_option("--pot-calibrate", s.pot.pot.calibrate,
-                  "POT/RePOT: grow a sector's variances by how badly it predicts its own "
-                  "training samples (true/false)")
+  cmd->add_option("--pot-displacement-var", s.pot.pot.displacement_variance,
+                  "POT/RePOT: weight variance added per m^2 a kernel was moved beyond the "
+                  "candidate's rotation")
       ->capture_default_str();
   cmd->add_option("--repot-seed-var", s.pot.seed_min_variance,
                   "RePOT: least prior variance of a kernel seeded from transported kernels")

@@ -254,10 +254,6 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
   return pt;
 }
 
-namespace {
-double calibrate_sector(KernelMap& map, std::size_t first, const Sector& sec);
-}  // namespace
-
 ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& pt,
                              const PotOptions& o) {
   const int dim = dict.dim;
@@ -411,11 +407,20 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
         ++st.kernels_dropped;
         continue;
       }
-      out.map.push_back(w, k.gamma[e], k.w_mean[e], k.w_var[e]);
+      double var = k.w_var[e];
+      if (o.displacement_variance > 0) {
+        // How far the plan had to move the kernel beyond the candidate's rotation: a kernel
+        // that needed a long move came from a place that does not look like this one.
+        const double c = std::cos(joint.angle), sn = std::sin(joint.angle);
+        const double hx = kpos(e, 0), hy = kpos(e, 1);
+        double m2 = std::pow(mapped(e, 0) - (c * hx - sn * hy), 2) +
+                    std::pow(mapped(e, 1) - (sn * hx + c * hy), 2);
+        if (dim == 3) m2 += std::pow(mapped(e, 2) - kpos(e, 2), 2);
+        var += o.displacement_variance * m2 / (sec.scale * sec.scale);
+      }
+      out.map.push_back(w, k.gamma[e], k.w_mean[e], var);
       ++st.kernels_placed;
     }
-    if (o.calibrate && st.kernels_placed > 0)
-      st.calibration = calibrate_sector(out.map, out.map.size() - st.kernels_placed, sec);
   }
   out.timing.placement_ms = ms_since(t0);
 
@@ -433,85 +438,6 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   }
   return out;
 }
-
-namespace {
-
-// How far a sector's transported kernels can be trusted, measured on the sector's own
-// training samples: the logit scale c in (0, 1] that minimises their NLL under
-// p = sigmoid(c mu / sqrt(1 + pi s2 / 8)). The kernels' variances are then grown so that the
-// map itself says that much less: at a sample, 1 + pi s2' / 8 = (1 + pi s2 / 8) / c^2, spread
-// over the kernels by the sample's sum of phi^2 (the median over the samples). Returns c.
-double calibrate_sector(KernelMap& map, std::size_t first, const Sector& sec) {
-  const int dim = map.dim;
-  const std::size_t nk = map.size() - first;
-  std::vector<double> mu, s2, sum2;
-  std::vector<std::uint8_t> y;
-  for (int label = 1; label >= 0; --label) {
-    const std::vector<double>& pts = label ? sec.hits : sec.free;
-    for (std::size_t i = 0; i * dim < pts.size(); ++i) {
-      double x[3] = {0, 0, 0};
-      for (int d = 0; d < dim; ++d) x[d] = pts[i * dim + d] / sec.scale + sec.centre[d];
-      double m = 0, v = 0, f2 = 0;
-      for (std::size_t k = first; k < first + nk; ++k) {
-        double d2 = 0;
-        for (int d = 0; d < dim; ++d) {
-          const double t = x[d] - map.position[k * dim + d];
-          d2 += t * t;
-        }
-        if (map.gamma[k] * d2 > kDefaultCutoffTau) continue;
-        const double phi = std::exp(-map.gamma[k] * d2);
-        m += map.w_mean[k] * phi;
-        v += map.w_var[k] * phi * phi;
-        f2 += phi * phi;
-      }
-      if (f2 < 1e-6) continue;  // no transported kernel says anything here
-      mu.push_back(m);
-      s2.push_back(v);
-      sum2.push_back(f2);
-      y.push_back(static_cast<std::uint8_t>(label));
-    }
-  }
-  if (mu.empty()) return 1.0;
-  auto nll = [&](double c) {
-    double total = 0;
-    for (std::size_t i = 0; i < mu.size(); ++i) {
-      const double z = c * mu[i] / std::sqrt(1 + M_PI * s2[i] / 8);
-      // -log sigmoid(+-z), stably.
-      const double a = y[i] ? -z : z;
-      total += a > 0 ? a + std::log1p(std::exp(-a)) : std::log1p(std::exp(a));
-    }
-    return total;
-  };
-  // Golden-section search on log c over [1/64, 1]: the NLL is unimodal in c.
-  double lo = std::log(1.0 / 64), hi = 0;
-  const double g = 0.6180339887498949;
-  double a = hi - g * (hi - lo), b = lo + g * (hi - lo);
-  double fa = nll(std::exp(a)), fb = nll(std::exp(b));
-  for (int it = 0; it < 30; ++it) {
-    if (fa < fb) {
-      hi = b, b = a, fb = fa;
-      a = hi - g * (hi - lo);
-      fa = nll(std::exp(a));
-    } else {
-      lo = a, a = b, fa = fb;
-      b = lo + g * (hi - lo);
-      fb = nll(std::exp(b));
-    }
-  }
-  double c = std::exp(0.5 * (lo + hi));
-  if (nll(1.0) <= nll(c)) c = 1.0;
-  if (c >= 1.0) return 1.0;
-  std::vector<double> grow;
-  for (std::size_t i = 0; i < mu.size(); ++i)
-    grow.push_back(((1 + M_PI * s2[i] / 8) / (c * c) - 1) * 8 / M_PI - s2[i]);
-  for (std::size_t i = 0; i < grow.size(); ++i) grow[i] /= sum2[i];
-  std::nth_element(grow.begin(), grow.begin() + grow.size() / 2, grow.end());
-  const double add = std::max(0.0, grow[grow.size() / 2]);
-  for (std::size_t k = first; k < first + nk; ++k) map.w_var[k] += add;
-  return c;
-}
-
-}  // namespace
 
 ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledPoints& train,
                            const std::array<double, 3>& sensor, double heading,

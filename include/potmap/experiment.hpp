@@ -140,10 +140,12 @@ Method abhm_method(const AbhmSetup& setup, const std::string& name = "ABHM");
 /// does); building the dictionary is offline work and reported in info["atoms_s"].
 struct PotSetup {
   /// Transfer settings; pot.refine switches RePOT on; pot.seed is task.seed. Default: the
-  /// library's, with a wall clearance of 0.5 m (about one kernel spacing of the BHM atoms).
+  /// library's, with a wall clearance of 0.5 m (about one kernel spacing of the BHM atoms) and
+  /// a displacement variance of 0.25 per m^2 (a kernel moved 2 m gains variance 1).
   PotOptions pot = [] {
     PotOptions p;
     p.wall_clearance = 0.5;
+    p.displacement_variance = 0.25;
     return p;
   }();
   /// Map the atoms' kernels come from: "bhm" (default; online BHM on a grid, fast) or "abhm"

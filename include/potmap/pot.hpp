@@ -85,11 +85,11 @@ struct PotOptions {
   /// onto free samples, but not the free space along a wall onto the free space along the
   /// target's wall: without the clearance, free-space kernels erase the target's walls.
   double wall_clearance = 0;
-  /// Grow the transported variances of a sector by how badly its kernels predict the
-  /// sector's own training samples (default false): the logit scale c <= 1 that fits those
-  /// samples best becomes extra weight variance, so a poor match says "uncertain" instead of
-  /// being confidently wrong. SectorTransfer::calibration reports c.
-  bool calibrate = false;
+  /// Weight variance added per square metre that the transport moved a kernel beyond the
+  /// chosen rotation (weight units^2 / m^2; 0, the default: none). The plan moves each kernel
+  /// by its sample's barycentric image; in an atom that matches the place, samples barely move,
+  /// while a poor match has to drag them far. The transported weight then says so.
+  double displacement_variance = 0;
 
   /// Rank only this many atoms per target sector, pre-selected by a rotation-invariant
   /// descriptor (quantiles of the samples' distances from the sector centre,
@@ -142,7 +142,6 @@ struct SectorTransfer {
   int transport_iterations = 0;
   std::size_t kernels_placed = 0;   ///< kernels that survived the range filter
   std::size_t kernels_dropped = 0;  ///< kernels transported beyond max_range or filtered out
-  double calibration = 1;           ///< logit scale of PotOptions::calibrate (1: trusted as is)
 };
 
 /// Wall-clock time of each stage of one scan, milliseconds.
