@@ -159,10 +159,13 @@ def main():
         "source, so their numbers are the same for every source of one target. POT and RePOT",
         "build a dictionary of atoms from the source (a map learned on each source place, atoms",
         "cut from scans spread over it; see each run's settings), then transfer the target's",
-        "scans in order from their training samples only and accumulate the instantaneous maps",
-        "into an overall map with merging (Table III style); the dynamic runner scores each",
-        "scan's instantaneous map (Table V). Their time per scan is the transfer (ranking,",
-        "transport, placement, RePOT's update, merging), with the next scan's host preparation",
+        "scans in order from their training samples only. POT accumulates the instantaneous maps",
+        "into an overall map with merging (Table III style); RePOT keeps one persistent joint BHM",
+        "of the target whose kernels' priors are seeded from the transported kernels where no",
+        "sample has reached them yet, then updated with each scan's training samples. The",
+        "dynamic runner scores each scan's instantaneous map (Table V). Their time per scan is",
+        "the transfer (ranking, transport, placement, RePOT's seeding and update, merging), with",
+        "the next scan's host preparation",
         "overlapped as `potmap map` does; building the atoms is offline and not included.",
         "Every scan is cut at the settings' max_range (20 m: the towns' range and POT's sector",
         "radius) for every method: returns of the 80 m lasers of the real logs beyond it become",
@@ -183,6 +186,24 @@ def main():
                          f"{st['pot_atom_scans']} source scans per place cut into "
                          f"{st['pot_sectors']} sectors, {st['pot_rotations']} rotations, merge radius "
                          f"{st['pot_merge_radius']}; scans cut at {st.get('max_range', 0):g} m")
+            if "pot_kernels_at_samples" in st:
+                lines.append(
+                    f"- POT: atom kernels at the atoms' samples thinned to "
+                    f"{st['pot_kernels_at_samples']:g} m, wall clearance "
+                    f"{st['pot_wall_clearance']:g} m, displacement variance "
+                    f"{st['pot_displacement_variance']:g} per m^2; RePOT: "
+                    + ("one persistent joint BHM seeded by the transported kernels (seed variance "
+                       f"at least {st['repot_seed_min_variance']:g})"
+                       if st.get("repot_persistent") else "per-scan refinement, merged"))
+            if "bhm_joint" in st:
+                lines.append(
+                    "- BHM: " + ("joint posterior (sparse precision, CG per scan)"
+                                 if st["bhm_joint"] else "diagonal posterior")
+                    + f", kernels {st['bhm_spacing']:g} m apart, width "
+                    + (f"{st['bhm_gamma']:g} 1/m^2" if st.get("bhm_gamma") else "from the spacing")
+                    + ", prior variance "
+                    + (f"{st['bhm_prior_var']:g}" if st.get("bhm_prior_var") else "the model's default")
+                    + ", bias weight")
             lines.append("- " + pot_stages(d))
         lines.append("")
         lines.append(table_md(d))
