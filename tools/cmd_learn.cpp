@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "potmap/abhm.hpp"
 #include "potmap/bhm.hpp"
+#include "potmap/bhm_joint.hpp"
 #include "potmap/error.hpp"
 #include "potmap/labelled_points.hpp"
 #include "potmap/map_io.hpp"
@@ -73,9 +74,10 @@ void register_learn(CLI::App& app, Runner& runner) {
   struct BhmArgs {
     std::string input, output, prior;
     AreaArgs area;
-    double gamma = 0.0, var0 = 1e4;
+    std::string model = "joint";
+    double gamma = 0.0, var0 = 0.0;
     int em = 3;
-    bool sequential = false, cpu = false, bias = false;
+    bool sequential = false, cpu = false, bias = false, no_bias = false;
   };
   auto b = std::make_shared<BhmArgs>();
   bhm->add_option("input", b->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
@@ -83,19 +85,50 @@ void register_learn(CLI::App& app, Runner& runner) {
   bhm->add_option("--prior", b->prior,
                   "Map file used as prior instead of a grid (positions and widths kept)");
   add_area_options(bhm, b->area);
+  bhm->add_option("--model", b->model,
+                  "joint: the whole Jaakkola-Jordan posterior over overlapping kernels (default; "
+                  "spacing 0.5 m, gamma -ln(0.19)/spacing^2, prior variance 10, bias weight: a "
+                  "continuous, calibrated map); diagonal: one variance per kernel, narrow disjoint "
+                  "kernels (spacing 1 m, gamma 8/spacing^2, prior variance 10000, no bias). "
+                  "--prior needs diagonal")
+      ->check(CLI::IsMember({"joint", "diagonal"}));
   bhm->add_option("--gamma", b->gamma,
-                  "Kernel width of the grid, 1/m^2 (default 8 / spacing^2: narrow kernels suit the "
-                  "diagonal posterior, which ignores how overlapping kernels share the data)");
-  bhm->add_option("--prior-var", b->var0, "Prior weight variance (default 10000)");
+                  "Kernel width of the grid, 1/m^2 (default: the model's, from the spacing)");
+  bhm->add_option("--prior-var", b->var0,
+                  "Prior weight variance (default: joint 10, diagonal 10000)");
   bhm->add_option("--em", b->em, "EM iterations (E-steps) per update (default 3)");
-  bhm->add_flag("--bias", b->bias, "Add a bias weight");
+  bhm->add_flag("--bias", b->bias, "Diagonal model: add a bias weight");
+  bhm->add_flag("--no-bias", b->no_bias, "Joint model: no bias weight");
   bhm->add_flag("--sequential", b->sequential,
                 "Update scan by scan (column t), posterior of one the prior of the next");
   bhm->add_flag("--cpu", b->cpu, "Use the double-precision CPU reference instead of OpenCL");
   auto bdev = add_device_option(bhm);
-  bhm->callback([&runner, b, bdev] {
-    runner.action = [b, bdev] {
+  bhm->callback([&runner, b, bdev, bhm] {
+    const bool spacing_given = bhm->count("--spacing") > 0;
+    runner.action = [b, bdev, spacing_given] {
       const LabelledPoints pts = read_labelled_csv(b->input);
+      if (b->model == "joint") {
+        if (!b->prior.empty()) throw ArgumentError("--prior needs --model diagonal");
+        AreaArgs area = b->area;
+        if (!spacing_given) area.spacing = JointBhmOptions{}.spacing;
+        double lo[3], hi[3], spacing;
+        resolve_area(area, pts, lo, hi, spacing);
+        JointBhmOptions o;
+        o.spacing = spacing;
+        o.gamma = b->gamma;
+        if (b->var0 > 0) o.prior_var = b->var0;
+        o.bias = !b->no_bias;
+        o.em_iterations = b->em;
+        JointBhm learner(pts.dim, lo, hi, o);
+        std::cerr << "potmap: joint BHM over " << pts.size() << " samples, " << learner.size()
+                  << " kernels " << spacing << " m apart, gamma " << learner.gamma() << "\n";
+        if (b->sequential)
+          learner.update_by_scan(pts);
+        else
+          learner.update(pts);
+        write_map(learner.map(), b->output);
+        return 0;
+      }
       KernelMap map;
       if (!b->prior.empty()) {
         map = read_map(b->prior);
@@ -103,7 +136,8 @@ void register_learn(CLI::App& app, Runner& runner) {
         double lo[3], hi[3], spacing;
         resolve_area(b->area, pts, lo, hi, spacing);
         const double gamma = b->gamma > 0 ? b->gamma : 8.0 / (spacing * spacing);
-        map = bhm_grid_prior(pts.dim, lo, hi, spacing, gamma, 0.0, b->var0, b->bias);
+        map = bhm_grid_prior(pts.dim, lo, hi, spacing, gamma, 0.0, b->var0 > 0 ? b->var0 : 1e4,
+                             b->bias);
       }
       std::cerr << "potmap: BHM over " << pts.size() << " samples, " << map.size() << " kernels\n";
       BhmOptions o;
