@@ -209,6 +209,17 @@ void register_dict(CLI::App& app, Runner& runner) {
       ->add_option("--min-samples", b->opt.sectors.min_samples,
                    "Sectors with fewer samples are dropped")
       ->capture_default_str();
+  build
+      ->add_option("--kernels-at-samples", b->opt.kernels_at_samples,
+                   "Atoms hold kernels at their own samples thinned to cells of this edge, "
+                   "metres, weighted to reproduce the map there (0: the map's own kernels; 0.5 "
+                   "suits a joint-BHM map of a building)")
+      ->capture_default_str();
+  build
+      ->add_option("--max-weight-var", b->opt.max_weight_variance,
+                   "Kernels (or samples) whose weight variance is above this carry no shape and "
+                   "are left out (a joint BHM's prior is 10: use 5)")
+      ->capture_default_str();
   build->add_option("--min-kernels", b->opt.min_kernels, "Atoms with fewer kernels are skipped")
       ->capture_default_str();
   build->add_option("--seed", b->opt.labels.seed, "Seed of the free samples")
