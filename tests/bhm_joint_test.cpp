@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -176,6 +178,223 @@ TEST(JointBhm, IntelLogBeatsTheOccupancyGrid) {
   EXPECT_LT(bhm.nll, 0.17);
   EXPECT_GT(bhm.auc, ogm.auc + 0.03);
   EXPECT_LT(bhm.nll, ogm.nll - 0.1);
+}
+
+// A long wall along x = 2 seen from (-3, y) for y every 2 m over [y0, y1]: hits on the wall,
+// free samples on the beams. It crosses the growable map's tile borders (every 16 m at the
+// default spacing: y = -16, 0, 16; x = 0).
+LabelledPoints long_wall_scan(std::uint32_t seed, std::int64_t t, double y0, double y1) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  LabelledPoints s;
+  s.dim = 2;
+  for (double sy = y0; sy <= y1; sy += 2) {
+    for (int b = 0; b < 12; ++b) {
+      const double y = sy - 1.5 + 3.0 * (b + u(rng)) / 12;
+      s.position.insert(s.position.end(), {2.0, y});
+      s.label.push_back(1);
+      s.scan.push_back(t);
+      for (int f = 0; f < 3; ++f) {
+        const double q = u(rng) * 0.95;
+        s.position.insert(s.position.end(), {-3.0 + 5.0 * q, sy + (y - sy) * q});
+        s.label.push_back(0);
+        s.scan.push_back(t);
+      }
+    }
+  }
+  return s;
+}
+
+// Grid coordinates of a kernel position (the maps' kernels sit on multiples of 0.5 m here).
+std::pair<long, long> cell_key(const KernelMap& m, std::size_t k, double spacing) {
+  return {std::lround(m.position[2 * k] / spacing), std::lround(m.position[2 * k + 1] / spacing)};
+}
+
+// The growable map (tiles allocated on demand, borders at multiples of 16 m) and the bounded
+// one (tiles anchored at lo, borders elsewhere) on the same scans of a wall that crosses tile
+// borders: the same posterior, kernel by kernel, wherever both have the kernel; the growable
+// map's extra kernels (beyond the bounds) keep the prior.
+TEST(JointBhm, GrowableEqualsBoundedAcrossTileBorders) {
+  JointBhmOptions o;
+  o.cg_tolerance = 1e-10;
+  o.cg_max_iterations = 2000;
+  const double lo[3] = {-9, -27, 0}, hi[3] = {9, 27, 0};
+  JointBhm bounded(2, lo, hi, o);
+  JointBhm grow(2, o);
+  EXPECT_FALSE(grow.bounded());
+  EXPECT_EQ(grow.size(), 0u);
+  for (int t = 0; t < 4; ++t) {
+    const LabelledPoints s = long_wall_scan(20 + t, t, -20 + 2 * t, 14 + 2 * t);
+    bounded.update(s);
+    grow.update(s);
+    EXPECT_EQ(grow.last_stats().samples, bounded.last_stats().samples);
+  }
+  // The wall spans y in [-21.5, 21.5]: growable tiles cover x in [-16, 16), y in [-32, 32).
+  EXPECT_EQ(grow.tiles(), 2u * 4u);
+  const KernelMap a = bounded.map(), b = grow.map();
+  EXPECT_EQ(b.size(), grow.size());
+  std::map<std::pair<long, long>, std::size_t> at;
+  for (std::size_t k = 0; k < a.size(); ++k) at[cell_key(a, k, o.spacing)] = k;
+  double scale = 0, mean_err = 0, var_err = 0;
+  std::size_t common = 0, extra = 0;
+  for (std::size_t k = 0; k < b.size(); ++k) {
+    const auto it = at.find(cell_key(b, k, o.spacing));
+    if (it == at.end()) {
+      ++extra;
+      EXPECT_EQ(b.w_mean[k], 0.0);
+      EXPECT_EQ(b.w_var[k], o.prior_var);
+      continue;
+    }
+    ++common;
+    scale = std::max(scale, std::abs(a.w_mean[it->second]));
+    mean_err = std::max(mean_err, std::abs(a.w_mean[it->second] - b.w_mean[k]));
+    var_err = std::max(var_err, std::abs(a.w_var[it->second] - b.w_var[k]) / a.w_var[it->second]);
+  }
+  EXPECT_EQ(common, a.size());  // every bounded kernel is stored by the growable map
+  EXPECT_GT(extra, 0u);
+  EXPECT_GT(scale, 1.0);
+  // The two differ only in the order of their sums (tiles anchored elsewhere): the conjugate
+  // gradients stop at slightly different points, within their tolerance (1e-10 a scan, 1e-8
+  // for the export's polish). A wrong neighbour across a tile border would differ by O(1).
+  EXPECT_LT(mean_err, 1e-7 * scale) << "max mean difference " << mean_err;
+  EXPECT_LT(var_err, 1e-7) << "max relative variance difference";
+  EXPECT_NEAR(a.bias_mean, b.bias_mean, 1e-7 * std::max(1.0, std::abs(a.bias_mean)));
+  EXPECT_NEAR(a.bias_var, b.bias_var, 1e-7 * a.bias_var);
+  std::printf("growable vs bounded: max mean difference %.3g (scale %.3g), variance %.3g\n",
+              mean_err, scale, var_err);
+}
+
+// The growable map's means and variances against the exact posterior of its own precision
+// (sparse Cholesky), at points on both sides of tile borders.
+TEST(JointBhm, GrowableMatchesItsExactPosterior) {
+  JointBhm grow(2);
+  for (int t = 0; t < 3; ++t) grow.update(long_wall_scan(40 + t, t, -4 + 2 * t, 4 + 2 * t));
+  const KernelMap map = grow.map();
+  std::vector<double> pts;
+  for (double x = -2.5; x <= 3; x += 0.25)
+    for (double y = -4; y <= 8; y += 0.25) pts.insert(pts.end(), {x, y});
+  const std::size_t n = pts.size() / 2;
+  std::vector<double> mean(n), var(n);
+  grow.predict_exact(pts.data(), n, mean.data(), var.data());
+  const MapValuesExact e = evaluate_exact(map, pts.data(), n);
+  double err = 0, scale = 0;
+  std::vector<double> ratio;
+  for (std::size_t i = 0; i < n; ++i) {
+    err = std::max(err, std::abs(e.mean[i] - mean[i]));
+    scale = std::max(scale, std::abs(mean[i]));
+    ratio.push_back(e.var[i] / var[i]);
+  }
+  EXPECT_GT(scale, 1.0);
+  EXPECT_LT(err, 1e-4 * scale);
+  std::sort(ratio.begin(), ratio.end());
+  EXPECT_GT(ratio[ratio.size() / 2], 0.5);
+  EXPECT_LT(ratio[ratio.size() / 2], 2.0);
+}
+
+// Driving back and forth along one corridor allocates its tiles on the first pass and nothing
+// after: memory follows the area, not the number of scans. A new place grows it again.
+TEST(JointBhm, MemoryGrowsWithAreaNotScans) {
+  JointBhm grow(2);
+  auto corridor_scan = [](double x0, std::int64_t t) {
+    LabelledPoints s = wall_scan(std::uint32_t(t), t);
+    for (std::size_t i = 0; i < s.size(); ++i) s.position[2 * i] += x0;
+    return s;
+  };
+  std::int64_t t = 0;
+  std::vector<std::size_t> after_pass;
+  for (int pass = 0; pass < 3; ++pass) {
+    for (int k = 0; k <= 20; ++k) grow.update(corridor_scan(2.0 * (pass % 2 ? 20 - k : k), t++));
+    after_pass.push_back(grow.memory_bytes());
+  }
+  const std::size_t tiles = grow.tiles();
+  EXPECT_GT(tiles, 1u);
+  EXPECT_GT(after_pass[0], tiles * 1024 * 225 * sizeof(double));  // the stencils are counted
+  EXPECT_EQ(after_pass[1], after_pass[0]);
+  EXPECT_EQ(after_pass[2], after_pass[0]);
+  // Exporting does not grow it either (its cache is part of the tiles).
+  (void)grow.map();
+  EXPECT_EQ(grow.memory_bytes(), after_pass[0]);
+  grow.update(corridor_scan(200, t++));
+  EXPECT_GT(grow.tiles(), tiles);
+  EXPECT_GT(grow.memory_bytes(), after_pass[0]);
+}
+
+TEST(JointBhm, GrowableBadInput) {
+  JointBhmOptions o;
+  o.spacing = -1;
+  EXPECT_THROW(JointBhm(2, o), ArgumentError);
+  EXPECT_THROW(JointBhm(1), ArgumentError);
+  o = {};
+  o.tau = NAN;
+  EXPECT_THROW(JointBhm(2, o), ArgumentError);
+  JointBhm grow(2);
+  LabelledPoints far;
+  far.dim = 2;
+  // NaN, infinite and absurdly distant points are ignored: they reach no kernel, store nothing.
+  far.position = {NAN, 0, INFINITY, 1, 1e300, 0, 0, -1e12};
+  far.label = {1, 0, 1, 1};
+  grow.update(far);
+  EXPECT_EQ(grow.last_stats().samples, 0u);
+  EXPECT_EQ(grow.tiles(), 0u);
+  EXPECT_TRUE(grow.map().w_mean.empty());
+  LabelledPoints s3;
+  s3.dim = 3;
+  s3.position = {0, 0, 0};
+  s3.label = {1};
+  EXPECT_THROW(grow.update(s3), ArgumentError);
+  KernelMap seed3;
+  seed3.dim = 3;
+  EXPECT_THROW(grow.seed_unreached(seed3), ArgumentError);
+  LabelledPoints mismatch;
+  mismatch.dim = 2;
+  mismatch.position = {0, 0, 1};
+  mismatch.label = {1};
+  EXPECT_THROW(grow.update(mismatch), ArgumentError);
+  // Past max_kernels: refused whole, the posterior as it was.
+  JointBhmOptions capped;
+  capped.max_kernels = 4 * 1024;  // the wall scan's four tiles
+  JointBhm small(2, capped);
+  small.update(wall_scan(1, 0));
+  const KernelMap before = small.map();
+  LabelledPoints spread;
+  spread.dim = 2;
+  for (int i = 0; i < 4; ++i) {
+    spread.position.insert(spread.position.end(), {100.0 * i + 50, 50.0});
+    spread.label.push_back(1);
+  }
+  EXPECT_THROW(small.update(spread), ArgumentError);
+  const KernelMap after = small.map();
+  ASSERT_EQ(after.size(), before.size());
+  EXPECT_EQ(after.w_mean, before.w_mean);
+  EXPECT_EQ(after.w_var, before.w_var);
+}
+
+// Seeds land where no sample reached, in tiles allocated for them, and never replace data.
+TEST(JointBhm, GrowableSeedsOnlyUnreachedKernels) {
+  JointBhm grow(2);
+  grow.update(wall_scan(5, 0));
+  const KernelMap data = grow.map();
+  KernelMap field;
+  field.dim = 2;
+  for (double x = -2; x <= 40; x += 0.5)
+    for (double y = -2; y <= 2; y += 0.5) {
+      const double p[3] = {x, y, 0};
+      field.push_back(p, grow.gamma(), 2.0, 1.0);
+    }
+  const std::size_t tiles = grow.tiles();
+  const std::size_t seeded = grow.seed_unreached(field, 1.0);
+  EXPECT_GT(seeded, 0u);
+  EXPECT_GT(grow.tiles(), tiles);  // the field reaches x = 40: tiles of their own
+  const KernelMap m = grow.map();
+  std::map<std::pair<long, long>, std::size_t> at;
+  for (std::size_t k = 0; k < m.size(); ++k) at[cell_key(m, k, 0.5)] = k;
+  std::size_t far_seeded = 0;
+  for (std::size_t k = 0; k < m.size(); ++k)
+    if (m.position[2 * k] >= 20 && m.position[2 * k] <= 38 && std::abs(m.position[2 * k + 1]) < 1)
+      far_seeded += m.w_mean[k] > 0.1;
+  EXPECT_GT(far_seeded, 50u);
+  // A second seed reaches nothing new.
+  EXPECT_EQ(grow.seed_unreached(field, 1.0), 0u);
 }
 
 }  // namespace

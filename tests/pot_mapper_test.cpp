@@ -1,12 +1,15 @@
 // potmap::Mapper, the incremental form of map_scans: same instantaneous maps scan by scan, the
-// overall map of OverallMap on them, reset, and refusals that leave the mapper unchanged.
+// overall map (POT's OverallMap, RePOT's persistent RepotMap) on them, reset, and refusals that
+// leave the mapper unchanged.
 #include <gtest/gtest.h>
 
 #include <memory>
 
 #include "potmap/atoms.hpp"
 #include "potmap/error.hpp"
+#include "potmap/evaluate.hpp"
 #include "potmap/mapper.hpp"
+#include "potmap/metrics.hpp"
 #include "potmap/simulator.hpp"
 #include "test_support.hpp"
 
@@ -73,8 +76,14 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
               [&](MappedScan&& m) { want.push_back(std::move(m)); });
     ASSERT_EQ(want.size(), targets.size());
     OverallMap overall(2);
-    for (const MappedScan& m : want)
-      if (!m.transfer.map.empty()) overall.add(m.transfer.map);
+    RepotMap repot(2, o);  // RePOT's persistent map, fed as map_scans' caller would
+    for (const MappedScan& m : want) {
+      EXPECT_EQ(m.train.empty(), !refine);
+      if (refine)
+        repot.add(m.transfer.map, m.train);
+      else if (!m.transfer.map.empty())
+        overall.add(m.transfer.map);
+    }
 
     Mapper mapper(&test::context(), s.dict, o);
     for (int pass = 0; pass < 2; ++pass) {  // the second after reset(): the same again
@@ -85,18 +94,70 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
         expect_same(got.transfer.map, want[i].transfer.map);
         EXPECT_EQ(got.test.position, want[i].test.position);
         EXPECT_EQ(got.transfer.timing.refine_ms > 0, refine);
+        // POT merges every instantaneous kernel; RePOT's persistent map seeds instead.
         EXPECT_EQ(mapper.last_merge().stats.added + mapper.last_merge().stats.merged,
-                  got.transfer.map.size());
+                  refine ? 0u : got.transfer.map.size());
+        if (refine && i == 0) EXPECT_GT(mapper.last_merge().seeded, 0u);
       }
       EXPECT_EQ(mapper.scans(), targets.size());
-      expect_same(mapper.overall().map(), overall.map());
-      EXPECT_GT(mapper.overall().size(), 0u);
+      EXPECT_EQ(mapper.repot() != nullptr, refine);
+      expect_same(mapper.overall_map(), refine ? repot.map() : overall.map());
+      EXPECT_EQ(mapper.overall_map().has_bias, refine);
+      EXPECT_GT(mapper.overall_kernels(), 0u);
+      EXPECT_GT(mapper.overall_memory_bytes(), 0u);
+      EXPECT_EQ(mapper.overall().size() > 0, !refine);
       mapper.reset();
       EXPECT_EQ(mapper.scans(), 0u);
       EXPECT_TRUE(mapper.overall().map().empty());
+      EXPECT_TRUE(mapper.overall_map().empty());
       EXPECT_TRUE(mapper.last().transfer.map.empty());
     }
   }
+}
+
+// RePOT's two overall maps: per-scan refinement merged (persistent_refine false, the old
+// design: refined instantaneous maps) and the persistent joint BHM (transported instantaneous
+// maps, POT's). Driving over the same scans again leaves the persistent map's memory about as it
+// was, and it still maps the place: the scans' own held-out samples score well on it.
+TEST(PotMapper, PersistentRepotMapKeepsItsMemoryOverRepeatedDrives) {
+  const Scene s;
+  const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
+  MapperOptions per_scan = small_options(true);
+  per_scan.persistent_refine = false;
+  Mapper old_design(&test::context(), s.dict, per_scan);
+  Mapper pot(&test::context(), s.dict, small_options(false));
+  Mapper persistent(&test::context(), s.dict, small_options(true));
+  LabelledPoints test;
+  test.dim = 2;
+  std::vector<std::size_t> memory;
+  for (int pass = 0; pass < 3; ++pass) {
+    for (const Scan& sc : targets) {
+      const MappedScan& a = old_design.add_scan(sc);
+      const MappedScan& b = pot.add_scan(sc);
+      const MappedScan& c = persistent.add_scan(sc);
+      EXPECT_GT(a.transfer.timing.refine_ms, 0.0);  // refined per scan
+      EXPECT_TRUE(a.train.empty());
+      if (pass == 0) {
+        // The persistent mapper's instantaneous maps are POT's (same scan index, same seeds).
+        expect_same(c.transfer.map, b.transfer.map);
+        test.position.insert(test.position.end(), c.test.position.begin(), c.test.position.end());
+        test.label.insert(test.label.end(), c.test.label.begin(), c.test.label.end());
+      }
+    }
+    memory.push_back(persistent.overall_memory_bytes());
+  }
+  EXPECT_EQ(old_design.repot(), nullptr);
+  EXPECT_GT(old_design.overall().size(), 0u);
+  ASSERT_NE(persistent.repot(), nullptr);
+  // Later passes transport other kernels (the scan index seeds the subsampling), whose seeds
+  // may reach a little past the first pass's: a tile or two, never a pass's worth again.
+  EXPECT_LT(double(memory[2]), 1.5 * double(memory[0]));
+  EXPECT_LT(double(memory[2] - memory[1]), 0.1 * double(memory[0]));
+  const MapValuesExact v =
+      evaluate_exact(persistent.overall_map(), test.position.data(), test.size());
+  std::vector<float> prob(v.prob.begin(), v.prob.end());
+  const Scores sc = score(prob, test.label);
+  EXPECT_GT(sc.auc, 0.9);
 }
 
 TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {

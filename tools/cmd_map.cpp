@@ -21,7 +21,8 @@ constexpr double kPi = 3.14159265358979323846;
 
 struct MapArgs {
   std::string dict, scans, out, instantaneous, json, picture;
-  bool refine = false, cpu = false, quiet = false, no_pipeline = false, hits_only = false;
+  bool refine = false, per_scan_refine = false, cpu = false, quiet = false, no_pipeline = false,
+       hits_only = false;
   double refine_min_variance = 0;
   int sectors = 5, rotations = 8, em = 1;
   double max_range = 0, holdout = 0.2, res = 0.25;
@@ -51,6 +52,7 @@ int run_map(const MapArgs& a, const std::string& device) {
   po.rotations.clear();
   for (int i = 0; i < a.rotations; ++i) po.rotations.push_back(2 * kPi * i / a.rotations);
   po.refine = a.refine;
+  job.mapper.persistent_refine = !a.per_scan_refine;
   po.refine_min_variance = a.refine_min_variance;
   po.refine_bhm.em_iterations = a.em;
   po.candidates = a.candidates;
@@ -71,12 +73,14 @@ int run_map(const MapArgs& a, const std::string& device) {
             << (a.refine ? "RePOT" : "POT") << ", " << a.sectors << " sectors, " << a.rotations
             << " rotations" << (a.cpu ? ", CPU reference" : "") << "\n";
   const MapJobResult r = run_map_job(ctx.get(), dict, scans, job);
-  write_map(r.overall.map(), a.out);
+  const KernelMap& overall = r.overall_map();
+  write_map(overall, a.out);
 
   std::FILE* human = a.json == "-" ? stderr : stdout;
   std::fprintf(human, "scans          %zu (%s)\n", r.scans, a.refine ? "RePOT" : "POT");
-  std::fprintf(human, "overall map    %zu kernels, %.1f MB -> %s\n", r.overall.size(),
-               r.overall.memory_bytes() / 1e6, a.out.c_str());
+  std::fprintf(human, "overall map    %zu kernels, %.1f MB%s -> %s\n", r.overall_kernels(),
+               r.overall_memory_bytes() / 1e6, r.repot ? " (persistent joint BHM)" : "",
+               a.out.c_str());
   std::fprintf(human, "instantaneous  ACC %.4f  AUC %.4f  NLL %.4f  (%zu held-out samples)\n",
                r.instantaneous.acc, r.instantaneous.auc, r.instantaneous.nll, r.instantaneous.n);
   std::fprintf(human, "overall        ACC %.4f  AUC %.4f  NLL %.4f\n", r.overall_scores.acc,
@@ -93,9 +97,9 @@ int run_map(const MapArgs& a, const std::string& device) {
   j["method"] = a.refine ? "RePOT" : "POT";
   j["device"] = ctx ? ctx->info().summary() : "CPU reference (Eigen, double)";
   j["map"] = a.out;
-  if (!a.picture.empty() && !r.overall.map().empty()) {
+  if (!a.picture.empty() && !overall.empty()) {
     double lo[3], hi[3];
-    r.overall.map().bounds(lo, hi);
+    overall.bounds(lo, hi);
     RasterSpec spec;
     spec.xmin = lo[0] - 5;
     spec.xmax = hi[0] + 5;
@@ -107,9 +111,9 @@ int run_map(const MapArgs& a, const std::string& device) {
     RasterOptions ro;
     ro.write_npy = false;
     ro.progress = terminal_progress("picture");
-    const RasterSummary rs = rasterize(*ctx, r.overall.map(), spec, a.picture, ro);
+    const RasterSummary rs = rasterize(*ctx, overall, spec, a.picture, ro);
     const std::string kp = a.picture + "_kernels.png";
-    const KernelPictureSummary ks = write_kernel_picture(ctx.get(), r.overall.map(), spec, kp);
+    const KernelPictureSummary ks = write_kernel_picture(ctx.get(), overall, spec, kp);
     std::vector<std::string> files = rs.files;
     files.push_back(kp);
     std::fprintf(human,
@@ -138,10 +142,15 @@ void register_map(CLI::App& app, Runner& runner) {
   cmd->add_option("--dict", a->dict, "Dictionary of atoms (potmap dict build)")->required();
   cmd->add_option("--scans", a->scans, "Scans to map: any dataset potmap reads")->required();
   cmd->add_option("-o,--out", a->out, "Overall map to write (.potmap, .csv or .npz)")->required();
-  cmd->add_flag("--refine", a->refine, "RePOT: refine transported weights with a BHM update");
+  cmd->add_flag("--refine", a->refine,
+                "RePOT: one persistent joint BHM that every scan updates with its training "
+                "samples, seeded by the transported kernels where no sample reached yet");
+  cmd->add_flag("--per-scan-refine", a->per_scan_refine,
+                "RePOT the old way: refine each scan's transported weights on their own and "
+                "merge the refined maps (--refine-min-variance and --em apply to it)");
   cmd->add_option("--refine-min-variance", a->refine_min_variance,
-                  "RePOT: floor on the transported weight variances (default 0)");
-  cmd->add_option("--em", a->em, "RePOT: BHM E-steps per scan (default 1)")
+                  "RePOT per scan: floor on the transported weight variances (default 0)");
+  cmd->add_option("--em", a->em, "RePOT per scan: BHM E-steps per scan (default 1)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--sectors", a->sectors, "Sectors per scan (default 5)")
       ->check(CLI::PositiveNumber);

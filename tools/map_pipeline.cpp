@@ -20,8 +20,9 @@ nlohmann::json scores_json(const Scores& s) {
 
 nlohmann::json MapJobResult::to_json() const {
   return {{"scans", scans},
-          {"overall_kernels", overall.size()},
-          {"overall_memory_bytes", overall.memory_bytes()},
+          {"overall_kernels", overall_kernels()},
+          {"overall_memory_bytes", overall_memory_bytes()},
+          {"overall_kind", repot ? "persistent joint BHM" : "merged kernels"},
           {"kernels_per_scan", kernels_per_scan},
           {"instantaneous", scores_json(instantaneous)},
           {"overall", scores_json(overall_scores)},
@@ -39,6 +40,7 @@ nlohmann::json MapJobResult::to_json() const {
 MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
                          const MapJob& job) {
   MapJobResult r{OverallMap(dict.dim, job.overall)};
+  if (persistent_refine(job.mapper)) r.repot.emplace(dict.dim, job.mapper);
   const auto t0 = std::chrono::steady_clock::now();
   if (!job.instantaneous_dir.empty()) std::filesystem::create_directories(job.instantaneous_dir);
   std::vector<float> inst_prob;
@@ -60,7 +62,15 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
       test.label.insert(test.label.end(), m.test.label.begin(), m.test.label.end());
       test.scan.insert(test.scan.end(), m.test.scan.begin(), m.test.scan.end());
     }
-    if (!t.map.empty()) r.overall.add(t.map);
+    double refine_ms = t.timing.refine_ms;
+    if (r.repot) {
+      const auto r0 = std::chrono::steady_clock::now();
+      r.repot->add(t.map, m.train);
+      refine_ms +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - r0).count();
+    } else if (!t.map.empty()) {
+      r.overall.add(t.map);
+    }
     if (!job.instantaneous_dir.empty()) {
       char name[64];
       std::snprintf(name, sizeof name, "scan_%06zu.potmap", m.index);
@@ -70,7 +80,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
     r.mean_timing.ranking_ms += t.timing.ranking_ms;
     r.mean_timing.transport_ms += t.timing.transport_ms;
     r.mean_timing.placement_ms += t.timing.placement_ms;
-    r.mean_timing.refine_ms += t.timing.refine_ms;
+    r.mean_timing.refine_ms += refine_ms;
     r.mean_wall_ms += m.wall_ms;
     r.max_wall_ms = std::max(r.max_wall_ms, m.wall_ms);
     kernels += t.map.size();
@@ -80,8 +90,8 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
                    "potmap map: scan %zu/%zu: %zu sectors, %zu kernels, %.1f ms (ranking %.1f, "
                    "transport %.1f, placement %.1f, refine %.1f); overall %zu kernels\n",
                    m.index + 1, scans.size(), t.sectors.size(), t.map.size(), m.wall_ms,
-                   t.timing.ranking_ms, t.timing.transport_ms, t.timing.placement_ms,
-                   t.timing.refine_ms, r.overall.size());
+                   t.timing.ranking_ms, t.timing.transport_ms, t.timing.placement_ms, refine_ms,
+                   r.overall_kernels());
     } else if (progress) {
       progress(double(m.index + 1) / double(scans.size()));
     }
@@ -99,11 +109,12 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   r.instantaneous = score(inst_prob, labels);
   if (!test.empty()) {
     std::vector<float> prob(test.size());
-    if (ctx && !r.overall.map().empty()) {
-      MapEvaluator ev(*ctx, r.overall.map());
+    const KernelMap& overall = r.overall_map();
+    if (ctx && !overall.empty()) {
+      MapEvaluator ev(*ctx, overall);
       ev.evaluate(test.position.data(), test.size(), nullptr, nullptr, prob.data());
     } else {
-      const MapValuesExact v = evaluate_exact(r.overall.map(), test.position.data(), test.size());
+      const MapValuesExact v = evaluate_exact(overall, test.position.data(), test.size());
       for (std::size_t j = 0; j < test.size(); ++j) prob[j] = static_cast<float>(v.prob[j]);
     }
     r.overall_scores = score(prob, test.label);

@@ -1,9 +1,10 @@
 #pragma once
 // The POT mapping job shared by `potmap map` and `potmap demo`: stream scans through
-// map_scans(), accumulate the overall map, score instantaneous and overall maps on the scans'
-// held-out samples, report per-scan timing.
+// map_scans(), accumulate the overall map (POT's OverallMap, or RePOT's persistent RepotMap), score
+// instantaneous and overall maps on the scans' held-out samples, report per-scan timing.
 #include <nlohmann/json.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,7 +24,14 @@ struct MapJob {
 };
 
 struct MapJobResult {
-  OverallMap overall;
+  OverallMap overall;             ///< POT's merged map (empty for RePOT's persistent map)
+  std::optional<RepotMap> repot;  ///< RePOT's persistent map (persistent_refine(job.mapper))
+  /// The overall map, whichever the kind.
+  const KernelMap& overall_map() const { return repot ? repot->map() : overall.map(); }
+  std::size_t overall_kernels() const { return repot ? repot->size() : overall.size(); }
+  std::size_t overall_memory_bytes() const {
+    return repot ? repot->memory_bytes() : overall.memory_bytes();
+  }
   Scores instantaneous;   ///< every scan's held-out samples on its own instantaneous map
   Scores overall_scores;  ///< every scan's held-out samples on the final overall map
   std::size_t scans = 0;

@@ -29,6 +29,7 @@ potmap_mapper_options default_mapper_options() {
   o.merge_radius = ov.merge_radius;
   o.gamma_ratio = ov.gamma_ratio;
   o.max_kernels = ov.max_kernels;
+  o.persistent_refine = m.persistent_refine ? 1 : 0;
   return o;
 }
 
@@ -48,6 +49,8 @@ Options to_options(const potmap_mapper_options* in) {
   if (o.sectors < 1) bad("sectors", o.sectors);
   if (o.rotations < 1 || o.rotations > kMaxRotations) bad("rotations", o.rotations);
   if (o.refine != 0 && o.refine != 1) bad("refine", o.refine);
+  if (o.persistent_refine != 0 && o.persistent_refine != 1)
+    bad("persistent_refine", o.persistent_refine);
   if (!(o.max_range >= 0) || !std::isfinite(o.max_range)) bad("max_range", o.max_range);
   if (!(o.holdout_fraction >= 0 && o.holdout_fraction < 1))
     bad("holdout_fraction", o.holdout_fraction);
@@ -61,6 +64,7 @@ Options to_options(const potmap_mapper_options* in) {
   p.rotations.clear();
   for (int i = 0; i < o.rotations; ++i) p.rotations.push_back(2 * kPi * i / o.rotations);
   p.refine = o.refine == 1;
+  r.mapper.persistent_refine = o.persistent_refine == 1;
   p.max_range = o.max_range;
   p.candidates = o.candidates;
   p.seed = o.seed;
@@ -144,7 +148,7 @@ potmap_status potmap_mapper_add_scan(potmap_mapper* mapper, const potmap_scan* s
     st.overall_added = mg.stats.added;
     st.overall_merged = mg.stats.merged;
     st.overall_retired = mg.stats.retired;
-    st.overall_kernels = m.overall().size();
+    st.overall_kernels = m.overall_kernels();
     st.prepare_ms = t.timing.prepare_ms;
     st.ranking_ms = t.timing.ranking_ms;
     st.transport_ms = t.timing.transport_ms;
@@ -169,7 +173,7 @@ potmap_status potmap_mapper_overall_map(const potmap_mapper* mapper, potmap_map*
   return guard("potmap_mapper_overall_map", POTMAP_ERROR_INTERNAL, [&] {
     const potmap::Mapper& m = *checked(mapper).mapper;
     require(out, "out");
-    *out = copy_map(m.overall().map());
+    *out = copy_map(m.overall_map());
   });
 }
 

@@ -4,6 +4,8 @@
 #include <Eigen/Sparse>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -15,16 +17,25 @@ namespace potmap {
 
 namespace {
 
-// Half-width, in kernels, of the block whose precision gives a kernel's exported variance: the
-// kernels that share a sample with it at its centre.
-std::int64_t block_half_width(double rcut, double spacing) {
-  return static_cast<std::int64_t>(std::ceil(rcut / spacing));
+// Grid cells farther than this from the origin are out of reach (tile coordinates, and those of
+// their neighbours' neighbours, then fit in 21 bits each of the hash key).
+constexpr std::int64_t kCellLimit = std::int64_t(1) << 22;
+constexpr std::int64_t kMaxKernels = std::int64_t(1) << 26;
+
+std::int64_t floor_div(std::int64_t a, std::int64_t b) {
+  const std::int64_t q = a / b;
+  return (a % b != 0 && (a < 0) != (b < 0)) ? q - 1 : q;
+}
+
+int nb_slot(const std::int64_t dt[3]) {
+  return int((dt[0] + 1) + 3 * (dt[1] + 1) + 9 * (dt[2] + 1));
 }
 
 }  // namespace
 
-JointBhm::JointBhm(int dim, const double lo[3], const double hi[3], const JointBhmOptions& o)
-    : o_(o), dim_(dim) {
+void JointBhm::init(int dim, const JointBhmOptions& o) {
+  o_ = o;
+  dim_ = dim;
   if (dim != 2 && dim != 3) throw ArgumentError("joint BHM: dimension must be 2 or 3");
   if (!(o.spacing > 0) || !std::isfinite(o.spacing))
     throw ArgumentError("joint BHM: spacing must be positive, got " + std::to_string(o.spacing));
@@ -34,159 +45,398 @@ JointBhm::JointBhm(int dim, const double lo[3], const double hi[3], const JointB
   if (!(o.prior_var > 0) || !std::isfinite(o.prior_var))
     throw ArgumentError("joint BHM: prior_var must be positive");
   if (o.em_iterations < 1) throw ArgumentError("joint BHM: em_iterations must be at least 1");
-  if (!(o.tau > 0)) throw ArgumentError("joint BHM: tau must be positive");
+  if (!(o.tau > 0) || !std::isfinite(o.tau)) throw ArgumentError("joint BHM: tau must be positive");
   if (!(o.cg_tolerance > 0) || o.cg_max_iterations < 1 || o.solve_margin < 0)
     throw ArgumentError("joint BHM: bad conjugate-gradient settings");
   gamma_ = o.gamma > 0 ? o.gamma : -std::log(o.neighbour_phi) / (o.spacing * o.spacing);
   rcut_ = std::sqrt(o.tau / gamma_);
   // Two kernels couple when one sample reaches both: at most 2 rcut apart.
-  pad_ = static_cast<std::int64_t>(std::ceil(2 * rcut_ / o.spacing));
+  const double pad = std::ceil(2 * rcut_ / o.spacing);
+  if (!(pad < 64)) throw ArgumentError("joint BHM: kernels too wide for their spacing");
+  pad_ = static_cast<std::int64_t>(pad);
   box_ = 2 * pad_ + 1;
+  hb_ = static_cast<std::int64_t>(std::ceil(rcut_ / o.spacing));
+  // Every neighbour lookup (stencil, margin, variance block) stays within one tile.
+  tile_ = std::max<std::int64_t>({dim == 3 ? 8 : 32, pad_, o.solve_margin});
+  if (tile_ > 4096) throw ArgumentError("joint BHM: solve_margin too large");
+  tile_cells_ = 1;
+  slots_ = 1;
+  for (int d = 0; d < dim; ++d) {
+    tile_cells_ *= tile_;
+    slots_ *= box_;
+  }
+  ghost_ = tile_ + 2 * pad_;
+  goff_.resize(static_cast<std::size_t>(slots_));
+  for (std::int64_t s = 0; s < slots_; ++s) {
+    std::int64_t rest = s, off = 0, stride = 1;
+    for (int d = 0; d < dim; ++d) {
+      off += (rest % box_ - pad_) * stride;
+      rest /= box_;
+      stride *= ghost_;
+    }
+    goff_[static_cast<std::size_t>(s)] = off;
+  }
+  grid_sum_ = grid_sum2_ = sum_phi2_ = 0;
+  const std::int64_t hz = dim == 3 ? hb_ : 0;
+  for (std::int64_t dk = -hz; dk <= hz; ++dk)
+    for (std::int64_t dj = -hb_; dj <= hb_; ++dj)
+      for (std::int64_t di = -hb_; di <= hb_; ++di) {
+        const double d2 =
+            (double(di * di) + double(dj * dj) + double(dk * dk)) * o.spacing * o.spacing;
+        if (gamma_ * d2 > o.tau) continue;
+        grid_sum_ += std::exp(-gamma_ * d2);
+        grid_sum2_ += std::exp(-2 * gamma_ * d2);
+      }
+  sum_phi2_ = grid_sum2_;
+  if (o.bias) pbb_ = 1.0 / o.prior_var;
+}
+
+JointBhm::JointBhm(int dim, const JointBhmOptions& o) {
+  init(dim, o);
+  bounded_ = false;
+}
+
+JointBhm::JointBhm(int dim, const double lo[3], const double hi[3], const JointBhmOptions& o) {
+  init(dim, o);
+  bounded_ = true;
   std::int64_t total = 1;
   for (int d = 0; d < dim; ++d) {
     if (!std::isfinite(lo[d]) || !std::isfinite(hi[d]) || !(hi[d] >= lo[d]))
       throw ArgumentError("joint BHM: bounds must be finite with lo <= hi");
+    const double cells = std::floor((hi[d] - lo[d]) / o.spacing + 1e-9) + 1;
+    if (!(cells < double(kMaxKernels) + 1)) throw ArgumentError("joint BHM: too many kernels");
     lo_[d] = lo[d];
-    n_[d] = static_cast<std::int64_t>(std::floor((hi[d] - lo[d]) / o.spacing + 1e-9)) + 1;
-    sn_[d] = n_[d] + 2 * pad_;
-    total *= sn_[d];
-    if (total > (std::int64_t(1) << 26)) throw ArgumentError("joint BHM: too many kernels");
+    n_[d] = static_cast<std::int64_t>(cells);
+    total *= n_[d];
+    if (total > kMaxKernels) throw ArgumentError("joint BHM: too many kernels");
   }
-  slots_ = 1;
-  for (int d = 0; d < dim; ++d) slots_ *= box_;
-  offset_.resize(static_cast<std::size_t>(slots_));
-  for (std::int64_t s = 0; s < slots_; ++s) {
-    std::int64_t rest = s, off = 0, stride = 1;
-    for (int d = 0; d < dim; ++d) {
-      const std::int64_t delta = rest % box_ - pad_;
-      rest /= box_;
-      off += delta * stride;
-      stride *= sn_[d];
-    }
-    offset_[static_cast<std::size_t>(s)] = off;
-  }
-  const auto st = static_cast<std::size_t>(total);
-  prec_.assign(st * static_cast<std::size_t>(slots_), 0.0);
-  eta_.assign(st, 0.0);
-  mean_.assign(st, 0.0);
-  bcoup_.assign(st, 0.0);
-  touched_.assign(st, 0);
-  seeded_.assign(st, 0);
-  {
-    const std::int64_t hb = block_half_width(rcut_, o.spacing);
-    grid_sum_ = grid_sum2_ = 0;
-    for (std::int64_t dk = -(dim == 3 ? hb : 0); dk <= (dim == 3 ? hb : 0); ++dk)
-      for (std::int64_t dj = -hb; dj <= hb; ++dj)
-        for (std::int64_t di = -hb; di <= hb; ++di) {
-          const double d2 =
-              (double(di * di) + double(dj * dj) + double(dk * dk)) * o.spacing * o.spacing;
-          if (gamma_ * d2 > o.tau) continue;
-          grid_sum_ += std::exp(-gamma_ * d2);
-          grid_sum2_ += std::exp(-2 * gamma_ * d2);
-        }
-  }
-  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
-  for (std::int64_t k = 0; k < sn_[2]; ++k)
-    for (std::int64_t j = 0; j < sn_[1]; ++j)
-      for (std::int64_t i = 0; i < sn_[0]; ++i) {
-        const bool inside = (i >= pad_ && i < pad_ + n_[0]) &&
-                            (dim < 2 || (j >= pad_ && j < pad_ + n_[1])) &&
-                            (dim < 3 || (k >= pad_ && k < pad_ + n_[2]));
-        if (!inside) continue;
-        const std::size_t s = static_cast<std::size_t>((k * sn_[1] + j) * sn_[0] + i);
-        prec_[s * slots_ + centre] = 1.0 / o.prior_var;
-      }
-  if (o.bias) pbb_ = 1.0 / o.prior_var;
 }
 
 std::size_t JointBhm::size() const {
+  if (!bounded_) return tiles_.size() * static_cast<std::size_t>(tile_cells_);
   std::size_t m = 1;
   for (int d = 0; d < dim_; ++d) m *= static_cast<std::size_t>(n_[d]);
   return m;
 }
 
-void JointBhm::features(const double* x, std::vector<Feature>& out) const {
+std::size_t JointBhm::memory_bytes() const {
+  auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  std::size_t b = sizeof(*this) + bytes(goff_) + bytes(tiles_) + bytes(prec_) + bytes(eta_) +
+                  bytes(mean_) + bytes(bcoup_) + bytes(touched_) + bytes(seeded_) + bytes(mark_) +
+                  bytes(lin_) + bytes(var_) + bytes(tile_dirty_) + bytes(scratch_.r) +
+                  bytes(scratch_.z) + bytes(scratch_.p) + bytes(scratch_.q) + bytes(scratch_.ghost);
+  // The hash map: its buckets and one node per tile (key, value, next pointer, hash).
+  b += tile_index_.bucket_count() * sizeof(void*) +
+       tile_index_.size() * (sizeof(std::uint64_t) + sizeof(std::uint32_t) + 2 * sizeof(void*));
+  return b;
+}
+
+std::uint64_t JointBhm::tile_key(const std::int64_t t[3]) {
+  constexpr std::int64_t half = std::int64_t(1) << 20;
+  std::uint64_t k = 0;
+  for (int d = 0; d < 3; ++d) k = (k << 21) | std::uint64_t(t[d] + half);
+  return k;
+}
+
+std::int64_t JointBhm::find_tile(const std::int64_t t[3]) const {
+  const auto it = tile_index_.find(tile_key(t));
+  return it == tile_index_.end() ? -1 : std::int64_t(it->second);
+}
+
+std::uint32_t JointBhm::make_tile(const std::int64_t t[3]) {
+  const std::int64_t have = find_tile(t);
+  if (have >= 0) return static_cast<std::uint32_t>(have);
+  const std::size_t cap = std::min<std::size_t>(o_.max_kernels, std::size_t(kMaxKernels));
+  if ((tiles_.size() + 1) * static_cast<std::size_t>(tile_cells_) > cap)
+    throw ArgumentError("joint BHM: the samples reach more than max_kernels (" +
+                        std::to_string(cap) + ") kernels");
+  const auto id = static_cast<std::uint32_t>(tiles_.size());
+  Tile tile;
+  for (int d = 0; d < 3; ++d) tile.coord[d] = static_cast<std::int32_t>(t[d]);
+  std::fill(std::begin(tile.nb), std::end(tile.nb), -1);
+  const std::int64_t rz = dim_ == 3 ? 1 : 0;
+  for (std::int64_t dz = -rz; dz <= rz; ++dz)
+    for (std::int64_t dy = -1; dy <= 1; ++dy)
+      for (std::int64_t dx = -1; dx <= 1; ++dx) {
+        const std::int64_t dt[3] = {dx, dy, dz};
+        if (dx == 0 && dy == 0 && dz == 0) {
+          tile.nb[nb_slot(dt)] = static_cast<std::int32_t>(id);
+          continue;
+        }
+        const std::int64_t u[3] = {t[0] + dx, t[1] + dy, t[2] + dz};
+        const std::int64_t other = find_tile(u);
+        if (other < 0) continue;
+        tile.nb[nb_slot(dt)] = static_cast<std::int32_t>(other);
+        const std::int64_t back[3] = {-dx, -dy, -dz};
+        tiles_[std::size_t(other)].nb[nb_slot(back)] = static_cast<std::int32_t>(id);
+      }
+  tiles_.push_back(tile);
+  tile_dirty_.push_back(1);
+  tile_index_.emplace(tile_key(t), id);
+  // Grow the storage by about a quarter at a time: memory follows the stored area closely.
+  const std::size_t cells = tiles_.size() * static_cast<std::size_t>(tile_cells_);
+  auto grow = [cells](auto& v, std::size_t per, auto value) {
+    if (v.capacity() < cells * per) v.reserve(std::max(cells, cells / 4 * 5) * per);
+    v.resize(cells * per, value);
+  };
+  const std::size_t first = std::size_t(id) * static_cast<std::size_t>(tile_cells_);
+  grow(prec_, static_cast<std::size_t>(slots_), 0.0);
+  grow(eta_, 1, 0.0);
+  grow(mean_, 1, 0.0);
+  grow(bcoup_, 1, 0.0);
+  grow(touched_, 1, std::uint8_t(0));
+  grow(seeded_, 1, std::uint8_t(0));
+  grow(mark_, 1, std::uint8_t(0));
+  grow(var_, 1, o_.prior_var);
+  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
+  for (std::size_t s = first; s < cells; ++s)
+    prec_[s * static_cast<std::size_t>(slots_) + centre] = 1.0 / o_.prior_var;
+  return id;
+}
+
+void JointBhm::cell_of(std::uint32_t s, std::int64_t g[3]) const {
+  const Tile& t = tiles_[s / static_cast<std::uint64_t>(tile_cells_)];
+  std::int64_t l = std::int64_t(s % static_cast<std::uint64_t>(tile_cells_));
+  for (int d = 0; d < 3; ++d) {
+    if (d < dim_) {
+      g[d] = std::int64_t(t.coord[d]) * tile_ + l % tile_;
+      l /= tile_;
+    } else {
+      g[d] = 0;
+    }
+  }
+}
+
+bool JointBhm::in_grid(const std::int64_t g[3]) const {
+  for (int d = 0; d < dim_; ++d) {
+    if (bounded_ ? (g[d] < 0 || g[d] >= n_[d]) : (g[d] <= -kCellLimit || g[d] >= kCellLimit))
+      return false;
+  }
+  return true;
+}
+
+std::int64_t JointBhm::find_cell(const std::int64_t g[3], std::int64_t hint) const {
+  std::int64_t t[3] = {0, 0, 0}, local = 0, stride = 1;
+  for (int d = 0; d < dim_; ++d) {
+    t[d] = floor_div(g[d], tile_);
+    local += (g[d] - t[d] * tile_) * stride;
+    stride *= tile_;
+  }
+  std::int64_t id = -1;
+  if (hint >= 0) {
+    const Tile& h = tiles_[std::size_t(hint)];
+    std::int64_t dt[3] = {0, 0, 0};
+    bool near = true;
+    for (int d = 0; d < dim_; ++d) {
+      dt[d] = t[d] - h.coord[d];
+      near = near && dt[d] >= -1 && dt[d] <= 1;
+    }
+    id = near ? h.nb[nb_slot(dt)] : find_tile(t);
+  } else {
+    id = find_tile(t);
+  }
+  return id < 0 ? -1 : id * tile_cells_ + local;
+}
+
+void JointBhm::features(const double* x, std::vector<Feature>& out, bool create) {
   out.clear();
   std::int64_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
   for (int d = 0; d < dim_; ++d) {
     const double u = (x[d] - lo_[d]) / o_.spacing;
-    a[d] = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::ceil(u - rcut_ / o_.spacing)));
-    b[d] = std::min<std::int64_t>(n_[d] - 1,
-                                  static_cast<std::int64_t>(std::floor(u + rcut_ / o_.spacing)));
+    const double r = rcut_ / o_.spacing;
+    const double ua = std::ceil(u - r), ub = std::floor(u + r);
+    const double lim_lo = bounded_ ? 0.0 : double(1 - kCellLimit);
+    const double lim_hi = bounded_ ? double(n_[d] - 1) : double(kCellLimit - 1);
+    if (!(ua <= lim_hi && ub >= lim_lo)) return;  // also NaN
+    a[d] = static_cast<std::int64_t>(std::max(ua, lim_lo));
+    b[d] = static_cast<std::int64_t>(std::min(ub, lim_hi));
     if (a[d] > b[d]) return;
   }
-  for (std::int64_t k = a[2]; k <= b[2]; ++k)
-    for (std::int64_t j = a[1]; j <= b[1]; ++j)
-      for (std::int64_t i = a[0]; i <= b[0]; ++i) {
-        const std::int64_t g[3] = {i, j, k};
-        double d2 = 0;
+  std::int64_t ta[3] = {0, 0, 0}, tb[3] = {0, 0, 0};
+  for (int d = 0; d < dim_; ++d) {
+    ta[d] = floor_div(a[d], tile_);
+    tb[d] = floor_div(b[d], tile_);
+  }
+  for (std::int64_t tz = ta[2]; tz <= tb[2]; ++tz)
+    for (std::int64_t ty = ta[1]; ty <= tb[1]; ++ty)
+      for (std::int64_t tx = ta[0]; tx <= tb[0]; ++tx) {
+        const std::int64_t t[3] = {tx, ty, tz};
+        std::int64_t ca[3] = {0, 0, 0}, cb[3] = {0, 0, 0};
+        double d2min = 0;  // from x to the nearest kernel of the tile within [a, b]
         for (int d = 0; d < dim_; ++d) {
-          const double t = x[d] - (lo_[d] + double(g[d]) * o_.spacing);
-          d2 += t * t;
+          ca[d] = std::max(a[d], t[d] * tile_);
+          cb[d] = std::min(b[d], t[d] * tile_ + tile_ - 1);
+          const double pa = lo_[d] + double(ca[d]) * o_.spacing;
+          const double pb = lo_[d] + double(cb[d]) * o_.spacing;
+          const double e = x[d] < pa ? pa - x[d] : (x[d] > pb ? x[d] - pb : 0.0);
+          d2min += e * e;
         }
-        if (gamma_ * d2 > o_.tau) continue;
-        Feature f;
-        for (int d = 0; d < 3; ++d)
-          f.cell[d] = static_cast<std::int32_t>(d < dim_ ? g[d] + pad_ : 0);
-        f.kernel = static_cast<std::uint32_t>(
-            (std::int64_t(f.cell[2]) * sn_[1] + f.cell[1]) * sn_[0] + f.cell[0]);
-        f.phi = std::exp(-gamma_ * d2);
-        out.push_back(f);
+        if (gamma_ * d2min > o_.tau) continue;
+        std::int64_t id = find_tile(t);
+        if (id < 0 && create) id = make_tile(t);
+        for (std::int64_t k = ca[2]; k <= cb[2]; ++k)
+          for (std::int64_t j = ca[1]; j <= cb[1]; ++j)
+            for (std::int64_t i = ca[0]; i <= cb[0]; ++i) {
+              const std::int64_t g[3] = {i, j, k};
+              double d2 = 0;
+              for (int d = 0; d < dim_; ++d) {
+                const double s = x[d] - (lo_[d] + double(g[d]) * o_.spacing);
+                d2 += s * s;
+              }
+              if (gamma_ * d2 > o_.tau) continue;
+              Feature f;
+              std::int64_t local = 0, stride = 1;
+              for (int d = 0; d < 3; ++d) {
+                f.cell[d] = static_cast<std::int32_t>(g[d]);
+                if (d < dim_) {
+                  local += (g[d] - t[d] * tile_) * stride;
+                  stride *= tile_;
+                }
+              }
+              f.kernel = id < 0 ? kNone : static_cast<std::uint32_t>(id * tile_cells_ + local);
+              f.phi = std::exp(-gamma_ * d2);
+              out.push_back(f);
+            }
       }
 }
 
+void JointBhm::features(const double* x, std::vector<Feature>& out) const {
+  const_cast<JointBhm*>(this)->features(x, out, false);  // creates nothing
+}
+
 void JointBhm::add_outer(const std::vector<Feature>& f, double c) {
-  for (const Feature& fa : f) {
+  // slot(b - a) = lin(b) - lin(a) + lin(pad, pad, pad), lin(g) = sum_d g_d box^d.
+  lin_.resize(f.size());
+  std::int64_t centre_lin = 0;
+  for (int d = dim_ - 1; d >= 0; --d) centre_lin = centre_lin * box_ + pad_;
+  for (std::size_t u = 0; u < f.size(); ++u) {
+    std::int64_t l = 0;
+    for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + f[u].cell[d];
+    lin_[u] = l;
+  }
+  const std::size_t m = f.size();
+  for (std::size_t u = 0; u < m; ++u) {
+    const Feature& fa = f[u];
     double* row = &prec_[std::size_t(fa.kernel) * slots_];
+    const std::int64_t base = centre_lin - lin_[u];
     const double ca = c * fa.phi;
-    for (const Feature& fb : f) {
-      std::int64_t slot = 0;
-      for (int d = dim_ - 1; d >= 0; --d) slot = slot * box_ + (fb.cell[d] - fa.cell[d] + pad_);
-      row[slot] += ca * fb.phi;
-    }
+    for (std::size_t v = 0; v < m; ++v) row[base + lin_[v]] += ca * f[v].phi;
     bcoup_[fa.kernel] += ca;
   }
   pbb_ += c;
 }
 
-void JointBhm::multiply(const std::vector<double>& x, double xb,
-                        const std::vector<std::uint32_t>& rows, std::vector<double>& y,
-                        double& yb) const {
-  yb = o_.bias ? pbb_ * xb : 0.0;
-  const std::int64_t* off = offset_.data();
-  for (std::uint32_t a : rows) {
-    const double* row = &prec_[std::size_t(a) * slots_];
-    const double* xa = &x[a];
-    double s0 = 0, s1 = 0;
-    std::int64_t s = 0;
-    for (; s + 1 < slots_; s += 2) {
-      s0 += row[s] * xa[off[s]];
-      s1 += row[s + 1] * xa[off[s + 1]];
+void JointBhm::mark_dirty(std::uint32_t s) {
+  // The exported variance of every kernel whose block holds s: s's tile, and the neighbours
+  // its block reaches into.
+  const std::uint64_t tid = s / static_cast<std::uint64_t>(tile_cells_);
+  const Tile& t = tiles_[tid];
+  std::int64_t l = std::int64_t(s % static_cast<std::uint64_t>(tile_cells_));
+  std::int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (int d = 0; d < dim_; ++d) {
+    const std::int64_t c = l % tile_;
+    l /= tile_;
+    lo[d] = c < hb_ ? -1 : 0;
+    hi[d] = c >= tile_ - hb_ ? 1 : 0;
+  }
+  for (std::int64_t dz = lo[2]; dz <= hi[2]; ++dz)
+    for (std::int64_t dy = lo[1]; dy <= hi[1]; ++dy)
+      for (std::int64_t dx = lo[0]; dx <= hi[0]; ++dx) {
+        const std::int64_t dt[3] = {dx, dy, dz};
+        const std::int32_t n = t.nb[nb_slot(dt)];
+        if (n >= 0) tile_dirty_[std::size_t(n)] = 1;
+      }
+}
+
+void JointBhm::gather(std::uint32_t tile, const double* x, std::vector<double>& ghost) const {
+  // The tile's values with a halo of pad_ cells from its neighbours (0 where none is stored),
+  // laid out ghost_ cells per axis (one layer in z for 2D).
+  const Tile& t = tiles_[tile];
+  const std::int64_t gz = dim_ == 3 ? ghost_ : 1, pz = dim_ == 3 ? pad_ : 0;
+  ghost.resize(static_cast<std::size_t>(ghost_ * ghost_ * gz));
+  double* out = ghost.data();
+  for (std::int64_t k = 0; k < gz; ++k) {
+    const std::int64_t lz = k - pz;
+    const std::int64_t dz = lz < 0 ? -1 : (lz >= (dim_ == 3 ? tile_ : 1) ? 1 : 0);
+    const std::int64_t sz = lz - dz * tile_;
+    for (std::int64_t j = 0; j < ghost_; ++j) {
+      const std::int64_t ly = j - pad_;
+      const std::int64_t dy = ly < 0 ? -1 : (ly >= tile_ ? 1 : 0);
+      const std::int64_t sy = ly - dy * tile_;
+      for (std::int64_t dx = -1; dx <= 1; ++dx) {
+        // x segment of this neighbour: ghost columns [c0, c1)
+        const std::int64_t c0 = dx < 0 ? 0 : (dx == 0 ? pad_ : pad_ + tile_);
+        const std::int64_t c1 = dx < 0 ? pad_ : (dx == 0 ? pad_ + tile_ : ghost_);
+        const std::int64_t dt[3] = {dx, dy, dz};
+        const std::int32_t n = t.nb[nb_slot(dt)];
+        double* dst = out + c0;
+        if (n < 0) {
+          std::fill(dst, dst + (c1 - c0), 0.0);
+          continue;
+        }
+        const std::int64_t sx = (c0 - pad_) - dx * tile_;
+        const std::int64_t base = std::int64_t(n) * tile_cells_ + (sz * tile_ + sy) * tile_ + sx;
+        std::memcpy(dst, x + base, sizeof(double) * std::size_t(c1 - c0));
+      }
+      out += ghost_;
     }
-    if (s < slots_) s0 += row[s] * xa[off[s]];
-    double v = s0 + s1;
-    if (o_.bias) {
-      v += bcoup_[a] * xb;
-      yb += bcoup_[a] * x[a];
-    }
-    y[a] = v;
   }
 }
 
-double JointBhm::solve(const std::vector<std::uint32_t>& rows, double tol, int max_it,
-                       std::size_t* its) {
+void JointBhm::multiply(const std::vector<double>& x, double xb,
+                        const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
+                        std::vector<double>& ghost) const {
+  yb = o_.bias ? pbb_ * xb : 0.0;
+  const std::int64_t* off = goff_.data();
+  const std::int64_t pz = dim_ == 3 ? pad_ : 0;
+  const auto tc = static_cast<std::uint32_t>(tile_cells_);
+  std::size_t i = 0;
+  while (i < rows.size()) {
+    const std::uint32_t tile = rows[i] / tc;
+    gather(tile, x.data(), ghost);
+    const double* gh = ghost.data();
+    for (; i < rows.size() && rows[i] / tc == tile; ++i) {
+      const std::uint32_t a = rows[i];
+      std::int64_t l = a - tile * tc;
+      const std::int64_t lx = l % tile_;
+      l /= tile_;
+      const std::int64_t ly = l % tile_;
+      const std::int64_t lz = l / tile_;
+      const double* xa = gh + ((lz + pz) * ghost_ + (ly + pad_)) * ghost_ + (lx + pad_);
+      const double* row = &prec_[std::size_t(a) * slots_];
+      double s0 = 0, s1 = 0;
+      std::int64_t s = 0;
+      for (; s + 1 < slots_; s += 2) {
+        s0 += row[s] * xa[off[s]];
+        s1 += row[s + 1] * xa[off[s + 1]];
+      }
+      if (s < slots_) s0 += row[s] * xa[off[s]];
+      double v = s0 + s1;
+      if (o_.bias) {
+        v += bcoup_[a] * xb;
+        yb += bcoup_[a] * x[a];
+      }
+      y[a] = v;
+    }
+  }
+}
+
+double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
+                       double tol, int max_it, std::size_t* its, Scratch& sc) const {
   // Conjugate gradients on the rows `rows` (and the bias), the other means held fixed, from
-  // the current means. Jacobi preconditioner.
-  const std::size_t st = mean_.size();
+  // the current x. Jacobi preconditioner. sc.p is zero outside `rows` on entry and on exit.
+  const std::size_t st = x.size();
   const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
-  std::vector<double> r(st, 0.0), z(st, 0.0), p(st, 0.0), q(st, 0.0);
+  for (std::vector<double>* v : {&sc.r, &sc.z, &sc.p, &sc.q})
+    if (v->size() < st) v->resize(st, 0.0);
+  std::vector<double>&r = sc.r, &z = sc.z, &p = sc.p, &q = sc.q;
   double rb = 0, zb = 0, pb = 0, qb = 0;
   double yb = 0;
-  multiply(mean_, meanb_, rows, q, yb);
+  multiply(x, xb, rows, q, yb, sc.ghost);
   // The bias row reads every mean, not only those of `rows`.
   if (o_.bias) {
-    yb = pbb_ * meanb_;
-    for (std::size_t a = 0; a < st; ++a) yb += bcoup_[a] * mean_[a];
+    yb = pbb_ * xb;
+    for (std::size_t a = 0; a < st; ++a) yb += bcoup_[a] * x[a];
     rb = etab_ - yb;
   }
   double rr = rb * rb, ee = etab_ * etab_;
@@ -213,19 +463,19 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, double tol, int m
   pb = zb;
   int it = 0;
   for (; it < max_it && rr > stop; ++it) {
-    multiply(p, pb, rows, q, qb);
+    multiply(p, pb, rows, q, qb, sc.ghost);
     double pq = pb * qb;
     for (std::uint32_t a : rows) pq += p[a] * q[a];
     if (!(pq > 0)) break;
     const double alpha = rz / pq;
     rr = 0;
     for (std::uint32_t a : rows) {
-      mean_[a] += alpha * p[a];
+      x[a] += alpha * p[a];
       r[a] -= alpha * q[a];
       rr += r[a] * r[a];
     }
     if (o_.bias) {
-      meanb_ += alpha * pb;
+      xb += alpha * pb;
       rb -= alpha * qb;
       rr += rb * rb;
     }
@@ -235,6 +485,7 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, double tol, int m
     for (std::uint32_t a : rows) p[a] = z[a] + beta * p[a];
     pb = zb + beta * pb;
   }
+  for (std::uint32_t a : rows) p[a] = 0;
   if (its) *its += static_cast<std::size_t>(it);
   return std::sqrt(rr / std::max(ee, 1e-300));
 }
@@ -252,12 +503,14 @@ void JointBhm::update(const LabelledPoints& samples) {
   std::vector<double> yc;
   feats.reserve(samples.size());
   std::vector<Feature> f;
+  // Tiles are allocated here, before any change to the posterior: a new tile holds the prior,
+  // so a throw (too many kernels) leaves the model as it was.
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const double* x = &samples.position[i * dim_];
     bool finite = true;
     for (int d = 0; d < dim_; ++d) finite = finite && std::isfinite(x[d]);
     if (!finite) continue;
-    features(x, f);
+    features(x, f, true);
     if (f.empty()) continue;
     feats.push_back(f);
     yc.push_back(samples.label[i] ? 0.5 : -0.5);
@@ -266,39 +519,36 @@ void JointBhm::update(const LabelledPoints& samples) {
   stats_.samples = n;
   if (n == 0) return;
 
-  // Rows to solve: the kernels the scan reaches, grown by the margin.
-  std::vector<std::uint8_t> mark(mean_.size(), 0);
+  // Rows to solve: the kernels the scan reaches, grown by the margin (stored kernels only: an
+  // unstored one couples to nothing and stays at its prior mean 0).
   std::vector<std::uint32_t> reached;
   for (const auto& fs : feats)
     for (const Feature& x : fs)
-      if (!mark[x.kernel]) {
-        mark[x.kernel] = 1;
+      if (!mark_[x.kernel]) {
+        mark_[x.kernel] = 1;
         touched_[x.kernel] = 1;
         reached.push_back(x.kernel);
       }
   std::vector<std::uint32_t> rows;
   const std::int64_t mg = o_.solve_margin;
+  const std::int64_t mz = dim_ == 3 ? mg : 0;
   for (std::uint32_t a : reached) {
-    std::int64_t c[3] = {0, 0, 0};
-    std::int64_t rest = a;
-    for (int d = 0; d < 3; ++d) {
-      c[d] = rest % sn_[d];
-      rest /= sn_[d];
-    }
-    const std::int64_t mz = dim_ == 3 ? mg : 0;
+    mark_dirty(a);
+    std::int64_t c[3];
+    cell_of(a, c);
+    const std::int64_t home = a / tile_cells_;
     for (std::int64_t dk = -mz; dk <= mz; ++dk)
       for (std::int64_t dj = -mg; dj <= mg; ++dj)
         for (std::int64_t di = -mg; di <= mg; ++di) {
           const std::int64_t g[3] = {c[0] + di, c[1] + dj, c[2] + dk};
-          bool inside = true;
-          for (int d = 0; d < dim_; ++d) inside = inside && g[d] >= pad_ && g[d] < pad_ + n_[d];
-          if (!inside) continue;
-          const std::size_t s = static_cast<std::size_t>((g[2] * sn_[1] + g[1]) * sn_[0] + g[0]);
-          if (mark[s] == 2) continue;
-          mark[s] = 2;
+          if (!in_grid(g)) continue;
+          const std::int64_t s = find_cell(g, home);
+          if (s < 0 || mark_[std::size_t(s)] == 2) continue;
+          mark_[std::size_t(s)] = 2;
           rows.push_back(static_cast<std::uint32_t>(s));
         }
   }
+  for (std::uint32_t a : rows) mark_[a] = 0;
   std::sort(rows.begin(), rows.end());
   stats_.active = rows.size();
 
@@ -324,7 +574,8 @@ void JointBhm::update(const LabelledPoints& samples) {
       add_outer(feats[i], 2.0 * (next[i] - lambda[i]));
       lambda[i] = next[i];
     }
-    stats_.residual = solve(rows, o_.cg_tolerance, o_.cg_max_iterations, &stats_.cg_iterations);
+    stats_.residual = solve(rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
+                            &stats_.cg_iterations, scratch_);
   }
 }
 
@@ -348,52 +599,53 @@ void JointBhm::update_by_scan(const LabelledPoints& samples) {
   }
 }
 
-double JointBhm::predictive_var_at(std::uint32_t k, std::vector<double>& scratch) const {
-  // phi(h_k)^T (P_BB)^-1 phi(h_k) on the block B of kernels that reach h_k: the variance with
-  // the kernels outside the block held at their means (a slight underestimate).
-  const std::int64_t hb = block_half_width(rcut_, o_.spacing);
-  std::int64_t c[3] = {0, 0, 0};
-  std::int64_t rest = k;
-  for (int d = 0; d < 3; ++d) {
-    c[d] = rest % sn_[d];
-    rest /= sn_[d];
-  }
-  std::vector<std::uint32_t> block;
-  std::vector<std::int64_t> slot_base;
-  std::vector<double> phi;
-  const std::int64_t hz = dim_ == 3 ? hb : 0;
+bool JointBhm::near_data(const std::int64_t g[3], std::int64_t hint) const {
+  // Whether a sample or a seed reached a kernel of g's block.
+  const std::int64_t hz = dim_ == 3 ? hb_ : 0;
   for (std::int64_t dk = -hz; dk <= hz; ++dk)
-    for (std::int64_t dj = -hb; dj <= hb; ++dj)
-      for (std::int64_t di = -hb; di <= hb; ++di) {
-        const std::int64_t g[3] = {c[0] + di, c[1] + dj, c[2] + dk};
-        bool inside = true;
-        for (int d = 0; d < dim_; ++d) inside = inside && g[d] >= pad_ && g[d] < pad_ + n_[d];
-        if (!inside) continue;
+    for (std::int64_t dj = -hb_; dj <= hb_; ++dj)
+      for (std::int64_t di = -hb_; di <= hb_; ++di) {
+        const std::int64_t c[3] = {g[0] + di, g[1] + dj, g[2] + dk};
+        const std::int64_t s = find_cell(c, hint);
+        if (s >= 0 && (touched_[std::size_t(s)] || seeded_[std::size_t(s)])) return true;
+      }
+  return false;
+}
+
+double JointBhm::predictive_var_at(const std::int64_t g[3], std::int64_t hint,
+                                   std::vector<double>& scratch) const {
+  // phi(h_k)^T (P_BB)^-1 phi(h_k) on the block B of kernels that reach h_k: the variance with
+  // the kernels outside the block held at their means (a slight underestimate). Kernels of the
+  // block that are not stored hold their prior.
+  std::vector<std::int64_t> block;
+  std::vector<std::int64_t> cells;
+  std::vector<double> phi;
+  const std::int64_t hz = dim_ == 3 ? hb_ : 0;
+  for (std::int64_t dk = -hz; dk <= hz; ++dk)
+    for (std::int64_t dj = -hb_; dj <= hb_; ++dj)
+      for (std::int64_t di = -hb_; di <= hb_; ++di) {
+        const std::int64_t c[3] = {g[0] + di, g[1] + dj, g[2] + dk};
+        if (!in_grid(c)) continue;
         const double d2 =
             (double(di * di) + double(dj * dj) + double(dk * dk)) * o_.spacing * o_.spacing;
         if (gamma_ * d2 > o_.tau) continue;
-        block.push_back(static_cast<std::uint32_t>((g[2] * sn_[1] + g[1]) * sn_[0] + g[0]));
+        block.push_back(find_cell(c, hint));
+        cells.insert(cells.end(), {c[0], c[1], c[2]});
         phi.push_back(std::exp(-gamma_ * d2));
       }
   const std::size_t b = block.size();
   scratch.assign(b * b, 0.0);
   Eigen::Map<Eigen::MatrixXd> A(scratch.data(), Eigen::Index(b), Eigen::Index(b));
-  std::int64_t cell[3];
   for (std::size_t u = 0; u < b; ++u) {
-    std::int64_t ru = block[u];
-    for (int d = 0; d < 3; ++d) {
-      cell[d] = ru % sn_[d];
-      ru /= sn_[d];
+    if (block[u] < 0) {
+      A(Eigen::Index(u), Eigen::Index(u)) = 1.0 / o_.prior_var;
+      continue;
     }
     const double* row = &prec_[std::size_t(block[u]) * slots_];
     for (std::size_t v = 0; v < b; ++v) {
-      std::int64_t rv = block[v], slot = 0;
-      std::int64_t cv[3];
-      for (int d = 0; d < 3; ++d) {
-        cv[d] = rv % sn_[d];
-        rv /= sn_[d];
-      }
-      for (int d = dim_ - 1; d >= 0; --d) slot = slot * box_ + (cv[d] - cell[d] + pad_);
+      std::int64_t slot = 0;
+      for (int d = dim_ - 1; d >= 0; --d)
+        slot = slot * box_ + (cells[3 * v + d] - cells[3 * u + d] + pad_);
       A(Eigen::Index(u), Eigen::Index(v)) = row[slot];
     }
   }
@@ -401,6 +653,13 @@ double JointBhm::predictive_var_at(std::uint32_t k, std::vector<double>& scratch
   const Eigen::LLT<Eigen::MatrixXd> llt(A);
   if (llt.info() != Eigen::Success) return o_.prior_var * ph.squaredNorm();
   return ph.dot(llt.solve(ph));
+}
+
+double JointBhm::exported_var(const std::int64_t g[3], std::int64_t s,
+                              std::vector<double>& scratch) const {
+  const std::int64_t hint = s >= 0 ? s / tile_cells_ : -1;
+  if (!near_data(g, hint)) return o_.prior_var;
+  return std::min(o_.prior_var, predictive_var_at(g, hint, scratch) / sum_phi2_);
 }
 
 std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, double min_support) {
@@ -415,22 +674,28 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
   const double reach = index.max_reach();
   std::int64_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
   for (int d = 0; d < dim_; ++d) {
-    a[d] = std::max<std::int64_t>(
-        0, static_cast<std::int64_t>(std::floor((lo[d] - reach - lo_[d]) / o_.spacing)));
-    b[d] = std::min<std::int64_t>(
-        n_[d] - 1, static_cast<std::int64_t>(std::ceil((hi[d] + reach - lo_[d]) / o_.spacing)));
-    if (a[d] > b[d]) return 0;
+    double ua = std::floor((lo[d] - reach - lo_[d]) / o_.spacing);
+    double ub = std::ceil((hi[d] + reach - lo_[d]) / o_.spacing);
+    ua = std::max(ua, bounded_ ? 0.0 : double(1 - kCellLimit));
+    ub = std::min(ub, bounded_ ? double(n_[d] - 1) : double(kCellLimit - 1));
+    if (!(ua <= ub)) return 0;
+    a[d] = static_cast<std::int64_t>(ua);
+    b[d] = static_cast<std::int64_t>(ub);
   }
   const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
   const double floor_var = std::min(std::max(min_var, 1e-12), o_.prior_var);
   std::vector<std::uint32_t> near;
   std::size_t seeded = 0;
+  std::int64_t hint = -1;
   for (std::int64_t k = a[2]; k <= b[2]; ++k)
     for (std::int64_t j = a[1]; j <= b[1]; ++j)
       for (std::int64_t i = a[0]; i <= b[0]; ++i) {
-        const std::int64_t g[3] = {i + pad_, j + pad_, dim_ == 3 ? k + pad_ : 0};
-        const std::size_t s = static_cast<std::size_t>((g[2] * sn_[1] + g[1]) * sn_[0] + g[0]);
-        if (touched_[s] || seeded_[s]) continue;
+        const std::int64_t g[3] = {i, j, dim_ == 3 ? k : 0};
+        std::int64_t s = find_cell(g, hint);
+        if (s >= 0) {
+          hint = s / tile_cells_;
+          if (touched_[std::size_t(s)] || seeded_[std::size_t(s)]) continue;
+        }
         const double x[3] = {lo_[0] + double(i) * o_.spacing, lo_[1] + double(j) * o_.spacing,
                              lo_[2] + double(k) * o_.spacing};
         near.clear();
@@ -448,90 +713,123 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
           support += phi;
         }
         if (support < min_support) continue;
+        if (s < 0) {
+          std::int64_t t[3] = {0, 0, 0};
+          for (int d = 0; d < dim_; ++d) t[d] = floor_div(g[d], tile_);
+          make_tile(t);
+          s = find_cell(g, -1);
+          hint = s / tile_cells_;
+        }
+        const auto su = static_cast<std::size_t>(s);
         const double m0 = mu / grid_sum_;
         const double v0 = std::min(o_.prior_var, std::max(floor_var, s2 / grid_sum2_));
         // Replace the prior's part of the natural parameters: precision 1/v0, eta m0/v0.
-        prec_[s * slots_ + centre] += 1.0 / v0 - 1.0 / o_.prior_var;
-        eta_[s] += m0 / v0;
-        mean_[s] = m0;
-        seeded_[s] = 1;
+        prec_[su * slots_ + centre] += 1.0 / v0 - 1.0 / o_.prior_var;
+        eta_[su] += m0 / v0;
+        mean_[su] = m0;
+        seeded_[su] = 1;
+        mark_dirty(static_cast<std::uint32_t>(s));
         ++seeded;
       }
   return seeded;
 }
 
-KernelMap JointBhm::map() {
-  // Polish the means over every kernel a sample reached (and the margin).
+KernelMap JointBhm::map() const {
+  // Polish the means over every kernel a sample or a seed reached, on a copy.
   std::vector<std::uint32_t> rows;
   for (std::size_t a = 0; a < touched_.size(); ++a)
     if (touched_[a] || seeded_[a]) rows.push_back(static_cast<std::uint32_t>(a));
-  if (!rows.empty()) solve(rows, 1e-8, 4 * o_.cg_max_iterations, nullptr);
-
-  const std::int64_t hb = block_half_width(rcut_, o_.spacing);
-  double sum_phi2 = 0;  // sum over the block of phi(h_k)^2 (the same for every interior kernel)
-  for (std::int64_t dk = -(dim_ == 3 ? hb : 0); dk <= (dim_ == 3 ? hb : 0); ++dk)
-    for (std::int64_t dj = -hb; dj <= hb; ++dj)
-      for (std::int64_t di = -hb; di <= hb; ++di) {
-        const double d2 =
-            (double(di * di) + double(dj * dj) + double(dk * dk)) * o_.spacing * o_.spacing;
-        if (gamma_ * d2 <= o_.tau) sum_phi2 += std::exp(-2 * gamma_ * d2);
-      }
+  std::vector<double> mean = mean_;
+  double meanb = meanb_;
+  if (!rows.empty()) {
+    Scratch sc;
+    solve(rows, mean, meanb, 1e-8, 4 * o_.cg_max_iterations, nullptr, sc);
+  }
+  // Variances of the tiles whose precision changed since the last export.
+  std::vector<double> scratch;
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    if (!tile_dirty_[t]) continue;
+    for (std::int64_t l = 0; l < tile_cells_; ++l) {
+      const auto s = static_cast<std::uint32_t>(std::int64_t(t) * tile_cells_ + l);
+      std::int64_t g[3];
+      cell_of(s, g);
+      var_[s] = in_grid(g) ? exported_var(g, s, scratch) : o_.prior_var;
+    }
+    tile_dirty_[t] = 0;
+  }
   KernelMap m;
   m.dim = dim_;
   m.reserve(size());
-  std::vector<double> scratch;
-  for (std::int64_t k = 0; k < n_[2]; ++k)
-    for (std::int64_t j = 0; j < n_[1]; ++j)
-      for (std::int64_t i = 0; i < n_[0]; ++i) {
-        const std::int64_t g[3] = {i + pad_, dim_ >= 2 ? j + pad_ : j, dim_ == 3 ? k + pad_ : k};
-        const auto s = static_cast<std::uint32_t>((g[2] * sn_[1] + g[1]) * sn_[0] + g[0]);
-        const double p[3] = {lo_[0] + double(i) * o_.spacing, lo_[1] + double(j) * o_.spacing,
-                             lo_[2] + double(k) * o_.spacing};
-        // A kernel whose block no sample reached keeps its prior.
-        bool near_data = false;
-        for (std::int64_t dk = -(dim_ == 3 ? hb : 0); dk <= (dim_ == 3 ? hb : 0) && !near_data;
-             ++dk)
-          for (std::int64_t dj = -hb; dj <= hb && !near_data; ++dj)
-            for (std::int64_t di = -hb; di <= hb && !near_data; ++di) {
-              const std::int64_t idx = s + (dk * sn_[1] + dj) * sn_[0] + di;
-              near_data = touched_[std::size_t(idx)] != 0 || seeded_[std::size_t(idx)] != 0;
-            }
-        double var = o_.prior_var;
-        if (near_data) var = std::min(o_.prior_var, predictive_var_at(s, scratch) / sum_phi2);
-        m.push_back(p, gamma_, mean_[s], var);
-      }
+  auto position = [&](const std::int64_t g[3], double p[3]) {
+    for (int d = 0; d < 3; ++d) p[d] = d < dim_ ? lo_[d] + double(g[d]) * o_.spacing : 0.0;
+  };
+  if (bounded_) {
+    std::int64_t hint = -1;
+    for (std::int64_t k = 0; k < (dim_ == 3 ? n_[2] : 1); ++k)
+      for (std::int64_t j = 0; j < n_[1]; ++j)
+        for (std::int64_t i = 0; i < n_[0]; ++i) {
+          const std::int64_t g[3] = {i, j, k};
+          double p[3];
+          position(g, p);
+          const std::int64_t s = find_cell(g, hint);
+          if (s >= 0) {
+            hint = s / tile_cells_;
+            m.push_back(p, gamma_, mean[std::size_t(s)], var_[std::size_t(s)]);
+          } else {
+            // Not stored: its prior mean, and the variance of its block (which may hold a
+            // stored neighbour).
+            m.push_back(p, gamma_, 0.0, exported_var(g, -1, scratch));
+          }
+        }
+  } else {
+    for (std::uint32_t s = 0; s < mean.size(); ++s) {
+      std::int64_t g[3];
+      cell_of(s, g);
+      double p[3];
+      position(g, p);
+      m.push_back(p, gamma_, mean[s], var_[s]);
+    }
+  }
   m.has_bias = o_.bias;
   if (o_.bias) {
-    m.bias_mean = meanb_;
+    m.bias_mean = meanb;
     m.bias_var = 1.0 / pbb_;
   }
   return m;
 }
 
-void JointBhm::predict_exact(const double* points, std::size_t n, double* mean, double* var) {
-  // P over the interior kernels (and the bias, last) as a sparse matrix; one factorisation.
+void JointBhm::predict_exact(const double* points, std::size_t n, double* mean, double* var) const {
+  // P over the stored kernels of the grid (and the bias, last) as a sparse matrix; one
+  // factorisation. Kernels not stored are independent at their prior (mean 0, prior_var).
   std::vector<std::int64_t> index(mean_.size(), -1);
-  std::vector<std::uint32_t> interior;
-  for (std::int64_t k = 0; k < n_[2]; ++k)
-    for (std::int64_t j = 0; j < n_[1]; ++j)
-      for (std::int64_t i = 0; i < n_[0]; ++i) {
-        const std::int64_t g[3] = {i + pad_, j + pad_, dim_ == 3 ? k + pad_ : 0};
-        const std::size_t s = static_cast<std::size_t>((g[2] * sn_[1] + g[1]) * sn_[0] + g[0]);
-        index[s] = std::int64_t(interior.size());
-        interior.push_back(static_cast<std::uint32_t>(s));
-      }
-  const auto m = Eigen::Index(interior.size());
+  std::vector<std::uint32_t> stored;
+  for (std::uint32_t s = 0; s < mean_.size(); ++s) {
+    std::int64_t g[3];
+    cell_of(s, g);
+    if (!in_grid(g)) continue;
+    index[s] = std::int64_t(stored.size());
+    stored.push_back(s);
+  }
+  const auto m = Eigen::Index(stored.size());
   const Eigen::Index dimp = m + (o_.bias ? 1 : 0);
   std::vector<Eigen::Triplet<double>> t;
   for (Eigen::Index u = 0; u < m; ++u) {
-    const std::uint32_t a = interior[std::size_t(u)];
+    const std::uint32_t a = stored[std::size_t(u)];
+    std::int64_t g[3];
+    cell_of(a, g);
     const double* row = &prec_[std::size_t(a) * slots_];
-    for (std::int64_t s = 0; s < slots_; ++s)
-      if (row[s] != 0) {
-        const std::int64_t b = std::int64_t(a) + offset_[std::size_t(s)];
-        if (b >= 0 && std::size_t(b) < index.size() && index[std::size_t(b)] >= 0)
-          t.emplace_back(u, Eigen::Index(index[std::size_t(b)]), row[s]);
+    const std::int64_t home = a / tile_cells_;
+    for (std::int64_t s = 0; s < slots_; ++s) {
+      if (row[s] == 0) continue;
+      std::int64_t rest = s, c[3] = {g[0], g[1], g[2]};
+      for (int d = 0; d < dim_; ++d) {
+        c[d] += rest % box_ - pad_;
+        rest /= box_;
       }
+      const std::int64_t b = find_cell(c, home);
+      if (b >= 0 && index[std::size_t(b)] >= 0)
+        t.emplace_back(u, Eigen::Index(index[std::size_t(b)]), row[s]);
+    }
     if (o_.bias && bcoup_[a] != 0) {
       t.emplace_back(u, m, bcoup_[a]);
       t.emplace_back(m, u, bcoup_[a]);
@@ -543,7 +841,7 @@ void JointBhm::predict_exact(const double* points, std::size_t n, double* mean, 
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(P);
   if (ldlt.info() != Eigen::Success) throw Error("joint BHM: precision not positive definite");
   Eigen::VectorXd eta(dimp);
-  for (Eigen::Index u = 0; u < m; ++u) eta[u] = eta_[interior[std::size_t(u)]];
+  for (Eigen::Index u = 0; u < m; ++u) eta[u] = eta_[stored[std::size_t(u)]];
   if (o_.bias) eta[m] = etab_;
   const Eigen::VectorXd w = ldlt.solve(eta);
   std::vector<Feature> f;
@@ -551,10 +849,16 @@ void JointBhm::predict_exact(const double* points, std::size_t n, double* mean, 
   for (std::size_t i = 0; i < n; ++i) {
     features(points + i * dim_, f);
     phi.setZero();
-    for (const Feature& x : f) phi[index[x.kernel]] = x.phi;
+    double prior_part = 0;
+    for (const Feature& x : f) {
+      if (x.kernel == kNone)
+        prior_part += o_.prior_var * x.phi * x.phi;
+      else
+        phi[index[x.kernel]] = x.phi;
+    }
     if (o_.bias) phi[m] = 1.0;
     mean[i] = phi.dot(w);
-    var[i] = phi.dot(ldlt.solve(phi));
+    var[i] = phi.dot(ldlt.solve(phi)) + prior_part;
   }
 }
 

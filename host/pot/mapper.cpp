@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <future>
 #include <memory>
 #include <string>
@@ -65,12 +66,37 @@ MapperOptions with_preselector(const Dictionary& dict, MapperOptions o) {
   return o;
 }
 
+// The transfer settings of one scan: the persistent map does RePOT's refinement.
+PotOptions transfer_options(const MapperOptions& o) {
+  PotOptions p = o.pot;
+  if (persistent_refine(o)) p.refine = false;
+  return p;
+}
+
+MappedScan finish(Context* ctx, const Dictionary& dict, Prepared&& cur, std::size_t i,
+                  const MapperOptions& o, const PotOptions& po) {
+  const auto t0 = std::chrono::steady_clock::now();
+  MappedScan m;
+  m.index = i;
+  if (persistent_refine(o)) m.train = cur.transfer.train;
+  m.transfer = finish_transfer(ctx, dict, std::move(cur.transfer), po);
+  m.test = std::move(cur.test);
+  m.wall_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return m;
+}
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 }  // namespace
 
 void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
                const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan) {
   if (scans.empty()) return;
   const MapperOptions& o = with_preselector(dict, options);
+  const PotOptions po = transfer_options(o);
   const auto launch = o.pipeline ? std::launch::async : std::launch::deferred;
   std::future<Prepared> next = std::async(launch, prepare, std::cref(dict), std::cref(scans[0]),
                                           std::size_t{0}, std::cref(o));
@@ -79,15 +105,35 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
     if (i + 1 < scans.size())
       next = std::async(launch, prepare, std::cref(dict), std::cref(scans[i + 1]), i + 1,
                         std::cref(o));
-    const auto t0 = std::chrono::steady_clock::now();
-    MappedScan m;
-    m.index = i;
-    m.transfer = finish_transfer(ctx, dict, std::move(cur.transfer), o.pot);
-    m.test = std::move(cur.test);
-    m.wall_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    on_scan(std::move(m));
+    on_scan(finish(ctx, dict, std::move(cur), i, o, po));
   }
+}
+
+RepotMap::RepotMap(int dim, const MapperOptions& options)
+    : learner_(dim, options.refine_map), seed_min_variance_(options.seed_min_variance) {
+  if (!(seed_min_variance_ >= 0) || !std::isfinite(seed_min_variance_))
+    throw ArgumentError("RepotMap: seed_min_variance must be >= 0 and finite");
+}
+
+std::size_t RepotMap::add(const KernelMap& transported, const LabelledPoints& train) {
+  export_.reset();
+  std::size_t seeded = 0;
+  if (!transported.empty()) seeded = learner_.seed_unreached(transported, seed_min_variance_);
+  learner_.update(train);
+  return seeded;
+}
+
+const KernelMap& RepotMap::map() const {
+  if (!export_) export_ = learner_.map();
+  return *export_;
+}
+
+std::size_t RepotMap::memory_bytes() const {
+  std::size_t b = learner_.memory_bytes();
+  if (export_)
+    b += 8 * (export_->position.capacity() + export_->gamma.capacity() +
+              export_->w_mean.capacity() + export_->w_var.capacity());
+  return b;
 }
 
 Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const MapperOptions& options,
@@ -99,33 +145,45 @@ Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const Mappe
   if (!dict_) throw ArgumentError("Mapper: the dictionary is null");
   if (dict_->empty()) throw ArgumentError("Mapper: the dictionary has no atoms");
   options_ = with_preselector(*dict_, options_);
-  last_.transfer.map.dim = last_.test.dim = dict_->dim;
+  if (persistent_refine(options_)) repot_.emplace(dict_->dim, options_);
+  last_.transfer.map.dim = last_.test.dim = last_.train.dim = dict_->dim;
 }
 
 const MappedScan& Mapper::add_scan(const Scan& scan) {
   Prepared cur = prepare(*dict_, scan, scans_, options_);
-  const auto t0 = std::chrono::steady_clock::now();
-  MappedScan m;
-  m.index = scans_;
-  m.transfer = finish_transfer(ctx_, *dict_, std::move(cur.transfer), options_.pot);
-  m.test = std::move(cur.test);
-  m.wall_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  MappedScan m = finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_));
   const auto t1 = std::chrono::steady_clock::now();
   MapperMerge merge;
-  if (!m.transfer.map.empty()) merge.stats = overall_.add(m.transfer.map);
-  merge.merge_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+  if (repot_) {
+    merge.seeded = repot_->add(m.transfer.map, m.train);
+    m.transfer.timing.refine_ms += ms_since(t1);
+  } else {
+    if (!m.transfer.map.empty()) merge.stats = overall_.add(m.transfer.map);
+    merge.merge_ms = ms_since(t1);
+  }
   last_ = std::move(m);
   merge_ = merge;
   ++scans_;
   return last_;
 }
 
+const KernelMap& Mapper::overall_map() const {
+  return repot_ ? repot_->map() : overall_.map();
+}
+
+std::size_t Mapper::overall_kernels() const {
+  return repot_ ? repot_->size() : overall_.size();
+}
+
+std::size_t Mapper::overall_memory_bytes() const {
+  return repot_ ? repot_->memory_bytes() : overall_.memory_bytes();
+}
+
 void Mapper::reset() {
   overall_ = OverallMap(dict_->dim, overall_.options());
+  if (repot_) repot_.emplace(dict_->dim, options_);
   last_ = MappedScan();
-  last_.transfer.map.dim = last_.test.dim = dict_->dim;
+  last_.transfer.map.dim = last_.test.dim = last_.train.dim = dict_->dim;
   merge_ = MapperMerge();
   scans_ = 0;
 }

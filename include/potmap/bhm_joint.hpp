@@ -15,12 +15,23 @@
 // solved by conjugate gradients warm-started from the previous scan, on the kernels the scan
 // reaches plus a margin. P is stored per kernel as a stencil of its grid neighbours.
 //
+// Storage is in tiles of kernels (32 x 32 in 2D, 8 x 8 x 8 in 3D, larger when the stencil is
+// wider than a tile; a 3D kernel's stencil holds 15^3 doubles at the default width, so 3D tiles
+// are kept small), allocated when a sample or a seed first reaches them and found through a
+// hash map of tile coordinates: memory grows with the area the samples cover, never with the
+// number of scans (driving over the same place again allocates nothing). A kernel no sample or
+// seed reached is never stored; it holds its prior (mean 0, variance prior_var) exactly, which
+// is what an allocated but unreached kernel holds too. The grid may be unbounded (the
+// growable constructor: kernels at integer multiples of the spacing) or clipped to bounds
+// known in advance (kernels from lo to hi, as a dense grid over them would be).
+//
 // A KernelMap carries one variance per kernel, so the exported w_var is chosen to reproduce the
 // posterior's predictive variance phi(x)^T P^-1 phi(x) at each kernel centre (computed on a
 // local block of P around the kernel); see JointBhm::map().
 
 #include <cstddef>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "potmap/export.h"
@@ -56,6 +67,10 @@ struct JointBhmOptions {
   /// Extra rings of kernels, in spacings, solved around the ones a scan reaches (default 4: the
   /// change of the mean decays over a few kernel widths).
   int solve_margin = 4;
+  /// At most this many stored kernels (default 2^26, the most the storage can address): a
+  /// guard against runaway input (samples scattered over a huge area). Each stored kernel
+  /// holds its precision stencil, (2 ceil(2 sqrt(tau / gamma) / spacing) + 1)^dim doubles.
+  std::size_t max_kernels = std::size_t(1) << 26;
 };
 
 /// Counters of the last update() (for tests, benchmarks and progress).
@@ -66,16 +81,23 @@ struct JointBhmStats {
   double residual = 0;            ///< relative residual at the end of the last solve
 };
 
-/// The online learner. Not thread-safe; cheap to move.
+/// The online learner. Not thread-safe (map() fills a cache; two threads may not call even
+/// its const members at once); copyable and cheap to move.
 class JointBhm {
  public:
-  /// Kernels on a grid over [lo, hi] (metres; `dim` = 2 or 3 axes used), starting at lo and
-  /// `options.spacing` apart. Throws ArgumentError on bad options or bounds, or more than
-  /// 2^26 kernels.
+  /// A growable map: kernels on the unbounded grid of `options.spacing` through the origin
+  /// (`dim` = 2 or 3 axes), stored when first reached. Throws ArgumentError on bad options.
+  explicit JointBhm(int dim, const JointBhmOptions& options = {});
+
+  /// Kernels on a grid over [lo, hi] only (metres; `dim` = 2 or 3 axes used), starting at lo
+  /// and `options.spacing` apart; samples and seeds reach no kernel outside it. Throws
+  /// ArgumentError on bad options or bounds, or more than 2^26 kernels.
   JointBhm(int dim, const double lo[3], const double hi[3], const JointBhmOptions& options = {});
 
-  /// Adds one scan's labelled samples (any scan index; samples outside the grid's reach are
-  /// ignored). Empty input does nothing. Throws ArgumentError on a dimension mismatch.
+  /// Adds one scan's labelled samples (any scan index; samples beyond the grid's reach, or
+  /// farther than 2^22 spacings from the origin, are ignored). Empty input does nothing.
+  /// Throws ArgumentError on a dimension mismatch or when the map would pass
+  /// options.max_kernels stored kernels (the posterior is unchanged then).
   void update(const LabelledPoints& samples);
 
   /// Adds the samples of every scan index in increasing order, one update() per scan.
@@ -85,59 +107,110 @@ class JointBhm {
   /// place (RePOT: the scan's transported kernels). Where `field`'s kernels weigh at least
   /// `min_support` (sum of their phi at the grid kernel), the grid kernel's prior becomes the
   /// weight and variance that reproduce field's logit mean and variance there, the variance
-  /// clamped to [min_var, prior_var]. Kernels a sample already reached keep their posterior;
-  /// the bias is untouched. Returns the number of kernels seeded. Throws ArgumentError on a
-  /// dimension mismatch.
+  /// clamped to [min_var, prior_var]. Kernels a sample already reached, or an earlier seed
+  /// seeded, keep their posterior; the bias is untouched. Returns the number of kernels
+  /// seeded. Throws ArgumentError on a dimension mismatch.
   std::size_t seed_unreached(const KernelMap& field, double min_var = 1.0,
                              double min_support = 0.3);
 
-  /// The map: every grid kernel with its posterior mean, and the variance that reproduces the
-  /// predictive variance at its centre (the prior variance where no sample reached it); the
-  /// bias weight with its posterior. Polishes the means with a global solve first.
-  KernelMap map();
+  /// The map: its kernels with their posterior means, and the variance that reproduces the
+  /// predictive variance at each centre (the prior variance where no sample or seed reached
+  /// its block); the bias weight with its posterior. Bounded: every grid kernel, in raster
+  /// order. Growable: every stored kernel (whole tiles, in storage order); unstored kernels
+  /// are at their prior mean 0 and left out. The means are polished by a solve over every
+  /// reached kernel first (on a copy: the learner's state is unchanged, so when and how often
+  /// a caller exports makes no difference to later updates). The variances, a small dense
+  /// solve per kernel, are cached per tile and recomputed only for tiles whose precision
+  /// changed since the last call.
+  KernelMap map() const;
 
   /// Posterior mean and variance of the logit at n points (n * dim coordinates), exactly:
   /// phi^T P^-1 eta and phi^T P^-1 phi, by a sparse Cholesky factorisation of the whole
-  /// precision and one solve per point (no conjugate gradients): for tests and small maps.
-  void predict_exact(const double* points, std::size_t n, double* mean, double* var);
+  /// stored precision and one solve per point (no conjugate gradients): for tests and small
+  /// maps.
+  void predict_exact(const double* points, std::size_t n, double* mean, double* var) const;
 
-  std::size_t size() const;  ///< kernels (without the bias)
+  /// Kernels (without the bias): bounded, the grid's; growable, the stored ones.
+  std::size_t size() const;
+  /// Stored tiles.
+  std::size_t tiles() const { return tiles_.size(); }
+  /// Whether the grid is clipped to the bounds of the constructor.
+  bool bounded() const { return bounded_; }
+  /// Bytes held: the tiles' precision stencils, natural parameters, means, flags and cached
+  /// variances, the tile index and the solver's scratch (capacities, not sizes).
+  std::size_t memory_bytes() const;
   double gamma() const { return gamma_; }
   const JointBhmOptions& options() const { return o_; }
   const JointBhmStats& last_stats() const { return stats_; }
 
  private:
+  static constexpr std::uint32_t kNone = 0xffffffffu;
   struct Feature {
-    std::uint32_t kernel;  // storage index
-    std::int32_t cell[3];  // storage grid coordinates
+    std::uint32_t kernel;  // storage index (kNone: not stored, at its prior)
+    std::int32_t cell[3];  // grid coordinates
     double phi;
   };
+  struct Tile {
+    std::int32_t coord[3];  // tile coordinates: cells coord * tile_ .. coord * tile_ + tile_-1
+    std::int32_t nb[27];    // neighbour tiles (dx+1) + 3 (dy+1) + 9 (dz+1); -1: not stored
+  };
+  struct Scratch {
+    std::vector<double> r, z, p, q, ghost;
+  };
+  void init(int dim, const JointBhmOptions& o);
+  static std::uint64_t tile_key(const std::int64_t t[3]);
+  std::int64_t find_tile(const std::int64_t t[3]) const;
+  std::uint32_t make_tile(const std::int64_t t[3]);
+  // Storage index of grid cell g, or -1 when not stored; `hint` a stored tile within one tile
+  // of g's (faster: no hashing), or -1.
+  std::int64_t find_cell(const std::int64_t g[3], std::int64_t hint = -1) const;
+  void cell_of(std::uint32_t s, std::int64_t g[3]) const;
+  bool in_grid(const std::int64_t g[3]) const;
+  void features(const double* x, std::vector<Feature>& out, bool create);
   void features(const double* x, std::vector<Feature>& out) const;
   void add_outer(const std::vector<Feature>& f, double c);
-  // y = P x on the rows `rows` (storage indices); the bias row when with_bias.
+  void mark_dirty(std::uint32_t s);
+  void gather(std::uint32_t tile, const double* x, std::vector<double>& ghost) const;
+  // y = P x on the rows `rows` (sorted storage indices); the bias row when with bias.
   void multiply(const std::vector<double>& x, double xb, const std::vector<std::uint32_t>& rows,
-                std::vector<double>& y, double& yb) const;
-  double solve(const std::vector<std::uint32_t>& rows, double tol, int max_it, std::size_t* its);
-  double predictive_var_at(std::uint32_t k, std::vector<double>& block_scratch) const;
+                std::vector<double>& y, double& yb, std::vector<double>& ghost) const;
+  double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
+               double tol, int max_it, std::size_t* its, Scratch& s) const;
+  bool near_data(const std::int64_t g[3], std::int64_t hint) const;
+  double predictive_var_at(const std::int64_t g[3], std::int64_t hint,
+                           std::vector<double>& block_scratch) const;
+  double exported_var(const std::int64_t g[3], std::int64_t s, std::vector<double>& scratch) const;
 
   JointBhmOptions o_;
   int dim_ = 2;
   double gamma_ = 0, rcut_ = 0;
-  double lo_[3] = {0, 0, 0};
-  std::int64_t n_[3] = {1, 1, 1};        // interior kernels per axis
-  std::int64_t pad_ = 0;                 // storage rings on each side (stencil half-width)
-  std::int64_t sn_[3] = {1, 1, 1};       // storage cells per axis (interior + 2 pad)
-  std::vector<std::int64_t> offset_;     // stencil slot -> storage index difference
-  std::int64_t box_ = 0;                 // 2 * pad + 1
-  std::int64_t slots_ = 0;               // box^dim
-  std::vector<double> prec_;             // storage x stencil
-  std::vector<double> eta_;              // storage
-  std::vector<double> mean_;             // storage
-  std::vector<double> bcoup_;            // storage: P(bias, k)
-  std::vector<std::uint8_t> touched_;    // storage: a sample reached it
-  std::vector<std::uint8_t> seeded_;     // storage: its prior came from seed_unreached()
+  bool bounded_ = false;
+  double lo_[3] = {0, 0, 0};        // position of grid cell (0, 0, 0)
+  std::int64_t n_[3] = {1, 1, 1};   // bounded: kernels per axis, cells 0 .. n-1
+  std::int64_t pad_ = 0;            // stencil half-width, in cells
+  std::int64_t box_ = 0;            // 2 * pad + 1
+  std::int64_t slots_ = 0;          // box^dim
+  std::int64_t hb_ = 0;             // half-width of the exported variance's block
+  std::int64_t tile_ = 32;          // cells per tile axis
+  std::int64_t tile_cells_ = 1;     // tile^dim
+  std::int64_t ghost_ = 0;          // tile + 2 pad: cells per axis of a tile with its halo
+  std::vector<std::int64_t> goff_;  // stencil slot -> index difference in the halo block
+  std::vector<Tile> tiles_;
+  std::unordered_map<std::uint64_t, std::uint32_t> tile_index_;
+  std::vector<double> prec_;                      // storage x stencil
+  std::vector<double> eta_;                       // storage
+  std::vector<double> mean_;                      // storage
+  std::vector<double> bcoup_;                     // storage: P(bias, k)
+  std::vector<std::uint8_t> touched_;             // storage: a sample reached it
+  std::vector<std::uint8_t> seeded_;              // storage: its prior came from seed_unreached()
+  std::vector<std::uint8_t> mark_;                // storage: update()'s scratch, zero between calls
+  std::vector<std::int64_t> lin_;                 // add_outer()'s scratch
+  mutable std::vector<double> var_;               // storage: exported variance cache
+  mutable std::vector<std::uint8_t> tile_dirty_;  // per tile: var_ out of date
   double grid_sum_ = 1, grid_sum2_ = 1;  // sum of phi, phi^2 of the grid at an interior kernel
+  double sum_phi2_ = 1;                  // sum of phi^2 over the variance block
   double pbb_ = 0, etab_ = 0, meanb_ = 0;
+  Scratch scratch_;
   JointBhmStats stats_;
 };
 

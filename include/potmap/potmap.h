@@ -398,6 +398,13 @@ typedef struct potmap_mapper_options {
   double merge_radius;
   double gamma_ratio; /**< largest ratio of widths that may merge, >= 1 (default 2) */
   size_t max_kernels; /**< cap on the overall map's kernels (default 0: none) */
+  /* ---- appended in version 2 (a caller's struct_size without them: their defaults) ---- */
+  /** With refine 1: 1 (default) keeps RePOT's overall map as one persistent joint BHM that
+   *  every scan updates with its own training samples, the transported kernels seeding only
+   *  the space no sample has reached yet (memory grows with the area driven, not the scans;
+   *  the instantaneous maps are then the transported kernels, unrefined); 0 refines each
+   *  scan on its own and merges the refined maps (merge_radius, gamma_ratio, max_kernels). */
+  int persistent_refine;
 } potmap_mapper_options;
 
 /** Fills *options with the defaults above; struct_size: the caller's sizeof(*options). */
@@ -425,16 +432,19 @@ typedef struct potmap_scan_stats {
   size_t kernels_dropped; /**< transported kernels dropped beyond max_range */
   size_t train_samples;   /**< training samples in the target sectors (what is transported to) */
   size_t heldout_samples; /**< held-out samples within the sector radius (not used) */
-  size_t overall_added;   /**< instantaneous kernels appended to the overall map */
-  size_t overall_merged;  /**< instantaneous kernels merged into existing ones */
-  size_t overall_retired; /**< kernels removed by max_kernels */
-  size_t overall_kernels; /**< overall map size after this scan */
+  size_t overall_added;   /**< instantaneous kernels appended to the overall map (0 for the
+                               persistent RePOT map, which seeds instead of merging) */
+  size_t overall_merged;  /**< instantaneous kernels merged into existing ones (0 likewise) */
+  size_t overall_retired; /**< kernels removed by max_kernels (0 likewise) */
+  size_t overall_kernels; /**< overall map size after this scan (persistent RePOT: stored
+                               kernels of the joint BHM) */
   double prepare_ms;      /**< labelling, sector cut, batch assembly (host) */
   double ranking_ms;      /**< ranking every (atom, rotation) candidate */
   double transport_ms;    /**< high-quality transport of the chosen candidates */
   double placement_ms;    /**< out-of-sample map and world frame */
-  double refine_ms;       /**< RePOT's update (0 for POT) */
-  double merge_ms;        /**< merging into the overall map */
+  double refine_ms;       /**< RePOT's update (0 for POT; persistent: seeding and updating
+                               the joint BHM) */
+  double merge_ms;        /**< merging into the overall map (0 for the persistent RePOT map) */
   double total_ms;        /**< the whole call */
 } potmap_scan_stats;
 
@@ -452,8 +462,10 @@ POTMAP_EXPORT potmap_status potmap_mapper_add_scan(potmap_mapper* mapper, const 
 POTMAP_EXPORT potmap_status potmap_mapper_instantaneous_map(const potmap_mapper* mapper,
                                                             potmap_map** out);
 
-/** The overall map of every scan since create or reset, as a new map handle (a copy, no bias):
- *  the caller frees it with potmap_map_destroy. */
+/** The overall map of every scan since create or reset, as a new map handle (a copy; no bias,
+ *  except RePOT's persistent joint BHM, which has one): the caller frees it with
+ *  potmap_map_destroy. The persistent map is exported (a small solve per kernel) on the first
+ *  call after a scan and kept: call it when the map is needed, not after every scan. */
 POTMAP_EXPORT potmap_status potmap_mapper_overall_map(const potmap_mapper* mapper,
                                                       potmap_map** out);
 

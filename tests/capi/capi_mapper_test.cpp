@@ -1,6 +1,7 @@
 // The C API's datasets, source maps, dictionaries and POT/RePOT mappers: every error path, and
 // results equal to the C++ API's (potmap::Mapper, build_dictionary, BHM) on the same input.
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -136,6 +137,7 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.merge_radius, 0.25);
   EXPECT_EQ(m.gamma_ratio, 2.0);
   EXPECT_EQ(m.max_kernels, 0u);
+  EXPECT_EQ(m.persistent_refine, 1);
 
   potmap_dictionary_options d;
   POTMAP_ASSERT_OK(potmap_dictionary_options_init(&d, sizeof d));
@@ -385,6 +387,7 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
   bad_option([](potmap_mapper_options& b) { b.rotations = 0; }, "rotations");
   bad_option([](potmap_mapper_options& b) { b.sectors = 0; }, "sectors");
   bad_option([](potmap_mapper_options& b) { b.refine = 2; }, "refine");
+  bad_option([](potmap_mapper_options& b) { b.persistent_refine = -1; }, "persistent_refine");
   bad_option([](potmap_mapper_options& b) { b.holdout_fraction = 1; }, "holdout_fraction");
   bad_option([](potmap_mapper_options& b) { b.free_per_metre = 0; }, "free_per_metre");
   bad_option([](potmap_mapper_options& b) { b.gamma_ratio = 0.5; }, "gamma_ratio");
@@ -392,6 +395,22 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
   bad_option([](potmap_mapper_options& b) { b.struct_size = 3; }, "struct_size");
   bad_option([](potmap_mapper_options& b) { b.struct_size = 4096; }, "newer");
   EXPECT_EQ(m, nullptr);
+  {
+    // A caller compiled against the first version (no persistent_refine) still works, and
+    // gets the default for it.
+    potmap_mapper_options v1 = fast_options(1);
+    v1.persistent_refine = 7;  // beyond the caller's struct: never read
+    v1.struct_size = offsetof(potmap_mapper_options, persistent_refine);
+    potmap_mapper* old_caller = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &v1, &old_caller));
+    POTMAP_ASSERT_OK(potmap_mapper_destroy(old_caller));
+    potmap_mapper_options init_v1;
+    std::memset(&init_v1, 0xff, sizeof init_v1);
+    POTMAP_ASSERT_OK(
+        potmap_mapper_options_init(&init_v1, offsetof(potmap_mapper_options, persistent_refine)));
+    EXPECT_EQ(init_v1.persistent_refine, -1);  // not written: beyond the caller's struct
+    EXPECT_EQ(init_v1.sectors, 5);
+  }
 
   POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &o, &m));
   const RoomScan target = targets(1)[0];
@@ -472,7 +491,7 @@ TEST(CApiMapper, MapperMatchesTheCppMapper) {
           const potmap::MappedScan& want = cpp.add_scan(cpp_scans[i]);
           expect_same(got, want.transfer.map, "instantaneous map");
           EXPECT_EQ(st.heldout_samples, want.test.size());
-          EXPECT_EQ(st.overall_kernels, cpp.overall().size());
+          EXPECT_EQ(st.overall_kernels, cpp.overall_kernels());
           EXPECT_EQ(st.overall_added, cpp.last_merge().stats.added);
           EXPECT_EQ(st.overall_merged, cpp.last_merge().stats.merged);
           first_pass.push_back(got);
@@ -485,7 +504,9 @@ TEST(CApiMapper, MapperMatchesTheCppMapper) {
         EXPECT_GT(st.sectors, 0u);
         EXPECT_GT(st.train_samples, 0u);
         EXPECT_GT(st.heldout_samples, 0u);  // 20 % of the beams by default
-        EXPECT_EQ(st.overall_added + st.overall_merged, st.kernels_placed);
+        // RePOT's persistent map seeds and learns instead of merging.
+        EXPECT_EQ(st.overall_added + st.overall_merged, refine ? 0u : st.kernels_placed);
+        EXPECT_GT(st.overall_kernels, 0u);
         EXPECT_GE(st.total_ms, st.ranking_ms + st.transport_ms);
         EXPECT_EQ(st.refine_ms > 0, refine == 1);
         sum_placed += st.kernels_placed;
@@ -493,8 +514,15 @@ TEST(CApiMapper, MapperMatchesTheCppMapper) {
       potmap_map* overall = nullptr;
       POTMAP_ASSERT_OK(potmap_mapper_overall_map(m, &overall));
       const potmap::KernelMap got = read_back(overall);
-      expect_same(got, cpp.overall().map(), "overall map");
-      EXPECT_LT(got.size(), sum_placed);  // overlapping scans: kernels merged
+      if (pass == 0) expect_same(got, cpp.overall_map(), "overall map");
+      if (refine) {
+        int has_bias = 0;
+        double bm = 0, bv = 0;
+        POTMAP_ASSERT_OK(potmap_map_bias(overall, &has_bias, &bm, &bv));
+        EXPECT_EQ(has_bias, 1);  // the persistent joint BHM's bias weight
+      } else {
+        EXPECT_LT(got.size(), sum_placed);  // overlapping scans: kernels merged
+      }
       POTMAP_ASSERT_OK(potmap_map_destroy(overall));
       POTMAP_ASSERT_OK(potmap_mapper_reset(m));
     }
