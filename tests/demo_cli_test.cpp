@@ -53,8 +53,8 @@ TEST(DemoCli, SyntheticSceneWithoutData) {
 TEST(DemoCli, PotDemoMapsAnotherTown) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string out = test::temp_dir("demo-pot") + "/p";
-  const test::CliResult r =
-      test::run_cli("demo --scans 6 --rotations 4 --json - --res 1 --out " + test::quoted(out), "2>/dev/null");
+  const test::CliResult r = test::run_cli(
+      "demo --scans 6 --rotations 4 --json - --res 1 --out " + test::quoted(out), "2>/dev/null");
   ASSERT_EQ(r.status, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["source"], "town1");
@@ -72,9 +72,11 @@ TEST(DemoCli, PotDemoMapsAnotherTown) {
   }
   // RePOT refines with the scans' own training beams: its held-out NLL is not worse.
   EXPECT_LE(j["repot"]["overall"]["nll"].get<double>(), j["pot"]["overall"]["nll"].get<double>());
-  for (const char* f :
-       {"_town.png", "_repot_prob.png", "_repot_var.png", "_repot_kernels.png", "_repot.potmap"})
+  for (const char* f : {"_town.png", "_repot_prob.png", "_repot_var.png", "_repot.potmap"})
     EXPECT_GT(fs::file_size(out + f), 500u) << f;
+  // RePOT's persistent map is a regular grid of one width: its kernel picture is one colour
+  // and compresses to little, but it is written.
+  EXPECT_GT(fs::file_size(out + "_repot_kernels.png"), 100u);
 }
 
 TEST(DemoCli, PotDemoRejectsABadMethod) {

@@ -113,16 +113,16 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
     std::fprintf(human,
                  "       %zu kernels; %.1f ms per scan (ranking %.1f, transport %.1f, placement "
                  "%.1f, refine %.1f)\n",
-                 r.overall.size(), r.mean_wall_ms, r.mean_timing.ranking_ms,
+                 r.overall_kernels(), r.mean_wall_ms, r.mean_timing.ranking_ms,
                  r.mean_timing.transport_ms, r.mean_timing.placement_ms, r.mean_timing.refine_ms);
     j[refine ? "repot" : "pot"] = r.to_json();
 
     // Pictures of the last method run (RePOT when both): probability, variance, kernels.
     if (refine || a.method == "pot") {
       const std::string p = prefix + (refine ? "_repot" : "_pot");
-      write_map(r.overall.map(), p + ".potmap");
+      write_map(r.overall_map(), p + ".potmap");
       double lo[3], hi[3];
-      r.overall.map().bounds(lo, hi);
+      r.overall_map().bounds(lo, hi);
       RasterSpec spec;
       spec.xmin = lo[0] - 5;
       spec.xmax = hi[0] + 5;
@@ -131,10 +131,10 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
       spec.resolution = a.res;
       RasterOptions ro;
       ro.write_npy = false;
-      const RasterSummary rs = rasterize(ctx, r.overall.map(), spec, p, ro);
+      const RasterSummary rs = rasterize(ctx, r.overall_map(), spec, p, ro);
       files.insert(files.end(), rs.files.begin(), rs.files.end());
       const KernelPictureSummary ks =
-          write_kernel_picture(&ctx, r.overall.map(), spec, p + "_kernels.png");
+          write_kernel_picture(&ctx, r.overall_map(), spec, p + "_kernels.png");
       files.push_back(p + "_kernels.png");
       files.push_back(p + ".potmap");
       j["kernel_length_m"] = {ks.min_length, ks.max_length};

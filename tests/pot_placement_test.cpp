@@ -1,0 +1,205 @@
+// The placement rules that make POT depict real places: atoms with kernels at their own samples
+// (DictionaryOptions::kernels_at_samples), the wall clearance and the displacement variance
+// (PotOptions), on a simulated town scan transferred onto itself and onto another scan.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "potmap/atoms.hpp"
+#include "potmap/bhm_joint.hpp"
+#include "potmap/evaluate.hpp"
+#include "potmap/labelling.hpp"
+#include "potmap/pot.hpp"
+#include "potmap/simulator.hpp"
+#include "test_support.hpp"
+
+namespace potmap {
+namespace {
+
+LabelledPoints all_samples(const Scan& scan, std::int64_t index) {
+  LabelOptions o;
+  o.holdout_fraction = 0;
+  LabelledSplit s;
+  label_scan(scan, index, o, s);
+  return s.train;
+}
+
+struct Fixture {
+  std::vector<Scan> scans;
+  KernelMap map;  // joint BHM of the scans
+};
+
+const Fixture& fixture() {
+  static const Fixture f = [] {
+    Fixture x;
+    SimOptions so;
+    so.scans = 3;
+    so.spacing = 4;
+    x.scans = simulate(Town::builtin("town1"), so).scans;
+    LabelledPoints all;
+    all.dim = 2;
+    for (std::size_t i = 0; i < x.scans.size(); ++i) {
+      const LabelledPoints s = all_samples(x.scans[i], std::int64_t(i));
+      all.position.insert(all.position.end(), s.position.begin(), s.position.end());
+      all.label.insert(all.label.end(), s.label.begin(), s.label.end());
+      all.scan.insert(all.scan.end(), s.scan.begin(), s.scan.end());
+    }
+    double lo[3] = {1e300, 1e300, 0}, hi[3] = {-1e300, -1e300, 0};
+    for (std::size_t i = 0; i < all.size(); ++i)
+      for (int d = 0; d < 2; ++d) {
+        lo[d] = std::min(lo[d], all.position[2 * i + d]);
+        hi[d] = std::max(hi[d], all.position[2 * i + d]);
+      }
+    JointBhmOptions jo;
+    jo.bias = false;
+    JointBhm learner(2, lo, hi, jo);
+    learner.update_by_scan(all);
+    x.map = learner.map();
+    return x;
+  }();
+  return f;
+}
+
+TEST(PotPlacement, AtomKernelsSitOnTheirSamplesAndReproduceTheMap) {
+  const Fixture& f = fixture();
+  DictionaryOptions o;
+  o.kernels_at_samples = 0.5;
+  o.max_weight_variance = 5;
+  Dictionary dict;
+  build_dictionary({f.scans[0]}, f.map, o, dict);
+  ASSERT_GE(dict.size(), 3u);
+  std::size_t checked = 0, positive_on_hits = 0, hit_kernels = 0;
+  for (const Atom& a : dict.atoms) {
+    const Sector& s = a.sector;
+    for (std::size_t k = 0; k < a.kernels.size(); ++k) {
+      const double* q = &a.kernels.position[2 * k];
+      // On one of the sector's samples, exactly.
+      bool on_hit = false, on_sample = false;
+      for (const std::vector<double>* pts : {&s.hits, &s.free})
+        for (std::size_t i = 0; 2 * i < pts->size(); ++i)
+          if (std::abs((*pts)[2 * i] - q[0]) < 1e-12 &&
+              std::abs((*pts)[2 * i + 1] - q[1]) < 1e-12) {
+            on_sample = true;
+            on_hit = on_hit || pts == &s.hits;
+          }
+      EXPECT_TRUE(on_sample) << "atom kernel " << k << " is not at a sample";
+      if (on_hit) {
+        ++hit_kernels;
+        positive_on_hits += a.kernels.w_mean[k] > 0;
+      }
+    }
+    // The atom's own kernels of one kind reproduce the map's logit at its hits (same sign).
+    KernelMap world = a.kernels;
+    for (std::size_t k = 0; k < world.size(); ++k)
+      for (int d = 0; d < 2; ++d)
+        world.position[2 * k + d] = world.position[2 * k + d] / s.scale + s.centre[d];
+    checked += world.size();
+  }
+  EXPECT_GT(checked, 50u);
+  ASSERT_GT(hit_kernels, 10u);
+  // The map is occupied at (almost) every hit: so are the atoms' hit kernels.
+  EXPECT_GT(double(positive_on_hits) / double(hit_kernels), 0.9);
+}
+
+// Onto another scan of the same drive: with the clearance no free-space kernel lands within it
+// of a hit of its sector and no wall kernel beyond it (checked against every hit of the scan: a
+// kernel near a sector's edge may sit by a hit of the next sector, so a few are allowed); the
+// displacement variance only adds.
+TEST(PotPlacement, ClearanceKeepsFreeSpaceOffTheWallsAndVarianceGrowsWithTheMove) {
+  const Fixture& f = fixture();
+  DictionaryOptions o;
+  o.kernels_at_samples = 0.5;
+  o.max_weight_variance = 5;
+  Dictionary dict;
+  build_dictionary({f.scans[0], f.scans[2]}, f.map, o, dict);
+  const Scan& target = f.scans[1];
+  const LabelledPoints train = all_samples(target, 1);
+  PotOptions po;
+  po.rotations = {0.0};
+  po.wall_clearance = 0.5;
+  const ScanTransfer a =
+      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, po);
+  ASSERT_GT(a.map.size(), 20u);
+  std::size_t neg = 0, pos = 0, neg_on_wall = 0, pos_off_wall = 0;
+  for (std::size_t k = 0; k < a.map.size(); ++k) {
+    double best = HUGE_VAL;
+    for (std::size_t i = 0; i < train.size(); ++i) {
+      if (!train.label[i]) continue;
+      best = std::min(best, std::hypot(a.map.position[2 * k] - train.position[2 * i],
+                                       a.map.position[2 * k + 1] - train.position[2 * i + 1]));
+    }
+    if (a.map.w_mean[k] < 0) {
+      ++neg;
+      neg_on_wall += best <= 0.5;
+    } else {
+      ++pos;
+      pos_off_wall += best > 0.5;
+    }
+  }
+  ASSERT_GT(neg, 0u);
+  ASSERT_GT(pos, 0u);
+  EXPECT_LT(double(neg_on_wall), 0.05 * double(neg));
+  EXPECT_EQ(pos_off_wall, 0u);  // the nearest hit is at most as far as the sector's nearest
+  PotOptions off = po;
+  off.wall_clearance = 0;
+  const ScanTransfer c =
+      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, off);
+  EXPECT_GT(c.map.size(), a.map.size());  // without it, kernels land on the wrong side
+
+  PotOptions pv = po;
+  pv.displacement_variance = 0.25;
+  const ScanTransfer b =
+      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, pv);
+  ASSERT_EQ(b.map.size(), a.map.size());
+  double grown = 0;
+  for (std::size_t k = 0; k < a.map.size(); ++k) {
+    EXPECT_EQ(b.map.w_mean[k], a.map.w_mean[k]);
+    EXPECT_GE(b.map.w_var[k], a.map.w_var[k]);
+    grown = std::max(grown, b.map.w_var[k] - a.map.w_var[k]);
+  }
+  EXPECT_GT(grown, 0.0);  // some kernel was moved by the plan
+}
+
+// RePOT's persistent map: seeding sets the prior of unreached kernels from the transported
+// field and leaves the kernels samples reached alone.
+TEST(PotPlacement, SeedingFillsOnlyUnreachedKernels) {
+  const double lo[3] = {0, 0, 0}, hi[3] = {10, 4, 0};
+  JointBhm learner(2, lo, hi);
+  LabelledPoints s;
+  s.dim = 2;
+  for (int i = 0; i < 20; ++i) {
+    s.position.insert(s.position.end(), {1.0, 0.2 * i});
+    s.label.push_back(1);
+    s.position.insert(s.position.end(), {0.3, 0.2 * i});
+    s.label.push_back(0);
+  }
+  learner.update(s);
+  const KernelMap before = learner.map();
+  KernelMap field;
+  field.dim = 2;
+  for (double x = 0; x <= 10; x += 0.5)
+    for (double y = 0; y <= 4; y += 0.5) {
+      const double p[2] = {x, y};
+      field.push_back(p, learner.gamma(), 2.0, 1.0);
+    }
+  const std::size_t seeded = learner.seed_unreached(field, 10.0);
+  EXPECT_GT(seeded, 50u);
+  const KernelMap after = learner.map();
+  ASSERT_EQ(after.size(), before.size());
+  std::size_t far_checked = 0;
+  for (std::size_t k = 0; k < after.size(); ++k) {
+    const double x = after.position[2 * k], y = after.position[2 * k + 1];
+    // Far from every sample and inside the field (its edges have fewer neighbours): the seeded
+    // prior reproduces the field's logit, 2 per unit of the grid's own sum of phi.
+    if (x >= 6 && x <= 8.5 && y >= 1 && y <= 3) {
+      EXPECT_NEAR(after.w_mean[k], 2.0, 0.3) << k;
+      ++far_checked;
+    }
+  }
+  EXPECT_GT(far_checked, 20u);
+  // A second seed changes nothing: those kernels are seeded already.
+  EXPECT_EQ(learner.seed_unreached(field, 10.0), 0u);
+}
+
+}  // namespace
+}  // namespace potmap
