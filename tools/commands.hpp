@@ -32,5 +32,7 @@ void register_data(CLI::App& app, Runner& runner);
 void register_map(CLI::App& app, Runner& runner);
 void register_dict(CLI::App& app, Runner& runner);
 void register_experiment(CLI::App& app, Runner& runner);
+/// `experiment frames` (single 3D frames); after register_experiment.
+void register_experiment_frames(CLI::App& app, Runner& runner);
 
 }  // namespace potmap::cli

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   potmap::cli::register_map(app, runner);
   potmap::cli::register_dict(app, runner);
   potmap::cli::register_experiment(app, runner);
+  potmap::cli::register_experiment_frames(app, runner);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
