@@ -113,4 +113,30 @@ void KernelIndex::query_box(const double lo[3], const double hi[3],
   }
 }
 
+LocalSums local_sums(const KernelMap& map, const KernelIndex& index, const double* x,
+                     std::vector<std::uint32_t>& scratch) {
+  LocalSums r;
+  scratch.clear();
+  index.query_box(x, x, scratch);
+  const int dim = map.dim;
+  double best = HUGE_VAL;
+  for (std::uint32_t k : scratch) {
+    double d2 = 0;
+    for (int d = 0; d < dim; ++d) {
+      const double t = x[d] - map.position[std::size_t(k) * dim + d];
+      d2 += t * t;
+    }
+    const double phi = std::exp(-map.gamma[k] * d2);
+    r.mu += map.w_mean[k] * phi;
+    r.s2 += map.w_var[k] * phi * phi;
+    r.sum += phi;
+    r.sum2 += phi * phi;
+    if (d2 < best) {
+      best = d2;
+      r.nearest_gamma = map.gamma[k];
+    }
+  }
+  return r;
+}
+
 }  // namespace potmap::detail

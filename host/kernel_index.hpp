@@ -38,4 +38,15 @@ class KernelIndex {
   std::vector<Class> classes_;
 };
 
+/// A map's sums at one point over the kernels the index finds there: the logit mean and
+/// variance (SPEC section 2), the sums of phi and phi^2, and the width of the nearest kernel.
+struct LocalSums {
+  double mu = 0, s2 = 0, sum = 0, sum2 = 0;
+  double nearest_gamma = 0;  ///< 0 when no kernel reaches the point
+  bool empty() const { return nearest_gamma == 0; }
+};
+/// `scratch` holds the kernel ids between calls (no allocation per point).
+LocalSums local_sums(const KernelMap& map, const KernelIndex& index, const double* x,
+                     std::vector<std::uint32_t>& scratch);
+
 }  // namespace potmap::detail

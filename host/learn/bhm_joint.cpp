@@ -698,20 +698,8 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
         }
         const double x[3] = {lo_[0] + double(i) * o_.spacing, lo_[1] + double(j) * o_.spacing,
                              lo_[2] + double(k) * o_.spacing};
-        near.clear();
-        index.query_box(x, x, near);
-        double mu = 0, s2 = 0, support = 0;
-        for (std::uint32_t m : near) {
-          double d2 = 0;
-          for (int d = 0; d < dim_; ++d) {
-            const double t = x[d] - field.position[m * dim_ + d];
-            d2 += t * t;
-          }
-          const double phi = std::exp(-field.gamma[m] * d2);
-          mu += field.w_mean[m] * phi;
-          s2 += field.w_var[m] * phi * phi;
-          support += phi;
-        }
+        const detail::LocalSums ls = detail::local_sums(field, index, x, near);
+        const double mu = ls.mu, s2 = ls.s2, support = ls.sum;
         if (support < min_support) continue;
         if (s < 0) {
           std::int64_t t[3] = {0, 0, 0};

@@ -70,23 +70,10 @@ void anchored_kernels(const KernelMap& map, const detail::KernelIndex& index, co
   for (std::size_t i = 0; i < n; ++i) {
     double x[3] = {0, 0, 0};
     for (int c = 0; c < d; ++c) x[c] = anchors[i * d + c] / s.scale + s.centre[c];
-    near.clear();
-    index.query_box(x, x, near);
-    double m = 0, v = 0, sum2 = 0, best = HUGE_VAL, g = 0;
-    for (std::uint32_t k : near) {
-      double d2 = 0;
-      for (int c = 0; c < d; ++c) {
-        const double t = x[c] - map.position[k * d + c];
-        d2 += t * t;
-      }
-      const double phi = std::exp(-map.gamma[k] * d2);
-      m += map.w_mean[k] * phi;
-      v += map.w_var[k] * phi * phi;
-      sum2 += phi * phi;
-      if (d2 < best) best = d2, g = map.gamma[k];
-    }
+    const detail::LocalSums ls = detail::local_sums(map, index, x, near);
     // Nothing learned reaches the sample (or only prior-like kernels): it carries no shape.
-    if (near.empty() || !(v / sum2 <= o.max_weight_variance)) continue;
+    if (ls.empty() || !(ls.s2 / ls.sum2 <= o.max_weight_variance)) continue;
+    const double m = ls.mu, v = ls.s2, g = ls.nearest_gamma;
     mu.push_back(m);
     s2.push_back(v);
     gamma.push_back(g);
