@@ -29,6 +29,7 @@ struct MapArgs {
   std::size_t first = 0, max_scans = 0, candidates = 0, max_kernels = 0;
   std::size_t free_points = PotOptions{}.transport_free_points;
   double merge_radius = OverallMapOptions{}.merge_radius;
+  double wall_clearance = 0, displacement_var = 0;
   std::uint64_t seed = 0;
 };
 
@@ -58,6 +59,8 @@ int run_map(const MapArgs& a, const std::string& device) {
   po.candidates = a.candidates;
   po.transport_free_points = a.free_points;
   po.transport_free = !a.hits_only;
+  po.wall_clearance = a.wall_clearance;
+  po.displacement_variance = a.displacement_var;
   po.seed = a.seed;
   job.mapper.labels.holdout_fraction = a.holdout;
   job.mapper.labels.seed = a.seed;
@@ -171,6 +174,13 @@ void register_map(CLI::App& app, Runner& runner) {
                   "Fraction of each scan's beams held out for scoring (default 0.2)")
       ->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--seed", a->seed, "Seed of labelling, split and subsampling (default 0)");
+  cmd->add_option("--wall-clearance", a->wall_clearance,
+                  "Drop transported free-space kernels landing this close to the scan's hits and "
+                  "wall kernels landing farther, metres (default 0: off; 0.5 for indoor logs "
+                  "with atoms at samples)");
+  cmd->add_option("--displacement-var", a->displacement_var,
+                  "Weight variance added per m^2 the transport moved a kernel (default 0; 0.25 "
+                  "in the experiments)");
   cmd->add_option("--merge-radius", a->merge_radius,
                   "Overall map: merge kernels closer than this in gamma*d^2 (default 0.25)");
   cmd->add_option("--max-kernels", a->max_kernels, "Overall map: hard cap (default 0: none)");
