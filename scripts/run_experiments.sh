@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The full runs whose outputs are committed under docs/results (JSON and figures), then the
-# results page. Run from anywhere after building (scripts/setup.sh); takes about 1.5 hours on
+# results page. Run from anywhere after building (scripts/setup.sh); takes about 40 minutes on
 # 2 cores. Extra arguments go to every runner (e.g. --device pocl).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -21,8 +21,8 @@ common=(--seeds 0 1 2 --figures "$fig" "$@")
 "$potmap" experiment sim2real "${logs[@]}" --scans 60 --atom-scans 4 --json $out/sim2real.json "${common[@]}"
 # The baselines' maps of a target are those of the intra-domain figures: keep the repository small
 # (POT/RePOT maps of one inter-domain pair and of every sim-to-real target stay).
-find "$fig" -name 'inter-domain-*' ! -name 'inter-domain-intel-aces-*POT*' -delete
-find "$fig" -name 'sim-to-real-*' ! -name '*POT*' -delete
+find "$fig" -name 'inter-domain-*' ! -name 'inter-domain-intel-aces-*POT*' ! -name '*compare_prob.png' -delete
+find "$fig" -name 'sim-to-real-*' ! -name '*POT*' ! -name '*compare_prob.png' -delete
 # Instantaneous maps: one ABHM per scan, so fewer Adam steps (500) than the offline default.
 "$potmap" experiment dynamic --scans 30 --abhm-steps 500 --json $out/dynamic.json "${common[@]}"
 # The budget is POT's mean time per scan over the seeds (atoms from 5 scans of each of the
