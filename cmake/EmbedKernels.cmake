@@ -1,11 +1,53 @@
 # Writes OUT: a C++ file holding every kernel source in SOURCES as a byte array, so the library
 # never reads kernel files at run time. Bytes (not a raw string) so that no source text can break
 # the generated C++.
+#
+# A kernel source may share parts with others through lines `#include "path"` (path relative to
+# the including file, e.g. "common/sinkhorn_common.cl"): each is replaced here by the named
+# file's text, itself expanded the same way, each file at most once per kernel. The embedded
+# source is therefore whole and builds on its own; the shared parts live in kernels/common/ and
+# CMakeLists.txt makes them dependencies of OUT.
+
+# Sets `var` in the caller to the text of `file` with its includes expanded; `seen_var` names the
+# caller's list of files already included into this kernel.
+function(potmap_expand_includes file var seen_var)
+  file(READ ${file} text)
+  get_filename_component(dir ${file} DIRECTORY)
+  set(seen ${${seen_var}} ${file})
+  string(REGEX MATCHALL "(^|\n)#include \"[^\"\n]+\"" lines "${text}")
+  foreach(line IN LISTS lines)
+    string(REGEX REPLACE "^\n?#include \"([^\"]+)\"$" "\\1" rel "${line}")
+    get_filename_component(path "${dir}/${rel}" ABSOLUTE)
+    if(NOT EXISTS ${path})
+      message(FATAL_ERROR "${file}: included file ${rel} not found (looked for ${path})")
+    endif()
+    set(lead "")
+    if(line MATCHES "^\n")
+      set(lead "\n")
+    endif()
+    list(FIND seen ${path} already)
+    if(already EQUAL -1)
+      potmap_expand_includes(${path} body seen)
+      set(body "// ---- begin ${rel} (included) ----\n${body}// ---- end ${rel} ----")
+    else()
+      set(body "// ${rel}: included above")
+    endif()
+    string(REPLACE "${line}" "${lead}${body}" text "${text}")
+  endforeach()
+  set(${var} "${text}" PARENT_SCOPE)
+  set(${seen_var} ${seen} PARENT_SCOPE)
+endfunction()
+
 set(body "")
 set(table "")
 foreach(src ${SOURCES})
   get_filename_component(name ${src} NAME_WE)
-  file(READ ${src} hex HEX)
+  set(seen "")
+  potmap_expand_includes(${src} text seen)
+  set(expanded ${OUT}.${name}.cl)
+  file(WRITE ${expanded} "${text}")
+  file(READ ${expanded} hex HEX)
+  file(REMOVE ${expanded})
   string(LENGTH "${hex}" len)
   math(EXPR nbytes "${len} / 2")
   string(REGEX REPLACE "([0-9a-f][0-9a-f])" "0x\\1," bytes "${hex}")

@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "../kernels/common/sinkhorn_launch.h"
 #include "cl_check.hpp"
 #include "potmap/error.hpp"
 
@@ -15,8 +16,11 @@ namespace potmap {
 
 namespace {
 
-// Must match kernels/sinkhorn.cl.
-constexpr int kNI = 11, kNP = 13, kNR = 4;
+// The launch table is shared with the kernels (kernels/common/sinkhorn_launch.h): 32-bit fields
+// only, so that both sides lay it out alike.
+static_assert(sizeof(SinkhornLaunchInts) == 10 * sizeof(cl_int), "launch table: padding");
+static_assert(sizeof(SinkhornLaunchParams) == 13 * sizeof(cl_float), "launch table: padding");
+static_assert(sizeof(SinkhornLaunchStats) == 4 * sizeof(cl_float), "launch table: padding");
 
 std::string at(std::size_t p) {
   return "Sinkhorn problem " + std::to_string(p) + ": ";
@@ -87,7 +91,7 @@ struct Launch {
   SinkhornDeviceResult result;
   bc::buffer fh, gh, loga, logb;
   std::vector<bc::buffer> scratch;
-  std::vector<int> ints;
+  std::vector<SinkhornLaunchInts> ints;
   bool weights_double = false;  // loga, logb hold doubles
   int vw = 16;
   bool dbl = false;
@@ -120,48 +124,47 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   L.dbl = std::is_same<R, double>::value;
   L.vw = L.dbl ? 8 : 16;
   const std::size_t np = par.size();
-  std::vector<int> ints(np * kNI);
-  std::vector<float> params(np * kNP);
+  std::vector<SinkhornLaunchInts> ints(np);
+  std::vector<SinkhornLaunchParams> params(np);
   std::size_t sslot = 0, tslot = 0;
   long plan = 0, kelems = 0;
   L.result.coupling_offset.assign(np, -1);
   for (std::size_t p = 0; p < np; ++p) {
     const int n = scnt[p], m = tcnt[p];
     const int npad = (n + L.vw - 1) / L.vw * L.vw, mpad = (m + L.vw - 1) / L.vw * L.vw;
-    int* I = &ints[p * kNI];
-    I[0] = soff[p];
-    I[1] = n;
-    I[2] = static_cast<int>(sslot);
-    I[3] = npad;
-    I[4] = toff[p];
-    I[5] = m;
-    I[6] = static_cast<int>(tslot);
-    I[7] = mpad;
-    I[8] = -1;
+    SinkhornLaunchInts& I = ints[p];
+    I.src = soff[p];
+    I.n = n;
+    I.src_slot = static_cast<int>(sslot);
+    I.npad = npad;
+    I.tgt = toff[p];
+    I.m = m;
+    I.tgt_slot = static_cast<int>(tslot);
+    I.mpad = mpad;
+    I.plan = -1;
     if (opt.want_coupling) {
-      I[8] = static_cast<int>(plan);
+      I.plan = static_cast<int>(plan);
       L.result.coupling_offset[p] = plan;
       plan += static_cast<long>(n) * m;
     }
-    I[9] = par[p]->max_iterations;
-    I[10] = 0;  // unused: K lives per work-group (sinkhorn_stab.cl)
+    I.max_it = par[p]->max_iterations;
     if (opt.stabilised)
       kelems =
           std::max(kelems, 2 * std::max(static_cast<long>(n) * mpad, static_cast<long>(m) * npad));
-    float* P = &params[p * kNP];
-    P[0] = static_cast<float>(par[p]->epsilon);
-    P[1] = static_cast<float>(par[p]->tolerance);
-    P[2] = static_cast<float>(std::cos(par[p]->angle));
-    P[3] = static_cast<float>(std::sin(par[p]->angle));
-    P[4] = static_cast<float>(par[p]->centre.x());
-    P[5] = static_cast<float>(par[p]->centre.y());
-    P[6] = static_cast<float>(par[p]->centre.z());
-    P[7] = static_cast<float>(par[p]->scale);
-    P[8] = par[p]->normalise_cost ? 1.f : 0.f;
-    P[9] = static_cast<float>(opt.epsilon_start);
-    P[10] = static_cast<float>(opt.epsilon_decay);
-    P[11] = static_cast<float>(std::max(opt.check_every, 1));
-    P[12] = static_cast<float>(opt.overrelaxation);
+    SinkhornLaunchParams& P = params[p];
+    P.eps = static_cast<float>(par[p]->epsilon);
+    P.tol = static_cast<float>(par[p]->tolerance);
+    P.cos_angle = static_cast<float>(std::cos(par[p]->angle));
+    P.sin_angle = static_cast<float>(std::sin(par[p]->angle));
+    P.cx = static_cast<float>(par[p]->centre.x());
+    P.cy = static_cast<float>(par[p]->centre.y());
+    P.cz = static_cast<float>(par[p]->centre.z());
+    P.scale = static_cast<float>(par[p]->scale);
+    P.normalise = par[p]->normalise_cost ? 1.f : 0.f;
+    P.eps0 = static_cast<float>(opt.epsilon_start);
+    P.decay = static_cast<float>(opt.epsilon_decay);
+    P.check = static_cast<float>(std::max(opt.check_every, 1));
+    P.omega = static_cast<float>(opt.overrelaxation);
     sslot += npad;
     tslot += mpad;
   }
@@ -174,20 +177,22 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   const bool acc_double = L.dbl || (opt.stabilised && ctx.info().has_fp64);
   const std::size_t acc = acc_double ? sizeof(double) : sizeof(float);
   L.weights_double = acc_double;
-  auto log_weights = [&](auto zero, int slot_at, int pad_at, const std::vector<int>& cnt,
-                         bool source, std::size_t slots) {
+  auto log_weights = [&](auto zero, bool source, std::size_t slots) {
     std::vector<decltype(zero)> w(std::max<std::size_t>(slots, 1));
-    for (std::size_t p = 0; p < np; ++p)
-      fill_logw(w, ints[p * kNI + slot_at], cnt[p], ints[p * kNI + pad_at],
-                source ? &par[p]->source_weights : &par[p]->target_weights);
+    for (std::size_t p = 0; p < np; ++p) {
+      if (source)
+        fill_logw(w, ints[p].src_slot, ints[p].n, ints[p].npad, &par[p]->source_weights);
+      else
+        fill_logw(w, ints[p].tgt_slot, ints[p].m, ints[p].mpad, &par[p]->target_weights);
+    }
     return make_buffer(cx, q, w);
   };
   if (acc_double) {
-    L.loga = log_weights(0.0, 2, 3, scnt, true, sslot);
-    L.logb = log_weights(0.0, 6, 7, tcnt, false, tslot);
+    L.loga = log_weights(0.0, true, sslot);
+    L.logb = log_weights(0.0, false, tslot);
   } else {
-    L.loga = log_weights(0.f, 2, 3, scnt, true, sslot);
-    L.logb = log_weights(0.f, 6, 7, tcnt, false, tslot);
+    L.loga = log_weights(0.f, true, sslot);
+    L.logb = log_weights(0.f, false, tslot);
   }
   L.ints = ints;
   auto ib = make_buffer(cx, q, ints);
@@ -197,7 +202,7 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   L.fh = empty_buffer(cx, sslot * sizeof(R));
   L.gh = empty_buffer(cx, tslot * sizeof(R));
   auto fn = empty_buffer(cx, sslot * sizeof(R));
-  L.result.stats = empty_buffer(cx, np * kNR * sizeof(float));
+  L.result.stats = empty_buffer(cx, np * sizeof(SinkhornLaunchStats));
   L.result.coupling = empty_buffer(cx, static_cast<std::size_t>(plan) * sizeof(float));
   L.result.barycentric =
       empty_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0);
@@ -207,24 +212,25 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   char defs[128];
   std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d -DACC_DOUBLE=%d", dim, wg,
                 L.dbl ? 1 : 0, acc_double ? 1 : 0);
-  auto k = opt.stabilised ? ctx.kernel("sinkhorn_stab", "sinkhorn_stab_solve", defs)
-                          : ctx.kernel("sinkhorn", "sinkhorn_solve", defs);
-  int a = 0;
-  k.set_arg(a++, source);
-  k.set_arg(a++, target);
-  k.set_arg(a++, ib);
-  k.set_arg(a++, pb);
-  k.set_arg(a++, L.loga);
-  k.set_arg(a++, L.logb);
-  k.set_arg(a++, sx);
-  k.set_arg(a++, tx);
-  k.set_arg(a++, L.fh);
-  k.set_arg(a++, L.gh);
-  if (!opt.stabilised) k.set_arg(a++, fn);
-  k.set_arg(a++, L.result.stats);
-  k.set_arg(a++, L.result.coupling);
-  k.set_arg(a++, L.result.barycentric);
-  k.set_arg(a++, static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
+  const char* name = opt.stabilised ? "sinkhorn_stab_solve" : "sinkhorn_solve";
+  auto k = ctx.kernel(opt.stabilised ? "sinkhorn_stab" : "sinkhorn", name, defs);
+  cl_uint a = 0;
+  auto arg = [&](const auto& value) { detail::set_kernel_arg(k, name, a++, value); };
+  arg(source);
+  arg(target);
+  arg(ib);
+  arg(pb);
+  arg(L.loga);
+  arg(L.logb);
+  arg(sx);
+  arg(tx);
+  arg(L.fh);
+  arg(L.gh);
+  if (!opt.stabilised) arg(fn);
+  arg(L.result.stats);
+  arg(L.result.coupling);
+  arg(L.result.barycentric);
+  arg(static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
   std::size_t groups = np;
   if (opt.stabilised) {
     // Persistent work-groups, a few per compute unit, each with its own K (see the kernel).
@@ -240,16 +246,14 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
                                  tslot * acc,     2 * sslot * acc, sslot * acc};
     for (std::size_t b : bytes) {
       L.scratch.push_back(empty_buffer(cx, b));
-      k.set_arg(a++, L.scratch.back());
+      arg(L.scratch.back());
     }
     L.scratch.push_back(make_buffer(cx, q, std::vector<int>{0}));
-    k.set_arg(a++, L.scratch.back());
-    k.set_arg(a++, static_cast<cl_int>(np));
-    k.set_arg(a++, static_cast<cl_long>(kelems));
+    arg(L.scratch.back());
+    arg(static_cast<cl_int>(np));
+    arg(static_cast<cl_long>(kelems));
   }
-  detail::cl_call("clEnqueueNDRangeKernel", [&] {
-    q.enqueue_1d_range_kernel(k, 0, groups * static_cast<std::size_t>(wg), wg);
-  });
+  detail::enqueue_1d(q, k, name, groups * static_cast<std::size_t>(wg), wg);
   return L;
 }
 
@@ -320,9 +324,12 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
   auto tb = make_buffer(cx, q, tgt);
   Launch L = launch(ctx, dim, sb, tb, src.size() / dim, soff, scnt, toff, tcnt, par, opt);
 
-  auto stats = read_back<float>(q, L.result.stats, np * kNR);
-  const std::size_t sslots = L.ints[(np - 1) * kNI + 2] + L.ints[(np - 1) * kNI + 3];
-  const std::size_t tslots = L.ints[(np - 1) * kNI + 6] + L.ints[(np - 1) * kNI + 7];
+  std::vector<SinkhornLaunchStats> stats(np);
+  detail::cl_call("clEnqueueReadBuffer", [&] {
+    q.enqueue_read_buffer(L.result.stats, 0, np * sizeof(SinkhornLaunchStats), stats.data());
+  });
+  const SinkhornLaunchInts& last = L.ints[np - 1];
+  const std::size_t sslots = last.src_slot + last.npad, tslots = last.tgt_slot + last.mpad;
   std::vector<double> fh, gh, la, lb;
   if (L.dbl) {
     fh = read_back<double>(q, L.fh, sslots);
@@ -350,12 +357,12 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
   for (std::size_t p = 0; p < np; ++p) {
     auto& r = out[p];
     const auto& pr = chunk[p];
-    r.cost = stats[p * kNR + 0];
-    r.iterations = static_cast<int>(stats[p * kNR + 1]);
-    r.marginal_error = stats[p * kNR + 2];
-    r.converged = stats[p * kNR + 3] != 0;
+    r.cost = stats[p].cost;
+    r.iterations = static_cast<int>(stats[p].iterations);
+    r.marginal_error = stats[p].marginal_error;
+    r.converged = stats[p].converged != 0;
     const int n = scnt[p], m = tcnt[p];
-    const int ss = L.ints[p * kNI + 2], ts = L.ints[p * kNI + 6];
+    const int ss = L.ints[p].src_slot, ts = L.ints[p].tgt_slot;
     r.f.resize(n);
     r.g.resize(m);
     for (int i = 0; i < n; ++i) r.f(i) = (fh[ss + i] - la[ss + i]) * pr.epsilon;

@@ -45,15 +45,9 @@ typedef int4 intv;
 #error "VEC must be 4, 8 or 16"
 #endif
 
-#define PI_OVER_8 0.39269908169872414f
+#include "common/map_math.cl"
 
-// Neumaier: adds x to (s, c) where s + c is the running sum.
-#define NEUMAIER_ADD(s, c, x)                                          \
-  do {                                                                 \
-    floatv t_ = (s) + (x);                                             \
-    (c) += select((x) - t_ + (s), (s) - t_ + (x), fabs(s) >= fabs(x)); \
-    (s) = t_;                                                          \
-  } while (0)
+#define NEUMAIER_ADD(s, c, x) NEUMAIER_ADD_T(floatv, s, c, x)
 
 // kpos_hi/kpos_lo: DIM floats per kernel (hi and lo parts of the position relative to the map
 // anchor); kpar: gamma, w_mean, w_var, unused, per kernel.
@@ -100,7 +94,7 @@ __kernel void map_eval_points(__global const float* kpos_hi, __global const floa
   }
   const floatv mean = (mean_s + mean_c) + bias_mean;
   const floatv var = (var_s + var_c) + bias_var;
-  const floatv prob = 1.0f / (1.0f + exp(-mean * rsqrt(1.0f + PI_OVER_8 * var)));
+  const floatv prob = OCCUPANCY_PROB(mean, var);
 
   float m[VEC], v[VEC], p[VEC];
   vstorev(mean, 0, m);

@@ -12,7 +12,7 @@
 #define DIM 2
 #endif
 
-#define PI_OVER_8 0.39269908169872414f
+#include "common/map_math.cl"
 
 // cell_lo: lower corner of the cell grid relative to the anchor; cell_n: cells per axis;
 // cell_start/cell_list: CSR lists per cell. Points outside the grid are reached by no kernel.
@@ -69,7 +69,7 @@ __kernel void map_eval_cells(__global const float* kpos_hi, __global const float
   for (int d = 0; d < DIM; ++d) nan_if_bad += isfinite(q[d]) ? 0.0f : NAN;
   const float mean = (mean_s + mean_c) + bias_mean + nan_if_bad;
   const float var = (var_s + var_c) + bias_var + nan_if_bad;
-  const float prob = 1.0f / (1.0f + exp(-mean * rsqrt(1.0f + PI_OVER_8 * var)));
+  const float prob = OCCUPANCY_PROB(mean, var);
   if (out_mean) out_mean[i] = mean;
   if (out_var) out_var[i] = var;
   if (out_prob) out_prob[i] = prob;

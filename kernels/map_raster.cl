@@ -49,14 +49,9 @@ typedef float16 rowv;
 #error "ROWS must be 4, 8 or 16"
 #endif
 
-#define PI_OVER_8 0.39269908169872414f
+#include "common/map_math.cl"
 
-#define NEUMAIER_ADD(s, c, x)                                          \
-  do {                                                                 \
-    float16 t_ = (s) + (x);                                            \
-    (c) += select((x) - t_ + (s), (s) - t_ + (x), fabs(s) >= fabs(x)); \
-    (s) = t_;                                                          \
-  } while (0)
+#define NEUMAIER_ADD(s, c, x) NEUMAIER_ADD_T(float16, s, c, x)
 
 // col_hi/col_lo: x of every column centre (hi + lo floats, relative to the map anchor), padded
 //   to a multiple of TILE_X.
@@ -154,7 +149,7 @@ __kernel void map_raster(__global const float* kpos_hi, __global const float* kp
     if (out < 0) continue;
     const float16 mean = (mean_s[r] + mean_c[r]) + bias_mean;
     const float16 var = (var_s[r] + var_c[r]) + bias_var;
-    const float16 prob = 1.0f / (1.0f + exp(-mean * rsqrt(1.0f + PI_OVER_8 * var)));
+    const float16 prob = OCCUPANCY_PROB(mean, var);
     if (col0 + 16 <= n_cols) {
       if (out_mean) vstore16(mean, 0, out_mean + out + col0);
       if (out_var) vstore16(var, 0, out_var + out + col0);

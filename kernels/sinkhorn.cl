@@ -14,69 +14,22 @@
 // padded slots carry a log weight of -PAD_LOGW, so they add exp(-huge) = 0 to every sum and are
 // never written as results.
 
-#ifndef DIM
-#define DIM 2
-#endif
-#ifndef WG
-#define WG 16
-#endif
-#ifndef USE_DOUBLE
-#define USE_DOUBLE 0
-#endif
+#include "common/sinkhorn_common.cl"
+
 // The exponential of the inner loops (exp or native_exp; measured in bench/).
 #ifndef EXPF
 #define EXPF exp
 #endif
 
+// The sum of the lanes of v (sequential in double, pairwise in float).
+static REAL hsum_real(const REALV v) {
 #if USE_DOUBLE
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-#define REAL double
-#define VW 8
-#define REALV double8
-#define VLOAD vload8
-#define VSTORE vstore8
-#define PAD_LOGW 1e300
+  return v.s0 + v.s1 + v.s2 + v.s3 + v.s4 + v.s5 + v.s6 + v.s7;
 #else
-#define REAL float
-#define VW 16
-#define REALV float16
-#define VLOAD vload16
-#define VSTORE vstore16
-#define PAD_LOGW 1e30f
+  return ((v.s0 + v.s1) + (v.s2 + v.s3)) + ((v.s4 + v.s5) + (v.s6 + v.s7)) +
+         (((v.s8 + v.s9) + (v.sa + v.sb)) + ((v.sc + v.sd) + (v.se + v.sf)));
 #endif
-
-// Per-problem integer layout (NI ints per problem).
-#define I_SRC 0      // first source point in `src` (points, AoS, DIM floats each)
-#define I_N 1        // number of source points
-#define I_SSLOT 2    // first slot of this problem in the padded source arrays
-#define I_NPAD 3     // padded number of source slots (multiple of VW)
-#define I_TGT 4      // first target point in `tgt`
-#define I_M 5        // number of target points
-#define I_TSLOT 6    // first slot in the padded target arrays
-#define I_MPAD 7     // padded number of target slots
-#define I_PLAN 8     // first element of the coupling in `plan`, or -1 for none
-#define I_MAXIT 9    // iteration limit at the target epsilon
-#define I_KOFF 10    // first element of the stored kernel matrix (sinkhorn_stab.cl only)
-#define NI 11
-
-// Per-problem real parameters (NP floats per problem).
-#define P_EPS 0
-#define P_TOL 1
-#define P_COS 2
-#define P_SIN 3
-#define P_CX 4
-#define P_CY 5
-#define P_CZ 6
-#define P_SCALE 7
-#define P_NORMALISE 8   // 1: divide the cost by its maximum over the problem
-#define P_EPS0 9        // first epsilon of the annealing schedule (<= eps: none)
-#define P_DECAY 10      // factor between successive epsilons of the schedule, in (0, 1)
-#define P_CHECK 11      // check convergence every this many iterations
-#define P_OMEGA 12      // over-relaxation: 0 adaptive, else the fixed factor in [1, 2)
-#define NP 13
-
-// Results per problem (NR floats): <P, C>, iterations, marginal error, converged (0/1).
-#define NR 4
+}
 
 // Log-sum-exp over all VW-wide column blocks of one row (or column) of the scaled problem:
 // lse_j (w_j - k |p - q_j|^2). `shift` is a guess of the result (the previous one); when the
@@ -87,35 +40,15 @@ static REAL row_lse(const REAL px, const REAL py, const REAL pz, __global const 
                     const int npad, const REAL k, const REAL shift) {
   REALV acc = (REALV)(0);
   for (int j = 0; j < npad; j += VW) {
-    REALV dx = VLOAD(0, qx + j) - px;
-    REALV d2 = dx * dx;
-    REALV dy = VLOAD(0, qy + j) - py;
-    d2 = fma(dy, dy, d2);
-#if DIM == 3
-    REALV dz = VLOAD(0, qz + j) - pz;
-    d2 = fma(dz, dz, d2);
-#endif
+    const REALV d2 = dist2v(px, py, pz, qx, qy, qz, j);
     acc += EXPF(fma(-k, d2, VLOAD(0, w + j) - shift));
   }
-  REAL s = 0;
-#if USE_DOUBLE
-  s = acc.s0 + acc.s1 + acc.s2 + acc.s3 + acc.s4 + acc.s5 + acc.s6 + acc.s7;
-#else
-  s = ((acc.s0 + acc.s1) + (acc.s2 + acc.s3)) + ((acc.s4 + acc.s5) + (acc.s6 + acc.s7)) +
-      (((acc.s8 + acc.s9) + (acc.sa + acc.sb)) + ((acc.sc + acc.sd) + (acc.se + acc.sf)));
-#endif
+  REAL s = hsum_real(acc);
   if (s > (REAL)1e-25 && s < (REAL)1e25) return shift + log(s);
   // Guess far off: two passes with the exact maximum.
   REALV mx = (REALV)(-PAD_LOGW);
   for (int j = 0; j < npad; j += VW) {
-    REALV dx = VLOAD(0, qx + j) - px;
-    REALV d2 = dx * dx;
-    REALV dy = VLOAD(0, qy + j) - py;
-    d2 = fma(dy, dy, d2);
-#if DIM == 3
-    REALV dz = VLOAD(0, qz + j) - pz;
-    d2 = fma(dz, dz, d2);
-#endif
+    const REALV d2 = dist2v(px, py, pz, qx, qy, qz, j);
     mx = fmax(mx, fma(-k, d2, VLOAD(0, w + j)));
   }
   REAL m = mx.s0;
@@ -129,22 +62,10 @@ static REAL row_lse(const REAL px, const REAL py, const REAL pz, __global const 
 #endif
   acc = (REALV)(0);
   for (int j = 0; j < npad; j += VW) {
-    REALV dx = VLOAD(0, qx + j) - px;
-    REALV d2 = dx * dx;
-    REALV dy = VLOAD(0, qy + j) - py;
-    d2 = fma(dy, dy, d2);
-#if DIM == 3
-    REALV dz = VLOAD(0, qz + j) - pz;
-    d2 = fma(dz, dz, d2);
-#endif
+    const REALV d2 = dist2v(px, py, pz, qx, qy, qz, j);
     acc += EXPF(fma(-k, d2, VLOAD(0, w + j) - m));
   }
-#if USE_DOUBLE
-  s = acc.s0 + acc.s1 + acc.s2 + acc.s3 + acc.s4 + acc.s5 + acc.s6 + acc.s7;
-#else
-  s = ((acc.s0 + acc.s1) + (acc.s2 + acc.s3)) + ((acc.s4 + acc.s5) + (acc.s6 + acc.s7)) +
-      (((acc.s8 + acc.s9) + (acc.sa + acc.sb)) + ((acc.sc + acc.sd) + (acc.se + acc.sf)));
-#endif
+  s = hsum_real(acc);
   return m + log(s);
 }
 
@@ -177,24 +98,22 @@ static REAL group_max(REAL v, __local REAL* scratch) {
 
 // src, tgt: input points (AoS). loga, logb: log marginals per padded slot (-PAD_LOGW on pads).
 // sx, tx: transformed points, structure of arrays, DIM arrays of npad per problem.
-// fh, gh, fnew: scaled duals per slot. out: NR results per problem.
-// plan: dense couplings (row-major n x m per problem) where I_PLAN >= 0.
+// fh, gh, fnew: scaled duals per slot. out: the results per problem.
+// plan: dense couplings (row-major n x m per problem) where I->plan >= 0.
 // bary: barycentric image of each source point (DIM per source point, AoS, in target units).
 __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
-    __global const float* src, __global const float* tgt, __global const int* ints,
-    __global const float* params, __global const REAL* loga, __global const REAL* logb,
-    __global REAL* sx, __global REAL* tx, __global REAL* fh, __global REAL* gh,
-    __global REAL* fnew, __global float* out, __global float* plan, __global float* bary,
-    const int want_bary) {
+    __global const float* src, __global const float* tgt, __global const SinkhornLaunchInts* ints,
+    __global const SinkhornLaunchParams* params, __global const REAL* loga,
+    __global const REAL* logb, __global REAL* sx, __global REAL* tx, __global REAL* fh,
+    __global REAL* gh, __global REAL* fnew, __global SinkhornLaunchStats* out,
+    __global float* plan, __global float* bary, const int want_bary) {
   __local REAL scratch[WG];
   const int p = get_group_id(0);
   const int lid = get_local_id(0);
-  __global const int* I = ints + p * NI;
-  __global const float* P = params + p * NP;
-  const int n = I[I_N], npad = I[I_NPAD], m = I[I_M], mpad = I[I_MPAD];
-  const int ss = I[I_SSLOT], ts = I[I_TSLOT];
-  __global const float* X = src + (long)I[I_SRC] * DIM;
-  __global const float* Y = tgt + (long)I[I_TGT] * DIM;
+  __global const SinkhornLaunchInts* I = ints + p;
+  __global const SinkhornLaunchParams* P = params + p;
+  const int n = I->n, npad = I->npad, m = I->m, mpad = I->mpad;
+  const int ss = I->src_slot, ts = I->tgt_slot;
   __global REAL* SX = sx + (long)ss * DIM;
   __global REAL* TX = tx + (long)ts * DIM;
   __global const REAL* la = loga + ss;
@@ -202,48 +121,17 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
   __global REAL* F = fh + ss;
   __global REAL* G = gh + ts;
   __global REAL* FN = fnew + ss;
+  __global const float* Y = tgt + (long)I->tgt * DIM;  // untransformed, for the barycentric map
 
-  const REAL eps = P[P_EPS], tol = P[P_TOL], scale = P[P_SCALE];
-  const REAL c = P[P_COS], s = P[P_SIN];
-  const REAL cx = P[P_CX], cy = P[P_CY], cz = P[P_CZ];
-  const int max_it = I[I_MAXIT];
-  const int check = max((int)P[P_CHECK], 1);
+  const REAL eps = P->eps, tol = P->tol;
+  const int max_it = I->max_it;
+  const int check = max((int)P->check, 1);
 
-  // Transform the points once per launch: rotation about the centre (about the vertical axis in
-  // 3D), then the scale applied to both clouds. Pads sit at the origin with weight zero.
-  for (int i = lid; i < npad; i += WG) {
-    REAL px = 0, py = 0, pz = 0;
-    if (i < n) {
-      const REAL ux = X[i * DIM + 0] - cx, uy = X[i * DIM + 1] - cy;
-      px = scale * (cx + c * ux - s * uy);
-      py = scale * (cy + s * ux + c * uy);
-#if DIM == 3
-      pz = scale * (REAL)X[i * DIM + 2];
-#endif
-    }
-    SX[i] = px;
-    SX[npad + i] = py;
-#if DIM == 3
-    SX[2 * npad + i] = pz;
-#endif
-    F[i] = la[i];
-  }
-  for (int j = lid; j < mpad; j += WG) {
-    REAL qx = 0, qy = 0, qz = 0;
-    if (j < m) {
-      qx = scale * (REAL)Y[j * DIM + 0];
-      qy = scale * (REAL)Y[j * DIM + 1];
-#if DIM == 3
-      qz = scale * (REAL)Y[j * DIM + 2];
-#endif
-    }
-    TX[j] = qx;
-    TX[mpad + j] = qy;
-#if DIM == 3
-    TX[2 * mpad + j] = qz;
-#endif
-    G[j] = lb[j];
-  }
+  // Transform the points once per launch (pads sit at the origin with weight zero); the duals
+  // start at f = g = 0, i.e. fh = log a, gh = log b.
+  transform_points(src, tgt, I, P, SX, TX);
+  for (int i = lid; i < npad; i += WG) F[i] = la[i];
+  for (int j = lid; j < mpad; j += WG) G[j] = lb[j];
   barrier(CLK_GLOBAL_MEM_FENCE);
 
   __global const REAL* sz = SX + (DIM == 3 ? 2 * npad : 0);
@@ -251,7 +139,7 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
 
   // Cost factor: 1, or 1 / max C over the real (unpadded) pairs.
   REAL cost_factor = 1;
-  if (P[P_NORMALISE] != 0) {
+  if (P->normalise != 0) {
     REAL mx = 0;
     for (int i = lid; i < n; i += WG) {
       for (int j = 0; j < m; ++j) {
@@ -270,14 +158,14 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
 
   // Epsilon schedule: eps0, eps0 * decay, ... down to eps, one iteration each, then iterations
   // at eps until converged or max_it. Duals carry over between levels (rescaled to the new eps).
-  REAL cur_eps = P[P_EPS0] > eps ? (REAL)P[P_EPS0] : eps;
-  const REAL decay = P[P_DECAY];
+  REAL cur_eps = P->eps0 > eps ? (REAL)P->eps0 : eps;
+  const REAL decay = P->decay;
   int it = 0, it_target = 0;
   REAL err = INFINITY;
   int converged = 0;
   // Over-relaxation f <- (1-w) f + w f_sinkhorn at the target epsilon; w adapted as in
-  // sinkhorn_stab.cl (see there), or fixed when P_OMEGA > 0.
-  const REAL omega_fixed = P[P_OMEGA];
+  // sinkhorn_stab.cl (see there), or fixed when P->omega > 0.
+  const REAL omega_fixed = P->omega;
   REAL omega = 1.3f, ref_err = -1;
   int mark = 5, win = 5;
   while (1) {
@@ -365,7 +253,7 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
   // <P, C>, the coupling and the barycentric map, row by row.
   const REAL k = cost_factor / cur_eps;
   REAL total = 0;
-  const long plan0 = I[I_PLAN];
+  const long plan0 = I->plan;
   for (int i = lid; i < n; i += WG) {
     REAL rs = 0, rc = 0, bx = 0, by = 0, bz = 0;
     const REAL pxi = SX[i], pyi = SX[npad + i], pzi = sz[i];
@@ -388,7 +276,7 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
     }
     total += rc * cost_factor;
     if (want_bary) {
-      const long o = ((long)I[I_SRC] + i) * DIM;
+      const long o = ((long)I->src + i) * DIM;
       const REAL inv = rs > 0 ? 1 / rs : 0;
       bary[o + 0] = (float)(bx * inv);
       bary[o + 1] = (float)(by * inv);
@@ -399,9 +287,9 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
   }
   total = group_sum(total, scratch);
   if (lid == 0) {
-    out[p * NR + 0] = (float)total;
-    out[p * NR + 1] = (float)it;
-    out[p * NR + 2] = (float)err;
-    out[p * NR + 3] = (float)converged;
+    out[p].cost = (float)total;
+    out[p].iterations = (float)it;
+    out[p].marginal_error = (float)err;
+    out[p].converged = (float)converged;
   }
 }

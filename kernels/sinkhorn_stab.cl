@@ -3,7 +3,7 @@
 // entry instead of an exp. The scalings are kept as logarithms (lu, lv) and absorbed into the
 // log-domain duals (al, be), with K rebuilt, only when one leaves [-ABSORB, ABSORB] or epsilon
 // changes, so the fixed point is the log-domain one. Layout and most arguments as sinkhorn.cl
-// (its header explains the padding and the per-problem tables).
+// (its header explains the padding; the per-problem tables are in common/sinkhorn_launch.h).
 //
 // Precision: K and the float copies of the scalings used in the products are single precision;
 // the duals, the log-scalings and every sum (K v, K^T u, the marginal error) are accumulated in
@@ -21,68 +21,12 @@
 // loops whose trip count is zero when skipped (PoCL 3.1 miscompiled barriers inside a uniform
 // `if` after a loop that some work-items skip, see tests/pocl_quirks_test.cpp).
 
-#ifndef DIM
-#define DIM 2
-#endif
-#ifndef WG
-#define WG 16
-#endif
-#ifndef USE_DOUBLE
-#define USE_DOUBLE 0
-#endif
-#ifndef ACC_DOUBLE
-#define ACC_DOUBLE 0
-#endif
+#include "common/sinkhorn_common.cl"
+
 #ifndef ABSORB
 #define ABSORB 25
 #endif
 
-#if USE_DOUBLE || ACC_DOUBLE
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-#endif
-#if USE_DOUBLE
-#define REAL double
-#define VW 8
-#define REALV double8
-#define VLOAD vload8
-#define VSTORE vstore8
-#define PAD_LOGW 1e300
-#define ACC double
-#define ACCV double8
-#define TO_ACCV(x) (x)
-#define TO_REALV(x) (x)
-#elif ACC_DOUBLE
-#define REAL float
-#define VW 16
-#define REALV float16
-#define VLOAD vload16
-#define VSTORE vstore16
-#define PAD_LOGW 1e30f
-#define ACC double
-#define ACCV double16
-#define TO_ACCV(x) convert_double16(x)
-#define TO_REALV(x) convert_float16(x)
-#else
-#define REAL float
-#define VW 16
-#define REALV float16
-#define VLOAD vload16
-#define VSTORE vstore16
-#define PAD_LOGW 1e30f
-#define ACC float
-#define ACCV float16
-#define TO_ACCV(x) (x)
-#define TO_REALV(x) (x)
-#endif
-#if VW == 8
-#define ACCLOAD vload8
-#define ACCSTORE vstore8
-#define LANES ((ACCV)(0, 1, 2, 3, 4, 5, 6, 7))
-#else
-#define ACCLOAD vload16
-#define ACCSTORE vstore16
-#define LANES ((ACCV)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
-#endif
 static ACC hmax_acc(ACCV v) {
   ACC r = 0;
   for (int q = 0; q < VW; ++q) r = fmax(r, ((ACC*)&v)[q]);
@@ -91,36 +35,6 @@ static ACC hmax_acc(ACCV v) {
 // Smallest row or column sum taken as is; below, it is clamped so that the scaling becomes
 // large, which triggers an absorption that rebuilds K around the new duals.
 #define TINY_SUM ((ACC)1e-30)
-
-#define I_SRC 0
-#define I_N 1
-#define I_SSLOT 2
-#define I_NPAD 3
-#define I_TGT 4
-#define I_M 5
-#define I_TSLOT 6
-#define I_MPAD 7
-#define I_PLAN 8
-#define I_MAXIT 9
-#define I_KOFF 10
-#define NI 11
-
-#define P_EPS 0
-#define P_TOL 1
-#define P_COS 2
-#define P_SIN 3
-#define P_CX 4
-#define P_CY 5
-#define P_CZ 6
-#define P_SCALE 7
-#define P_NORMALISE 8
-#define P_EPS0 9
-#define P_DECAY 10
-#define P_CHECK 11
-#define P_OMEGA 12  // over-relaxation: 0 adaptive, else the fixed factor in [1, 2)
-#define NP 13
-
-#define NR 4
 
 static REAL dist2(const REAL px, const REAL py, const REAL pz, const REAL qx, const REAL qy,
                   const REAL qz) {
@@ -133,52 +47,13 @@ static REAL dist2(const REAL px, const REAL py, const REAL pz, const REAL qx, co
   return d2;
 }
 
-// Rotation about the centre (about the vertical axis in 3D), then the scale on both clouds;
-// structure of arrays, pads at the origin.
-static void transform_points(__global const float* X, __global const float* Y, const int n,
-                             const int npad, const int m, const int mpad, __global REAL* SX,
-                             __global REAL* TX, __global const float* P) {
-  const REAL scale = P[P_SCALE], c = P[P_COS], s = P[P_SIN], cx = P[P_CX], cy = P[P_CY];
-  for (int i = get_local_id(0); i < npad; i += WG) {
-    REAL px = 0, py = 0, pz = 0;
-    if (i < n) {
-      const REAL ux = X[i * DIM + 0] - cx, uy = X[i * DIM + 1] - cy;
-      px = scale * (cx + c * ux - s * uy);
-      py = scale * (cy + s * ux + c * uy);
-#if DIM == 3
-      pz = scale * (REAL)X[i * DIM + 2];
-#endif
-    }
-    SX[i] = px;
-    SX[npad + i] = py;
-#if DIM == 3
-    SX[2 * npad + i] = pz;
-#endif
-  }
-  for (int j = get_local_id(0); j < mpad; j += WG) {
-    REAL qx = 0, qy = 0, qz = 0;
-    if (j < m) {
-      qx = scale * (REAL)Y[j * DIM + 0];
-      qy = scale * (REAL)Y[j * DIM + 1];
-#if DIM == 3
-      qz = scale * (REAL)Y[j * DIM + 2];
-#endif
-    }
-    TX[j] = qx;
-    TX[mpad + j] = qy;
-#if DIM == 3
-    TX[2 * mpad + j] = qz;
-#endif
-  }
-}
-
 // 1, or 1 / max C over the real pairs when the problem asks for a normalised cost. `scratch`
 // holds WG values.
 static REAL cost_normaliser(__global const REAL* SX, const int npad, const int n,
                             __global const REAL* TX, const int mpad, const int m,
-                            __global const float* P, __local ACC* scratch) {
+                            __global const SinkhornLaunchParams* P, __local ACC* scratch) {
   const int lid = get_local_id(0);
-  const int rows = P[P_NORMALISE] != 0 ? n : 0;
+  const int rows = P->normalise != 0 ? n : 0;
   __global const REAL* sz = SX + (DIM == 3 ? 2 * npad : 0);
   __global const REAL* tz = TX + (DIM == 3 ? 2 * mpad : 0);
   REAL mx = 0;
@@ -186,15 +61,7 @@ static REAL cost_normaliser(__global const REAL* SX, const int npad, const int n
     REALV vm = (REALV)(0);
     int j = 0;
     for (; j + VW <= m; j += VW) {
-      REALV dx = VLOAD(0, TX + j) - SX[i];
-      REALV d2 = dx * dx;
-      REALV dy = VLOAD(0, TX + mpad + j) - SX[npad + i];
-      d2 = fma(dy, dy, d2);
-#if DIM == 3
-      REALV dz = VLOAD(0, tz + j) - sz[i];
-      d2 = fma(dz, dz, d2);
-#endif
-      vm = fmax(vm, d2);
+      vm = fmax(vm, dist2v(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, j));
     }
     for (int q = 0; q < VW; ++q) mx = fmax(mx, ((REAL*)&vm)[q]);
     for (; j < m; ++j) mx = fmax(mx, dist2(SX[i], SX[npad + i], sz[i], TX[j], TX[mpad + j], tz[j]));
@@ -243,14 +110,7 @@ static void build_row(__global REAL* Ki, const REAL px, const REAL py, const REA
                       __global const REAL* TX, __global const REAL* tz, const int mpad,
                       __global const ACC* BE, const ACC al, const REAL k) {
   for (int j = 0; j < mpad; j += VW) {
-    REALV dx = VLOAD(0, TX + j) - px;
-    REALV d2 = dx * dx;
-    REALV dy = VLOAD(0, TX + mpad + j) - py;
-    d2 = fma(dy, dy, d2);
-#if DIM == 3
-    REALV dz = VLOAD(0, tz + j) - pz;
-    d2 = fma(dz, dz, d2);
-#endif
+    const REALV d2 = dist2v(px, py, pz, TX, TX + mpad, tz, j);
 #if VW == 8
     const ACCV be = vload8(0, BE + j);
 #else
@@ -266,14 +126,7 @@ static REAL min_d2(const REAL px, const REAL py, const REAL pz, __global const R
   REALV mn = (REALV)(INFINITY);
   int j = 0;
   for (; j + VW <= cnt; j += VW) {
-    REALV dx = VLOAD(0, qx + j) - px;
-    REALV d2 = dx * dx;
-    REALV dy = VLOAD(0, qy + j) - py;
-    d2 = fma(dy, dy, d2);
-#if DIM == 3
-    REALV dz = VLOAD(0, qz + j) - pz;
-    d2 = fma(dz, dz, d2);
-#endif
+    const REALV d2 = dist2v(px, py, pz, qx, qy, qz, j);
     mn = fmin(mn, d2);
   }
   REAL r = INFINITY;
@@ -284,20 +137,19 @@ static REAL min_d2(const REAL px, const REAL py, const REAL pz, __global const R
 
 // Solves problem p with this work-group; K is the work-group's kernel-matrix storage.
 static void solve(
-    const int p, __global const float* src, __global const float* tgt, __global const int* ints,
-    __global const float* params, __global const ACC* loga, __global const ACC* logb,
-    __global REAL* sx, __global REAL* tx, __global REAL* fh, __global REAL* gh,
-    __global float* out, __global float* plan, __global float* bary, const int want_bary,
-    __global REAL* K, __global REAL* KT, __global ACC* alb, __global ACC* beb, __global ACC* lub,
-    __global ACC* lvb, __global ACC* ufb, __global ACC* vfb, __global ACC* eub,
-    __global ACC* wab, __local ACC (*red_e)[WG], __local ACC (*red_b)[WG]) {
+    const int p, __global const float* src, __global const float* tgt,
+    __global const SinkhornLaunchInts* ints, __global const SinkhornLaunchParams* params,
+    __global const ACC* loga, __global const ACC* logb, __global REAL* sx, __global REAL* tx,
+    __global REAL* fh, __global REAL* gh, __global SinkhornLaunchStats* out, __global float* plan,
+    __global float* bary, const int want_bary, __global REAL* K, __global REAL* KT,
+    __global ACC* alb, __global ACC* beb, __global ACC* lub, __global ACC* lvb, __global ACC* ufb,
+    __global ACC* vfb, __global ACC* eub, __global ACC* wab, __local ACC (*red_e)[WG],
+    __local ACC (*red_b)[WG]) {
   const int lid = get_local_id(0);
-  __global const int* I = ints + p * NI;
-  __global const float* P = params + p * NP;
-  const int n = I[I_N], npad = I[I_NPAD], m = I[I_M], mpad = I[I_MPAD];
-  const int ss = I[I_SSLOT], ts = I[I_TSLOT];
-  __global const float* X = src + (long)I[I_SRC] * DIM;
-  __global const float* Y = tgt + (long)I[I_TGT] * DIM;
+  __global const SinkhornLaunchInts* I = ints + p;
+  __global const SinkhornLaunchParams* P = params + p;
+  const int n = I->n, npad = I->npad, m = I->m, mpad = I->mpad;
+  const int ss = I->src_slot, ts = I->tgt_slot;
   __global REAL* SX = sx + (long)ss * DIM;
   __global REAL* TX = tx + (long)ts * DIM;
   __global const ACC* la = loga + ss;  // log marginals in ACC (see host/sinkhorn.cpp)
@@ -311,12 +163,12 @@ static void solve(
   __global ACC* EUG = eub + 2 * (long)ss;  // exp(lu) of both generations (pads 0)
   __global ACC* A = wab + ss;              // a_i (pads 0)
 
-  const REAL eps = P[P_EPS], tol = P[P_TOL];
-  const int max_it = I[I_MAXIT];
-  const int check = max((int)P[P_CHECK], 1);
-  const ACC omega_fixed = P[P_OMEGA];
+  const REAL eps = P->eps, tol = P->tol;
+  const int max_it = I->max_it;
+  const int check = max((int)P->check, 1);
+  const ACC omega_fixed = P->omega;
 
-  transform_points(X, Y, n, npad, m, mpad, SX, TX, P);
+  transform_points(src, tgt, I, P, SX, TX);
   barrier(CLK_GLOBAL_MEM_FENCE);
   __global const REAL* sz = SX + (DIM == 3 ? 2 * npad : 0);
   __global const REAL* tz = TX + (DIM == 3 ? 2 * mpad : 0);
@@ -326,8 +178,8 @@ static void solve(
   // be_j = min_i (k C_ij - al_i): every row and every column of the first K then has an entry
   // exactly 1, so no sum underflows whatever epsilon is, and no exp is needed. The marginals
   // a, b are left to the scalings (lu, lv start at 0).
-  REAL cur_eps = P[P_EPS0] > eps ? (REAL)P[P_EPS0] : eps;
-  const REAL decay = P[P_DECAY];
+  REAL cur_eps = P->eps0 > eps ? (REAL)P->eps0 : eps;
+  const REAL decay = P->decay;
   {
     const REAL k = cost_factor / cur_eps;
     for (int i = lid; i < npad; i += WG)
@@ -515,8 +367,8 @@ static void solve(
 
   const REAL k = cost_factor / cur_eps;
   ACC total = 0;
-  const long plan0 = I[I_PLAN];
-  const REAL inv_scale = 1 / (REAL)P[P_SCALE];
+  const long plan0 = I->plan;
+  const REAL inv_scale = 1 / (REAL)P->scale;
   for (int i = lid; i < n; i += WG) {
     ACCV rs = (ACCV)(0), rc = (ACCV)(0), bx = (ACCV)(0), by = (ACCV)(0), bz = (ACCV)(0);
     const ACC ui = EU[i];
@@ -546,7 +398,7 @@ static void solve(
     total += hsum_acc(rc) * cost_factor;
     if (want_bary) {
       // Target points are not rotated: TX / scale are the target points in their own units.
-      const long o = ((long)I[I_SRC] + i) * DIM;
+      const long o = ((long)I->src + i) * DIM;
       const ACC rsum = hsum_acc(rs);
       const ACC inv = rsum > 0 ? inv_scale / rsum : 0;
       bary[o + 0] = (float)(hsum_acc(bx) * inv);
@@ -564,10 +416,10 @@ static void solve(
   if (lid == 0) {
     ACC tot = 0;
     for (int l = 0; l < WG; ++l) tot += red_e[par][l];
-    out[p * NR + 0] = (float)tot;
-    out[p * NR + 1] = (float)it;
-    out[p * NR + 2] = (float)err;
-    out[p * NR + 3] = (float)converged;
+    out[p].cost = (float)tot;
+    out[p].iterations = (float)it;
+    out[p].marginal_error = (float)err;
+    out[p].converged = (float)converged;
   }
 }
 
@@ -579,10 +431,10 @@ static void solve(
 // two generations per slot (the plan whose error was measured is kept). uf, vf: the current
 // scalings in REAL for the products (pads 0). eu: exp(lu), two generations. wa: a per slot.
 __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solve(
-    __global const float* src, __global const float* tgt, __global const int* ints,
-    __global const float* params, __global const ACC* loga, __global const ACC* logb,
-    __global REAL* sx, __global REAL* tx, __global REAL* fh, __global REAL* gh,
-    __global float* out, __global float* plan, __global float* bary, const int want_bary,
+    __global const float* src, __global const float* tgt, __global const SinkhornLaunchInts* ints,
+    __global const SinkhornLaunchParams* params, __global const ACC* loga,
+    __global const ACC* logb, __global REAL* sx, __global REAL* tx, __global REAL* fh,
+    __global REAL* gh, __global SinkhornLaunchStats* out, __global float* plan, __global float* bary, const int want_bary,
     __global REAL* kmat, __global ACC* alb, __global ACC* beb, __global ACC* lub,
     __global ACC* lvb, __global ACC* ufb, __global ACC* vfb, __global ACC* eub,
     __global ACC* wab, __global int* counter, const int problems, const long kstride) {

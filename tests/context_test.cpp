@@ -37,6 +37,16 @@ TEST(Context, EveryEmbeddedKernelCompilesOnItsOwn) {
   }
 }
 
+TEST(Context, EmbeddedKernelsCarryTheirSharedParts) {
+  // `#include "common/..."` lines are expanded when the kernels are embedded.
+  for (const std::string& n : embedded_kernel_names()) {
+    SCOPED_TRACE(n);
+    EXPECT_EQ(embedded_kernel_source(n).find("#include"), std::string::npos);
+  }
+  for (const char* n : {"sinkhorn", "sinkhorn_stab"})
+    EXPECT_NE(embedded_kernel_source(n).find("} SinkhornLaunchInts;"), std::string::npos) << n;
+}
+
 TEST(Context, ProgramsAreCachedInMemory) {
   ContextOptions o;
   o.disk_cache = false;  // ctest sets POTMAP_CACHE_DIR; this test counts compiler builds

@@ -68,10 +68,9 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
   const std::size_t wg = 64;
   if (n > 0) {
     bc::kernel fwd = ctx.kernel("abhm_grad", "abhm_forward", defs);
-    fwd.set_args(b_kpos, b_kg, b_kw, b_spos, b_sy, b_sstart, b_slist, static_cast<cl_uint>(n),
-                 static_cast<float>(draw.b), static_cast<float>(scale), b_gf, b_ll);
-    detail::cl_call("clEnqueueNDRangeKernel",
-                    [&] { ctx.queue().enqueue_1d_range_kernel(fwd, 0, round_up(n, wg), wg); });
+    detail::launch_1d(ctx.queue(), fwd, "abhm_forward", round_up(n, wg), wg, b_kpos, b_kg, b_kw,
+                      b_spos, b_sy, b_sstart, b_slist, static_cast<cl_uint>(n),
+                      static_cast<float>(draw.b), static_cast<float>(scale), b_gf, b_ll);
     from_device(ctx, b_ll, ll);
     from_device(ctx, b_gf, gf);
   }
@@ -84,10 +83,8 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
   if (!grad) return loss;
   if (m > 0 && n > 0) {
     bc::kernel bwd = ctx.kernel("abhm_grad", "abhm_backward", defs);
-    bwd.set_args(b_kpos, b_kg, b_kw, b_spos, b_gf, b_kstart, b_klist, static_cast<cl_uint>(m), b_dw,
-                 b_dg, b_dh);
-    detail::cl_call("clEnqueueNDRangeKernel",
-                    [&] { ctx.queue().enqueue_1d_range_kernel(bwd, 0, round_up(m, wg), wg); });
+    detail::launch_1d(ctx.queue(), bwd, "abhm_backward", round_up(m, wg), wg, b_kpos, b_kg, b_kw,
+                      b_spos, b_gf, b_kstart, b_klist, static_cast<cl_uint>(m), b_dw, b_dg, b_dh);
     from_device(ctx, b_dw, dw);
     from_device(ctx, b_dg, dg);
     from_device(ctx, b_dh, dh);

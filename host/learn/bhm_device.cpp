@@ -72,10 +72,9 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
   std::vector<double> ad(m), bd(m);
   for (int it = 0; it < options.em_iterations; ++it) {
     if (m > 0) {
-      acc.set_args(b_khi, b_klo, b_kg, b_shi, b_slo, b_sy, b_lambda, b_kstart, b_klist,
-                   static_cast<cl_uint>(m), b_a, b_b);
-      detail::cl_call("clEnqueueNDRangeKernel",
-                      [&] { ctx.queue().enqueue_1d_range_kernel(acc, 0, round_up(m, wg), wg); });
+      detail::launch_1d(ctx.queue(), acc, "bhm_accumulate", round_up(m, wg), wg, b_khi, b_klo, b_kg,
+                        b_shi, b_slo, b_sy, b_lambda, b_kstart, b_klist, static_cast<cl_uint>(m),
+                        b_a, b_b);
       from_device(ctx, b_a, a);
       from_device(ctx, b_b, b);
     }
@@ -94,11 +93,10 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
     }
     upload(ctx, b_wm, wm);
     upload(ctx, b_wv, wv);
-    lam.set_args(b_khi, b_klo, b_kg, b_wm, b_wv, b_shi, b_slo, b_sstart, b_slist,
-                 static_cast<cl_uint>(n), static_cast<float>(map.has_bias ? map.bias_mean : 0.0),
-                 static_cast<float>(map.has_bias ? map.bias_var : 0.0), b_lambda);
-    detail::cl_call("clEnqueueNDRangeKernel",
-                    [&] { ctx.queue().enqueue_1d_range_kernel(lam, 0, round_up(n, wg), wg); });
+    detail::launch_1d(ctx.queue(), lam, "bhm_lambda", round_up(n, wg), wg, b_khi, b_klo, b_kg, b_wm,
+                      b_wv, b_shi, b_slo, b_sstart, b_slist, static_cast<cl_uint>(n),
+                      static_cast<float>(map.has_bias ? map.bias_mean : 0.0),
+                      static_cast<float>(map.has_bias ? map.bias_var : 0.0), b_lambda);
     from_device(ctx, b_lambda, lambda);
   }
 }
