@@ -42,15 +42,6 @@ struct FramesSettings {
   std::string device;
 };
 
-std::vector<std::string> split(const std::string& s, char sep) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, sep))
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 bool is_sim(const std::string& spec) {
   return spec.rfind("sim3d:", 0) == 0;
 }
@@ -76,7 +67,7 @@ std::vector<Scan> read_frames(const std::string& path) {
 std::vector<std::vector<Scan>> sim_places(const std::string& spec, const FramesSettings& s,
                                           std::size_t scans, std::uint64_t seed) {
   std::vector<std::vector<Scan>> places;
-  for (const std::string& town : split(spec.substr(6), '+'))
+  for (const std::string& town : split_list(spec.substr(6), '+'))
     places.push_back(
         simulate(Town::builtin(town, 0), experiment::sim_options_3d(scans, seed, s.sim_spacing))
             .scans);
@@ -94,7 +85,7 @@ std::string cpu_model() {
 int run_frames(const FramesSettings& s) {
   std::unique_ptr<Context> ctx;
   if (!s.cpu) ctx = std::make_unique<Context>(make_context(s.device));
-  const std::vector<std::string> methods = split(s.methods, ',');
+  const std::vector<std::string> methods = split_list(s.methods, ',');
   if (!s.figures.empty()) fs::create_directories(s.figures);
   auto cache = std::make_shared<experiment::AtomCache>();
   nlohmann::json runs = nlohmann::json::array();
@@ -124,7 +115,7 @@ int run_frames(const FramesSettings& s) {
         if (is_sim(sspec)) {
           // A simulated target town is left out of its own source.
           std::vector<std::string> towns;
-          for (const std::string& t : split(sspec.substr(6), '+'))
+          for (const std::string& t : split_list(sspec.substr(6), '+'))
             if (!is_sim(tspec) || tspec.substr(6) != t) towns.push_back(t);
           if (towns.empty()) continue;
           std::string spec = "sim3d:";

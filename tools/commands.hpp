@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "potmap/context.hpp"
 
@@ -22,6 +23,8 @@ struct Runner {
 std::shared_ptr<std::string> add_device_option(CLI::App* cmd);
 /// A Context on the device named (or POTMAP_DEVICE, or the default), announced on stderr.
 Context make_context(const std::string& device, bool quiet = false);
+/// The non-empty pieces of `s` between `sep` characters ("a,,b" gives a and b).
+std::vector<std::string> split_list(const std::string& s, char sep);
 
 void register_devices(CLI::App& app, Runner& runner);
 void register_eval(CLI::App& app, Runner& runner);

@@ -36,15 +36,6 @@ std::string slug(const std::string& s) {
   return o;
 }
 
-std::vector<std::string> split(const std::string& s, char sep) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, sep))
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 std::string cpu_model() {
   std::ifstream in("/proc/cpuinfo");
   std::string line;
@@ -61,7 +52,7 @@ std::string command_line() {
   std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   std::string out;
   bool first = true;
-  for (const std::string& a : split(all, '\0')) {
+  for (const std::string& a : split_list(all, '\0')) {
     std::string arg = first ? "potmap" : a;
     first = false;
     if (!out.empty()) out += ' ';
@@ -146,7 +137,7 @@ std::vector<std::vector<Scan>> Harness::load_places(const std::string& spec, std
   const auto colon = spec.find(':');
   const std::string kind = colon == std::string::npos ? "" : spec.substr(0, colon);
   if (kind == "sim" || kind == "simdyn") {
-    for (const std::string& town : split(spec.substr(colon + 1), '+')) {
+    for (const std::string& town : split_list(spec.substr(colon + 1), '+')) {
       SimOptions o;
       o.scans = s_.sim_scans;
       o.spacing = s_.sim_spacing;
@@ -173,7 +164,7 @@ std::vector<std::vector<Scan>> Harness::load_places(const std::string& spec, std
 
 std::vector<Method> Harness::methods() const {
   std::vector<Method> out;
-  for (const std::string& m : split(s_.methods, ',')) {
+  for (const std::string& m : split_list(s_.methods, ',')) {
     if (m == "ogm") {
       for (double c : s_.ogm_cells) out.push_back(experiment::ogm_method(c));
     } else if (m == "bhm") {
