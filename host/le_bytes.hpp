@@ -1,6 +1,6 @@
 #pragma once
-// Little-endian encoding and the CRC-32 shared by the native binary formats (.potmap maps,
-// .potdict dictionaries), so that both write and check bytes the same way on every platform.
+// Little-endian encoding and the CRC-32 of the native binary container (io/container.hpp), so
+// that every native file writes and checks bytes the same way on every platform.
 
 #include <zlib.h>
 

@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <functional>
+#include <iterator>
 #include <random>
 
 #include "potmap/bhm.hpp"
@@ -142,6 +145,84 @@ TEST(Abhm, CheckpointResumeEqualsUninterrupted) {
   EXPECT_THROW(abhm_train(other, data, o), InputError);
 }
 
+std::string file_bytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+void put_file(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+std::string input_error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no InputError";
+  return "";
+}
+
+TEST(Abhm, CorruptOrTruncatedCheckpointIsRefusedNamingFileAndOffset) {
+  std::mt19937 rng(6);
+  const LabelledPoints data = random_samples(rng, 2, 100);
+  const double lo[3] = {0, 0, 0}, hi[3] = {3, 3, 0};
+  AbhmOptions o;
+  o.steps = 10;
+  o.batch = 16;
+  o.max_steps_this_call = 4;
+  o.checkpoint = test::temp_dir("abhm_ckpt_bad") + "/ckpt.bin";
+  AbhmParams p = abhm_init_grid(2, lo, hi, 1.0, 1.0);
+  const AbhmParams start = p;
+  ASSERT_EQ(abhm_train(p, data, o), 4u);
+  const std::string good = file_bytes(o.checkpoint);
+  ASSERT_GT(good.size(), 44u);
+  EXPECT_EQ(good.substr(0, 8), std::string("POTABC\r\n"));
+  auto refused = [&](const std::string& bytes) {
+    put_file(o.checkpoint, bytes);
+    AbhmParams q = start;
+    return input_error_of([&] { abhm_train(q, data, o); });
+  };
+  auto expect_has = [](const std::string& msg, const std::string& part) {
+    EXPECT_NE(msg.find(part), std::string::npos) << "'" << part << "' not in: " << msg;
+  };
+  // A flipped payload byte: the checksum, at its offset.
+  std::string b = good;
+  b[good.size() / 2] ^= 0x20;
+  std::string msg = refused(b);
+  expect_has(msg, o.checkpoint);
+  expect_has(msg, "byte offset " + std::to_string(good.size() - 4));
+  expect_has(msg, "checksum mismatch");
+  // Truncated: the size field names both sizes.
+  msg = refused(good.substr(0, good.size() - 9));
+  expect_has(msg, o.checkpoint);
+  expect_has(msg, "byte offset 24");
+  expect_has(msg, "truncated");
+  expect_has(msg, std::to_string(good.size()));
+  // Cut inside the header, and inside the magic.
+  msg = refused(good.substr(0, 20));
+  expect_has(msg, "byte offset 20");
+  expect_has(msg, "truncated");
+  msg = refused(good.substr(0, 5));
+  expect_has(msg, "byte offset 5");
+  expect_has(msg, "truncated");
+  // Another format or version.
+  b = good;
+  b[0] = 'X';
+  msg = refused(b);
+  expect_has(msg, "byte offset 0");
+  expect_has(msg, "not an ABHM checkpoint");
+  b = good;
+  b[8] = 7;
+  msg = refused(b);
+  expect_has(msg, "byte offset 8");
+  expect_has(msg, "version 7");
+  // The intact file still resumes.
+  put_file(o.checkpoint, good);
+  AbhmParams q = start;
+  o.max_steps_this_call = 0;
+  EXPECT_EQ(abhm_train(q, data, o), 10u);
+}
+
 TEST(Abhm, ParamsRoundTrip) {
   std::mt19937 rng(9);
   const AbhmParams p = random_params(rng, 3, 5);
@@ -152,6 +233,14 @@ TEST(Abhm, ParamsRoundTrip) {
   EXPECT_EQ(q.h_grid, p.h_grid);
   EXPECT_EQ(q.flat(), p.flat());
   EXPECT_THROW(read_abhm_params(path + ".missing"), InputError);
+  // A damaged file is refused naming the file and the offset.
+  std::string b = file_bytes(path);
+  b[40] ^= 1;
+  put_file(path, b);
+  const std::string msg = input_error_of([&] { read_abhm_params(path); });
+  EXPECT_NE(msg.find(path + ": byte offset " + std::to_string(b.size() - 4) + ": checksum"),
+            std::string::npos)
+      << msg;
 }
 
 // A room with a thin wall (0.15 m) next to open space, seen from both sides.

@@ -4,11 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
+#include <filesystem>
 #include <numeric>
 #include <random>
 
 #include "abhm_detail.hpp"
+#include "io/container.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -268,90 +269,108 @@ void abhm_chain(const AbhmParams& p, const AbhmPrior& prior, const AbhmNoise& no
 
 namespace {
 
-constexpr char kMagic[8] = {'P', 'O', 'T', 'A', 'B', 'H', 'M', '1'};
+// Checkpoints and parameter files are containers (io/container.hpp) of one layout:
+//   offset 12  u32  dim          offset 16  u64  kernel count M
+//   offset 24  u64  file size    (checkpoint: offset 32  u64  Adam step)
+// then h_grid (M * dim doubles), flat() and, in a checkpoint, Adam's m and v (flat() size each).
+constexpr std::uint32_t kAbhmFormatVersion = 2;  // 1: raw host-order files without a checksum
+constexpr detail::ContainerLayout kCheckpointLayout{"POTABC\r\n", "an ABHM checkpoint",
+                                                    kAbhmFormatVersion, 40, 24};
+constexpr detail::ContainerLayout kParamsLayout{"POTABP\r\n", "an ABHM parameter file",
+                                                kAbhmFormatVersion, 32, 24};
 
 struct AdamState {
   std::uint64_t step = 0;
   std::vector<double> m, v;
 };
 
-void write_checkpoint(const std::string& path, const AbhmParams& p, const AdamState& s) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw InputError(tmp + ": cannot open for writing");
-    const std::vector<double> th = p.flat();
-    const std::uint64_t hdr[3] = {static_cast<std::uint64_t>(p.dim), p.size(), s.step};
-    f.write(kMagic, 8);
-    f.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
-    for (const auto* v : {&p.h_grid, &th, &s.m, &s.v})
-      f.write(reinterpret_cast<const char*>(v->data()), v->size() * sizeof(double));
-    if (!f) throw InputError(tmp + ": write failed");
+std::size_t flat_size(int dim, std::size_t m) {
+  return m * (4 + 2 * dim) + 2;
+}
+
+// `s` null: a parameter file.
+void write_abhm_file(const std::string& path, const AbhmParams& p, const AdamState* s) {
+  const detail::ContainerLayout& layout = s ? kCheckpointLayout : kParamsLayout;
+  const std::vector<double> th = p.flat();
+  detail::ContainerWriter out(
+      layout, layout.header_bytes + 8 * (p.h_grid.size() + th.size() * (s ? 3 : 1)) + 4);
+  out.u32(static_cast<std::uint32_t>(p.dim));
+  out.u64(p.size());
+  out.u64(0);  // the file size: filled in by finish()
+  if (s) out.u64(s->step);
+  out.f64s(p.h_grid);
+  out.f64s(th);
+  if (s) {
+    out.f64s(s->m);
+    out.f64s(s->v);
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw InputError(path + ": rename failed");
+  out.finish(path);
+}
+
+// Checks the container and the header (dim 2 or 3, a count that matches the file size) and
+// returns the offset of the payload.
+std::size_t open_abhm_file(const detail::ContainerReader& r, bool checkpoint) {
+  const std::uint32_t dim = r.u32(12);
+  if (dim != 2 && dim != 3) r.fail(12, "dimension " + std::to_string(dim) + " (must be 2 or 3)");
+  r.check_size(r.u64(24), 24, "the header gives a file size of");
+  const std::uint64_t m = r.u64(16);
+  const std::size_t header =
+      checkpoint ? kCheckpointLayout.header_bytes : kParamsLayout.header_bytes;
+  const std::uint64_t expected =
+      m <= (std::uint64_t(1) << 32)
+          ? header + 8 * (m * dim + flat_size(dim, m) * (checkpoint ? 3 : 1)) + 4
+          : 0;
+  r.check_size(
+      expected, 16,
+      "kernel count " + std::to_string(m) + " in " + std::to_string(dim) + "D needs a file of");
+  r.check_checksum();
+  return header;
+}
+
+void read_doubles(const detail::ContainerReader& r, std::size_t& at, std::vector<double>& v) {
+  for (double& x : v) {
+    x = r.f64(at);
+    at += 8;
+  }
+}
+
+void write_checkpoint(const std::string& path, const AbhmParams& p, const AdamState& s) {
+  write_abhm_file(path, p, &s);
 }
 
 bool read_checkpoint(const std::string& path, AbhmParams& p, AdamState& s) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return false;
-  char magic[8];
-  std::uint64_t hdr[3];
-  f.read(magic, 8);
-  f.read(reinterpret_cast<char*>(hdr), sizeof hdr);
-  if (!f || std::memcmp(magic, kMagic, 8) != 0) throw InputError(path + ": not an ABHM checkpoint");
-  if (hdr[0] != static_cast<std::uint64_t>(p.dim) || hdr[1] != p.size())
-    throw InputError(path + ": checkpoint is for " + std::to_string(hdr[1]) + " kernels in " +
-                     std::to_string(hdr[0]) + "D, the model has " + std::to_string(p.size()) +
-                     " in " + std::to_string(p.dim) + "D");
-  std::vector<double> grid(p.h_grid.size()), th(p.flat().size());
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return false;
+  const detail::ContainerReader r(path, kCheckpointLayout);
+  std::size_t at = open_abhm_file(r, true);
+  const std::uint64_t dim = r.u32(12), m = r.u64(16);
+  if (dim != static_cast<std::uint64_t>(p.dim) || m != p.size())
+    r.fail(12, "checkpoint is for " + std::to_string(m) + " kernels in " + std::to_string(dim) +
+                   "D, the model has " + std::to_string(p.size()) + " in " + std::to_string(p.dim) +
+                   "D");
+  std::vector<double> grid(p.h_grid.size()), th(flat_size(p.dim, p.size()));
   s.m.assign(th.size(), 0);
   s.v.assign(th.size(), 0);
-  for (auto* v : {&grid, &th, &s.m, &s.v})
-    f.read(reinterpret_cast<char*>(v->data()), v->size() * sizeof(double));
-  if (!f) throw InputError(path + ": truncated checkpoint");
+  for (auto* v : {&grid, &th, &s.m, &s.v}) read_doubles(r, at, *v);
   p.h_grid = grid;
   p.set_flat(th);
-  s.step = hdr[2];
+  s.step = r.u64(32);
   return true;
 }
 
 }  // namespace
 
-namespace {
-constexpr char kParamsMagic[8] = {'P', 'O', 'T', 'A', 'B', 'H', 'P', '1'};
-}
-
 void write_abhm_params(const AbhmParams& p, const std::string& path) {
   check_params(p);
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw InputError(tmp + ": cannot open for writing");
-    const std::vector<double> th = p.flat();
-    const std::uint64_t hdr[2] = {static_cast<std::uint64_t>(p.dim), p.size()};
-    f.write(kParamsMagic, 8);
-    f.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
-    for (const auto* v : {&p.h_grid, &th})
-      f.write(reinterpret_cast<const char*>(v->data()), v->size() * sizeof(double));
-    if (!f) throw InputError(tmp + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw InputError(path + ": rename failed");
+  write_abhm_file(path, p, nullptr);
 }
 
 AbhmParams read_abhm_params(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw InputError(path + ": cannot open");
-  char magic[8];
-  std::uint64_t hdr[2];
-  f.read(magic, 8);
-  f.read(reinterpret_cast<char*>(hdr), sizeof hdr);
-  if (!f || std::memcmp(magic, kParamsMagic, 8) != 0)
-    throw InputError(path + ": not an ABHM parameter file");
-  if ((hdr[0] != 2 && hdr[0] != 3) || hdr[1] > (std::uint64_t(1) << 32))
-    throw InputError(path + ": bad header");
+  const detail::ContainerReader r(path, kParamsLayout);
+  std::size_t at = open_abhm_file(r, false);
   AbhmParams p;
-  p.dim = static_cast<int>(hdr[0]);
-  const std::size_t m = hdr[1];
+  p.dim = static_cast<int>(r.u32(12));
+  const std::size_t m = static_cast<std::size_t>(r.u64(16));
   p.h_grid.resize(m * p.dim);
   p.w_loc.resize(m);
   p.w_s.resize(m);
@@ -359,10 +378,9 @@ AbhmParams read_abhm_params(const std::string& path) {
   p.g_s.resize(m);
   p.h_loc.resize(m * p.dim);
   p.h_s.resize(m * p.dim);
-  std::vector<double> th(p.flat().size());
-  for (auto* v : {&p.h_grid, &th})
-    f.read(reinterpret_cast<char*>(v->data()), v->size() * sizeof(double));
-  if (!f) throw InputError(path + ": truncated");
+  std::vector<double> th(flat_size(p.dim, m));
+  read_doubles(r, at, p.h_grid);
+  read_doubles(r, at, th);
   p.set_flat(th);
   return p;
 }

@@ -53,8 +53,9 @@ struct AbhmParams {
   KernelMap to_map(bool mean_gamma = false) const;
 };
 
-/// Writes the variational parameters (binary, little-endian doubles; atomically) and reads them
-/// back. read throws InputError naming the file for a wrong, truncated or unreadable file.
+/// Writes the variational parameters (binary, little-endian, with a CRC-32; atomically) and
+/// reads them back. read throws InputError naming the file and the byte offset for a wrong,
+/// truncated, corrupt or unreadable file.
 void write_abhm_params(const AbhmParams& params, const std::string& path);
 AbhmParams read_abhm_params(const std::string& path);
 
