@@ -1,6 +1,7 @@
 # Checks what the shared library exports (run by CTest as `cmake -P` with LIBRARY, the built
 # libpotmap.so, and SOURCE_DIR):
 #   - its SONAME is libpotmap.so.<major>;
+#   - it does not need OctoMap (only the experiments library, potmap::experiments, does);
 #   - every function potmap.h declares is exported;
 #   - nothing of host/'s namespaces (potmap::detail, ::npy, ::npz, ::data) is;
 #   - every strong symbol it defines is potmap's (C API or namespace potmap);
@@ -13,6 +14,9 @@ find_program(READELF readelf REQUIRED)
 execute_process(COMMAND ${READELF} -d "${LIBRARY}" OUTPUT_VARIABLE dyn RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0 OR NOT dyn MATCHES "SONAME\\)[^\n]*\\[libpotmap\\.so\\.[0-9]+\\]")
   message(FATAL_ERROR "no SONAME libpotmap.so.<major> in ${LIBRARY}:\n${dyn}")
+endif()
+if(dyn MATCHES "NEEDED\\)[^\n]*\\[lib(octomap|octomath)")
+  message(FATAL_ERROR "${LIBRARY} needs OctoMap (only the experiments should):\n${dyn}")
 endif()
 
 execute_process(COMMAND ${NM} -D -C --defined-only "${LIBRARY}" OUTPUT_VARIABLE syms RESULT_VARIABLE rc)
@@ -42,9 +46,7 @@ foreach(line IN LISTS lines)
   if(line MATCHES "^[0-9a-f]+ [TDBR] (.*)$")
     math(EXPR strong "${strong} + 1")
     set(name "${CMAKE_MATCH_1}")
-    # .gomp_critical_user_*: OpenMP named critical sections (OctoMap's headers use one) are
-    # common symbols by design: every library in the process must share the same lock.
-    if(NOT name MATCHES "^(potmap_|potmap::|typeinfo (name )?for potmap::|vtable for potmap::|_init$|_fini$|\\.gomp_critical_user_)"
+    if(NOT name MATCHES "^(potmap_|potmap::|typeinfo (name )?for potmap::|vtable for potmap::|_init$|_fini$)"
        AND NOT name MATCHES "^[a-zA-Z_:<>, *&]*potmap::[A-Za-z]+::?")
       message(FATAL_ERROR "a symbol that is not potmap's is exported: ${line}")
     endif()
