@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <string>
 
-#include "potmap/labelling.hpp"
-#include "potmap/scan.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/scan.hpp"
+#include "potmap/data/simulator.hpp"
 
 namespace {
 

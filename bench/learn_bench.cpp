@@ -6,9 +6,9 @@
 #include <cmath>
 #include <random>
 
-#include "potmap/abhm.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/context.hpp"
+#include "potmap/learn/abhm.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/runtime/context.hpp"
 
 using namespace potmap;
 

@@ -18,11 +18,11 @@
 #include <string>
 #include <vector>
 
-#include "potmap/bhm.hpp"
-#include "potmap/context.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/overall_map.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/pot/overall_map.hpp"
+#include "potmap/runtime/context.hpp"
 
 using namespace potmap;
 

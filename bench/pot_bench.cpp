@@ -9,16 +9,16 @@
 #include <cmath>
 #include <memory>
 
-#include "potmap/atom_descriptor.hpp"
-#include "potmap/atoms.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/context.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/mapper.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/pot.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/atom_descriptor.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
+#include "potmap/pot/transfer.hpp"
+#include "potmap/runtime/context.hpp"
 
 using namespace potmap;
 

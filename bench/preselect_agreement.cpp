@@ -18,13 +18,13 @@
 #include <string>
 #include <vector>
 
-#include "potmap/atom_descriptor.hpp"
-#include "potmap/atoms.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/context.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/pot.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/pot/atom_descriptor.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/transfer.hpp"
+#include "potmap/runtime/context.hpp"
 
 using namespace potmap;
 using Clock = std::chrono::steady_clock;

@@ -9,8 +9,8 @@
 
 #include <cstdint>
 
-#include "potmap/context.hpp"
-#include "potmap/sinkhorn.hpp"
+#include "potmap/ot/sinkhorn.hpp"
+#include "potmap/runtime/context.hpp"
 
 using namespace potmap;
 

@@ -4,15 +4,16 @@
 
 #include <filesystem>
 
-#include "potmap/context.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/map_io.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/runtime/context.hpp"
 
 using namespace potmap;
 
 namespace {
 
-const std::string kTown1 = std::string(POTMAP_SOURCE_DIR) + "/../shared/data/carla/town1_abhm_map.csv";
+const std::string kTown1 =
+    std::string(POTMAP_SOURCE_DIR) + "/../shared/data/carla/town1_abhm_map.csv";
 
 Context& town1_context() {
   static Context ctx;
@@ -95,8 +96,8 @@ void BM_Town1Reference(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(evaluate_exact(map, pts.data(), n));
   state.counters["queries_per_s"] =
       benchmark::Counter(double(n) * state.iterations(), benchmark::Counter::kIsRate);
-  state.counters["kernel_evals_per_s"] = benchmark::Counter(
-      double(n) * map.size() * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["kernel_evals_per_s"] =
+      benchmark::Counter(double(n) * map.size() * state.iterations(), benchmark::Counter::kIsRate);
   state.SetLabel("CPU reference (Eigen, double, OpenMP)");
 }
 BENCHMARK(BM_Town1Reference)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -3,8 +3,8 @@
 // and libFuzzer's CRC-aware mutations (-use_cmp) carry it past; a second pass re-checks what the
 // reader accepted.
 #include "fuzz_input.hpp"
-#include "potmap/dictionary_io.hpp"
 #include "potmap/error.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string p = potmap::fuzz::write_input(data, size, ".potdict");

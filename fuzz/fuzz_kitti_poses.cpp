@@ -1,6 +1,6 @@
 #include "fuzz_input.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/scan.hpp"
 
 // The input is split at its first NUL byte: calib.txt before it, poses.txt after it.
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -1,7 +1,7 @@
 // Labelled-point CSV reader on arbitrary bytes.
 #include "fuzz_input.hpp"
+#include "potmap/data/labelled_points.hpp"
 #include "potmap/error.hpp"
-#include "potmap/labelled_points.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string p = potmap::fuzz::write_input(data, size, ".csv");

@@ -1,7 +1,7 @@
 // Map reader (.csv) on arbitrary bytes: any outcome but a crash or a sanitizer report is fine.
 #include "fuzz_input.hpp"
 #include "potmap/error.hpp"
-#include "potmap/map_io.hpp"
+#include "potmap/io/map_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string p = potmap::fuzz::write_input(data, size, ".csv");

@@ -1,6 +1,6 @@
 #include "fuzz_input.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/scan.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string p = potmap::fuzz::write_input(data, size, ".npz");

@@ -1,7 +1,7 @@
 #include "fuzz_input.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/scan.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string p = potmap::fuzz::write_input(data, size, ".bin");

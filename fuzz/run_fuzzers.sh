@@ -42,7 +42,7 @@ if [ -d "$data/carla" ]; then
 fi
 printf 'x,y,z,gamma,w_mean,w_var\n# bias 0.5 2\n1,2,3,0.5,1,2\n' > "$corpus/map_csv/seed3d.csv"
 printf 'POTMAP' > "$corpus/map_potmap/seed"
-# A valid one-atom 2D dictionary (layout: include/potmap/dictionary_io.hpp), so that the
+# A valid one-atom 2D dictionary (layout: include/potmap/pot/dictionary_io.hpp), so that the
 # dictionary fuzzer starts past the checksum.
 if command -v python3 >/dev/null; then
   python3 - "$corpus/dictionary/seed.potdict" <<'PY'

@@ -1,4 +1,4 @@
-#include "potmap/abhm.hpp"
+#include "potmap/learn/abhm.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 #include <iterator>
 #include <random>
 
-#include "potmap/bhm.hpp"
 #include "potmap/error.hpp"
+#include "potmap/learn/bhm.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

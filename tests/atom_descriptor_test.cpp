@@ -5,8 +5,8 @@
 #include <numeric>
 #include <random>
 
-#include "potmap/atom_descriptor.hpp"
 #include "potmap/error.hpp"
+#include "potmap/pot/atom_descriptor.hpp"
 
 using namespace potmap;
 

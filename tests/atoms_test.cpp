@@ -3,9 +3,9 @@
 
 #include <cmath>
 
-#include "potmap/atoms.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/pot/atoms.hpp"
 
 namespace potmap {
 namespace {

@@ -10,12 +10,12 @@
 #include <cstdio>
 #include <vector>
 
-#include "potmap/bhm_joint.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/experiment.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/scan.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/scan.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/learn/bhm_joint.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

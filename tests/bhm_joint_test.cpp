@@ -1,4 +1,4 @@
-#include "potmap/bhm_joint.hpp"
+#include "potmap/learn/bhm_joint.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,11 +10,11 @@
 #include <random>
 #include <vector>
 
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/experiment.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/scan.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

@@ -1,4 +1,4 @@
-#include "potmap/bhm.hpp"
+#include "potmap/learn/bhm.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "potmap/error.hpp"
-#include "potmap/synthetic.hpp"
+#include "potmap/map/synthetic.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

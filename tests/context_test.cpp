@@ -2,8 +2,8 @@
 
 #include <filesystem>
 
-#include "potmap/context.hpp"
 #include "potmap/error.hpp"
+#include "potmap/runtime/context.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -38,12 +38,12 @@ TEST(Context, EveryEmbeddedKernelCompilesOnItsOwn) {
 }
 
 TEST(Context, EmbeddedKernelsCarryTheirSharedParts) {
-  // `#include "common/..."` lines are expanded when the kernels are embedded.
+  // `#include "../common/..."` lines are expanded when the kernels are embedded.
   for (const std::string& n : embedded_kernel_names()) {
     SCOPED_TRACE(n);
     EXPECT_EQ(embedded_kernel_source(n).find("#include"), std::string::npos);
   }
-  for (const char* n : {"sinkhorn", "sinkhorn_stab"})
+  for (const char* n : {"ot/sinkhorn", "ot/sinkhorn_stab"})
     EXPECT_NE(embedded_kernel_source(n).find("} SinkhornLaunchInts;"), std::string::npos) << n;
 }
 
@@ -73,7 +73,7 @@ TEST(Context, BuildFailureCarriesTheLogAndErrorName) {
 
 TEST(Context, UnknownKernelNameThrowsOpenCLError) {
   try {
-    test::context().kernel("map_eval", "no_such_kernel");
+    test::context().kernel("map/evaluate", "no_such_kernel");
     FAIL() << "expected OpenCLError";
   } catch (const OpenCLError& e) {
     EXPECT_EQ(e.name(), "CL_INVALID_KERNEL_NAME");

@@ -4,7 +4,7 @@
 
 #include <filesystem>
 
-#include "potmap/dictionary_io.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

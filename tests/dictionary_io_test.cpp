@@ -8,8 +8,8 @@
 #include <random>
 #include <sstream>
 
-#include "le_bytes.hpp"
-#include "potmap/dictionary_io.hpp"
+#include "io/le_bytes.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;

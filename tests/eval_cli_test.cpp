@@ -7,10 +7,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "potmap/evaluate.hpp"
-#include "potmap/labelled_points.hpp"
-#include "potmap/map_io.hpp"
-#include "potmap/metrics.hpp"
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;

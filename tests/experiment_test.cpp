@@ -1,10 +1,10 @@
-#include "potmap/experiment.hpp"
+#include "potmap/experiments/experiment.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "potmap/simulator.hpp"
+#include "potmap/data/simulator.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/experiment_frames.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/experiments/experiment_frames.hpp"
 #include "test_support.hpp"
 
 namespace potmap::experiment {

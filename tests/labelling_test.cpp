@@ -1,4 +1,4 @@
-#include "potmap/labelling.hpp"
+#include "potmap/data/labelling.hpp"
 
 #include <gtest/gtest.h>
 

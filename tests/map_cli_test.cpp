@@ -4,7 +4,7 @@
 
 #include <filesystem>
 
-#include "potmap/map_io.hpp"
+#include "potmap/io/map_io.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

@@ -8,11 +8,11 @@
 #include <random>
 #include <sstream>
 
-#include "npy.hpp"
-#include "npz.hpp"
+#include "io/npy.hpp"
+#include "io/npz.hpp"
+#include "potmap/data/labelled_points.hpp"
 #include "potmap/error.hpp"
-#include "potmap/labelled_points.hpp"
-#include "potmap/map_io.hpp"
+#include "potmap/io/map_io.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;
@@ -226,7 +226,9 @@ struct BadCsv {
 };
 
 // Test names and failure messages show the case's name, not the struct's bytes.
-void PrintTo(const BadCsv& c, std::ostream* os) { *os << c.name; }
+void PrintTo(const BadCsv& c, std::ostream* os) {
+  *os << c.name;
+}
 
 class MapCsvBadInput : public ::testing::TestWithParam<BadCsv> {};
 

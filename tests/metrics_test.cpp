@@ -4,7 +4,7 @@
 #include <random>
 
 #include "potmap/error.hpp"
-#include "potmap/metrics.hpp"
+#include "potmap/map/metrics.hpp"
 
 using namespace potmap;
 using V = std::vector<double>;

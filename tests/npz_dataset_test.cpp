@@ -6,8 +6,8 @@
 #include <cstring>
 #include <fstream>
 
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/scan.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;

@@ -1,4 +1,4 @@
-#include "potmap/ogm.hpp"
+#include "potmap/experiments/ogm.hpp"
 
 #include <gtest/gtest.h>
 

@@ -4,13 +4,13 @@
 #include <cmath>
 #include <random>
 
-#include "potmap/bhm.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/overall_map.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/overall_map.hpp"
 
 using namespace potmap;
 

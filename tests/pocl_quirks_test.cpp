@@ -1,5 +1,5 @@
 // Regression test for a PoCL 3.1 (CPU device) miscompilation the Sinkhorn kernels work around:
-// in kernels/sinkhorn_stab.cl, inside the iteration loop, `for (i = lid; i < cnt; i += WG)
+// in kernels/ot/sinkhorn_stab.cl, inside the iteration loop, `for (i = lid; i < cnt; i += WG)
 // build_row(...)` (a loop that work-items with lid >= cnt skip, calling a function with its own
 // vector loop) followed by a barrier left every problem with fewer than 16 source points
 // unsolved. The kernels now give every work-item the same trip count. This test runs a reduced

@@ -4,15 +4,15 @@
 
 #include <cmath>
 
-#include "potmap/atoms.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/mapper.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/overall_map.hpp"
-#include "potmap/pot.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
+#include "potmap/pot/overall_map.hpp"
+#include "potmap/pot/transfer.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

@@ -5,12 +5,12 @@
 
 #include <memory>
 
-#include "potmap/atoms.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/mapper.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

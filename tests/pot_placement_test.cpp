@@ -5,12 +5,12 @@
 
 #include <cmath>
 
-#include "potmap/atoms.hpp"
-#include "potmap/bhm_joint.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/pot.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
+#include "potmap/learn/bhm_joint.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/transfer.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

@@ -8,14 +8,14 @@
 
 #include "data/sim_rng.hpp"
 #include "pot/refine.hpp"
-#include "potmap/abhm.hpp"
-#include "potmap/atoms.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/mapper.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
+#include "potmap/learn/abhm.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

@@ -6,14 +6,14 @@
 #include <memory>
 #include <set>
 
-#include "potmap/atom_descriptor.hpp"
-#include "potmap/atoms.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/pot.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/atom_descriptor.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/transfer.hpp"
 #include "test_support.hpp"
 
 namespace potmap {

@@ -8,10 +8,10 @@
 #include <iterator>
 #include <stdexcept>
 
-#include "npy_writer.hpp"
+#include "io/npy_writer.hpp"
 #include "potmap/error.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/raster.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/raster.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

@@ -1,4 +1,4 @@
-#include "potmap/simulator.hpp"
+#include "potmap/data/simulator.hpp"
 
 #include <gtest/gtest.h>
 

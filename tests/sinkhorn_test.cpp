@@ -6,7 +6,7 @@
 #include <random>
 
 #include "potmap/error.hpp"
-#include "potmap/sinkhorn.hpp"
+#include "potmap/ot/sinkhorn.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;

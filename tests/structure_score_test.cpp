@@ -1,7 +1,7 @@
 // The structural score (structure_score.hpp): precision, recall, F1 and chamfer distance of
 // occupied cells, on rasters whose answers can be worked out by hand, and the experiments'
 // rasters (aligned grid, occupied cells of a fitted map, the OGM reference).
-#include "potmap/structure_score.hpp"
+#include "potmap/experiments/structure_score.hpp"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "potmap/context.hpp"
+#include "potmap/runtime/context.hpp"
 
 namespace potmap::test {
 

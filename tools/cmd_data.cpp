@@ -6,10 +6,10 @@
 #include <limits>
 
 #include "commands.hpp"
-#include "potmap/labelled_points.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/scan.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/scan.hpp"
+#include "potmap/data/simulator.hpp"
 
 namespace potmap::cli {
 

@@ -11,12 +11,12 @@
 
 #include "commands.hpp"
 #include "demo_pot.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelled_points.hpp"
-#include "potmap/map_io.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/raster.hpp"
-#include "potmap/synthetic.hpp"
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/map/raster.hpp"
+#include "potmap/map/synthetic.hpp"
 #include "progress.hpp"
 
 namespace fs = std::filesystem;

@@ -11,11 +11,11 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "potmap/atoms.hpp"
-#include "potmap/dictionary_io.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/map_io.hpp"
-#include "potmap/scan.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {

@@ -8,11 +8,11 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "potmap/data/labelled_points.hpp"
 #include "potmap/error.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/labelled_points.hpp"
-#include "potmap/map_io.hpp"
-#include "potmap/metrics.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
 
 namespace potmap::cli {
 

@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/experiment_frames.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/experiments/experiment_frames.hpp"
 #include "potmap/version.hpp"
 
 namespace potmap::cli {

@@ -6,12 +6,12 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "potmap/abhm.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/bhm_joint.hpp"
+#include "potmap/data/labelled_points.hpp"
 #include "potmap/error.hpp"
-#include "potmap/labelled_points.hpp"
-#include "potmap/map_io.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/learn/abhm.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/learn/bhm_joint.hpp"
 
 namespace potmap::cli {
 

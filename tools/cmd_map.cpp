@@ -5,12 +5,12 @@
 
 #include "commands.hpp"
 #include "map_pipeline.hpp"
-#include "potmap/dictionary_io.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/kernel_picture.hpp"
-#include "potmap/map_io.hpp"
-#include "potmap/raster.hpp"
-#include "potmap/scan.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/raster.hpp"
+#include "potmap/pot/dictionary_io.hpp"
+#include "potmap/render/kernel_picture.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {

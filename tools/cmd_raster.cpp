@@ -10,8 +10,8 @@
 
 #include "commands.hpp"
 #include "potmap/error.hpp"
-#include "potmap/map_io.hpp"
-#include "potmap/raster.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/raster.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {

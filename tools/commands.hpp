@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "potmap/context.hpp"
+#include "potmap/runtime/context.hpp"
 
 namespace potmap::cli {
 

@@ -9,14 +9,14 @@
 
 #include "commands.hpp"
 #include "map_pipeline.hpp"
-#include "potmap/atoms.hpp"
-#include "potmap/bhm.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/kernel_picture.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/map_io.hpp"
-#include "potmap/raster.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/raster.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/render/kernel_picture.hpp"
 #include "progress.hpp"
 
 namespace fs = std::filesystem;

@@ -15,10 +15,10 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/kernel_picture.hpp"
-#include "potmap/raster.hpp"
-#include "potmap/simulator.hpp"
+#include "potmap/map/raster.hpp"
+#include "potmap/render/kernel_picture.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli::exp {

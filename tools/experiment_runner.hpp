@@ -10,11 +10,11 @@
 #include <string>
 #include <vector>
 
-#include "potmap/context.hpp"
-#include "potmap/experiment.hpp"
-#include "potmap/figure_panels.hpp"
-#include "potmap/scan.hpp"
-#include "potmap/structure_score.hpp"
+#include "potmap/data/scan.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/experiments/figure_panels.hpp"
+#include "potmap/experiments/structure_score.hpp"
+#include "potmap/runtime/context.hpp"
 
 namespace potmap::cli::exp {
 

@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "potmap/evaluate.hpp"
-#include "potmap/map_io.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/evaluate.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {

@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "potmap/atoms.hpp"
-#include "potmap/context.hpp"
-#include "potmap/mapper.hpp"
-#include "potmap/metrics.hpp"
-#include "potmap/overall_map.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
+#include "potmap/pot/overall_map.hpp"
+#include "potmap/runtime/context.hpp"
 
 namespace potmap::cli {
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "capi_handles.hpp"
-#include "cl_check.hpp"
+#include "runtime/cl_check.hpp"
 
 namespace potmap::capi {
 namespace {

@@ -7,9 +7,9 @@
 
 #include "capi_handles.hpp"
 #include "capi_structs.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/dictionary_io.hpp"
-#include "potmap/labelling.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 
 namespace potmap::capi {
 namespace {

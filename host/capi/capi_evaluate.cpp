@@ -9,7 +9,7 @@
 #include <string>
 
 #include "capi_handles.hpp"
-#include "cl_check.hpp"
+#include "runtime/cl_check.hpp"
 
 namespace bc = boost::compute;
 

@@ -7,13 +7,13 @@
 #include <string>
 
 #include "capi_guard.hpp"
-#include "potmap/atoms.hpp"
-#include "potmap/context.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/kernel_map.hpp"
-#include "potmap/mapper.hpp"
+#include "potmap/data/scan.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/kernel_map.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
 #include "potmap/potmap.h"
-#include "potmap/scan.hpp"
+#include "potmap/runtime/context.hpp"
 
 namespace potmap::capi {
 constexpr std::uint32_t kContextTag = 0x43504d50;     // "PMPC"

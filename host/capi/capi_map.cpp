@@ -6,7 +6,7 @@
 #include <string>
 
 #include "capi_handles.hpp"
-#include "potmap/map_io.hpp"
+#include "potmap/io/map_io.hpp"
 
 namespace potmap::capi {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "capi_guard.hpp"
-#include "potmap/scan.hpp"
+#include "potmap/data/scan.hpp"
 
 namespace potmap::capi {
 

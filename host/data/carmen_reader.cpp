@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "data/file_bytes.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/scan.hpp"
 
 namespace potmap {
 

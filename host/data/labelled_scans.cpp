@@ -1,8 +1,8 @@
 // Scans rebuilt from BHM labelled samples (t, x, y[, z], occupied).
 #include <map>
 
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/scan.hpp"
 
 namespace potmap {
 

@@ -1,4 +1,4 @@
-#include "potmap/labelling.hpp"
+#include "potmap/data/labelling.hpp"
 #include "sim_rng.hpp"
 
 #include <algorithm>

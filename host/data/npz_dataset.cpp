@@ -6,13 +6,13 @@
 #include <string>
 #include <vector>
 
-#include "npz.hpp"
+#include "io/npz.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/scan.hpp"
 
 namespace potmap {
 
-// The archive and its arrays go through the map reader's npz/npy code (host/npz.hpp), which
+// The archive and its arrays go through the map reader's npz/npy code (host/io/npz.hpp), which
 // checks every size a file claims before allocating.
 LabelledPoints read_npz_labelled(const std::string& path) {
   const std::map<std::string, npy::Array> arrays = npz::read(path);

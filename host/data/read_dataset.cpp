@@ -3,9 +3,9 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/labelled_points.hpp"
-#include "potmap/scan.hpp"
 
 namespace potmap {
 

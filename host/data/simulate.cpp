@@ -2,8 +2,8 @@
 #include <cmath>
 
 #include "data/sim_rng.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/simulator.hpp"
 
 namespace potmap {
 

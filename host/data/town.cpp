@@ -4,8 +4,8 @@
 #include <limits>
 
 #include "data/sim_rng.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/simulator.hpp"
 
 namespace potmap {
 

@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <memory>
 
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/simulator.hpp"
 
 namespace potmap {
 

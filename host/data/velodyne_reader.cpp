@@ -5,8 +5,8 @@
 #include <sstream>
 
 #include "data/file_bytes.hpp"
+#include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/scan.hpp"
 
 namespace potmap {
 

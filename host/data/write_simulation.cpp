@@ -4,8 +4,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
-#include "potmap/simulator.hpp"
 
 namespace potmap {
 

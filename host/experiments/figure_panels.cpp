@@ -1,12 +1,12 @@
 // Probability pictures in memory and the side-by-side comparison figure.
-#include "potmap/figure_panels.hpp"
+#include "potmap/experiments/figure_panels.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-#include "png_writer.hpp"
 #include "potmap/error.hpp"
-#include "potmap/raster.hpp"
+#include "potmap/render/colormap.hpp"
+#include "render/png_writer.hpp"
 
 namespace potmap::experiment {
 

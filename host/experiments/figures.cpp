@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include "png_writer.hpp"
 #include "potmap/error.hpp"
-#include "potmap/experiment.hpp"
-#include "potmap/raster.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/render/colormap.hpp"
+#include "render/png_writer.hpp"
 
 namespace potmap::experiment {
 

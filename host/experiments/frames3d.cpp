@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 
-#include "png_writer.hpp"
 #include "potmap/error.hpp"
-#include "potmap/experiment_frames.hpp"
+#include "potmap/experiments/experiment_frames.hpp"
+#include "render/png_writer.hpp"
 
 namespace potmap::experiment {
 

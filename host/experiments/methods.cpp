@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <limits>
 
-#include "potmap/bhm_joint.hpp"
 #include "potmap/error.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/experiment.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/learn/bhm_joint.hpp"
+#include "potmap/map/evaluate.hpp"
 
 namespace potmap::experiment {
 

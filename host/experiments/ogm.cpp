@@ -1,5 +1,5 @@
 // OctoMap does the ray casting and the log-odds bookkeeping; this file only translates scans.
-#include "potmap/ogm.hpp"
+#include "potmap/experiments/ogm.hpp"
 
 #include <octomap/OcTree.h>
 

@@ -6,10 +6,10 @@
 #include <future>
 #include <memory>
 
-#include "potmap/bhm_joint.hpp"
+#include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
-#include "potmap/experiment.hpp"
-#include "potmap/labelling.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/learn/bhm_joint.hpp"
 
 namespace potmap::experiment {
 

@@ -1,6 +1,6 @@
 // Structural score: precision, recall, F1 and chamfer distance between the occupied cells of two
 // rasters, from exact Euclidean distance transforms; and the rasters the experiments score.
-#include "potmap/structure_score.hpp"
+#include "potmap/experiments/structure_score.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -9,7 +9,7 @@
 #include <string>
 
 #include "potmap/error.hpp"
-#include "potmap/ogm.hpp"
+#include "potmap/experiments/ogm.hpp"
 
 namespace potmap {
 

@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "potmap/error.hpp"
-#include "potmap/experiment.hpp"
+#include "potmap/experiments/experiment.hpp"
 
 namespace potmap::experiment {
 

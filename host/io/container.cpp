@@ -3,9 +3,9 @@
 #include <cstdio>
 #include <cstring>
 
-#include "file_util.hpp"
+#include "io/file_util.hpp"
+#include "io/text_io.hpp"
 #include "potmap/error.hpp"
-#include "text_io.hpp"
 
 namespace potmap::detail {
 

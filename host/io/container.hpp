@@ -17,7 +17,7 @@
 #include <string>
 #include <string_view>
 
-#include "le_bytes.hpp"
+#include "io/le_bytes.hpp"
 
 namespace potmap::detail {
 

@@ -1,4 +1,4 @@
-#include "potmap/abhm.hpp"
+#include "potmap/learn/abhm.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -3,7 +3,7 @@
 
 #include <vector>
 
-#include "potmap/abhm.hpp"
+#include "potmap/learn/abhm.hpp"
 
 namespace potmap::detail {
 

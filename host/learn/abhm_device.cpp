@@ -3,12 +3,12 @@
 #include <string>
 #include <vector>
 
-#include "../cl_check.hpp"
-#include "../device_buffers.hpp"
 #include "abhm_detail.hpp"
 #include "bhm_detail.hpp"
-#include "potmap/abhm.hpp"
 #include "potmap/error.hpp"
+#include "potmap/learn/abhm.hpp"
+#include "runtime/cl_check.hpp"
+#include "runtime/device_buffers.hpp"
 
 namespace potmap {
 
@@ -67,7 +67,7 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
   const std::string defs = "-DDIM=" + std::to_string(dim);
   const std::size_t wg = 64;
   if (n > 0) {
-    bc::kernel fwd = ctx.kernel("abhm_grad", "abhm_forward", defs);
+    bc::kernel fwd = ctx.kernel("learn/abhm_grad", "abhm_forward", defs);
     detail::launch_1d(ctx.queue(), fwd, "abhm_forward", round_up(n, wg), wg, b_kpos, b_kg, b_kw,
                       b_spos, b_sy, b_sstart, b_slist, static_cast<cl_uint>(n),
                       static_cast<float>(draw.b), static_cast<float>(scale), b_gf, b_ll);
@@ -82,7 +82,7 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
   loss += abhm_kl(p, prior);
   if (!grad) return loss;
   if (m > 0 && n > 0) {
-    bc::kernel bwd = ctx.kernel("abhm_grad", "abhm_backward", defs);
+    bc::kernel bwd = ctx.kernel("learn/abhm_grad", "abhm_backward", defs);
     detail::launch_1d(ctx.queue(), bwd, "abhm_backward", round_up(m, wg), wg, b_kpos, b_kg, b_kw,
                       b_spos, b_gf, b_kstart, b_klist, static_cast<cl_uint>(m), b_dw, b_dg, b_dh);
     from_device(ctx, b_dw, dw);

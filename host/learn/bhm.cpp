@@ -1,4 +1,4 @@
-#include "potmap/bhm.hpp"
+#include "potmap/learn/bhm.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -6,8 +6,8 @@
 #include <map>
 #include <string>
 
-#include "../kernel_index.hpp"
 #include "bhm_detail.hpp"
+#include "map/kernel_index.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {

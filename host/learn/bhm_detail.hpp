@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "potmap/bhm.hpp"
+#include "potmap/learn/bhm.hpp"
 
 namespace potmap::detail {
 

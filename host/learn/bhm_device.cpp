@@ -4,11 +4,11 @@
 #include <string>
 #include <vector>
 
-#include "../cl_check.hpp"
-#include "../device_buffers.hpp"
-#include "../split_float.hpp"
 #include "bhm_detail.hpp"
-#include "potmap/bhm.hpp"
+#include "map/split_float.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "runtime/cl_check.hpp"
+#include "runtime/device_buffers.hpp"
 
 namespace potmap {
 
@@ -63,8 +63,8 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
              b_b = to_device(ctx, b), b_wm = to_device(ctx, wm), b_wv = to_device(ctx, wv);
 
   const std::string defs = "-DDIM=" + std::to_string(dim);
-  bc::kernel acc = ctx.kernel("bhm_update", "bhm_accumulate", defs);
-  bc::kernel lam = ctx.kernel("bhm_update", "bhm_lambda", defs);
+  bc::kernel acc = ctx.kernel("learn/bhm_update", "bhm_accumulate", defs);
+  bc::kernel lam = ctx.kernel("learn/bhm_update", "bhm_lambda", defs);
   const std::size_t wg = 64;
 
   const std::vector<double> mean0 = map.w_mean, var0 = map.w_var;

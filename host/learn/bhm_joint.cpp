@@ -1,4 +1,4 @@
-#include "potmap/bhm_joint.hpp"
+#include "potmap/learn/bhm_joint.hpp"
 
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
@@ -9,8 +9,8 @@
 #include <map>
 #include <string>
 
-#include "../kernel_index.hpp"
 #include "bhm_detail.hpp"
+#include "map/kernel_index.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {

@@ -1,5 +1,6 @@
-// Rotation-invariant atom descriptors and pre-selection (see include/potmap/atom_descriptor.hpp).
-#include "potmap/atom_descriptor.hpp"
+// Rotation-invariant atom descriptors and pre-selection (see
+// include/potmap/pot/atom_descriptor.hpp).
+#include "potmap/pot/atom_descriptor.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,11 +1,11 @@
-#include "potmap/atoms.hpp"
+#include "potmap/pot/atoms.hpp"
 
 #include <cmath>
 #include <memory>
 #include <string>
 #include <unordered_set>
 
-#include "../kernel_index.hpp"
+#include "map/kernel_index.hpp"
 #include "point_proximity.hpp"
 #include "potmap/error.hpp"
 

@@ -1,12 +1,12 @@
-// The dictionary file format (layout: include/potmap/dictionary_io.hpp).
-#include "potmap/dictionary_io.hpp"
+// The dictionary file format (layout: include/potmap/pot/dictionary_io.hpp).
+#include "potmap/pot/dictionary_io.hpp"
 
 #include <cmath>
 #include <limits>
 
 #include "io/container.hpp"
-#include "map_checks.hpp"
-#include "text_io.hpp"
+#include "io/text_io.hpp"
+#include "map/map_checks.hpp"
 
 namespace potmap {
 

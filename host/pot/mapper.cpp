@@ -1,4 +1,4 @@
-#include "potmap/mapper.hpp"
+#include "potmap/pot/mapper.hpp"
 
 #include <algorithm>
 #include <chrono>

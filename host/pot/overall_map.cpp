@@ -1,5 +1,6 @@
-// The overall map: merging rule, hash grid and cap (documented in include/potmap/overall_map.hpp).
-#include "potmap/overall_map.hpp"
+// The overall map: merging rule, hash grid and cap (documented in
+// include/potmap/pot/overall_map.hpp).
+#include "potmap/pot/overall_map.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,9 +1,9 @@
 #pragma once
 // RePOT's weight refinement with the kernels' overlap accounted for (host/pot/refine.cpp).
 
-#include "potmap/bhm.hpp"
-#include "potmap/kernel_map.hpp"
-#include "potmap/labelled_points.hpp"
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/kernel_map.hpp"
 
 namespace potmap::detail {
 

@@ -14,8 +14,8 @@
 #include "data/sim_rng.hpp"
 #include "point_proximity.hpp"
 #include "potmap/error.hpp"
-#include "potmap/pot.hpp"
-#include "potmap/sinkhorn.hpp"
+#include "potmap/ot/sinkhorn.hpp"
+#include "potmap/pot/transfer.hpp"
 #include "refine.hpp"
 
 namespace potmap {

@@ -183,7 +183,7 @@ POTMAP_EXPORT potmap_status potmap_map_create(int dim, size_t count, const doubl
                                               const double* w_var, potmap_map** out);
 
 /** Reads a map file; the format follows the extension: .csv, .npz (the paper authors'
- *  layout) or .potmap (native binary); see potmap/map_io.hpp for each layout.
+ *  layout) or .potmap (native binary); see potmap/io/map_io.hpp for each layout.
  *  *out receives a new handle; free it with potmap_map_destroy.
  *  Errors: POTMAP_ERROR_INPUT (unreadable file, unknown extension, bad content: the message
  *  names the file, line or byte offset, and value). */
@@ -297,7 +297,7 @@ POTMAP_EXPORT potmap_status potmap_scan_init(potmap_scan* scan, size_t struct_si
 
 /** Reads a dataset file by its name, as `potmap data info` does: *.log[.gz] CARMEN, *.bin KITTI
  *  or nuScenes frames, a KITTI odometry sequence by its poses.txt, *.npz / *.csv labelled
- *  samples (see potmap/scan.hpp, read_dataset). The whole file is read now.
+ *  samples (see potmap/data/scan.hpp, read_dataset). The whole file is read now.
  *  *out receives a new handle; free it with potmap_dataset_destroy.
  *  Errors: POTMAP_ERROR_INPUT (the message names the file, line or offset, and value). */
 POTMAP_EXPORT potmap_status potmap_dataset_load(const char* path, potmap_dataset** out);
@@ -333,7 +333,7 @@ POTMAP_EXPORT potmap_status potmap_map_learn_bhm(potmap_context* context,
 
 /* ---- dictionaries ---------------------------------------------------------------------- */
 
-/** How scans are cut into atoms (potmap/atoms.hpp, DictionaryOptions). */
+/** How scans are cut into atoms (potmap/pot/atoms.hpp, DictionaryOptions). */
 typedef struct potmap_dictionary_options {
   size_t struct_size; /**< the caller's sizeof (potmap_dictionary_options_init sets it) */
   int sectors;        /**< equal angular sectors per scan, >= 1 (default 5) */
@@ -360,7 +360,7 @@ POTMAP_EXPORT potmap_status potmap_dictionary_build(const potmap_scan* const* sc
                                                     const potmap_dictionary_options* options,
                                                     potmap_dictionary** out);
 
-/** Reads a .potdict file (potmap/dictionary_io.hpp), e.g. one written by `potmap dict build`.
+/** Reads a .potdict file (potmap/pot/dictionary_io.hpp), e.g. one written by `potmap dict build`.
  *  *out receives a new handle; free it with potmap_dictionary_destroy.
  *  Errors: POTMAP_ERROR_INPUT (unreadable, truncated or corrupt: file, byte offset, value). */
 POTMAP_EXPORT potmap_status potmap_dictionary_load(const char* path, potmap_dictionary** out);
@@ -381,7 +381,8 @@ POTMAP_EXPORT potmap_status potmap_dictionary_info(const potmap_dictionary* dict
 
 /* ---- mappers (POT / RePOT) ------------------------------------------------------------- */
 
-/** How a mapper transports and accumulates (potmap/pot.hpp, labelling.hpp, overall_map.hpp). */
+/** How a mapper transports and accumulates (potmap/pot/transfer.hpp, labelling.hpp,
+ * overall_map.hpp). */
 typedef struct potmap_mapper_options {
   size_t struct_size; /**< the caller's sizeof (potmap_mapper_options_init sets it) */
   int sectors;        /**< target sectors per scan, >= 1 (default 5) */

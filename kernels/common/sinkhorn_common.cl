@@ -1,4 +1,4 @@
-// What kernels/sinkhorn.cl and kernels/sinkhorn_stab.cl share: build defaults, the real and
+// What kernels/ot/sinkhorn.cl and kernels/ot/sinkhorn_stab.cl share: build defaults, the real and
 // vector types, the launch table and the point transform. Included by both (resolved when they
 // are embedded, see cmake/EmbedKernels.cmake), never built alone.
 //

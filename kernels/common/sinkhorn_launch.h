@@ -1,5 +1,5 @@
-/* The Sinkhorn launch table: what host/sinkhorn.cpp hands to kernels/sinkhorn.cl and
- * kernels/sinkhorn_stab.cl for every problem of a batch, and the results the kernels hand back.
+/* The Sinkhorn launch table: what host/ot/sinkhorn.cpp hands to kernels/ot/sinkhorn.cl and
+ * kernels/ot/sinkhorn_stab.cl for every problem of a batch, and the results the kernels hand back.
  * Read by both sides: the kernels include it (resolved when they are embedded, see
  * cmake/EmbedKernels.cmake) and the host fills the same structs by field name. Every field is a
  * 32-bit int or float, so OpenCL C and C++ lay the structs out alike, without padding (the host

@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "capi_test_support.hpp"
-#include "potmap/atoms.hpp"
-#include "potmap/bhm.hpp"
-#include "potmap/context.hpp"
-#include "potmap/labelling.hpp"
-#include "potmap/mapper.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
+#include "potmap/runtime/context.hpp"
 
 using namespace capi_test;
 

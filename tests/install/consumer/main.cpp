@@ -3,9 +3,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "potmap/context.hpp"
-#include "potmap/evaluate.hpp"
-#include "potmap/kernel_map.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/kernel_map.hpp"
+#include "potmap/runtime/context.hpp"
 #include "potmap/version.hpp"
 
 int main() {

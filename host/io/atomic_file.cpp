@@ -1,0 +1,87 @@
+#include "io/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "potmap/error.hpp"
+
+namespace potmap::detail {
+
+namespace {
+std::string errno_text() {
+  return std::strerror(errno);
+}
+}  // namespace
+
+AtomicFile::AtomicFile(const std::string& path) : path_(path) {
+  // open(O_EXCL) with a random name rather than mkstemp: mkstemp makes the file 0600, while the
+  // result should get the usual permissions (0666 less the umask), as any other output file.
+  std::random_device rd;
+  int fd = -1;
+  for (int attempt = 0; attempt < 16 && fd < 0; ++attempt) {
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, ".tmp-%ld-%08x", static_cast<long>(::getpid()), rd());
+    temp_ = path + suffix;
+    fd = ::open(temp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && errno != EEXIST) break;
+  }
+  if (fd < 0) throw Error("cannot create " + path + ": " + errno_text());
+  file_ = ::fdopen(fd, "wb");
+  if (!file_) {
+    const std::string why = errno_text();
+    ::close(fd);
+    ::unlink(temp_.c_str());
+    throw Error("cannot open " + path + ": " + why);
+  }
+}
+
+AtomicFile::~AtomicFile() {
+  discard();
+}
+
+void AtomicFile::write(const void* data, std::size_t n) {
+  if (n == 0) return;
+  if (std::fwrite(data, 1, n, file_) != n)
+    throw Error("cannot write " + path_ + ": " + errno_text());
+}
+
+void AtomicFile::commit() {
+  if (done_) return;
+  bool ok = std::fflush(file_) == 0 && !std::ferror(file_);
+  std::string why = ok ? "" : errno_text();
+  // fsync before rename: otherwise a crash could leave the final name pointing at an empty file.
+  if (ok && ::fsync(::fileno(file_)) != 0 && errno != EINVAL) {
+    ok = false;
+    why = errno_text();
+  }
+  if (std::fclose(file_) != 0 && ok) {
+    ok = false;
+    why = errno_text();
+  }
+  file_ = nullptr;
+  if (ok && std::rename(temp_.c_str(), path_.c_str()) != 0) {
+    ok = false;
+    why = errno_text();
+  }
+  if (!ok) {
+    discard();
+    throw Error("cannot write " + path_ + ": " + why);
+  }
+  done_ = true;
+}
+
+void AtomicFile::discard() noexcept {
+  if (done_) return;
+  if (file_) std::fclose(file_);
+  file_ = nullptr;
+  ::unlink(temp_.c_str());
+  done_ = true;
+}
+
+}  // namespace potmap::detail

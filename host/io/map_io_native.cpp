@@ -1,0 +1,98 @@
+// The native binary map format (layout: include/potmap/io/map_io.hpp).
+#include <limits>
+
+#include "io/container.hpp"
+#include "io/text_io.hpp"
+#include "map/map_checks.hpp"
+#include "potmap/error.hpp"
+#include "potmap/io/map_io.hpp"
+
+namespace potmap {
+
+namespace {
+
+using detail::MapField;
+
+constexpr std::size_t kHeaderBytes = 48;
+constexpr std::size_t kCrcBytes = 4;
+// No size field: the size follows from the dimension and the kernel count.
+constexpr detail::ContainerLayout kLayout{"POTMAP\r\n", "a potmap map", 1, kHeaderBytes};
+
+}  // namespace
+
+KernelMap read_map_native(const std::string& path) {
+  const detail::ContainerReader r(path, kLayout);
+  const std::uint32_t dim = r.u32(12);
+  if (dim != 2 && dim != 3) r.fail(12, "dimension " + std::to_string(dim) + " (must be 2 or 3)");
+  const std::uint64_t count = r.u64(16);
+  // The count decides how much is read: check it against the file size before trusting it.
+  const std::uint64_t per_kernel = 8ull * (dim + 3);
+  const std::uint64_t max_count = (std::numeric_limits<std::uint64_t>::max() - 64) / per_kernel;
+  const std::uint64_t expected =
+      count <= max_count ? kHeaderBytes + count * per_kernel + kCrcBytes : 0;
+  r.check_size(
+      expected, 16,
+      "kernel count " + std::to_string(count) + " in " + std::to_string(dim) + "D needs a file of");
+  r.check_checksum();
+  const std::uint32_t flags = r.u32(24);
+  if (flags > 1) r.fail(24, "unknown flags " + std::to_string(flags));
+  const std::uint32_t reserved = r.u32(28);
+  if (reserved != 0) r.fail(28, "reserved field is " + std::to_string(reserved) + ", not 0");
+
+  KernelMap map;
+  map.dim = static_cast<int>(dim);
+  map.has_bias = flags & 1;
+  map.bias_mean = r.f64(32);
+  map.bias_var = r.f64(40);
+  auto check = [&](MapField f, double v, std::size_t at, const std::string& name) {
+    if (const char* why = detail::map_value_problem(f, v))
+      r.fail(at, name + " = " + detail::format_double(v) + ": " + why);
+  };
+  if (map.has_bias) {
+    check(MapField::bias_mean, map.bias_mean, 32, "bias mean");
+    check(MapField::bias_var, map.bias_var, 40, "bias variance");
+  }
+  const std::size_t m = static_cast<std::size_t>(count);
+  const std::size_t pos_at = kHeaderBytes;
+  const std::size_t gamma_at = pos_at + 8 * m * dim;
+  const std::size_t mean_at = gamma_at + 8 * m;
+  const std::size_t var_at = mean_at + 8 * m;
+  map.position.resize(m * dim);
+  map.gamma.resize(m);
+  map.w_mean.resize(m);
+  map.w_var.resize(m);
+  for (std::size_t i = 0; i < m * dim; ++i) {
+    map.position[i] = r.f64(pos_at + 8 * i);
+    check(MapField::position, map.position[i], pos_at + 8 * i,
+          "kernel " + std::to_string(i / dim) + " position[" + std::to_string(i % dim) + "]");
+  }
+  for (std::size_t i = 0; i < m; ++i) {
+    map.gamma[i] = r.f64(gamma_at + 8 * i);
+    check(MapField::gamma, map.gamma[i], gamma_at + 8 * i,
+          "kernel " + std::to_string(i) + " gamma");
+    map.w_mean[i] = r.f64(mean_at + 8 * i);
+    check(MapField::w_mean, map.w_mean[i], mean_at + 8 * i,
+          "kernel " + std::to_string(i) + " w_mean");
+    map.w_var[i] = r.f64(var_at + 8 * i);
+    check(MapField::w_var, map.w_var[i], var_at + 8 * i, "kernel " + std::to_string(i) + " w_var");
+  }
+  return map;
+}
+
+void write_map_native(const KernelMap& map, const std::string& path) {
+  map.validate(path);
+  detail::ContainerWriter out(kLayout, kHeaderBytes + map.size() * 8 * (map.dim + 3) + kCrcBytes);
+  out.u32(static_cast<std::uint32_t>(map.dim));
+  out.u64(map.size());
+  out.u32(map.has_bias ? 1u : 0u);
+  out.u32(0);
+  out.f64(map.has_bias ? map.bias_mean : 0.0);
+  out.f64(map.has_bias ? map.bias_var : 0.0);
+  out.f64s(map.position);
+  out.f64s(map.gamma);
+  out.f64s(map.w_mean);
+  out.f64s(map.w_var);
+  out.finish(path);
+}
+
+}  // namespace potmap

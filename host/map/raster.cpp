@@ -1,0 +1,177 @@
+#include "potmap/map/raster.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+#include "io/npy_writer.hpp"
+#include "potmap/error.hpp"
+#include "render/png_writer.hpp"
+
+namespace potmap {
+
+namespace {
+
+constexpr std::size_t kMaxAxisCells = 1000000;  // PNG writers' (libpng's default) limit
+
+std::size_t axis_cells(double lo, double hi, double res) {
+  const double n = std::ceil((hi - lo) / res);
+  return n > 0 ? static_cast<std::size_t>(n) : 0;
+}
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << v;
+  return s.str();
+}
+
+struct MinMax {
+  float lo = std::numeric_limits<float>::infinity();
+  float hi = -std::numeric_limits<float>::infinity();
+  void add(float v) {
+    if (!std::isfinite(v)) return;
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  float min() const { return lo <= hi ? lo : 0.0f; }
+  float max() const { return lo <= hi ? hi : 0.0f; }
+};
+
+}  // namespace
+
+std::size_t RasterSpec::width() const {
+  return axis_cells(xmin, xmax, resolution);
+}
+std::size_t RasterSpec::height() const {
+  return axis_cells(ymin, ymax, resolution);
+}
+
+void RasterSpec::validate() const {
+  const char* names[] = {"xmin", "xmax", "ymin", "ymax", "resolution", "z"};
+  const double values[] = {xmin, xmax, ymin, ymax, resolution, z};
+  for (int i = 0; i < 6; ++i)
+    if (!std::isfinite(values[i]))
+      throw ArgumentError(std::string("raster: ") + names[i] + " is not finite (" + num(values[i]) +
+                          ")");
+  if (!(resolution > 0))
+    throw ArgumentError("raster: resolution must be > 0, got " + num(resolution));
+  if (!(xmin < xmax))
+    throw ArgumentError("raster: xmin (" + num(xmin) + ") must be below xmax (" + num(xmax) + ")");
+  if (!(ymin < ymax))
+    throw ArgumentError("raster: ymin (" + num(ymin) + ") must be below ymax (" + num(ymax) + ")");
+  if ((xmax - xmin) / resolution > double(kMaxAxisCells) ||
+      (ymax - ymin) / resolution > double(kMaxAxisCells))
+    throw ArgumentError("raster: window of " + num((xmax - xmin) / resolution) + " x " +
+                        num((ymax - ymin) / resolution) + " cells; at most " +
+                        std::to_string(kMaxAxisCells) + " per axis");
+}
+
+RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& spec,
+                        const std::string& out_prefix, const RasterOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  spec.validate();
+  if (out_prefix.empty()) throw ArgumentError("raster: empty output prefix");
+  const int dim = map.dim;
+  MapEvaluator ev(ctx, map, options.eval);  // validates the map
+
+  RasterSummary sum;
+  const std::size_t W = spec.width(), H = spec.height();
+  sum.width = W;
+  sum.height = H;
+  sum.cells = W * H;
+
+  // Writers first: an unwritable folder fails before any device work.
+  std::unique_ptr<detail::PngWriter> prob_png, var_png;
+  std::unique_ptr<detail::NpyWriter> prob_npy, var_npy;
+  if (options.write_png) {
+    prob_png = std::make_unique<detail::PngWriter>(out_prefix + "_prob.png", W, H);
+    var_png = std::make_unique<detail::PngWriter>(out_prefix + "_var.png", W, H);
+  }
+  if (options.write_npy) {
+    prob_npy = std::make_unique<detail::NpyWriter>(out_prefix + "_prob.npy", H, W);
+    var_npy = std::make_unique<detail::NpyWriter>(out_prefix + "_var.npy", H, W);
+  }
+
+  const std::size_t band_rows = std::max<std::size_t>(1, options.max_band_cells / W);
+  std::vector<float> var, prob;
+  std::vector<std::uint8_t> rgb(W * 3);
+  MinMax pstat, vstat;
+
+  auto to_rgb = [&](const float* v, Colormap cm, bool variance) {
+    for (std::size_t c = 0; c < W; ++c) {
+      double t = v[c];
+      // s2 / (1 + s2): see raster.hpp. Negative variances cannot occur (w_var >= 0).
+      if (variance && !std::isnan(t)) t = std::isinf(t) ? 1.0 : t / (1.0 + t);
+      const Rgb px = colormap(cm, t);
+      rgb[3 * c] = px.r;
+      rgb[3 * c + 1] = px.g;
+      rgb[3 * c + 2] = px.b;
+    }
+    return rgb.data();
+  };
+
+  // Bands run top to bottom (image order) but are cut on a lattice of whole 64-row tiles counted
+  // from the window's bottom, so every band is evaluated by exactly the tiles a single pass
+  // would use: the values do not depend on the band size.
+  constexpr std::size_t kTileRows = 64;
+  const std::size_t band = std::max<std::size_t>(kTileRows, band_rows / kTileRows * kTileRows);
+  std::size_t j_hi = H;  // rows counted from the bottom (y up): image row r is j = H - 1 - r
+  while (j_hi > 0) {
+    const std::size_t j_lo = (j_hi - 1) / band * band;
+    GridSpec g;
+    g.dim = dim;
+    g.resolution = spec.resolution;
+    g.origin[0] = spec.xmin;
+    g.origin[1] = spec.ymin + double(j_lo) * spec.resolution;
+    g.origin[2] = spec.z - 0.5 * spec.resolution;  // one layer centred on z (3D maps)
+    g.count[0] = W;
+    g.count[1] = j_hi - j_lo;
+    g.count[2] = 1;
+    const std::size_t n = g.cells();
+    var.resize(n);
+    prob.resize(n);
+    ev.evaluate_grid(g, nullptr, var.data(), prob.data());
+    for (std::size_t j = j_hi; j-- > j_lo;) {
+      const float* pr = prob.data() + (j - j_lo) * W;
+      const float* vr = var.data() + (j - j_lo) * W;
+      for (std::size_t c = 0; c < W; ++c) {
+        pstat.add(pr[c]);
+        vstat.add(vr[c]);
+      }
+      if (prob_npy) prob_npy->write_row(pr);
+      if (var_npy) var_npy->write_row(vr);
+      if (prob_png) prob_png->write_row(to_rgb(pr, options.prob_colormap, false));
+      if (var_png) var_png->write_row(to_rgb(vr, options.var_colormap, true));
+    }
+    ++sum.bands;
+    if (options.progress) options.progress(double(H - j_lo) / double(H));
+    j_hi = j_lo;
+  }
+
+  // Put the files in place only now that every one is complete. Should a late rename fail, the
+  // files already renamed by this run are removed, so no partial set is left behind.
+  std::vector<std::string> done;
+  try {
+    if (prob_png) prob_png->finish(), done.push_back(out_prefix + "_prob.png");
+    if (var_png) var_png->finish(), done.push_back(out_prefix + "_var.png");
+    if (prob_npy) prob_npy->finish(), done.push_back(out_prefix + "_prob.npy");
+    if (var_npy) var_npy->finish(), done.push_back(out_prefix + "_var.npy");
+  } catch (...) {
+    for (const std::string& f : done) std::remove(f.c_str());
+    throw;
+  }
+  sum.files = done;
+  sum.prob_min = pstat.min();
+  sum.prob_max = pstat.max();
+  sum.var_min = vstat.min();
+  sum.var_max = vstat.max();
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return sum;
+}
+
+}  // namespace potmap

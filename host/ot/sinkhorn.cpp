@@ -1,0 +1,453 @@
+#include "potmap/ot/sinkhorn.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+
+#include "../../kernels/common/sinkhorn_launch.h"
+#include "potmap/error.hpp"
+#include "runtime/cl_check.hpp"
+
+namespace bc = boost::compute;
+
+namespace potmap {
+
+namespace {
+
+// The launch table is shared with the kernels (kernels/common/sinkhorn_launch.h): 32-bit fields
+// only, so that both sides lay it out alike.
+static_assert(sizeof(SinkhornLaunchInts) == 10 * sizeof(cl_int), "launch table: padding");
+static_assert(sizeof(SinkhornLaunchParams) == 13 * sizeof(cl_float), "launch table: padding");
+static_assert(sizeof(SinkhornLaunchStats) == 4 * sizeof(cl_float), "launch table: padding");
+
+std::string at(std::size_t p) {
+  return "Sinkhorn problem " + std::to_string(p) + ": ";
+}
+
+void check_points(const Eigen::MatrixXd& pts, const char* what, std::size_t p) {
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
+    for (Eigen::Index d = 0; d < pts.cols(); ++d)
+      if (!std::isfinite(pts(i, d)))
+        throw InputError(at(p) + what + " point " + std::to_string(i) + " is not finite (" +
+                         std::to_string(pts(i, d)) + ")");
+}
+
+void check_weights(const Eigen::VectorXd& w, Eigen::Index n, const char* what, std::size_t p) {
+  if (w.size() == 0) return;
+  if (w.size() != n)
+    throw ArgumentError(at(p) + what + " weights have " + std::to_string(w.size()) +
+                        " entries for " + std::to_string(n) + " points");
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!(w(i) > 0) || !std::isfinite(w(i)))
+      throw ArgumentError(at(p) + what + " weight " + std::to_string(i) +
+                          " must be positive and finite");
+  if (std::abs(w.sum() - 1) > 1e-6)
+    throw ArgumentError(at(p) + what + " weights must sum to 1, got " + std::to_string(w.sum()));
+}
+
+void validate(const SinkhornProblem& q, std::size_t p) {
+  if (q.source.rows() == 0) throw ArgumentError(at(p) + "empty source point set");
+  if (q.target.rows() == 0) throw ArgumentError(at(p) + "empty target point set");
+  const auto dim = q.source.cols();
+  if (dim != 2 && dim != 3)
+    throw ArgumentError(at(p) + "points must be 2D or 3D, got " + std::to_string(dim));
+  if (q.target.cols() != dim) throw ArgumentError(at(p) + "source and target dimensions differ");
+  if (q.extra_points.rows() > 0 && q.extra_points.cols() != dim)
+    throw ArgumentError(at(p) + "extra points have the wrong dimension");
+  check_points(q.source, "source", p);
+  check_points(q.target, "target", p);
+  check_points(q.extra_points, "extra", p);
+  check_weights(q.source_weights, q.source.rows(), "source", p);
+  check_weights(q.target_weights, q.target.rows(), "target", p);
+  if (!(q.epsilon > 0) || !std::isfinite(q.epsilon))
+    throw ArgumentError(at(p) + "epsilon must be positive, got " + std::to_string(q.epsilon));
+  if (!(q.tolerance > 0)) throw ArgumentError(at(p) + "tolerance must be positive");
+  if (q.max_iterations < 1) throw ArgumentError(at(p) + "max_iterations must be >= 1");
+  if (!(q.scale > 0) || !std::isfinite(q.scale))
+    throw ArgumentError(at(p) + "scale must be positive, got " + std::to_string(q.scale));
+  if (!std::isfinite(q.angle) || !q.centre.allFinite())
+    throw ArgumentError(at(p) + "angle and centre must be finite");
+}
+
+template <class T>
+bc::buffer make_buffer(bc::context& cx, bc::command_queue& q, const std::vector<T>& v) {
+  const std::size_t bytes = std::max<std::size_t>(v.size() * sizeof(T), 64);
+  auto b = detail::cl_call("clCreateBuffer", [&] { return bc::buffer(cx, bytes); });
+  if (!v.empty())
+    detail::cl_call("clEnqueueWriteBuffer",
+                    [&] { q.enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
+  return b;
+}
+
+bc::buffer empty_buffer(bc::context& cx, std::size_t bytes) {
+  return detail::cl_call("clCreateBuffer",
+                         [&] { return bc::buffer(cx, std::max<std::size_t>(bytes, 64)); });
+}
+
+// Everything a launch needs besides the points; duals come back for the host batch.
+struct Launch {
+  SinkhornDeviceResult result;
+  bc::buffer fh, gh, loga, logb;
+  std::vector<bc::buffer> scratch;
+  std::vector<SinkhornLaunchInts> ints;
+  bool weights_double = false;  // loga, logb hold doubles
+  int vw = 16;
+  bool dbl = false;
+};
+
+// Log weights per padded slot, uniform when `w` is empty, -1e30 on pads.
+template <class R>
+void fill_logw(std::vector<R>& out, std::size_t slot, int count, int pad,
+               const Eigen::VectorXd* w) {
+  const R pad_value = std::is_same<R, double>::value ? R(-1e300) : R(-1e30f);
+  const bool given = w && w->size() > 0;
+  const R uniform = static_cast<R>(-std::log(static_cast<double>(count)));
+  for (int i = 0; i < pad; ++i) {
+    if (i >= count)
+      out[slot + i] = pad_value;
+    else
+      out[slot + i] = given ? static_cast<R>(std::log((*w)(i))) : uniform;
+  }
+}
+
+template <class R>
+Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::buffer& target,
+                    std::size_t source_points, const std::vector<int>& soff,
+                    const std::vector<int>& scnt, const std::vector<int>& toff,
+                    const std::vector<int>& tcnt, const std::vector<const SinkhornProblem*>& par,
+                    const SinkhornOptions& opt) {
+  auto& cx = ctx.context();
+  auto& q = ctx.queue();
+  Launch L;
+  L.dbl = std::is_same<R, double>::value;
+  L.vw = L.dbl ? 8 : 16;
+  const std::size_t np = par.size();
+  std::vector<SinkhornLaunchInts> ints(np);
+  std::vector<SinkhornLaunchParams> params(np);
+  std::size_t sslot = 0, tslot = 0;
+  long plan = 0, kelems = 0;
+  L.result.coupling_offset.assign(np, -1);
+  for (std::size_t p = 0; p < np; ++p) {
+    const int n = scnt[p], m = tcnt[p];
+    const int npad = (n + L.vw - 1) / L.vw * L.vw, mpad = (m + L.vw - 1) / L.vw * L.vw;
+    SinkhornLaunchInts& I = ints[p];
+    I.src = soff[p];
+    I.n = n;
+    I.src_slot = static_cast<int>(sslot);
+    I.npad = npad;
+    I.tgt = toff[p];
+    I.m = m;
+    I.tgt_slot = static_cast<int>(tslot);
+    I.mpad = mpad;
+    I.plan = -1;
+    if (opt.want_coupling) {
+      I.plan = static_cast<int>(plan);
+      L.result.coupling_offset[p] = plan;
+      plan += static_cast<long>(n) * m;
+    }
+    I.max_it = par[p]->max_iterations;
+    if (opt.stabilised)
+      kelems =
+          std::max(kelems, 2 * std::max(static_cast<long>(n) * mpad, static_cast<long>(m) * npad));
+    SinkhornLaunchParams& P = params[p];
+    P.eps = static_cast<float>(par[p]->epsilon);
+    P.tol = static_cast<float>(par[p]->tolerance);
+    P.cos_angle = static_cast<float>(std::cos(par[p]->angle));
+    P.sin_angle = static_cast<float>(std::sin(par[p]->angle));
+    P.cx = static_cast<float>(par[p]->centre.x());
+    P.cy = static_cast<float>(par[p]->centre.y());
+    P.cz = static_cast<float>(par[p]->centre.z());
+    P.scale = static_cast<float>(par[p]->scale);
+    P.normalise = par[p]->normalise_cost ? 1.f : 0.f;
+    P.eps0 = static_cast<float>(opt.epsilon_start);
+    P.decay = static_cast<float>(opt.epsilon_decay);
+    P.check = static_cast<float>(std::max(opt.check_every, 1));
+    P.omega = static_cast<float>(opt.overrelaxation);
+    sslot += npad;
+    tslot += mpad;
+  }
+  if (plan > std::numeric_limits<int>::max() || kelems > std::numeric_limits<int>::max())
+    throw ArgumentError("Sinkhorn batch: couplings too large for one launch");
+  // Sums, scalings and log marginals of the stabilised scheme in double where the device has
+  // it: log(1/67) rounded to float moves exp of it by up to 2.4e-7, so sum a and sum b differ
+  // by about that much and no plan meets both marginals to the 1e-7 tolerance (measured: the
+  // error stalled at 3e-7 on 67 x 50 problems).
+  const bool acc_double = L.dbl || (opt.stabilised && ctx.info().has_fp64);
+  const std::size_t acc = acc_double ? sizeof(double) : sizeof(float);
+  L.weights_double = acc_double;
+  auto log_weights = [&](auto zero, bool source, std::size_t slots) {
+    std::vector<decltype(zero)> w(std::max<std::size_t>(slots, 1));
+    for (std::size_t p = 0; p < np; ++p) {
+      if (source)
+        fill_logw(w, ints[p].src_slot, ints[p].n, ints[p].npad, &par[p]->source_weights);
+      else
+        fill_logw(w, ints[p].tgt_slot, ints[p].m, ints[p].mpad, &par[p]->target_weights);
+    }
+    return make_buffer(cx, q, w);
+  };
+  if (acc_double) {
+    L.loga = log_weights(0.0, true, sslot);
+    L.logb = log_weights(0.0, false, tslot);
+  } else {
+    L.loga = log_weights(0.f, true, sslot);
+    L.logb = log_weights(0.f, false, tslot);
+  }
+  L.ints = ints;
+  auto ib = make_buffer(cx, q, ints);
+  auto pb = make_buffer(cx, q, params);
+  auto sx = empty_buffer(cx, sslot * dim * sizeof(R));
+  auto tx = empty_buffer(cx, tslot * dim * sizeof(R));
+  L.fh = empty_buffer(cx, sslot * sizeof(R));
+  L.gh = empty_buffer(cx, tslot * sizeof(R));
+  auto fn = empty_buffer(cx, sslot * sizeof(R));
+  L.result.stats = empty_buffer(cx, np * sizeof(SinkhornLaunchStats));
+  L.result.coupling = empty_buffer(cx, static_cast<std::size_t>(plan) * sizeof(float));
+  L.result.barycentric =
+      empty_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0);
+
+  int wg = opt.work_group > 0 ? opt.work_group : (ctx.info().is_cpu ? 4 : 64);
+  if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");
+  char defs[128];
+  std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d -DACC_DOUBLE=%d", dim, wg,
+                L.dbl ? 1 : 0, acc_double ? 1 : 0);
+  const char* name = opt.stabilised ? "sinkhorn_stab_solve" : "sinkhorn_solve";
+  auto k = ctx.kernel(opt.stabilised ? "ot/sinkhorn_stab" : "ot/sinkhorn", name, defs);
+  cl_uint a = 0;
+  auto arg = [&](const auto& value) { detail::set_kernel_arg(k, name, a++, value); };
+  arg(source);
+  arg(target);
+  arg(ib);
+  arg(pb);
+  arg(L.loga);
+  arg(L.logb);
+  arg(sx);
+  arg(tx);
+  arg(L.fh);
+  arg(L.gh);
+  if (!opt.stabilised) arg(fn);
+  arg(L.result.stats);
+  arg(L.result.coupling);
+  arg(L.result.barycentric);
+  arg(static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
+  std::size_t groups = np;
+  if (opt.stabilised) {
+    // Persistent work-groups, a few per compute unit, each with its own K (see the kernel).
+    groups = std::min<std::size_t>(np, 4 * std::max<std::size_t>(ctx.info().compute_units, 1));
+    const std::size_t kbytes = groups * static_cast<std::size_t>(kelems) * sizeof(R);
+    if (kbytes > ctx.info().max_alloc_bytes && ctx.info().max_alloc_bytes > 0)
+      throw ArgumentError("Sinkhorn batch: kernel matrices of " + std::to_string(kbytes) +
+                          " bytes exceed the device's largest buffer; use the log-domain scheme");
+    // K, absorbed duals, two generations of log-scalings, the scalings, two generations
+    // of the row scalings in ACC, and the row weights a.
+    const std::size_t bytes[] = {kbytes,          sslot * acc,     tslot * acc,
+                                 2 * sslot * acc, 2 * tslot * acc, sslot * acc,
+                                 tslot * acc,     2 * sslot * acc, sslot * acc};
+    for (std::size_t b : bytes) {
+      L.scratch.push_back(empty_buffer(cx, b));
+      arg(L.scratch.back());
+    }
+    L.scratch.push_back(make_buffer(cx, q, std::vector<int>{0}));
+    arg(L.scratch.back());
+    arg(static_cast<cl_int>(np));
+    arg(static_cast<cl_long>(kelems));
+  }
+  detail::enqueue_1d(q, k, name, groups * static_cast<std::size_t>(wg), wg);
+  return L;
+}
+
+Launch launch(Context& ctx, int dim, const bc::buffer& source, const bc::buffer& target,
+              std::size_t source_points, const std::vector<int>& soff, const std::vector<int>& scnt,
+              const std::vector<int>& toff, const std::vector<int>& tcnt,
+              const std::vector<const SinkhornProblem*>& par, const SinkhornOptions& opt) {
+  if (opt.use_double && !ctx.info().has_fp64)
+    throw ArgumentError("SinkhornOptions::use_double: the device has no cl_khr_fp64");
+  if (!(opt.epsilon_decay > 0 && opt.epsilon_decay < 1))
+    throw ArgumentError("SinkhornOptions::epsilon_decay must be in (0, 1)");
+  if (opt.overrelaxation != 0 && !(opt.overrelaxation >= 1 && opt.overrelaxation < 2))
+    throw ArgumentError("SinkhornOptions::overrelaxation must be 0 (adaptive) or in [1, 2), got " +
+                        std::to_string(opt.overrelaxation));
+  if (opt.use_double)
+    return launch_typed<double>(ctx, dim, source, target, source_points, soff, scnt, toff, tcnt,
+                                par, opt);
+  return launch_typed<float>(ctx, dim, source, target, source_points, soff, scnt, toff, tcnt, par,
+                             opt);
+}
+
+template <class R>
+std::vector<double> read_back(bc::command_queue& q, const bc::buffer& b, std::size_t count) {
+  std::vector<R> tmp(count);
+  if (count)
+    detail::cl_call("clEnqueueReadBuffer",
+                    [&] { q.enqueue_read_buffer(b, 0, count * sizeof(R), tmp.data()); });
+  return std::vector<double>(tmp.begin(), tmp.end());
+}
+
+}  // namespace
+
+std::size_t SinkhornBatch::add(SinkhornProblem problem) {
+  validate(problem, problems_.size());
+  const int dim = static_cast<int>(problem.source.cols());
+  if (dim_ != 0 && dim != dim_)
+    throw ArgumentError(at(problems_.size()) + "dimension differs from the batch's");
+  dim_ = dim;
+  problems_.push_back(std::move(problem));
+  return problems_.size() - 1;
+}
+
+namespace {
+
+// One launch over problems [first, first + np) of `all`.
+std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornProblem>& all,
+                                      std::size_t first, std::size_t np, int dim,
+                                      const SinkhornOptions& opt) {
+  const SinkhornProblem* chunk = all.data() + first;
+  auto& cx = ctx.context();
+  auto& q = ctx.queue();
+  std::vector<int> soff(np), scnt(np), toff(np), tcnt(np);
+  std::vector<const SinkhornProblem*> par(np);
+  std::vector<float> src, tgt;
+  for (std::size_t p = 0; p < np; ++p) {
+    const auto& pr = chunk[p];
+    par[p] = &pr;
+    soff[p] = static_cast<int>(src.size() / dim);
+    toff[p] = static_cast<int>(tgt.size() / dim);
+    scnt[p] = static_cast<int>(pr.source.rows());
+    tcnt[p] = static_cast<int>(pr.target.rows());
+    for (Eigen::Index i = 0; i < pr.source.rows(); ++i)
+      for (int d = 0; d < dim; ++d) src.push_back(static_cast<float>(pr.source(i, d)));
+    for (Eigen::Index j = 0; j < pr.target.rows(); ++j)
+      for (int d = 0; d < dim; ++d) tgt.push_back(static_cast<float>(pr.target(j, d)));
+  }
+  auto sb = make_buffer(cx, q, src);
+  auto tb = make_buffer(cx, q, tgt);
+  Launch L = launch(ctx, dim, sb, tb, src.size() / dim, soff, scnt, toff, tcnt, par, opt);
+
+  std::vector<SinkhornLaunchStats> stats(np);
+  detail::cl_call("clEnqueueReadBuffer", [&] {
+    q.enqueue_read_buffer(L.result.stats, 0, np * sizeof(SinkhornLaunchStats), stats.data());
+  });
+  const SinkhornLaunchInts& last = L.ints[np - 1];
+  const std::size_t sslots = last.src_slot + last.npad, tslots = last.tgt_slot + last.mpad;
+  std::vector<double> fh, gh, la, lb;
+  if (L.dbl) {
+    fh = read_back<double>(q, L.fh, sslots);
+    gh = read_back<double>(q, L.gh, tslots);
+  } else {
+    fh = read_back<float>(q, L.fh, sslots);
+    gh = read_back<float>(q, L.gh, tslots);
+  }
+  if (L.weights_double) {
+    la = read_back<double>(q, L.loga, sslots);
+    lb = read_back<double>(q, L.logb, tslots);
+  } else {
+    la = read_back<float>(q, L.loga, sslots);
+    lb = read_back<float>(q, L.logb, tslots);
+  }
+  std::vector<double> plan, bary;
+  if (opt.want_coupling) {
+    const long total =
+        L.result.coupling_offset[np - 1] + static_cast<long>(scnt[np - 1]) * tcnt[np - 1];
+    plan = read_back<float>(q, L.result.coupling, total);
+  }
+  if (opt.want_barycentric) bary = read_back<float>(q, L.result.barycentric, src.size());
+
+  std::vector<SinkhornResult> out(np);
+  for (std::size_t p = 0; p < np; ++p) {
+    auto& r = out[p];
+    const auto& pr = chunk[p];
+    r.cost = stats[p].cost;
+    r.iterations = static_cast<int>(stats[p].iterations);
+    r.marginal_error = stats[p].marginal_error;
+    r.converged = stats[p].converged != 0;
+    const int n = scnt[p], m = tcnt[p];
+    const int ss = L.ints[p].src_slot, ts = L.ints[p].tgt_slot;
+    r.f.resize(n);
+    r.g.resize(m);
+    for (int i = 0; i < n; ++i) r.f(i) = (fh[ss + i] - la[ss + i]) * pr.epsilon;
+    for (int j = 0; j < m; ++j) r.g(j) = (gh[ts + j] - lb[ts + j]) * pr.epsilon;
+    if (opt.want_coupling) {
+      r.coupling.resize(n, m);
+      const long o = L.result.coupling_offset[p];
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < m; ++j) r.coupling(i, j) = plan[o + static_cast<long>(i) * m + j];
+    }
+    if (opt.want_barycentric) {
+      r.barycentric.resize(n, dim);
+      for (int i = 0; i < n; ++i)
+        for (int d = 0; d < dim; ++d) r.barycentric(i, d) = bary[(soff[p] + i) * dim + d];
+      r.extra_mapped = out_of_sample_map(pr, r.barycentric, pr.extra_points);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<SinkhornResult> SinkhornBatch::run(Context& ctx, const SinkhornOptions& opt) const {
+  // Launches of at most about kChunkSlots padded points (source and target) each: the device
+  // scratch (duals, scalings, transformed points: about 100 bytes a slot) grows with the batch,
+  // and a scan ranked against thousands of atoms holds 10^5 problems (measured with 2000 atoms:
+  // 2.1 GB resident in one launch). Results do not depend on the chunking.
+  constexpr std::size_t kChunkSlots = std::size_t{1} << 18;
+  std::vector<SinkhornResult> out;
+  out.reserve(problems_.size());
+  std::size_t first = 0;
+  while (first < problems_.size()) {
+    std::size_t end = first, slots = 0;
+    while (end < problems_.size() && (end == first || slots < kChunkSlots)) {
+      slots += static_cast<std::size_t>(problems_[end].source.rows() + 16) +
+               static_cast<std::size_t>(problems_[end].target.rows() + 16);
+      ++end;
+    }
+    std::vector<SinkhornResult> part = run_chunk(ctx, problems_, first, end - first, dim_, opt);
+    for (auto& r : part) out.push_back(std::move(r));
+    first = end;
+  }
+  return out;
+}
+
+SinkhornDeviceResult sinkhorn_device(Context& ctx, const SinkhornDeviceBatch& batch,
+                                     const SinkhornOptions& options) {
+  const std::size_t np = batch.problems;
+  if (batch.dim != 2 && batch.dim != 3) throw ArgumentError("SinkhornDeviceBatch: dim 2 or 3");
+  if (batch.source_offset.size() != np || batch.source_count.size() != np ||
+      batch.target_offset.size() != np || batch.target_count.size() != np ||
+      batch.params.size() != np)
+    throw ArgumentError("SinkhornDeviceBatch: per-problem vectors must have `problems` entries");
+  std::vector<const SinkhornProblem*> par(np);
+  std::size_t src_end = 0, tgt_end = 0;
+  for (std::size_t p = 0; p < np; ++p) {
+    if (batch.source_count[p] < 1) throw ArgumentError(at(p) + "empty source point set");
+    if (batch.target_count[p] < 1) throw ArgumentError(at(p) + "empty target point set");
+    par[p] = &batch.params[p];
+    src_end = std::max<std::size_t>(src_end, batch.source_offset[p] + batch.source_count[p]);
+    tgt_end = std::max<std::size_t>(tgt_end, batch.target_offset[p] + batch.target_count[p]);
+  }
+  if (src_end * batch.dim * sizeof(float) > batch.source.size() ||
+      tgt_end * batch.dim * sizeof(float) > batch.target.size())
+    throw ArgumentError("SinkhornDeviceBatch: point buffers smaller than the offsets say");
+  if (np == 0) return {};
+  for (std::size_t p = 0; p < np; ++p) {
+    SinkhornProblem check = batch.params[p];
+    check.source = Eigen::MatrixXd::Zero(1, batch.dim);
+    check.target = Eigen::MatrixXd::Zero(1, batch.dim);
+    check.source_weights.resize(0);
+    check.target_weights.resize(0);
+    check.extra_points.resize(0, batch.dim);
+    validate(check, p);
+  }
+  // Given weights are a host-batch feature: uniform here (documented).
+  std::vector<SinkhornProblem> uniform(batch.params.begin(), batch.params.end());
+  for (std::size_t p = 0; p < np; ++p) {
+    uniform[p].source_weights.resize(0);
+    uniform[p].target_weights.resize(0);
+    par[p] = &uniform[p];
+  }
+  Launch L = launch(ctx, batch.dim, batch.source, batch.target, src_end, batch.source_offset,
+                    batch.source_count, batch.target_offset, batch.target_count, par, options);
+  return L.result;
+}
+
+}  // namespace potmap

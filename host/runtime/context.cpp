@@ -1,0 +1,270 @@
+#include "potmap/runtime/context.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+
+#include "runtime/binary_cache.hpp"
+#include "runtime/cl_check.hpp"
+#include "runtime/hash.hpp"
+
+namespace bc = boost::compute;
+
+namespace potmap {
+
+namespace detail {
+const std::map<std::string, std::string_view>& embedded_kernels();
+}
+
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string env_or(const char* name, const std::string& fallback) {
+  const char* v = std::getenv(name);
+  return (v && *v) ? std::string(v) : fallback;
+}
+
+DeviceInfo describe(const bc::device& d) {
+  DeviceInfo info;
+  bc::platform p = d.platform();
+  info.platform = p.name();
+  info.platform_version = p.version();
+  info.name = d.name();
+  info.driver_version = d.driver_version();
+  info.is_gpu = (d.type() & CL_DEVICE_TYPE_GPU) != 0;
+  info.is_cpu = (d.type() & CL_DEVICE_TYPE_CPU) != 0;
+  info.has_fp64 = d.supports_extension("cl_khr_fp64");
+  info.compute_units = d.compute_units();
+  info.max_work_group_size = d.max_work_group_size();
+  info.global_mem_bytes = d.global_memory_size();
+  info.max_alloc_bytes = d.get_info<cl_ulong>(CL_DEVICE_MAX_MEM_ALLOC_SIZE);
+  return info;
+}
+
+std::vector<bc::device> all_devices() {
+  std::vector<bc::device> out;
+  cl_uint n = 0;
+  cl_int status = clGetPlatformIDs(0, nullptr, &n);
+  if (status == -1001 /* CL_PLATFORM_NOT_FOUND_KHR */ || n == 0) return out;
+  detail::cl_check(status, "clGetPlatformIDs");
+  std::vector<cl_platform_id> ids(n);
+  detail::cl_check(clGetPlatformIDs(n, ids.data(), nullptr), "clGetPlatformIDs");
+  for (cl_platform_id id : ids) {
+    bc::platform p(id);
+    for (const bc::device& d : detail::cl_call("clGetDeviceIDs", [&] { return p.devices(); }))
+      out.push_back(d);
+  }
+  return out;
+}
+
+bc::device pick_device(const std::string& wanted) {
+  const std::vector<bc::device> devices = all_devices();
+  if (devices.empty())
+    throw Error(
+        "no OpenCL device found: install an OpenCL driver (on Debian: pocl-opencl-icd for the "
+        "CPU) and check that /etc/OpenCL/vendors lists it");
+  if (!wanted.empty()) {
+    const std::string w = lower(wanted);
+    for (const bc::device& d : devices) {
+      const std::string hay = lower(d.platform().name() + " " + d.name());
+      if (hay.find(w) != std::string::npos) return d;
+    }
+    std::ostringstream msg;
+    msg << "no OpenCL device matches '" << wanted << "' (POTMAP_DEVICE or --device); devices:";
+    for (const bc::device& d : devices) msg << "\n  " << describe(d).summary();
+    throw Error(msg.str());
+  }
+  for (const bc::device& d : devices)
+    if (d.type() & CL_DEVICE_TYPE_GPU) return d;
+  for (const bc::device& d : devices)
+    if (d.type() & CL_DEVICE_TYPE_CPU) return d;
+  return devices.front();
+}
+
+}  // namespace
+
+std::string DeviceInfo::summary() const {
+  return name + " (" + platform + ", driver " + driver_version + ")";
+}
+
+std::vector<DeviceInfo> list_devices() {
+  std::vector<DeviceInfo> out;
+  for (const bc::device& d : all_devices()) out.push_back(describe(d));
+  return out;
+}
+
+std::vector<std::string> embedded_kernel_names() {
+  std::vector<std::string> names;
+  for (const auto& [name, src] : detail::embedded_kernels()) names.push_back(name);
+  return names;
+}
+
+std::string embedded_kernel_source(const std::string& name) {
+  const auto& table = detail::embedded_kernels();
+  auto it = table.find(name);
+  if (it == table.end()) throw ArgumentError("no embedded kernel source named '" + name + "'");
+  return std::string(it->second);
+}
+
+struct Context::Impl {
+  bc::device device;
+  bc::context context;
+  bc::command_queue queue;
+  DeviceInfo info;
+  std::string build_options;
+  bool dump = false;
+  detail::BinaryCache disk;
+  std::mutex mutex;
+  std::map<std::string, bc::program> programs;  // key: options + '\0' + source hash
+  std::size_t source_builds = 0;
+  std::size_t disk_hits = 0;
+
+  Impl(bc::device d, bc::context c, bc::command_queue q, const ContextOptions& o)
+      : device(std::move(d)),
+        context(std::move(c)),
+        queue(std::move(q)),
+        info(describe(device)),
+        build_options(o.build_options),
+        dump(o.dump_kernels || env_or("POTMAP_DUMP_KERNELS", "0") == "1"),
+        disk(!o.disk_cache                ? std::string()
+             : o.binary_cache_dir.empty() ? env_or("POTMAP_CACHE_DIR", "")
+                                          : o.binary_cache_dir) {}
+
+  bc::program build(const std::string& label, const std::string& source,
+                    const std::string& defines) {
+    const std::string options = defines + (build_options.empty() ? "" : " " + build_options);
+    const std::string mem_key =
+        options + '\0' + std::to_string(detail::fnv1a64(source)) + '\0' + label;
+    std::lock_guard<std::mutex> lock(mutex);
+    if (auto it = programs.find(mem_key); it != programs.end()) return it->second;
+
+    // Dumped whether the binary then comes from the disk cache or the compiler: what matters
+    // to the reader is the source the device runs.
+    if (dump)
+      std::cerr << "---- potmap: building kernel '" << label << "' with '" << options << "' ----\n"
+                << source << "\n---- end of '" << label << "' ----\n";
+    // The disk key names everything that can change the binary: a driver update must miss.
+    const std::string disk_key = info.platform + '\n' + info.platform_version + '\n' + info.name +
+                                 '\n' + info.driver_version + '\n' + options + '\n' + source;
+    if (auto bin = disk.load(disk_key)) {
+      try {
+        bc::program p = bc::program::create_with_binary(*bin, context);
+        p.build(options);
+        ++disk_hits;
+        programs.emplace(mem_key, p);
+        return p;
+      } catch (const bc::opencl_error&) {
+        disk.forget(disk_key);  // stale or corrupt: fall back to source below
+      }
+    }
+    bc::program p = detail::cl_call("clCreateProgramWithSource", [&] {
+      return bc::program::create_with_source(source, context);
+    });
+    try {
+      p.build(options);
+    } catch (const bc::opencl_error& e) {
+      std::string log;
+      try {
+        log = p.build_log();
+      } catch (...) {
+        log = "(build log unavailable)";
+      }
+      throw BuildError(e.error_code(), label, options, log);
+    }
+    ++source_builds;
+    if (disk.enabled()) {
+      try {
+        disk.store(disk_key, p.binary());
+      } catch (const bc::opencl_error&) {
+        // A device that cannot return binaries simply gets no disk cache.
+      }
+    }
+    programs.emplace(mem_key, p);
+    return p;
+  }
+};
+
+Context::Context(const ContextOptions& options) {
+  bc::device d = pick_device(options.device.empty() ? env_or("POTMAP_DEVICE", "") : options.device);
+  bc::context c = detail::cl_call("clCreateContext", [&] { return bc::context(d); });
+  bc::command_queue q =
+      detail::cl_call("clCreateCommandQueue", [&] { return bc::command_queue(c, d); });
+  impl_ = std::make_unique<Impl>(d, c, q, options);
+}
+
+Context::Context(cl_command_queue queue, const ContextOptions& options) {
+  if (!queue) throw ArgumentError("Context: the host's cl_command_queue is null");
+  bc::command_queue q(queue, /*retain=*/true);
+  bc::device d = detail::cl_call("clGetCommandQueueInfo", [&] { return q.get_device(); });
+  bc::context c = detail::cl_call("clGetCommandQueueInfo", [&] { return q.get_context(); });
+  impl_ = std::make_unique<Impl>(d, c, q, options);
+}
+
+Context::Context(cl_context context, cl_device_id device, const ContextOptions& options) {
+  if (!context) throw ArgumentError("Context: the host's cl_context is null");
+  if (!device) throw ArgumentError("Context: the host's cl_device_id is null");
+  bc::context c(context, /*retain=*/true);
+  const std::vector<bc::device> members =
+      detail::cl_call("clGetContextInfo", [&] { return c.get_devices(); });
+  auto it = std::find_if(members.begin(), members.end(),
+                         [&](const bc::device& m) { return m.get() == device; });
+  if (it == members.end())
+    throw ArgumentError("Context: the cl_device_id is not a device of the cl_context");
+  const bc::device& d = *it;
+  bc::command_queue q =
+      detail::cl_call("clCreateCommandQueue", [&] { return bc::command_queue(c, d); });
+  impl_ = std::make_unique<Impl>(d, c, q, options);
+}
+
+Context::Context(Context&&) noexcept = default;
+Context& Context::operator=(Context&&) noexcept = default;
+Context::~Context() = default;
+
+const DeviceInfo& Context::info() const {
+  return impl_->info;
+}
+bc::device& Context::device() {
+  return impl_->device;
+}
+bc::context& Context::context() {
+  return impl_->context;
+}
+bc::command_queue& Context::queue() {
+  return impl_->queue;
+}
+
+bc::program Context::program_from_source(const std::string& label, const std::string& source,
+                                         const std::string& defines) {
+  return impl_->build(label, source, defines);
+}
+
+bc::program Context::program(const std::string& file, const std::string& defines) {
+  const auto& table = detail::embedded_kernels();
+  auto it = table.find(file);
+  if (it == table.end()) throw ArgumentError("no embedded kernel source named '" + file + "'");
+  return impl_->build(file, std::string(it->second), defines);
+}
+
+bc::kernel Context::kernel(const std::string& file, const std::string& kernel_name,
+                           const std::string& defines) {
+  bc::program p = program(file, defines);
+  return detail::cl_call(("clCreateKernel(" + kernel_name + ")").c_str(),
+                         [&] { return bc::kernel(p, kernel_name); });
+}
+
+std::size_t Context::builds_from_source() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->source_builds;
+}
+std::size_t Context::disk_cache_hits() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->disk_hits;
+}
+
+}  // namespace potmap

@@ -1,0 +1,96 @@
+#pragma once
+// One LIDAR sweep (SPEC section 1) and the dataset readers that produce sweeps.
+//
+// Points are stored in the world frame (metres). A 2D scan has dim == 2 and a pose (x, y, yaw);
+// a 3D scan has dim == 3 and a rigid transform. Beams that returned nothing are kept as unit
+// directions so that free space can be sampled along them up to max_range.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/export.h"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap {
+
+struct Scan {
+  int dim = 2;           ///< 2 or 3
+  double timestamp = 0;  ///< seconds (reader-specific epoch; scan index when the source has none)
+  double max_range = 0;  ///< metres; a beam at or beyond it is a no-return
+  /// Sensor pose, world frame. 2D: x, y (metres) and yaw (radians) in pose2d; 3D: pose3d is a
+  /// 3 x 4 row-major [R | t] mapping sensor coordinates to world coordinates.
+  std::array<double, 3> pose2d{0, 0, 0};
+  std::array<double, 12> pose3d{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  std::vector<double> hits;       ///< end points of returned beams, world frame, dim per point
+  std::vector<double> no_return;  ///< unit directions (world frame) of beams with no return
+  std::size_t num_hits() const { return dim ? hits.size() / dim : 0; }
+  std::size_t num_no_return() const { return dim ? no_return.size() / dim : 0; }
+  std::size_t num_beams() const { return num_hits() + num_no_return(); }
+  /// Sensor position in the world frame (dim coordinates).
+  std::array<double, 3> origin() const;
+};
+
+/// What a reader saw besides the scans.
+struct ReadStats {
+  std::size_t lines_skipped = 0;   ///< lines of other types (CARMEN ODOM, PARAM, ...)
+  std::size_t points_dropped = 0;  ///< NaN or Inf points dropped at the door
+};
+
+struct Dataset {
+  std::vector<Scan> scans;
+  ReadStats stats;
+};
+
+/// CARMEN log (plain or gzip, detected by the magic bytes). FLASER lines are read as 180 degree
+/// scans from -90 to +90 degrees around the heading (n beams evenly spaced); ROBOTLASER1 lines
+/// carry their own start angle, field of view and maximum range. Other lines are counted in
+/// stats.lines_skipped. A range >= max_range is a no-return; `flaser_max_range` (metres, default
+/// 0 = automatic: the largest range seen in the file, so readings at the device's limit count
+/// as no-returns) sets it for FLASER lines; `flaser_fov` (radians, default pi) is FLASER's field of
+/// view, centred on the heading (n odd: both ends included; n even: 1 degree steps for 180 beams
+/// over 180 degrees, the last beam one step short of +fov/2). Throws InputError naming file, line
+/// and value for a truncated line, wrong field count, non-numeric value, NaN pose or negative
+/// range.
+Dataset read_carmen(const std::string& path, double flaser_max_range = 0,
+                    double flaser_fov = 3.14159265358979323846);
+
+/// KITTI Velodyne frame: N x 4 float32 (x, y, z, reflectance), plain or gzip. The sensor is at
+/// the origin unless a pose is given. max_range in metres (default 120, the HDL-64E).
+/// Throws InputError (file, byte offset, size) when the size is not a multiple of 16 bytes.
+Scan read_kitti_bin(const std::string& path, double max_range = 120);
+
+/// nuScenes LIDAR_TOP frame: N x 5 float32 (x, y, z, intensity, ring), sensor at the origin.
+/// max_range in metres (default 110: the frames hold returns past 100 m).
+Scan read_nuscenes_bin(const std::string& path, double max_range = 110);
+
+/// KITTI odometry: poses.txt (one 3 x 4 row-major camera pose per line) and calib.txt (line
+/// `Tr: ...` velodyne to camera). Returns, per frame, the velodyne-to-world pose
+/// Tr^-1 * P_i * Tr as 3 x 4 row-major, so a frame's points map into the first camera's frame
+/// expressed in velodyne axes.
+std::vector<std::array<double, 12>> read_kitti_poses(const std::string& poses_path,
+                                                     const std::string& calib_path);
+
+/// Moves a 3D scan's points from the sensor frame into the world by `pose` (3 x 4 row-major).
+void apply_pose(Scan& scan, const std::array<double, 12>& pose);
+
+/// Groups labelled points (BHM labelled-sample CSV, read by read_labelled_csv) into scans by
+/// their scan index t. Only hits become beam end points; the sensor pose is unknown in this
+/// format and set to the centroid of the scan's free points (or of its hits when none).
+/// max_range (metres, default 20) is stored on every scan.
+std::vector<Scan> scans_from_labelled(const LabelledPoints& points, double max_range = 20);
+
+/// NumPy .npz with `X` (N x 3: t, x, y, or N x 4: t, x, y, z) and `Y` (N or N x 1 labels).
+LabelledPoints read_npz_labelled(const std::string& path);
+
+/// Reads any supported file by its name: *.log[.gz] CARMEN, *.bin KITTI (4 floats) or nuScenes
+/// (5 floats, name containing "nuscenes"), a KITTI odometry sequence by its poses.txt
+/// (velodyne/NNNNNN.bin and calib.txt beside it; frames moved into the world frame, max range
+/// 120 m), *.npz and *.csv labelled samples.
+Dataset read_dataset(const std::string& path);
+
+}  // namespace potmap
+POTMAP_CXX_API_END

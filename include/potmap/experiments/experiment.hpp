@@ -1,0 +1,234 @@
+#pragma once
+// The mapping methods the experiments compare (paper Sec. IV), behind one interface so that every
+// method sees the same training data and is scored on the same held-out samples.
+//
+// A MapTask holds what a method may learn from: the target scans reduced to their training
+// beams, their training samples, the area, and (for transfer methods) source-domain scans. The
+// held-out samples are never part of it. Method::fit returns a FittedMap: a probability (and,
+// where the model has one, variance) evaluator plus the wall time learning took. Adding a method
+// is one more factory returning a Method.
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+#include "potmap/export.h"
+
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/scan.hpp"
+#include "potmap/experiments/ogm.hpp"
+#include "potmap/learn/abhm.hpp"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/kernel_map.hpp"
+#include "potmap/map/metrics.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/overall_map.hpp"
+#include "potmap/pot/transfer.hpp"
+#include "potmap/runtime/context.hpp"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap::experiment {
+
+/// What a method may learn from. Scan index t of a sample = first_index + position in
+/// train_scans.
+struct MapTask {
+  int dim = 2;
+  std::int64_t first_index = 0;
+  /// Source-domain scans, all beams (transfer methods), one vector per place: places have
+  /// world frames of their own (three simulated towns overlap), so each gets its own source
+  /// map. May be empty.
+  std::vector<std::vector<Scan>> source;
+  /// Names the source (and seed) so that transfer methods can reuse the atoms they built from
+  /// it for other targets; empty: no reuse.
+  std::string source_key;
+  std::vector<Scan> train_scans;  ///< target scans with only their training beams, in order
+  LabelledPoints train;           ///< labelled samples of those beams
+  double lo[3] = {0, 0, 0};       ///< area the map must cover, metres
+  double hi[3] = {0, 0, 0};
+  std::uint64_t seed = 0;  ///< for the method's own random choices
+};
+
+/// Labels `scans` with `labels` (holdout_fraction is what splits the beams) and builds the task
+/// from their training beams; the held-out samples go to `test`. Scan i is labelled with scan
+/// index first_index + i, so a sequence cut from a longer log keeps the log's split. The area is
+/// the bounds of the training samples, clipped to `area_margin` metres around the hits (far free
+/// samples of no-return beams would otherwise stretch it to the sensor's range).
+MapTask make_task(const std::vector<Scan>& scans, const LabelOptions& labels, LabelledPoints& test,
+                  double area_margin = 5.0, std::int64_t first_index = 0);
+
+/// The scan with every return farther than `max_range` metres from the sensor (horizontally in
+/// 3D) turned into a no-return along the same direction, and max_range lowered to it; free
+/// space is then sampled up to max_range along those beams. A scan whose max_range is already
+/// at most `max_range` (or `max_range` <= 0) comes back unchanged. The experiments cut real logs
+/// (80 m lasers) at the towns' 20 m, the radius POT's sectors are cut with, for every method.
+Scan limit_range(const Scan& scan, double max_range);
+
+/// A learned map as the evaluation sees it.
+struct FittedMap {
+  /// Probability at n points (n * dim coordinates) into prob; var, if not null, receives the
+  /// model's variance where it has one (NaN where it has none, e.g. an occupancy grid).
+  std::function<void(const double* points, std::size_t n, double* prob, double* var)> query;
+  /// The kernels, for kernel maps (figures); null for other models.
+  std::shared_ptr<const KernelMap> kernels;
+  double fit_seconds = 0;              ///< wall time of learning, all scans of the task
+  std::map<std::string, double> info;  ///< method-specific numbers (kernels, cell size, steps)
+};
+
+/// A mapping method.
+struct Method {
+  std::string name;   ///< row label, e.g. "BHM" or "OGM 0.5 m"
+  std::string group;  ///< methods of one group compete (OGM: best cell size); default = name
+  /// Whether fit reads task.source (transfer methods). The others give the same map whatever
+  /// the source, so a runner may fit them once per target.
+  bool uses_source = false;
+  /// Learns a map from the task. `ctx` may be null: CPU references where the method has them.
+  std::function<FittedMap(Context* ctx, const MapTask& task)> fit;
+};
+
+/// OctoMap occupancy grid with `resolution` metres cells; every training beam of every scan
+/// inserted in order (group "OGM").
+Method ogm_method(double resolution);
+
+/// BHM settings of the experiments: kernels on a grid over the task's area.
+struct BhmSetup {
+  /// The joint posterior of bhm_joint.hpp (default true: overlapping kernels, a continuous and
+  /// calibrated map); false: the diagonal posterior of bhm.hpp with narrow, disjoint kernels.
+  bool joint = true;
+  double spacing = 0.5;  ///< grid spacing, metres (default 0.5: see JointBhmOptions::spacing)
+  /// Width, 1/m^2; 0: the model's default for the spacing (joint: -ln(0.19) / spacing^2, so
+  /// neighbours overlap; diagonal: 8 / spacing^2, as `potmap learn bhm`).
+  double gamma = 0;
+  std::size_t count = 0;  ///< if > 0: spacing chosen to give about this many kernels
+  BhmOptions options;     ///< EM settings (em_iterations per scan, default 3; tau)
+  /// Prior weight variance; 0: the model's default (joint 10, diagonal 1e4).
+  double prior_var = 0;
+  /// A bias weight with the same prior (default true): it sets the level of unobserved space
+  /// (without it the gaps between narrow kernels sit at p = 0.5 exactly).
+  bool bias = true;
+};
+
+/// Learns the BHM of `setup` on a grid over [lo, hi] from `samples`, scan by scan (the
+/// posterior after one scan is the prior of the next). The diagonal model runs on `ctx` when
+/// it is given; the joint one on the host. `spacing_out`/`gamma_out` receive what was used.
+KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
+                    const double hi[3], const LabelledPoints& samples,
+                    double* spacing_out = nullptr, double* gamma_out = nullptr);
+
+/// Online BHM: the posterior after one scan is the prior of the next (bhm_update_sequential).
+Method bhm_method(const BhmSetup& setup, const std::string& name = "BHM");
+
+/// ABHM settings: Halton kernels over the task's area, trained offline on all training samples.
+struct AbhmSetup {
+  std::size_t count = 1000;  ///< kernels
+  double gamma0 = 1.0;       ///< starting width, 1/m^2
+  std::size_t steps = 2450;  ///< Adam steps
+  std::size_t batch = 256;   ///< samples per step
+};
+Method abhm_method(const AbhmSetup& setup, const std::string& name = "ABHM");
+
+/// POT / RePOT (paper Sec. III, SPEC section 4) as a method: a dictionary of atoms is built
+/// from the task's source (a map learned on each source place, atoms cut from some of its
+/// scans), then the target's scans are transferred one by one in order, each from its own
+/// training samples only (the task's, never a held-out beam), and the instantaneous maps are
+/// accumulated into an overall map with merging (OverallMap). The fitted map is the overall map
+/// (for a one-scan task: that scan's instantaneous map). fit_seconds is the transfer of the
+/// target scans (the host preparation of scan i+1 overlaps the solve of scan i, as map_scans
+/// does); building the dictionary is offline work and reported in info["atoms_s"].
+struct PotSetup {
+  /// Transfer settings; pot.refine switches RePOT on; pot.seed is task.seed. Default: the
+  /// library's, with a wall clearance of 0.5 m (about one kernel spacing of the BHM atoms) and
+  /// a displacement variance of 0.25 per m^2 (a kernel moved 2 m gains variance 1).
+  PotOptions pot = [] {
+    PotOptions p;
+    p.wall_clearance = 0.5;
+    p.displacement_variance = 0.25;
+    return p;
+  }();
+  /// Map the atoms' kernels come from: "bhm" (default; online BHM on a grid, fast) or "abhm"
+  /// (the paper's choice: varied widths, much slower to learn).
+  std::string atom_map = "bhm";
+  /// The source map of "bhm" atoms: the experiments' BHM without its bias (atoms carry none:
+  /// a sector's kernels must say everything about it).
+  BhmSetup atom_bhm = [] {
+    BhmSetup b;
+    b.bias = false;
+    return b;
+  }();
+  AbhmSetup atom_abhm = [] {
+    AbhmSetup a;
+    a.count = 3000;
+    return a;
+  }();
+  /// Source scans per place that atoms are cut from, evenly spaced over the place's drive
+  /// (default 10; 0: all). Every source scan still trains the source map. Ranking cost grows
+  /// with atoms x rotations per sector.
+  std::size_t atom_scans = 10;
+  /// RePOT's overall map (default true): one persistent joint BHM over the task's area (the
+  /// experiments' BHM, `target_bhm`), which every scan updates with its own training samples,
+  /// its kernels' priors seeded from the scan's transported kernels where no sample has
+  /// reached them yet. false: each scan refined on its own (PotOptions::refine) and the
+  /// instantaneous maps merged into an OverallMap, as POT's.
+  bool persistent_refine = true;
+  BhmSetup target_bhm;  ///< the persistent RePOT map (joint; the spacing and prior of BHM)
+  /// Seeded prior variances are at least this (weight units squared; default 10, the joint
+  /// BHM's prior: a seed then moves the prior mean only). Transported variances say how sure
+  /// the source was, not how well the atom fits here; smaller floors (1, 3) made RePOT worse
+  /// than BHM on the real logs (docs/results.md).
+  double seed_min_variance = 10.0;
+  /// Sector cut and kernel filter of the atoms. Default: kernels at the atoms' own samples,
+  /// thinned to 0.5 m (DictionaryOptions::kernels_at_samples).
+  DictionaryOptions dictionary = [] {
+    DictionaryOptions d;
+    d.kernels_at_samples = 0.5;
+    return d;
+  }();
+  /// Merging of POT's overall map. Default merge radius 0.5 (d^2 gamma; 0.27 m for the joint
+  /// BHM's kernels): kernels at samples of successive scans land closer than the BHM grid.
+  OverallMapOptions overall = [] {
+    OverallMapOptions o;
+    o.merge_radius = 0.5;
+    return o;
+  }();
+  bool pipeline = true;  ///< prepare the next scan on a second thread
+};
+
+/// Atoms shared between the POT and RePOT methods of one run, keyed by MapTask::source_key.
+struct AtomCache {
+  std::map<std::string, std::shared_ptr<const Dictionary>> dictionaries;
+  std::map<std::string, double> build_seconds;
+};
+
+/// Builds the dictionary of `setup` from source places (labels: every beam, `seed`).
+/// `map_kernels`, if not null, receives the total number of kernels of the source maps.
+Dictionary build_atoms(Context* ctx, const std::vector<std::vector<Scan>>& places,
+                       const PotSetup& setup, std::uint64_t seed,
+                       std::size_t* map_kernels = nullptr);
+
+/// The training samples POT gets for scan i of the task (scan index first_index + i): those of
+/// task.train with that index, within `range` metres of the scan's sensor (horizontally).
+LabelledPoints scan_training_samples(const MapTask& task, std::size_t i, double range);
+
+/// POT (setup.pot.refine false) or RePOT (true); uses_source. `cache` may be null.
+Method pot_method(const PotSetup& setup, const std::string& name,
+                  std::shared_ptr<AtomCache> cache = nullptr);
+
+/// A kernel map as a FittedMap (device evaluator when ctx is given, exact CPU sum otherwise).
+FittedMap kernel_fitted_map(Context* ctx, std::shared_ptr<const KernelMap> map);
+
+/// Scores a fitted map on labelled points; query_seconds receives the wall time of the query.
+Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query_seconds = nullptr);
+
+/// Figures of a fitted map over [lo, hi] (x, y; metres), at most max_pixels along the longer
+/// side: PREFIX_prob.png (viridis), PREFIX_var.png (variance as raster.hpp colours it; only when
+/// the model has one) and, for kernel maps, PREFIX_kernels.png (each kernel a dot at its
+/// position coloured by log10 gamma, viridis from the smallest to the largest width). Returns
+/// the files written.
+std::vector<std::string> write_figures(const FittedMap& map, const double lo[3], const double hi[3],
+                                       const std::string& prefix, std::size_t max_pixels = 400);
+
+}  // namespace potmap::experiment
+POTMAP_CXX_API_END

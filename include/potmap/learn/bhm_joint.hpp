@@ -1,0 +1,218 @@
+#pragma once
+// Online Bayesian Hilbert map with the joint Jaakkola-Jordan posterior (SPEC section 3).
+//
+// Kernels sit on a regular grid with one width, close enough to overlap (a continuous map needs
+// neighbouring kernels to share samples). With overlap, the diagonal posterior of bhm.hpp
+// counts every sample once per kernel it reaches and becomes overconfident; this learner keeps
+// the whole posterior precision instead,
+//
+//   P   = diag(1/w_var0) + 2 sum_n lambda(xi_n) phi_n phi_n^T      (sparse: only kernels that
+//   eta = w_mean0/w_var0 + sum_n (y_n - 1/2) phi_n                   share a sample couple)
+//   mean = P^-1 eta
+//
+// and adds each scan to P and eta (the posterior of one scan is the prior of the next, exactly,
+// for the xi of that scan). Each scan runs a few EM iterations over its own xi_n; the means are
+// solved by conjugate gradients warm-started from the previous scan, on the kernels the scan
+// reaches plus a margin. P is stored per kernel as a stencil of its grid neighbours.
+//
+// Storage is in tiles of kernels (32 x 32 in 2D, 8 x 8 x 8 in 3D, larger when the stencil is
+// wider than a tile; a 3D kernel's stencil holds 15^3 doubles at the default width, so 3D tiles
+// are kept small), allocated when a sample or a seed first reaches them and found through a
+// hash map of tile coordinates: memory grows with the area the samples cover, never with the
+// number of scans (driving over the same place again allocates nothing). A kernel no sample or
+// seed reached is never stored; it holds its prior (mean 0, variance prior_var) exactly, which
+// is what an allocated but unreached kernel holds too. The grid may be unbounded (the
+// growable constructor: kernels at integer multiples of the spacing) or clipped to bounds
+// known in advance (kernels from lo to hi, as a dense grid over them would be).
+//
+// A KernelMap carries one variance per kernel, so the exported w_var is chosen to reproduce the
+// posterior's predictive variance phi(x)^T P^-1 phi(x) at each kernel centre (computed on a
+// local block of P around the kernel); see JointBhm::map().
+
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/export.h"
+#include "potmap/map/kernel_map.hpp"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap {
+
+struct JointBhmOptions {
+  /// Grid spacing of the kernels, metres (default 0.5: the hinge spacing of the BHM authors'
+  /// demo on the Intel log; about the thickness of an indoor wall, so walls come out as walls).
+  double spacing = 0.5;
+  /// Kernel width, 1/m^2; 0 (default): -ln(neighbour_phi) / spacing^2.
+  double gamma = 0;
+  /// With gamma 0: the feature value of a kernel at one spacing from its centre (default 0.19,
+  /// as gamma 6.71 at 0.5 m in the BHM authors' Intel demo). Larger: smoother, blurrier maps.
+  double neighbour_phi = 0.19;
+  /// Prior weight variance (default 10: as the BHM authors' demo; with overlapping kernels a
+  /// large prior lets neighbours cancel one another in unobserved gaps).
+  double prior_var = 10;
+  /// A bias weight with the same prior (default true): it sets the level of unobserved space.
+  bool bias = true;
+  /// EM iterations on a scan (default 3); each but the last is followed by an M-step.
+  int em_iterations = 3;
+  /// Kernel cut-off exponent for the features: gamma d^2 > tau counts as 0 (default 18, as
+  /// the evaluators).
+  double tau = kDefaultCutoffTau;
+  /// Conjugate-gradient stop: relative residual of a scan's solve (default 1e-5).
+  double cg_tolerance = 1e-5;
+  /// At most this many CG iterations per solve (default 300).
+  int cg_max_iterations = 300;
+  /// Extra rings of kernels, in spacings, solved around the ones a scan reaches (default 4: the
+  /// change of the mean decays over a few kernel widths).
+  int solve_margin = 4;
+  /// At most this many stored kernels (default 2^26, the most the storage can address): a
+  /// guard against runaway input (samples scattered over a huge area). Each stored kernel
+  /// holds its precision stencil, (2 ceil(2 sqrt(tau / gamma) / spacing) + 1)^dim doubles.
+  std::size_t max_kernels = std::size_t(1) << 26;
+};
+
+/// Counters of the last update() (for tests, benchmarks and progress).
+struct JointBhmStats {
+  std::size_t samples = 0;        ///< samples of the scan inside the grid
+  std::size_t active = 0;         ///< kernels solved for
+  std::size_t cg_iterations = 0;  ///< summed over the EM iterations
+  double residual = 0;            ///< relative residual at the end of the last solve
+};
+
+/// The online learner. Not thread-safe (map() fills a cache; two threads may not call even
+/// its const members at once); copyable and cheap to move.
+class JointBhm {
+ public:
+  /// A growable map: kernels on the unbounded grid of `options.spacing` through the origin
+  /// (`dim` = 2 or 3 axes), stored when first reached. Throws ArgumentError on bad options.
+  explicit JointBhm(int dim, const JointBhmOptions& options = {});
+
+  /// Kernels on a grid over [lo, hi] only (metres; `dim` = 2 or 3 axes used), starting at lo
+  /// and `options.spacing` apart; samples and seeds reach no kernel outside it. Throws
+  /// ArgumentError on bad options or bounds, or more than 2^26 kernels.
+  JointBhm(int dim, const double lo[3], const double hi[3], const JointBhmOptions& options = {});
+
+  /// Adds one scan's labelled samples (any scan index; samples beyond the grid's reach, or
+  /// farther than 2^22 spacings from the origin, are ignored). Empty input does nothing.
+  /// Throws ArgumentError on a dimension mismatch or when the map would pass
+  /// options.max_kernels stored kernels (the posterior is unchanged then).
+  void update(const LabelledPoints& samples);
+
+  /// Adds the samples of every scan index in increasing order, one update() per scan.
+  void update_by_scan(const LabelledPoints& samples);
+
+  /// Seeds the prior of the kernels no sample has reached yet from another map over the same
+  /// place (RePOT: the scan's transported kernels). Where `field`'s kernels weigh at least
+  /// `min_support` (sum of their phi at the grid kernel), the grid kernel's prior becomes the
+  /// weight and variance that reproduce field's logit mean and variance there, the variance
+  /// clamped to [min_var, prior_var]. Kernels a sample already reached, or an earlier seed
+  /// seeded, keep their posterior; the bias is untouched. Returns the number of kernels
+  /// seeded. Throws ArgumentError on a dimension mismatch.
+  std::size_t seed_unreached(const KernelMap& field, double min_var = 1.0,
+                             double min_support = 0.3);
+
+  /// The map: its kernels with their posterior means, and the variance that reproduces the
+  /// predictive variance at each centre (the prior variance where no sample or seed reached
+  /// its block); the bias weight with its posterior. Bounded: every grid kernel, in raster
+  /// order. Growable: every stored kernel (whole tiles, in storage order); unstored kernels
+  /// are at their prior mean 0 and left out. The means are polished by a solve over every
+  /// reached kernel first (on a copy: the learner's state is unchanged, so when and how often
+  /// a caller exports makes no difference to later updates). The variances, a small dense
+  /// solve per kernel, are cached per tile and recomputed only for tiles whose precision
+  /// changed since the last call.
+  KernelMap map() const;
+
+  /// Posterior mean and variance of the logit at n points (n * dim coordinates), exactly:
+  /// phi^T P^-1 eta and phi^T P^-1 phi, by a sparse Cholesky factorisation of the whole
+  /// stored precision and one solve per point (no conjugate gradients): for tests and small
+  /// maps.
+  void predict_exact(const double* points, std::size_t n, double* mean, double* var) const;
+
+  /// Kernels (without the bias): bounded, the grid's; growable, the stored ones.
+  std::size_t size() const;
+  /// Stored tiles.
+  std::size_t tiles() const { return tiles_.size(); }
+  /// Whether the grid is clipped to the bounds of the constructor.
+  bool bounded() const { return bounded_; }
+  /// Bytes held: the tiles' precision stencils, natural parameters, means, flags and cached
+  /// variances, the tile index and the solver's scratch (capacities, not sizes).
+  std::size_t memory_bytes() const;
+  double gamma() const { return gamma_; }
+  const JointBhmOptions& options() const { return o_; }
+  const JointBhmStats& last_stats() const { return stats_; }
+
+ private:
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  struct Feature {
+    std::uint32_t kernel;  // storage index (kNone: not stored, at its prior)
+    std::int32_t cell[3];  // grid coordinates
+    double phi;
+  };
+  struct Tile {
+    std::int32_t coord[3];  // tile coordinates: cells coord * tile_ .. coord * tile_ + tile_-1
+    std::int32_t nb[27];    // neighbour tiles (dx+1) + 3 (dy+1) + 9 (dz+1); -1: not stored
+  };
+  struct Scratch {
+    std::vector<double> r, z, p, q, ghost;
+  };
+  void init(int dim, const JointBhmOptions& o);
+  static std::uint64_t tile_key(const std::int64_t t[3]);
+  std::int64_t find_tile(const std::int64_t t[3]) const;
+  std::uint32_t make_tile(const std::int64_t t[3]);
+  // Storage index of grid cell g, or -1 when not stored; `hint` a stored tile within one tile
+  // of g's (faster: no hashing), or -1.
+  std::int64_t find_cell(const std::int64_t g[3], std::int64_t hint = -1) const;
+  void cell_of(std::uint32_t s, std::int64_t g[3]) const;
+  bool in_grid(const std::int64_t g[3]) const;
+  void features(const double* x, std::vector<Feature>& out, bool create);
+  void features(const double* x, std::vector<Feature>& out) const;
+  void add_outer(const std::vector<Feature>& f, double c);
+  void mark_dirty(std::uint32_t s);
+  void gather(std::uint32_t tile, const double* x, std::vector<double>& ghost) const;
+  // y = P x on the rows `rows` (sorted storage indices); the bias row when with bias.
+  void multiply(const std::vector<double>& x, double xb, const std::vector<std::uint32_t>& rows,
+                std::vector<double>& y, double& yb, std::vector<double>& ghost) const;
+  double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
+               double tol, int max_it, std::size_t* its, Scratch& s) const;
+  bool near_data(const std::int64_t g[3], std::int64_t hint) const;
+  double predictive_var_at(const std::int64_t g[3], std::int64_t hint,
+                           std::vector<double>& block_scratch) const;
+  double exported_var(const std::int64_t g[3], std::int64_t s, std::vector<double>& scratch) const;
+
+  JointBhmOptions o_;
+  int dim_ = 2;
+  double gamma_ = 0, rcut_ = 0;
+  bool bounded_ = false;
+  double lo_[3] = {0, 0, 0};        // position of grid cell (0, 0, 0)
+  std::int64_t n_[3] = {1, 1, 1};   // bounded: kernels per axis, cells 0 .. n-1
+  std::int64_t pad_ = 0;            // stencil half-width, in cells
+  std::int64_t box_ = 0;            // 2 * pad + 1
+  std::int64_t slots_ = 0;          // box^dim
+  std::int64_t hb_ = 0;             // half-width of the exported variance's block
+  std::int64_t tile_ = 32;          // cells per tile axis
+  std::int64_t tile_cells_ = 1;     // tile^dim
+  std::int64_t ghost_ = 0;          // tile + 2 pad: cells per axis of a tile with its halo
+  std::vector<std::int64_t> goff_;  // stencil slot -> index difference in the halo block
+  std::vector<Tile> tiles_;
+  std::unordered_map<std::uint64_t, std::uint32_t> tile_index_;
+  std::vector<double> prec_;                      // storage x stencil
+  std::vector<double> eta_;                       // storage
+  std::vector<double> mean_;                      // storage
+  std::vector<double> bcoup_;                     // storage: P(bias, k)
+  std::vector<std::uint8_t> touched_;             // storage: a sample reached it
+  std::vector<std::uint8_t> seeded_;              // storage: its prior came from seed_unreached()
+  std::vector<std::uint8_t> mark_;                // storage: update()'s scratch, zero between calls
+  std::vector<std::int64_t> lin_;                 // add_outer()'s scratch
+  mutable std::vector<double> var_;               // storage: exported variance cache
+  mutable std::vector<std::uint8_t> tile_dirty_;  // per tile: var_ out of date
+  double grid_sum_ = 1, grid_sum2_ = 1;  // sum of phi, phi^2 of the grid at an interior kernel
+  double sum_phi2_ = 1;                  // sum of phi^2 over the variance block
+  double pbb_ = 0, etab_ = 0, meanb_ = 0;
+  Scratch scratch_;
+  JointBhmStats stats_;
+};
+
+}  // namespace potmap
+POTMAP_CXX_API_END

@@ -1,0 +1,89 @@
+#pragma once
+// Rasterising a kernel map: probability and variance on a regular window, written as pictures
+// (8-bit RGB PNG) and as data (NumPy .npy float32), streamed in bands of rows so that a window
+// larger than memory works.
+//
+// Orientation: image row 0 is the top of the picture = the highest y; column 0 = the lowest x.
+// The .npy arrays use the same order (row 0 = highest y), so they display the right way up with
+// matplotlib's imshow (origin='upper'); flip with np.flipud for a y-up array.
+//
+// Cell (row r, column c) has its centre at
+//   x = xmin + (c + 0.5) * resolution,   y = ymin + (height - 1 - r + 0.5) * resolution
+// with width = ceil((xmax - xmin) / resolution), height = ceil((ymax - ymin) / resolution), so
+// the window may reach up to one cell past xmax / ymax.
+//
+// Colours:
+//   * probability p in [0, 1] -> the colour map directly (viridis by default);
+//   * variance s2 >= 0 -> s2 / (1 + s2), then the colour map (magma by default). This fixed
+//     rule needs no first pass over the data (streaming) and is the same for every map and
+//     window, so pictures are comparable. s2 = 1 sits mid-scale: that is where the variance
+//     starts to pull p towards 0.5 (p = sigmoid(mu / sqrt(1 + pi s2 / 8))); s2 = 9 gives 0.9.
+//   * NaN (non-finite input) is drawn mid-grey (128, 128, 128).
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "potmap/export.h"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/kernel_map.hpp"
+#include "potmap/render/colormap.hpp"
+#include "potmap/runtime/context.hpp"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap {
+
+/// The window to rasterise, in map coordinates (metres).
+struct RasterSpec {
+  double xmin = 0, xmax = 0;   ///< metres, xmin < xmax
+  double ymin = 0, ymax = 0;   ///< metres, ymin < ymax
+  double resolution = 0.1;     ///< cell edge, metres, > 0; default 0.1
+  double z = 0.0;              ///< height of the slice for 3D maps, metres; ignored in 2D
+  std::size_t width() const;   ///< ceil((xmax - xmin) / resolution)
+  std::size_t height() const;  ///< ceil((ymax - ymin) / resolution)
+  /// Throws ArgumentError naming the bad value (non-finite, empty window, resolution <= 0,
+  /// more than 10^6 cells along an axis: the PNG limit).
+  void validate() const;
+};
+
+/// How to rasterise.
+struct RasterOptions {
+  /// Most cells evaluated at once. Host memory is about 8 bytes per cell of a band (variance
+  /// and probability in float) plus the device's buffers (12 bytes a cell); default 4 Mi cells
+  /// (~80 MB in all). A band is a whole number of 64-row tiles, at least one.
+  std::size_t max_band_cells = std::size_t(1) << 22;
+  bool write_png = true;  ///< write PREFIX_prob.png and PREFIX_var.png; default true
+  bool write_npy = true;  ///< write PREFIX_prob.npy and PREFIX_var.npy; default true
+  Colormap prob_colormap = Colormap::Viridis;  ///< default viridis
+  Colormap var_colormap = Colormap::Magma;     ///< default magma
+  EvalOptions eval;  ///< options of the device evaluator (cut-off); defaults as EvalOptions
+  /// Called after each band with the fraction of cells done, in (0, 1]. May be empty. An
+  /// exception thrown from it aborts the run (no file is left behind).
+  std::function<void(double fraction)> progress;
+};
+
+/// What a run did.
+struct RasterSummary {
+  std::size_t width = 0, height = 0;  ///< pixels
+  std::size_t cells = 0;              ///< width * height
+  std::size_t bands = 0;              ///< number of bands evaluated
+  double seconds = 0;                 ///< wall time of the whole run, seconds
+  float prob_min = 0, prob_max = 0;   ///< over finite cells (0 if none)
+  float var_min = 0, var_max = 0;     ///< over finite cells (0 if none)
+  std::vector<std::string> files;     ///< files written, in order prob.png, var.png, prob.npy,
+                                      ///< var.npy (those enabled)
+};
+
+/// Evaluates `map` on the window and writes PREFIX_prob.png, PREFIX_var.png, PREFIX_prob.npy and
+/// PREFIX_var.npy (as enabled). Every file is written to a temporary name and renamed only when
+/// all of them are complete; on any error no new file is left behind. The result does not
+/// depend on max_band_cells (bands are whole multiples of the evaluator's 64-row tiles, counted
+/// from the window's bottom, so every cell is computed by the same tile either way).
+/// Throws ArgumentError for a bad spec, potmap::Error naming the file on a write failure.
+RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& spec,
+                        const std::string& out_prefix, const RasterOptions& options = {});
+
+}  // namespace potmap
+POTMAP_CXX_API_END

@@ -1,0 +1,185 @@
+#pragma once
+// Streams scans through POT (or RePOT) in order, keeping the device busy: the host prepares
+// scan i+1 (labelling, sector cut, subsampling, batch assembly) on a second thread while scan i
+// is solved. What to do with each instantaneous map (accumulate an overall map, write it,
+// score it) is the caller's: map_scans() hands every result to a callback in scan order.
+//
+// Mapper is the incremental form for a program that receives scans one at a time (a ROS node,
+// a SLAM front end): add_scan() maps one scan and adds it to an overall map. It gives the
+// same instantaneous maps as map_scans() on the same scans in the same order.
+//
+// The overall map: POT merges the instantaneous maps into an OverallMap (overall_map.hpp).
+// RePOT, by default (MapperOptions::persistent_refine), keeps one persistent joint BHM
+// (RepotMap, a growable JointBhm) whose kernels every scan updates with its own training
+// samples, the scan's transported kernels seeding only the space no sample has reached yet;
+// its memory grows with the area driven, not with the number of scans.
+//
+// Thread safety: a Dictionary is read-only once built and may be shared by any number of
+// threads and mappers at once. A Mapper is used by one thread at a time; different mappers may
+// run concurrently, on one Context too (their device work is then serialised on its queue).
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "potmap/export.h"
+
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/scan.hpp"
+#include "potmap/learn/bhm_joint.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/overall_map.hpp"
+#include "potmap/pot/transfer.hpp"
+#include "potmap/runtime/context.hpp"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap {
+
+struct MapperOptions {
+  PotOptions pot;        ///< transfer settings (PotOptions::refine switches RePOT on)
+  LabelOptions labels;   ///< labelling and the held-out split (default: 20 % of beams held out)
+  bool pipeline = true;  ///< prepare the next scan on a second thread (false: one thread)
+  /// RePOT's overall map (read only with pot.refine; default true): one persistent joint BHM
+  /// (RepotMap) that every scan updates with its own training samples, the priors of the
+  /// kernels no sample has reached yet seeded from the scan's transported kernels. The scans
+  /// are then transported without a per-scan refinement (their instantaneous maps are POT's);
+  /// the refinement happens once, in the persistent map. Why the default: a per-scan
+  /// refinement sees one scan only, and merging the refined maps averages overlapping kernels
+  /// instead of accumulating the evidence of every scan (as the experiments' RePOT,
+  /// experiment::PotSetup::persistent_refine). false: every scan refined on its own
+  /// (PotOptions::refine_bhm) and merged into an OverallMap, as POT's. In 3D every stored
+  /// kernel of the persistent map holds its precision stencil, 15^3 doubles (27 KB) at the
+  /// default width: a long 3D drive may want a coarser refine_map.spacing or false here.
+  bool persistent_refine = true;
+  /// The persistent map's grid and prior (default JointBhmOptions{}: kernels 0.5 m apart,
+  /// prior variance 10; unbounded, tiles allocated as the drive reaches them).
+  JointBhmOptions refine_map;
+  /// Seeded prior variances are at least this (weight units squared; default 10, the
+  /// persistent map's default prior variance: a seed then moves the prior mean only).
+  /// Transported variances say how sure the source was, not how well the atom fits here; the
+  /// experiments found smaller floors worse on the real logs. Clamped to refine_map.prior_var.
+  double seed_min_variance = 10.0;
+};
+
+/// Whether `o` asks for RePOT's persistent overall map (pot.refine and persistent_refine).
+inline bool persistent_refine(const MapperOptions& o) {
+  return o.pot.refine && o.persistent_refine;
+}
+
+/// One mapped scan.
+struct MappedScan {
+  std::size_t index = 0;  ///< position in the input
+  ScanTransfer transfer;  ///< instantaneous map, per-sector choices, stage timings
+  /// The scan's held-out samples (never used for transport) within the sector radius of the
+  /// sensor (PotOptions::max_range, else the dictionary's): no transported kernel reaches
+  /// farther, so samples beyond are not mapped, neither held out nor used for training.
+  LabelledPoints test;
+  /// The scan's training samples within the sector radius (what the transport used), for the
+  /// caller's persistent map: filled only when persistent_refine(options), else empty.
+  LabelledPoints train;
+  double wall_ms = 0;  ///< wall-clock time from the start of its solve to the callback
+};
+
+/// RePOT's persistent overall map (MapperOptions::persistent_refine): a growable JointBhm with
+/// MapperOptions::refine_map's settings. add() seeds the prior of its kernels no sample has
+/// reached yet from a scan's transported kernels (JointBhm::seed_unreached with
+/// MapperOptions::seed_min_variance), then updates it with the scan's training samples.
+/// Memory grows with the area the samples cover, never with the number of scans.
+class RepotMap {
+ public:
+  /// Throws ArgumentError for a dimension other than 2 or 3 or bad refine_map options.
+  RepotMap(int dim, const MapperOptions& options);
+  /// One scan: seeds from `transported` (may be empty), then learns `train`. Returns the
+  /// number of kernels seeded. Throws ArgumentError on a dimension mismatch.
+  std::size_t add(const KernelMap& transported, const LabelledPoints& train);
+  /// The map (JointBhm::map(): kernels with a bias weight), exported on the first call after
+  /// an add() and kept until the next one: call it when the map is needed, not every scan.
+  const KernelMap& map() const;
+  std::size_t size() const { return learner_.size(); }  ///< stored kernels
+  /// The learner's bytes and the kept export's.
+  std::size_t memory_bytes() const;
+  const JointBhm& learner() const { return learner_; }
+
+ private:
+  JointBhm learner_;
+  double seed_min_variance_ = 10;
+  mutable std::optional<KernelMap> export_;
+};
+
+/// Maps `scans` in order with the dictionary. `ctx` null: CPU reference. Scans whose dimension
+/// differs from the dictionary's raise ArgumentError naming the scan. Exceptions from the
+/// callback stop the run and propagate (the pending preparation is waited for first). With
+/// persistent_refine(options) the scans are transported without a per-scan refinement and
+/// MappedScan::train carries their training samples: the caller's RepotMap does the rest
+/// (RepotMap::add(m.transfer.map, m.train)), as Mapper does.
+void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
+               const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan);
+
+/// What Mapper::add_scan() did to the overall map.
+struct MapperMerge {
+  OverallMapAddStats stats;  ///< kernels added, merged, retired, fused (POT's OverallMap)
+  /// RePOT's persistent map: its kernels whose prior the scan's transported kernels seeded.
+  std::size_t seeded = 0;
+  /// Wall-clock time of the merge, milliseconds (the persistent map's update counts as the
+  /// scan's refinement, ScanTransfer::timing.refine_ms, not here).
+  double merge_ms = 0;
+};
+
+/// Incremental POT/RePOT mapping with an overall map (SPEC steps 2 to 7 per scan, step 6
+/// across scans). Scans are prepared and solved on the calling thread, one at a time.
+class Mapper {
+ public:
+  /// `ctx` null: the CPU reference (slow; for checks). `ctx` must outlive the mapper; the
+  /// dictionary is shared (never changed by the mapper). options.pipeline is ignored: the next
+  /// scan is not known before add_scan() is called. Throws ArgumentError for a null or empty
+  /// dictionary or bad options.
+  Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const MapperOptions& options = {},
+         const OverallMapOptions& overall = {});
+
+  /// Maps one scan (its index is the number of scans added since construction or reset(), which
+  /// seeds the labelling and subsampling as in map_scans) and adds it to the overall map: POT
+  /// merges its instantaneous map, RePOT (persistent) seeds and updates the persistent map with
+  /// it. Returns the mapped scan, valid until the next add_scan() or reset(). Throws
+  /// ArgumentError when the scan's dimension differs from the dictionary's; the mapper is
+  /// unchanged then.
+  const MappedScan& add_scan(const Scan& scan);
+
+  /// The last mapped scan (index 0 and an empty map before the first add_scan()).
+  const MappedScan& last() const { return last_; }
+  /// What the last add_scan() did to the overall map.
+  const MapperMerge& last_merge() const { return merge_; }
+  /// The merged map of every scan since construction or reset(): POT's, or RePOT's without
+  /// persistent_refine; empty for RePOT's persistent map (see overall_map(), repot()).
+  const OverallMap& overall() const { return overall_; }
+  /// The overall map whichever the kind: overall().map(), or the persistent map's export
+  /// (RepotMap::map(): computed on the first call after a scan, then kept).
+  const KernelMap& overall_map() const;
+  /// Kernels of the overall map (the persistent map's stored kernels).
+  std::size_t overall_kernels() const;
+  /// Bytes held by the overall map.
+  std::size_t overall_memory_bytes() const;
+  /// RePOT's persistent map; null unless persistent_refine(options()).
+  const RepotMap* repot() const { return repot_ ? &*repot_ : nullptr; }
+  /// Scans added since construction or reset().
+  std::size_t scans() const { return scans_; }
+  const Dictionary& dictionary() const { return *dict_; }
+  const MapperOptions& options() const { return options_; }
+
+  /// Forgets every scan: empty overall map, scan index back to 0 (same options).
+  void reset();
+
+ private:
+  Context* ctx_;
+  std::shared_ptr<const Dictionary> dict_;
+  MapperOptions options_;
+  OverallMap overall_;
+  std::optional<RepotMap> repot_;
+  MappedScan last_;
+  MapperMerge merge_;
+  std::size_t scans_ = 0;
+};
+
+}  // namespace potmap
+POTMAP_CXX_API_END

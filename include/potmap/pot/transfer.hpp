@@ -1,0 +1,209 @@
+#pragma once
+// Parameter Optimal Transport (SPEC section 4, steps 2 to 7; paper Sec. III, Algorithm 1):
+// map a scan by transporting kernels from a dictionary of atoms instead of learning them.
+//
+// For every sector of the target scan, every (atom, rotation) candidate is ranked by the
+// entropic OT cost between subsampled points (all candidates of the scan in one batched
+// Sinkhorn launch); the best candidate of each sector is transported with the high-quality
+// setting (batched across sectors); its kernels follow the out-of-sample barycentric map, are
+// dropped beyond max_range of the sensor, unscaled and placed in the world frame. RePOT then
+// refines the transported weights with one BHM update on the scan's own training samples.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "potmap/data/labelled_points.hpp"
+#include "potmap/export.h"
+#include "potmap/learn/bhm.hpp"
+#include "potmap/map/kernel_map.hpp"
+#include "potmap/ot/sinkhorn.hpp"
+#include "potmap/pot/atom_descriptor.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/runtime/context.hpp"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap {
+
+/// The authors' settings (SPEC section 4) are the defaults.
+struct PotOptions {
+  /// Target cut: sectors per scan (default 5) and max_range, metres (0, the default: the
+  /// dictionary's). The scale is taken from the dictionary.
+  int sectors = 5;
+  double max_range = 0;
+  std::size_t min_samples = 4;  ///< target sectors with fewer samples are skipped
+  /// Transported kernels that land farther than this from every training sample of their
+  /// target sector, metres, are dropped (0, the default: no limit). The scan says nothing of
+  /// the places it did not see; a kernel carried there describes the atom's place, not this one.
+  double max_sample_distance = 0;
+
+  /// Rotations tried for every atom, radians about the atom's centroid (vertical axis in 3D).
+  /// Default: 45 degree steps, 8 rotations.
+  std::vector<double> rotations = {0.0,
+                                   0.7853981633974483,
+                                   1.5707963267948966,
+                                   2.356194490192345,
+                                   3.141592653589793,
+                                   3.9269908169872414,
+                                   4.71238898038469,
+                                   5.497787143782138};
+
+  // Ranking (eq. 6, 7): points subsampled from each side, unnormalised scaled cost.
+  std::size_t rank_hits = 200;  ///< at most this many hits a side
+  std::size_t rank_free = 50;   ///< at most this many free samples a side
+  double rank_epsilon = 0.005;  ///< cost units (scaled metres squared)
+  int rank_max_iterations = 1000;
+  double rank_tolerance = 1e-7;  ///< on ||P 1 - a||_1
+
+  // High-quality transport of the best candidate: cost divided by its maximum. Points beyond
+  // the caps are thinned evenly (one per cell of the finest grid that leaves few enough), not at
+  // random: evenly thinned samples of two matching places look alike, so their plan is cleaner
+  // and converges sooner.
+  std::size_t transport_points = 1500;  ///< at most this many hits a side (the authors' cap)
+  /// At most this many free samples a side in the transport (default 200). The authors' cap of
+  /// 1500 covers a sector's free samples too (about 1000 per sector of a 360-beam scan, so a
+  /// 1000 x 1000 problem per sector and about 1 s per scan here); 200 evenly thinned ones keep
+  /// the map's scores (measured, town1 -> town2, 8 scans, 6 atoms: POT AUC 0.797 at 200 against
+  /// 0.818 with every sample, RePOT 0.826 against 0.847; ACC higher at 200) at about 5 ms.
+  std::size_t transport_free_points = 200;
+  double transport_epsilon = 0.0005;  ///< unitless (normalised cost)
+  int transport_max_iterations = 2000;
+  double transport_tolerance = 1e-5;  ///< float32 floors near 1e-7 on 1500 x 1500 (issue #3)
+  /// Transport the free samples too (default true): a second plan between the winner's free
+  /// samples and the target's, and every kernel follows the sample nearest to it, hit or free,
+  /// through that sample's plan. The SPEC (step 4) transports hits only; the paper (Sec. III-A,
+  /// III-B) associates kernels with the LIDAR samples, hits or free. With hits only, kernels in
+  /// free space keep their offset from the nearest hit and miss the target's free space when
+  /// the two sectors' hits lie at different distances from the sensor. false: the SPEC's rule.
+  bool transport_free = true;
+  /// Wall clearance, metres (0, the default: off). > 0: a transported kernel with a negative
+  /// weight (free-space evidence) that lands within this distance of one of the target
+  /// sector's hits is dropped, and so is one with a positive weight (wall evidence) that lands
+  /// farther than this from every hit. The two plans move hits onto hits and free samples
+  /// onto free samples, but not the free space along a wall onto the free space along the
+  /// target's wall: without the clearance, free-space kernels erase the target's walls.
+  double wall_clearance = 0;
+  /// Weight variance added per square metre that the transport moved a kernel beyond the
+  /// chosen rotation (weight units^2 / m^2; 0, the default: none). The plan moves each kernel
+  /// by its sample's barycentric image; in an atom that matches the place, samples barely move,
+  /// while a poor match has to drag them far. The transported weight then says so.
+  double displacement_variance = 0;
+
+  /// Rank only this many atoms per target sector, pre-selected by a rotation-invariant
+  /// descriptor (quantiles of the samples' distances from the sector centre,
+  /// atom_descriptor.hpp) before the Sinkhorn ranking (0, the default: every atom). For large
+  /// dictionaries. Measured with 2000 atoms (town1 -> town2, 20 sectors): k = 128 kept the full
+  /// ranking's atom in 85 % of the sectors (90 % within the k) at 1/17 of the ranking time;
+  /// k = 512: 90 % (100 % within the k; the rest differ because each score term is normalised
+  /// by its largest value over the candidates ranked).
+  std::size_t candidates = 0;
+  /// The dictionary's descriptors for `candidates`, built once (AtomPreselector(dict)); null:
+  /// built on every call, O(samples of the dictionary). map_scans and Mapper build it.
+  std::shared_ptr<const AtomPreselector> preselector;
+
+  /// RePOT (SPEC step 7): refine the transported weights with a BHM update on the scan's own
+  /// training samples (default false: plain POT).
+  bool refine = false;
+  /// The refinement's EM settings (default: BhmOptions{}, 3 EM iterations). With the
+  /// diagonal E-step (refine_joint false) one iteration is better: it overshoots where
+  /// transported kernels overlap and more rounds make maps worse.
+  BhmOptions refine_bhm;
+
+  /// RePOT prior: transported weight variances below this are raised to it before the update
+  /// (weight units squared; default 1; 0: the transported variances as they are, as SPEC step 7
+  /// reads). A source posterior's variance says how sure the source data made the weight where
+  /// it was learned, not how well it fits the place it was moved to; the floor lets the scan's
+  /// own samples correct it. Measured (town1 -> town2, 8 scans, 3 EM rounds): ABHM source,
+  /// RePOT AUC 0.933 -> 0.955, NLL 0.163 -> 0.120; BHM source AUC 0.864 -> 0.871, NLL equal.
+  double refine_min_variance = 1;
+
+  /// RePOT's E-step solves the Jaakkola-Jordan system for the weight means as a whole (sparse
+  /// conjugate gradients on the host) instead of BHM's diagonal of it; the variances stay BHM's
+  /// diagonal ones (default true). The diagonal update lets every kernel answer every sample it
+  /// reaches as if it were alone, so where transported kernels overlap (they pile up where the
+  /// plan contracts) the map overshoots. false: bhm_update() as SPEC step 7 reads.
+  bool refine_joint = true;
+
+  std::uint64_t seed = 0;  ///< subsampling seed (with the scan index: reproducible per scan)
+};
+
+/// What happened to one target sector.
+struct SectorTransfer {
+  int sector = 0;               ///< sector index in the target scan
+  std::size_t target_hits = 0;  ///< samples of the target sector
+  std::size_t target_free = 0;
+  long atom = -1;               ///< chosen atom (index into the dictionary), -1 if none
+  double rotation = 0;          ///< chosen rotation, radians
+  double score = 0;             ///< ranking score of the chosen candidate (smaller is better)
+  bool rank_converged = false;  ///< the chosen candidate's ranking problems converged
+  bool transport_converged = false;
+  int transport_iterations = 0;
+  std::size_t kernels_placed = 0;   ///< kernels that survived the range filter
+  std::size_t kernels_dropped = 0;  ///< kernels transported beyond max_range or filtered out
+};
+
+/// Wall-clock time of each stage of one scan, milliseconds.
+struct PotTiming {
+  double prepare_ms = 0;    ///< cutting, subsampling, batch assembly
+  double ranking_ms = 0;    ///< the batched ranking solve
+  double transport_ms = 0;  ///< the batched high-quality transport
+  double placement_ms = 0;  ///< out-of-sample map, filter, world frame
+  double refine_ms = 0;     ///< RePOT's BHM update (0 for POT)
+  double total_ms() const {
+    return prepare_ms + ranking_ms + transport_ms + placement_ms + refine_ms;
+  }
+};
+
+/// The instantaneous map of one scan and how it was made.
+struct ScanTransfer {
+  KernelMap map;  ///< transported kernels, world frame (no bias)
+  std::vector<SectorTransfer> sectors;
+  PotTiming timing;
+};
+
+/// The host half of a transfer: the scan cut into sectors and every ranking problem assembled.
+/// Kept apart from the solve so that a mapper can prepare the next scan while the device works
+/// on the current one (Mapper does). Plain data; finish_transfer() consumes it.
+struct PreparedTransfer {
+  struct Candidate {
+    std::size_t atom = 0;
+    double angle = 0;            ///< radians
+    long hits_problem = -1;      ///< index in `ranking`, -1 when hits are not ranked
+    long free_problem = -1;      ///< index in `ranking`, -1 when free samples are not ranked
+    bool hits_mismatch = false;  ///< only one side has hits: the hits term scores 1
+    bool free_mismatch = false;  ///< only one side has free samples: the free term scores 1
+  };
+  std::vector<Sector> sectors;
+  std::vector<std::vector<Candidate>> candidates;  ///< per sector
+  SinkhornBatch ranking;                           ///< every candidate's problems
+  LabelledPoints train;                            ///< the scan's training samples (RePOT)
+  std::array<double, 3> sensor{0, 0, 0};
+  std::int64_t scan_index = 0;
+  double max_range = 0;  ///< metres, the cut's radius
+  PotTiming timing;      ///< prepare_ms filled
+};
+
+/// Cuts and assembles (host only, thread-safe for a shared dictionary). Arguments as for
+/// transfer_scan().
+PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
+                                  const std::array<double, 3>& sensor, double heading,
+                                  std::int64_t scan_index, const PotOptions& options = {});
+
+/// Ranks, transports, places and (for RePOT) refines a prepared scan. `ctx` null: the CPU
+/// reference, one problem at a time. `dict` and `options` must be those it was prepared with.
+ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& prepared,
+                             const PotOptions& options = {});
+
+/// Transfers one scan: finish_transfer(prepare_transfer(...)). `train` are the scan's training
+/// samples (world frame), seen from `sensor` (world frame, metres) with `heading` (radians);
+/// `scan_index` seeds the subsampling. `ctx` null: the same algorithm one problem at a time on the
+/// CPU reference Sinkhorn (double precision), the baseline the batched path is compared with.
+/// Throws ArgumentError when the dictionary is empty or of another dimension.
+ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledPoints& train,
+                           const std::array<double, 3>& sensor, double heading,
+                           std::int64_t scan_index, const PotOptions& options = {});
+
+}  // namespace potmap
+POTMAP_CXX_API_END

@@ -1,0 +1,453 @@
+// Batched Sinkhorn, stabilised kernel-matrix scheme: K_ij = exp(al_i + be_j - k C_ij) is stored
+// per problem and the iterations are scalings u = a / (K v), v = b / (K^T u): a multiply-add per
+// entry instead of an exp. The scalings are kept as logarithms (lu, lv) and absorbed into the
+// log-domain duals (al, be), with K rebuilt, only when one leaves [-ABSORB, ABSORB] or epsilon
+// changes, so the fixed point is the log-domain one. Layout and most arguments as sinkhorn.cl
+// (its header explains the padding; the per-problem tables are in common/sinkhorn_launch.h).
+//
+// Precision: K and the float copies of the scalings used in the products are single precision;
+// the duals, the log-scalings and every sum (K v, K^T u, the marginal error) are accumulated in
+// ACC (double where the device has it). Summing a 1500-entry row in float lanes alone leaves
+// about 2e-7 of rounding noise in the 1-norm marginal error, above the 1e-7 tolerance.
+//
+// Over-relaxation: u <- u^(1-w) (a / K v)^w (same for v), w in [1, 2), has the same fixed point
+// and, with w near its optimum 2 / (1 + sqrt(1 - eta^2)), needs the square root of the
+// iterations. eta^2 is the contraction factor of plain Sinkhorn; it is estimated from the
+// observed decay of the marginal error lambda with the current w (Young's relation for two-block
+// over-relaxation: (lambda + w - 1)^2 = lambda w^2 eta^2), and w only grows unless the error
+// grows, so a noisy estimate cannot run away.
+//
+// Barriers: every one is reached by all work-items unconditionally; conditional phases are
+// loops whose trip count is zero when skipped (PoCL 3.1 miscompiled barriers inside a uniform
+// `if` after a loop that some work-items skip, see tests/pocl_quirks_test.cpp).
+
+#include "../common/sinkhorn_common.cl"
+
+#ifndef ABSORB
+#define ABSORB 25
+#endif
+
+static ACC hmax_acc(ACCV v) {
+  ACC r = 0;
+  for (int q = 0; q < VW; ++q) r = fmax(r, ((ACC*)&v)[q]);
+  return r;
+}
+// Smallest row or column sum taken as is; below, it is clamped so that the scaling becomes
+// large, which triggers an absorption that rebuilds K around the new duals.
+#define TINY_SUM ((ACC)1e-30)
+
+static REAL dist2(const REAL px, const REAL py, const REAL pz, const REAL qx, const REAL qy,
+                  const REAL qz) {
+  REAL dx = px - qx, dy = py - qy;
+  REAL d2 = dx * dx + dy * dy;
+#if DIM == 3
+  REAL dz = pz - qz;
+  d2 += dz * dz;
+#endif
+  return d2;
+}
+
+// 1, or 1 / max C over the real pairs when the problem asks for a normalised cost. `scratch`
+// holds WG values.
+static REAL cost_normaliser(__global const REAL* SX, const int npad, const int n,
+                            __global const REAL* TX, const int mpad, const int m,
+                            __global const SinkhornLaunchParams* P, __local ACC* scratch) {
+  const int lid = get_local_id(0);
+  const int rows = P->normalise != 0 ? n : 0;
+  __global const REAL* sz = SX + (DIM == 3 ? 2 * npad : 0);
+  __global const REAL* tz = TX + (DIM == 3 ? 2 * mpad : 0);
+  REAL mx = 0;
+  for (int i = lid; i < rows; i += WG) {
+    REALV vm = (REALV)(0);
+    int j = 0;
+    for (; j + VW <= m; j += VW) {
+      vm = fmax(vm, dist2v(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, j));
+    }
+    for (int q = 0; q < VW; ++q) mx = fmax(mx, ((REAL*)&vm)[q]);
+    for (; j < m; ++j) mx = fmax(mx, dist2(SX[i], SX[npad + i], sz[i], TX[j], TX[mpad + j], tz[j]));
+  }
+  scratch[lid] = mx;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  ACC all = 0;
+  for (int l = 0; l < WG; ++l) all = fmax(all, scratch[l]);
+  barrier(CLK_LOCAL_MEM_FENCE);
+  return all > 0 ? (REAL)(1 / all) : (REAL)1;
+}
+
+static ACC hsum_acc(ACCV v) {
+#if VW == 8
+  return ((v.s0 + v.s1) + (v.s2 + v.s3)) + ((v.s4 + v.s5) + (v.s6 + v.s7));
+#else
+  return ((v.s0 + v.s1) + (v.s2 + v.s3)) + ((v.s4 + v.s5) + (v.s6 + v.s7)) +
+         (((v.s8 + v.s9) + (v.sa + v.sb)) + ((v.sc + v.sd) + (v.se + v.sf)));
+#endif
+}
+
+// sum_i K_ij u_i for the VW columns starting at j, rows streamed, in ACC: K is widened, the
+// scalings stay in ACC. With float scalings (or float lanes for the sums) the 1-norm marginal
+// error of 50-point problems stalls at 1e-7 to 5e-7, above the 1e-7 tolerance of the ranking
+// setting (measured); widening costs about a third more time per product on PoCL here.
+static ACCV col_dot(__global const REAL* K, __global const ACC* u, const int n, const int mpad,
+                    const int j) {
+  // Four independent chains: one chain waits on the FMA latency every row (measured: the
+  // products of small ranking problems ran latency-bound).
+  ACCV t0 = (ACCV)(0), t1 = (ACCV)(0), t2 = (ACCV)(0), t3 = (ACCV)(0);
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    __global const REAL* Ki = K + (long)i * mpad + j;
+    t0 = fma(TO_ACCV(VLOAD(0, Ki)), (ACCV)(u[i]), t0);
+    t1 = fma(TO_ACCV(VLOAD(0, Ki + mpad)), (ACCV)(u[i + 1]), t1);
+    t2 = fma(TO_ACCV(VLOAD(0, Ki + 2 * mpad)), (ACCV)(u[i + 2]), t2);
+    t3 = fma(TO_ACCV(VLOAD(0, Ki + 3 * mpad)), (ACCV)(u[i + 3]), t3);
+  }
+  for (; i < n; ++i) t0 = fma(TO_ACCV(VLOAD(0, K + (long)i * mpad + j)), (ACCV)(u[i]), t0);
+  return (t0 + t1) + (t2 + t3);
+}
+
+// One row of K: exp(al + be_j - k d2_ij), the exponent formed in ACC (the duals reach
+// thousands at small epsilon) and rounded once.
+static void build_row(__global REAL* Ki, const REAL px, const REAL py, const REAL pz,
+                      __global const REAL* TX, __global const REAL* tz, const int mpad,
+                      __global const ACC* BE, const ACC al, const REAL k) {
+  for (int j = 0; j < mpad; j += VW) {
+    const REALV d2 = dist2v(px, py, pz, TX, TX + mpad, tz, j);
+#if VW == 8
+    const ACCV be = vload8(0, BE + j);
+#else
+    const ACCV be = vload16(0, BE + j);
+#endif
+    VSTORE(exp(TO_REALV(be + al - TO_ACCV(k * d2))), 0, Ki + j);
+  }
+}
+
+// min_j |p - q_j|^2 over the m real points (pads excluded lane by lane).
+static REAL min_d2(const REAL px, const REAL py, const REAL pz, __global const REAL* qx,
+                   __global const REAL* qy, __global const REAL* qz, const int cnt) {
+  REALV mn = (REALV)(INFINITY);
+  int j = 0;
+  for (; j + VW <= cnt; j += VW) {
+    const REALV d2 = dist2v(px, py, pz, qx, qy, qz, j);
+    mn = fmin(mn, d2);
+  }
+  REAL r = INFINITY;
+  for (int q = 0; q < VW; ++q) r = fmin(r, ((REAL*)&mn)[q]);
+  for (; j < cnt; ++j) r = fmin(r, dist2(px, py, pz, qx[j], qy[j], qz[j]));
+  return r;
+}
+
+// Solves problem p with this work-group; K is the work-group's kernel-matrix storage.
+static void solve(
+    const int p, __global const float* src, __global const float* tgt,
+    __global const SinkhornLaunchInts* ints, __global const SinkhornLaunchParams* params,
+    __global const ACC* loga, __global const ACC* logb, __global REAL* sx, __global REAL* tx,
+    __global REAL* fh, __global REAL* gh, __global SinkhornLaunchStats* out, __global float* plan,
+    __global float* bary, const int want_bary, __global REAL* K, __global REAL* KT,
+    __global ACC* alb, __global ACC* beb, __global ACC* lub, __global ACC* lvb, __global ACC* ufb,
+    __global ACC* vfb, __global ACC* eub, __global ACC* wab, __local ACC (*red_e)[WG],
+    __local ACC (*red_b)[WG]) {
+  const int lid = get_local_id(0);
+  __global const SinkhornLaunchInts* I = ints + p;
+  __global const SinkhornLaunchParams* P = params + p;
+  const int n = I->n, npad = I->npad, m = I->m, mpad = I->mpad;
+  const int ss = I->src_slot, ts = I->tgt_slot;
+  __global REAL* SX = sx + (long)ss * DIM;
+  __global REAL* TX = tx + (long)ts * DIM;
+  __global const ACC* la = loga + ss;  // log marginals in ACC (see host/ot/sinkhorn.cpp)
+  __global const ACC* lb = logb + ts;
+  __global ACC* AL = alb + ss;
+  __global ACC* BE = beb + ts;
+  __global ACC* LU = lub + 2 * (long)ss;
+  __global ACC* LV = lvb + 2 * (long)ts;
+  __global ACC* UF = ufb + ss;
+  __global ACC* VF = vfb + ts;
+  __global ACC* EUG = eub + 2 * (long)ss;  // exp(lu) of both generations (pads 0)
+  __global ACC* A = wab + ss;              // a_i (pads 0)
+
+  const REAL eps = P->eps, tol = P->tol;
+  const int max_it = I->max_it;
+  const int check = max((int)P->check, 1);
+  const ACC omega_fixed = P->omega;
+
+  transform_points(src, tgt, I, P, SX, TX);
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  __global const REAL* sz = SX + (DIM == 3 ? 2 * npad : 0);
+  __global const REAL* tz = TX + (DIM == 3 ? 2 * mpad : 0);
+  const REAL cost_factor = cost_normaliser(SX, npad, n, TX, mpad, m, P, &red_e[0][0]);
+
+  // Start: one max-plus (epsilon -> 0) iteration from zero duals, al_i = k min_j C_ij, then
+  // be_j = min_i (k C_ij - al_i): every row and every column of the first K then has an entry
+  // exactly 1, so no sum underflows whatever epsilon is, and no exp is needed. The marginals
+  // a, b are left to the scalings (lu, lv start at 0).
+  REAL cur_eps = P->eps0 > eps ? (REAL)P->eps0 : eps;
+  const REAL decay = P->decay;
+  {
+    const REAL k = cost_factor / cur_eps;
+    for (int i = lid; i < npad; i += WG)
+      AL[i] = i < n ? k * min_d2(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, m)
+                    : (ACC)(-PAD_LOGW);
+    for (int i = lid; i < npad; i += WG) {
+      LU[i] = 0;
+      LU[npad + i] = 0;
+      EUG[i] = i < n ? 1 : 0;
+      EUG[npad + i] = i < n ? 1 : 0;
+      A[i] = i < n ? exp((ACC)la[i]) : 0;
+    }
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    for (int j = lid * VW; j < mpad; j += WG * VW) {
+      const REALV qx = VLOAD(0, TX + j), qy = VLOAD(0, TX + mpad + j);
+#if DIM == 3
+      const REALV qz = VLOAD(0, tz + j);
+#endif
+      REALV mn = (REALV)(INFINITY);
+      for (int i = 0; i < n; ++i) {
+        REALV dx = qx - SX[i];
+        REALV d2 = dx * dx;
+        REALV dy = qy - SX[npad + i];
+        d2 = fma(dy, dy, d2);
+#if DIM == 3
+        REALV dz = qz - sz[i];
+        d2 = fma(dz, dz, d2);
+#endif
+        mn = fmin(mn, fma((REALV)(k), d2, (REALV)(-(REAL)AL[i])));
+      }
+      for (int q = 0; q < VW; ++q) {
+        BE[j + q] = j + q < m ? (ACC)((REAL*)&mn)[q] : (ACC)(-PAD_LOGW);
+        VF[j + q] = j + q < m ? 1 : 0;
+        LV[j + q] = 0;
+        LV[mpad + j + q] = 0;
+      }
+    }
+  }
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  // The plan is P_ij = exp(lu_i) K_ij exp(lv_j); al + lu, be + lv are the scaled duals of
+  // sinkhorn.cl (f/eps + log a).
+  int it = 0, it_target = 0, converged = 0;
+  int cur = 0;  // generation of lu, lv holding the current plan
+  int rebuild = 1;
+  REAL next_eps = cur_eps;
+  ACC ratio = 1;
+  ACC err = INFINITY, ref_err = -1, omega = 1.3;
+  int mark = 5, win = 5, par = 0;
+  while (1) {
+    // Absorb the scalings into the duals (columns, then rows with their rebuilt K rows). Runs as
+    // zero-trip loops when not needed.
+    const int jcnt = rebuild ? m : 0, icnt = rebuild ? n : 0;
+    for (int j = lid; j < jcnt; j += WG) {
+      BE[j] = (BE[j] + LV[cur * mpad + j] - lb[j]) * ratio + lb[j];
+      LV[cur * mpad + j] = 0;
+      VF[j] = 1;
+    }
+    if (rebuild) cur_eps = next_eps;
+    const REAL k = cost_factor / cur_eps;
+    const int at_target = cur_eps <= eps;
+    const int checking = at_target && it_target > 0 && (it_target % check == 0);
+    const ACC w = at_target ? (omega_fixed > 0 ? omega_fixed : omega) : (ACC)1;
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    for (int i = lid; i < icnt; i += WG) {
+      AL[i] = (AL[i] + LU[cur * npad + i] - la[i]) * ratio + la[i];
+      LU[cur * npad + i] = 0;
+      EUG[cur * npad + i] = 1;
+      UF[i] = 1;
+    }
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    // K by rows for K^T u and its transpose by rows for K v: both products then stream rows
+    // with a broadcast scalar into VW-wide sums, with no horizontal sum per row.
+    for (int i0 = 0; i0 < icnt; i0 += WG)
+      if (i0 + lid < icnt)
+        build_row(K + (long)(i0 + lid) * mpad, SX[i0 + lid], SX[npad + i0 + lid], sz[i0 + lid], TX,
+                  tz, mpad, BE, AL[i0 + lid], k);
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    // K^T by copying, not by exps again (the exps of the rebuild dominate small problems).
+    // Pads of K^T rows (i >= n) must be 0 as build_row leaves them: exp(-PAD_LOGW) = 0.
+    for (int j = lid; j < jcnt; j += WG) {
+      __global REAL* KTj = KT + (long)j * npad;
+      for (int i = 0; i < n; ++i) KTj[i] = K[(long)i * mpad + j];
+      for (int i = n; i < npad; ++i) KTj[i] = 0;
+    }
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    // Absorbing does not change the plan, so the limit is tested after it: K is always built.
+    if (at_target && it_target >= max_it) break;
+    // u update, VW rows per step so that the logs and exps run in vectors; the error of the
+    // plan (lu, lv of generation cur) comes with it.
+    ACCV ev = (ACCV)(0), bv = (ACCV)(0);
+    const int nxt = 1 - cur;
+    // Pads read r = 0 and are masked below.
+    for (int i0 = lid * VW; i0 < npad; i0 += WG * VW) {
+      const ACCV r = col_dot(KT, VF, m, npad, i0);
+      const ACCV lu = ACCLOAD(0, LU + cur * npad + i0);
+      ev += fabs(ACCLOAD(0, EUG + cur * npad + i0) * r - ACCLOAD(0, A + i0));
+      const ACCV lav = ACCLOAD(0, la + i0);
+      const ACCV lun = select((ACCV)(0), (1 - w) * lu + w * (lav - log(fmax(r, TINY_SUM))),
+                              isless(LANES, (ACCV)(n - i0)));
+      const ACCV un = select((ACCV)(0), exp(lun), isless(LANES, (ACCV)(n - i0)));
+      ACCSTORE(lun, 0, LU + nxt * npad + i0);
+      ACCSTORE(un, 0, EUG + nxt * npad + i0);
+      ACCSTORE(un, 0, UF + i0);
+      bv = fmax(bv, fabs(lun));
+    }
+    barrier(CLK_GLOBAL_MEM_FENCE);
+    // v update, VW columns per step.
+    for (int j = lid * VW; j < mpad; j += WG * VW) {
+      const ACCV cs = col_dot(K, UF, n, mpad, j);
+      const ACCV lv = ACCLOAD(0, LV + cur * mpad + j);
+      const ACCV lbv = ACCLOAD(0, lb + j);
+      const ACCV lvn = select((ACCV)(0), (1 - w) * lv + w * (lbv - log(fmax(cs, TINY_SUM))),
+                              isless(LANES, (ACCV)(m - j)));
+      ACCSTORE(lvn, 0, LV + nxt * mpad + j);
+      ACCSTORE(select((ACCV)(0), exp(lvn), isless(LANES, (ACCV)(m - j))), 0, VF + j);
+      bv = fmax(bv, fabs(lvn));
+    }
+    const ACC e = hsum_acc(ev), big = hmax_acc(bv);
+    red_e[par][lid] = e;
+    red_b[par][lid] = isfinite(big) ? big : (ACC)INFINITY;
+    barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);
+    ACC tot = 0, bmax = 0;
+    for (int l = 0; l < WG; ++l) {
+      tot += red_e[par][l];
+      bmax = fmax(bmax, red_b[par][l]);
+    }
+    par = 1 - par;  // the other scratch row next time: no barrier needed before reuse
+    if (checking) {
+      err = tot;
+      if (err < tol) {
+        converged = 1;
+        break;
+      }
+    }
+    cur = nxt;
+    ++it;
+    if (at_target) {
+      ++it_target;
+      if (omega_fixed <= 0 && it_target == mark) {
+        if (ref_err > 0) {
+          const ACC lam = pow(tot / ref_err, (ACC)1 / win);
+          if (lam < 1) {
+            const ACC eta2 = (lam + omega - 1) * (lam + omega - 1) / (lam * omega * omega);
+            const ACC wn = 2 / (1 + sqrt(fmax(1 - eta2, (ACC)1e-9)));
+            omega = fmax(omega, fmin(wn, (ACC)1.95));
+          } else if (tot > 2 * ref_err) {
+            omega = fmax((ACC)1, (omega + 1) / 2);
+          }
+        }
+        ref_err = tot;
+        win = it_target < 20 ? 5 : 20;
+        mark += win;
+      }
+    }
+    next_eps = at_target ? eps : fmax(cur_eps * decay, eps);
+    rebuild = bmax > ABSORB || next_eps != cur_eps;
+    ratio = cur_eps / next_eps;
+  }
+  // The plan handed back is generation `cur`; the spare generation receives its scalings.
+  __global ACC* EU = LU + (1 - cur) * npad;
+  __global ACC* EV = LV + (1 - cur) * mpad;
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  for (int i = lid; i < n; i += WG) EU[i] = EUG[cur * npad + i];
+  for (int j = lid; j < mpad; j += WG) EV[j] = j < m ? exp(LV[cur * mpad + j]) : 0;
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  {
+    // Its error, measured when the limit stopped it.
+    ACC e = 0;
+    for (int i = lid; i < n; i += WG) {
+      ACCV r = (ACCV)(0);
+      for (int j = 0; j < mpad; j += VW)
+        r = fma(TO_ACCV(VLOAD(0, K + (long)i * mpad + j)), ACCLOAD(0, EV + j), r);
+      e += fabs(EU[i] * hsum_acc(r) - A[i]);
+    }
+    red_e[par][lid] = e;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    ACC tot = 0;
+    for (int l = 0; l < WG; ++l) tot += red_e[par][l];
+    par = 1 - par;
+    if (!converged) {
+      err = tot;
+      converged = err < tol ? 1 : 0;
+    }
+  }
+
+  const REAL k = cost_factor / cur_eps;
+  ACC total = 0;
+  const long plan0 = I->plan;
+  const REAL inv_scale = 1 / (REAL)P->scale;
+  for (int i = lid; i < n; i += WG) {
+    ACCV rs = (ACCV)(0), rc = (ACCV)(0), bx = (ACCV)(0), by = (ACCV)(0), bz = (ACCV)(0);
+    const ACC ui = EU[i];
+    __global const REAL* Ki = K + (long)i * mpad;
+    for (int j = 0; j < mpad; j += VW) {
+      const REALV qx = VLOAD(0, TX + j), qy = VLOAD(0, TX + mpad + j);
+      REALV dx = qx - SX[i];
+      REALV d2 = dx * dx;
+      REALV dy = qy - SX[npad + i];
+      d2 = fma(dy, dy, d2);
+#if DIM == 3
+      const REALV qz = VLOAD(0, tz + j);
+      REALV dz = qz - sz[i];
+      d2 = fma(dz, dz, d2);
+#endif
+      const ACCV pv = ui * TO_ACCV(VLOAD(0, Ki + j)) * ACCLOAD(0, EV + j);
+      rs += pv;
+      rc = fma(pv, TO_ACCV(d2), rc);
+      bx = fma(pv, TO_ACCV(qx), bx);
+      by = fma(pv, TO_ACCV(qy), by);
+#if DIM == 3
+      bz = fma(pv, TO_ACCV(qz), bz);
+#endif
+    }
+    const int pm = plan0 >= 0 ? m : 0;
+    for (int j = 0; j < pm; ++j) plan[plan0 + (long)i * m + j] = (float)(ui * Ki[j] * EV[j]);
+    total += hsum_acc(rc) * cost_factor;
+    if (want_bary) {
+      // Target points are not rotated: TX / scale are the target points in their own units.
+      const long o = ((long)I->src + i) * DIM;
+      const ACC rsum = hsum_acc(rs);
+      const ACC inv = rsum > 0 ? inv_scale / rsum : 0;
+      bary[o + 0] = (float)(hsum_acc(bx) * inv);
+      bary[o + 1] = (float)(hsum_acc(by) * inv);
+#if DIM == 3
+      bary[o + 2] = (float)(hsum_acc(bz) * inv);
+#endif
+    }
+    // Scaled duals in the log kernel's convention for the host: fh = f/eps + log a.
+    fh[ss + i] = (REAL)(AL[i] + LU[cur * npad + i]);
+  }
+  for (int j = lid; j < m; j += WG) gh[ts + j] = (REAL)(BE[j] + LV[cur * mpad + j]);
+  red_e[par][lid] = total;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  if (lid == 0) {
+    ACC tot = 0;
+    for (int l = 0; l < WG; ++l) tot += red_e[par][l];
+    out[p].cost = (float)tot;
+    out[p].iterations = (float)it;
+    out[p].marginal_error = (float)err;
+    out[p].converged = (float)converged;
+  }
+}
+
+// Arguments 0-13 as sinkhorn_solve (fh, gh receive the scaled duals f/eps + log a at the end).
+// kmat: one K (n x mpad) and its transpose (m x npad), kstride reals in all, per work-group, not per problem: the work-groups
+// are persistent and take the next problem from `counter` (zeroed by the host) until all
+// `problems` are done, so K stays small and hot in cache whatever the batch size, and uneven
+// problem sizes balance across the cores. al, be: absorbed duals per slot. lu, lv: log-scalings,
+// two generations per slot (the plan whose error was measured is kept). uf, vf: the current
+// scalings in REAL for the products (pads 0). eu: exp(lu), two generations. wa: a per slot.
+__kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_stab_solve(
+    __global const float* src, __global const float* tgt, __global const SinkhornLaunchInts* ints,
+    __global const SinkhornLaunchParams* params, __global const ACC* loga,
+    __global const ACC* logb, __global REAL* sx, __global REAL* tx, __global REAL* fh,
+    __global REAL* gh, __global SinkhornLaunchStats* out, __global float* plan, __global float* bary, const int want_bary,
+    __global REAL* kmat, __global ACC* alb, __global ACC* beb, __global ACC* lub,
+    __global ACC* lvb, __global ACC* ufb, __global ACC* vfb, __global ACC* eub,
+    __global ACC* wab, __global int* counter, const int problems, const long kstride) {
+  __local ACC red_e[2][WG], red_b[2][WG];
+  __local int next;
+  __global REAL* K = kmat + get_group_id(0) * kstride;
+  while (1) {
+    if (get_local_id(0) == 0) next = atomic_inc(counter);
+    barrier(CLK_LOCAL_MEM_FENCE);
+    const int p = next;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (p >= problems) break;
+    solve(p, src, tgt, ints, params, loga, logb, sx, tx, fh, gh, out, plan, bary, want_bary, K,
+          K + kstride / 2, alb, beb, lub, lvb, ufb, vfb, eub, wab, red_e, red_b);
+  }
+}
