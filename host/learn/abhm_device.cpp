@@ -14,16 +14,9 @@ namespace potmap {
 
 namespace bc = boost::compute;
 using detail::from_device;
+using detail::round_up;
 using detail::to_device;
 using detail::upload;
-
-namespace {
-
-std::size_t round_up(std::size_t n, std::size_t m) {
-  return (n + m - 1) / m * m;
-}
-
-}  // namespace
 
 double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prior,
                         const LabelledPoints& batch, double scale, const AbhmNoise& noise,
@@ -65,7 +58,7 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
              b_ll = to_device(ctx, ll), b_dw = to_device(ctx, dw), b_dg = to_device(ctx, dg),
              b_dh = to_device(ctx, dh);
   const std::string defs = "-DDIM=" + std::to_string(dim);
-  const std::size_t wg = 64;
+  const std::size_t wg = static_cast<std::size_t>(ctx.tuning().learn.abhm_work_group);
   if (n > 0) {
     bc::kernel fwd = ctx.kernel("learn/abhm_grad", "abhm_forward", defs);
     detail::launch_1d(ctx.queue(), fwd, "abhm_forward", round_up(n, wg), wg, b_kpos, b_kg, b_kw,

@@ -14,16 +14,9 @@ namespace potmap {
 
 namespace bc = boost::compute;
 using detail::from_device;
+using detail::round_up;
 using detail::to_device;
 using detail::upload;
-
-namespace {
-
-std::size_t round_up(std::size_t n, std::size_t m) {
-  return (n + m - 1) / m * m;
-}
-
-}  // namespace
 
 void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
                 const BhmOptions& options) {
@@ -65,7 +58,7 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
   const std::string defs = "-DDIM=" + std::to_string(dim);
   bc::kernel acc = ctx.kernel("learn/bhm_update", "bhm_accumulate", defs);
   bc::kernel lam = ctx.kernel("learn/bhm_update", "bhm_lambda", defs);
-  const std::size_t wg = 64;
+  const std::size_t wg = static_cast<std::size_t>(ctx.tuning().learn.bhm_work_group);
 
   const std::vector<double> mean0 = map.w_mean, var0 = map.w_var;
   const double bmean0 = map.bias_mean, bvar0 = map.bias_var;

@@ -9,6 +9,7 @@
 #include "../../kernels/common/sinkhorn_launch.h"
 #include "potmap/error.hpp"
 #include "runtime/cl_check.hpp"
+#include "runtime/device_buffers.hpp"
 
 namespace bc = boost::compute;
 
@@ -71,21 +72,6 @@ void validate(const SinkhornProblem& q, std::size_t p) {
     throw ArgumentError(at(p) + "angle and centre must be finite");
 }
 
-template <class T>
-bc::buffer make_buffer(bc::context& cx, bc::command_queue& q, const std::vector<T>& v) {
-  const std::size_t bytes = std::max<std::size_t>(v.size() * sizeof(T), 64);
-  auto b = detail::cl_call("clCreateBuffer", [&] { return bc::buffer(cx, bytes); });
-  if (!v.empty())
-    detail::cl_call("clEnqueueWriteBuffer",
-                    [&] { q.enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
-  return b;
-}
-
-bc::buffer empty_buffer(bc::context& cx, std::size_t bytes) {
-  return detail::cl_call("clCreateBuffer",
-                         [&] { return bc::buffer(cx, std::max<std::size_t>(bytes, 64)); });
-}
-
 // Everything a launch needs besides the points; duals come back for the host batch.
 struct Launch {
   SinkhornDeviceResult result;
@@ -96,6 +82,78 @@ struct Launch {
   int vw = 16;
   bool dbl = false;
 };
+
+// Where each problem of a launch lies: offsets and counts of its points in the batch's
+// buffers, and its parameters.
+struct LaunchProblems {
+  const std::vector<int>& soff;
+  const std::vector<int>& scnt;
+  const std::vector<int>& toff;
+  const std::vector<int>& tcnt;
+  const std::vector<const SinkhornProblem*>& par;
+};
+
+// The launch table (kernels/common/sinkhorn_launch.h) and the totals it implies.
+struct LaunchTable {
+  std::vector<SinkhornLaunchInts> ints;
+  std::vector<SinkhornLaunchParams> params;
+  std::size_t sslots = 0, tslots = 0;  // padded source and target slots of all problems
+  long plan = 0;                       // coupling entries of all problems
+  long kelems = 0;                     // kernel-matrix entries of the largest problem
+};
+
+// Stage 1: slots padded to the vector width `vw`, coupling offsets, parameters.
+LaunchTable launch_table(const LaunchProblems& lp, const SinkhornOptions& opt, int vw,
+                         std::vector<long>& coupling_offset) {
+  const std::size_t np = lp.par.size();
+  LaunchTable t;
+  t.ints.resize(np);
+  t.params.resize(np);
+  coupling_offset.assign(np, -1);
+  for (std::size_t p = 0; p < np; ++p) {
+    const SinkhornProblem& pr = *lp.par[p];
+    const int n = lp.scnt[p], m = lp.tcnt[p];
+    const int npad = (n + vw - 1) / vw * vw, mpad = (m + vw - 1) / vw * vw;
+    SinkhornLaunchInts& I = t.ints[p];
+    I.src = lp.soff[p];
+    I.n = n;
+    I.src_slot = static_cast<int>(t.sslots);
+    I.npad = npad;
+    I.tgt = lp.toff[p];
+    I.m = m;
+    I.tgt_slot = static_cast<int>(t.tslots);
+    I.mpad = mpad;
+    I.plan = -1;
+    if (opt.want_coupling) {
+      I.plan = static_cast<int>(t.plan);
+      coupling_offset[p] = t.plan;
+      t.plan += static_cast<long>(n) * m;
+    }
+    I.max_it = pr.max_iterations;
+    if (opt.stabilised)
+      t.kelems = std::max(t.kelems,
+                          2 * std::max(static_cast<long>(n) * mpad, static_cast<long>(m) * npad));
+    SinkhornLaunchParams& P = t.params[p];
+    P.eps = static_cast<float>(pr.epsilon);
+    P.tol = static_cast<float>(pr.tolerance);
+    P.cos_angle = static_cast<float>(std::cos(pr.angle));
+    P.sin_angle = static_cast<float>(std::sin(pr.angle));
+    P.cx = static_cast<float>(pr.centre.x());
+    P.cy = static_cast<float>(pr.centre.y());
+    P.cz = static_cast<float>(pr.centre.z());
+    P.scale = static_cast<float>(pr.scale);
+    P.normalise = pr.normalise_cost ? 1.f : 0.f;
+    P.eps0 = static_cast<float>(opt.epsilon_start);
+    P.decay = static_cast<float>(opt.epsilon_decay);
+    P.check = static_cast<float>(std::max(opt.check_every, 1));
+    P.omega = static_cast<float>(opt.overrelaxation);
+    t.sslots += npad;
+    t.tslots += mpad;
+  }
+  if (t.plan > std::numeric_limits<int>::max() || t.kelems > std::numeric_limits<int>::max())
+    throw ArgumentError("Sinkhorn batch: couplings too large for one launch");
+  return t;
+}
 
 // Log weights per padded slot, uniform when `w` is empty, -1e30 on pads.
 template <class R>
@@ -112,64 +170,58 @@ void fill_logw(std::vector<R>& out, std::size_t slot, int count, int pad,
   }
 }
 
+// Stage 2: the source and target log weights of every problem, as reals of type A.
+template <class A>
+void upload_log_weights(Context& ctx, const LaunchTable& t, const LaunchProblems& lp, Launch& L) {
+  std::vector<A> a(std::max<std::size_t>(t.sslots, 1)), b(std::max<std::size_t>(t.tslots, 1));
+  for (std::size_t p = 0; p < lp.par.size(); ++p) {
+    const SinkhornLaunchInts& I = t.ints[p];
+    fill_logw(a, I.src_slot, I.n, I.npad, &lp.par[p]->source_weights);
+    fill_logw(b, I.tgt_slot, I.m, I.mpad, &lp.par[p]->target_weights);
+  }
+  L.loga = detail::to_device(ctx, a);
+  L.logb = detail::to_device(ctx, b);
+}
+
+// Stage 3, stabilised scheme only: the persistent work-groups' scratch (K, absorbed duals,
+// two generations of log-scalings, the scalings, two generations of the row scalings in ACC,
+// the row weights a, and the work counter) as kernel arguments from `next`. Returns how many
+// work-groups run: a few per compute unit, each with its own K (see the kernel).
+template <class R>
+std::size_t bind_stabilised_scratch(Context& ctx, const LaunchTable& t, std::size_t acc,
+                                    bc::kernel& k, const char* name, cl_uint next, Launch& L) {
+  const std::size_t np = t.ints.size();
+  const std::size_t per_cu =
+      static_cast<std::size_t>(ctx.tuning().sinkhorn.groups_per_compute_unit);
+  const std::size_t groups =
+      std::min<std::size_t>(np, per_cu * std::max<std::size_t>(ctx.info().compute_units, 1));
+  const std::size_t kbytes = groups * static_cast<std::size_t>(t.kelems) * sizeof(R);
+  if (kbytes > ctx.info().max_alloc_bytes && ctx.info().max_alloc_bytes > 0)
+    throw ArgumentError("Sinkhorn batch: kernel matrices of " + std::to_string(kbytes) +
+                        " bytes exceed the device's largest buffer; use the log-domain scheme");
+  const std::size_t ss = t.sslots, ts = t.tslots;
+  const std::size_t bytes[] = {kbytes,   ss * acc, ts * acc,     2 * ss * acc, 2 * ts * acc,
+                               ss * acc, ts * acc, 2 * ss * acc, ss * acc};
+  for (std::size_t b : bytes) {
+    L.scratch.push_back(detail::device_buffer(ctx.context(), b));
+    detail::set_kernel_arg(k, name, next++, L.scratch.back());
+  }
+  L.scratch.push_back(detail::to_device(ctx, std::vector<int>{0}));
+  detail::set_kernel_args_from(k, name, next, L.scratch.back(), static_cast<cl_int>(np),
+                               static_cast<cl_long>(t.kelems));
+  return groups;
+}
+
 template <class R>
 Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::buffer& target,
-                    std::size_t source_points, const std::vector<int>& soff,
-                    const std::vector<int>& scnt, const std::vector<int>& toff,
-                    const std::vector<int>& tcnt, const std::vector<const SinkhornProblem*>& par,
+                    std::size_t source_points, const LaunchProblems& lp,
                     const SinkhornOptions& opt) {
   auto& cx = ctx.context();
-  auto& q = ctx.queue();
   Launch L;
   L.dbl = std::is_same<R, double>::value;
-  L.vw = L.dbl ? 8 : 16;
-  const std::size_t np = par.size();
-  std::vector<SinkhornLaunchInts> ints(np);
-  std::vector<SinkhornLaunchParams> params(np);
-  std::size_t sslot = 0, tslot = 0;
-  long plan = 0, kelems = 0;
-  L.result.coupling_offset.assign(np, -1);
-  for (std::size_t p = 0; p < np; ++p) {
-    const int n = scnt[p], m = tcnt[p];
-    const int npad = (n + L.vw - 1) / L.vw * L.vw, mpad = (m + L.vw - 1) / L.vw * L.vw;
-    SinkhornLaunchInts& I = ints[p];
-    I.src = soff[p];
-    I.n = n;
-    I.src_slot = static_cast<int>(sslot);
-    I.npad = npad;
-    I.tgt = toff[p];
-    I.m = m;
-    I.tgt_slot = static_cast<int>(tslot);
-    I.mpad = mpad;
-    I.plan = -1;
-    if (opt.want_coupling) {
-      I.plan = static_cast<int>(plan);
-      L.result.coupling_offset[p] = plan;
-      plan += static_cast<long>(n) * m;
-    }
-    I.max_it = par[p]->max_iterations;
-    if (opt.stabilised)
-      kelems =
-          std::max(kelems, 2 * std::max(static_cast<long>(n) * mpad, static_cast<long>(m) * npad));
-    SinkhornLaunchParams& P = params[p];
-    P.eps = static_cast<float>(par[p]->epsilon);
-    P.tol = static_cast<float>(par[p]->tolerance);
-    P.cos_angle = static_cast<float>(std::cos(par[p]->angle));
-    P.sin_angle = static_cast<float>(std::sin(par[p]->angle));
-    P.cx = static_cast<float>(par[p]->centre.x());
-    P.cy = static_cast<float>(par[p]->centre.y());
-    P.cz = static_cast<float>(par[p]->centre.z());
-    P.scale = static_cast<float>(par[p]->scale);
-    P.normalise = par[p]->normalise_cost ? 1.f : 0.f;
-    P.eps0 = static_cast<float>(opt.epsilon_start);
-    P.decay = static_cast<float>(opt.epsilon_decay);
-    P.check = static_cast<float>(std::max(opt.check_every, 1));
-    P.omega = static_cast<float>(opt.overrelaxation);
-    sslot += npad;
-    tslot += mpad;
-  }
-  if (plan > std::numeric_limits<int>::max() || kelems > std::numeric_limits<int>::max())
-    throw ArgumentError("Sinkhorn batch: couplings too large for one launch");
+  L.vw = L.dbl ? 8 : 16;  // the kernels' VW (kernels/common/sinkhorn_common.cl)
+  const std::size_t np = lp.par.size();
+  const LaunchTable t = launch_table(lp, opt, L.vw, L.result.coupling_offset);
   // Sums, scalings and log marginals of the stabilised scheme in double where the device has
   // it: log(1/67) rounded to float moves exp of it by up to 2.4e-7, so sum a and sum b differ
   // by about that much and no plan meets both marginals to the 1e-7 tolerance (measured: the
@@ -177,83 +229,41 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   const bool acc_double = L.dbl || (opt.stabilised && ctx.info().has_fp64);
   const std::size_t acc = acc_double ? sizeof(double) : sizeof(float);
   L.weights_double = acc_double;
-  auto log_weights = [&](auto zero, bool source, std::size_t slots) {
-    std::vector<decltype(zero)> w(std::max<std::size_t>(slots, 1));
-    for (std::size_t p = 0; p < np; ++p) {
-      if (source)
-        fill_logw(w, ints[p].src_slot, ints[p].n, ints[p].npad, &par[p]->source_weights);
-      else
-        fill_logw(w, ints[p].tgt_slot, ints[p].m, ints[p].mpad, &par[p]->target_weights);
-    }
-    return make_buffer(cx, q, w);
-  };
-  if (acc_double) {
-    L.loga = log_weights(0.0, true, sslot);
-    L.logb = log_weights(0.0, false, tslot);
-  } else {
-    L.loga = log_weights(0.f, true, sslot);
-    L.logb = log_weights(0.f, false, tslot);
-  }
-  L.ints = ints;
-  auto ib = make_buffer(cx, q, ints);
-  auto pb = make_buffer(cx, q, params);
-  auto sx = empty_buffer(cx, sslot * dim * sizeof(R));
-  auto tx = empty_buffer(cx, tslot * dim * sizeof(R));
-  L.fh = empty_buffer(cx, sslot * sizeof(R));
-  L.gh = empty_buffer(cx, tslot * sizeof(R));
-  auto fn = empty_buffer(cx, sslot * sizeof(R));
-  L.result.stats = empty_buffer(cx, np * sizeof(SinkhornLaunchStats));
-  L.result.coupling = empty_buffer(cx, static_cast<std::size_t>(plan) * sizeof(float));
+  if (acc_double)
+    upload_log_weights<double>(ctx, t, lp, L);
+  else
+    upload_log_weights<float>(ctx, t, lp, L);
+  L.ints = t.ints;
+  auto ib = detail::to_device(ctx, t.ints);
+  auto pb = detail::to_device(ctx, t.params);
+  auto sx = detail::device_buffer(cx, t.sslots * dim * sizeof(R));
+  auto tx = detail::device_buffer(cx, t.tslots * dim * sizeof(R));
+  L.fh = detail::device_buffer(cx, t.sslots * sizeof(R));
+  L.gh = detail::device_buffer(cx, t.tslots * sizeof(R));
+  auto fn = detail::device_buffer(cx, t.sslots * sizeof(R));
+  L.result.stats = detail::device_buffer(cx, np * sizeof(SinkhornLaunchStats));
+  L.result.coupling = detail::device_buffer(cx, static_cast<std::size_t>(t.plan) * sizeof(float));
   L.result.barycentric =
-      empty_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0);
+      detail::device_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0);
 
-  int wg = opt.work_group > 0 ? opt.work_group : (ctx.info().is_cpu ? 4 : 64);
+  const int wg = opt.work_group > 0 ? opt.work_group : ctx.tuning().sinkhorn.work_group;
   if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");
   char defs[128];
   std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d -DACC_DOUBLE=%d", dim, wg,
                 L.dbl ? 1 : 0, acc_double ? 1 : 0);
   const char* name = opt.stabilised ? "sinkhorn_stab_solve" : "sinkhorn_solve";
   auto k = ctx.kernel(opt.stabilised ? "ot/sinkhorn_stab" : "ot/sinkhorn", name, defs);
-  cl_uint a = 0;
-  auto arg = [&](const auto& value) { detail::set_kernel_arg(k, name, a++, value); };
-  arg(source);
-  arg(target);
-  arg(ib);
-  arg(pb);
-  arg(L.loga);
-  arg(L.logb);
-  arg(sx);
-  arg(tx);
-  arg(L.fh);
-  arg(L.gh);
-  if (!opt.stabilised) arg(fn);
-  arg(L.result.stats);
-  arg(L.result.coupling);
-  arg(L.result.barycentric);
-  arg(static_cast<cl_int>(opt.want_barycentric ? 1 : 0));
   std::size_t groups = np;
+  const cl_int want_bary = opt.want_barycentric ? 1 : 0;
   if (opt.stabilised) {
-    // Persistent work-groups, a few per compute unit, each with its own K (see the kernel).
-    groups = std::min<std::size_t>(np, 4 * std::max<std::size_t>(ctx.info().compute_units, 1));
-    const std::size_t kbytes = groups * static_cast<std::size_t>(kelems) * sizeof(R);
-    if (kbytes > ctx.info().max_alloc_bytes && ctx.info().max_alloc_bytes > 0)
-      throw ArgumentError("Sinkhorn batch: kernel matrices of " + std::to_string(kbytes) +
-                          " bytes exceed the device's largest buffer; use the log-domain scheme");
-    // K, absorbed duals, two generations of log-scalings, the scalings, two generations
-    // of the row scalings in ACC, and the row weights a.
-    const std::size_t bytes[] = {kbytes,          sslot * acc,     tslot * acc,
-                                 2 * sslot * acc, 2 * tslot * acc, sslot * acc,
-                                 tslot * acc,     2 * sslot * acc, sslot * acc};
-    for (std::size_t b : bytes) {
-      L.scratch.push_back(empty_buffer(cx, b));
-      arg(L.scratch.back());
-    }
-    L.scratch.push_back(make_buffer(cx, q, std::vector<int>{0}));
-    arg(L.scratch.back());
-    arg(static_cast<cl_int>(np));
-    arg(static_cast<cl_long>(kelems));
+    detail::set_kernel_args(k, name, source, target, ib, pb, L.loga, L.logb, sx, tx, L.fh, L.gh,
+                            L.result.stats, L.result.coupling, L.result.barycentric, want_bary);
+    groups = bind_stabilised_scratch<R>(ctx, t, acc, k, name, 14, L);
+  } else {
+    detail::set_kernel_args(k, name, source, target, ib, pb, L.loga, L.logb, sx, tx, L.fh, L.gh, fn,
+                            L.result.stats, L.result.coupling, L.result.barycentric, want_bary);
   }
-  detail::enqueue_1d(q, k, name, groups * static_cast<std::size_t>(wg), wg);
+  detail::enqueue_1d(ctx.queue(), k, name, groups * static_cast<std::size_t>(wg), wg);
   return L;
 }
 
@@ -268,19 +278,15 @@ Launch launch(Context& ctx, int dim, const bc::buffer& source, const bc::buffer&
   if (opt.overrelaxation != 0 && !(opt.overrelaxation >= 1 && opt.overrelaxation < 2))
     throw ArgumentError("SinkhornOptions::overrelaxation must be 0 (adaptive) or in [1, 2), got " +
                         std::to_string(opt.overrelaxation));
-  if (opt.use_double)
-    return launch_typed<double>(ctx, dim, source, target, source_points, soff, scnt, toff, tcnt,
-                                par, opt);
-  return launch_typed<float>(ctx, dim, source, target, source_points, soff, scnt, toff, tcnt, par,
-                             opt);
+  const LaunchProblems lp{soff, scnt, toff, tcnt, par};
+  if (opt.use_double) return launch_typed<double>(ctx, dim, source, target, source_points, lp, opt);
+  return launch_typed<float>(ctx, dim, source, target, source_points, lp, opt);
 }
 
 template <class R>
 std::vector<double> read_back(bc::command_queue& q, const bc::buffer& b, std::size_t count) {
   std::vector<R> tmp(count);
-  if (count)
-    detail::cl_call("clEnqueueReadBuffer",
-                    [&] { q.enqueue_read_buffer(b, 0, count * sizeof(R), tmp.data()); });
+  detail::from_device(q, b, tmp);
   return std::vector<double>(tmp.begin(), tmp.end());
 }
 
@@ -303,7 +309,6 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
                                       std::size_t first, std::size_t np, int dim,
                                       const SinkhornOptions& opt) {
   const SinkhornProblem* chunk = all.data() + first;
-  auto& cx = ctx.context();
   auto& q = ctx.queue();
   std::vector<int> soff(np), scnt(np), toff(np), tcnt(np);
   std::vector<const SinkhornProblem*> par(np);
@@ -320,14 +325,12 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
     for (Eigen::Index j = 0; j < pr.target.rows(); ++j)
       for (int d = 0; d < dim; ++d) tgt.push_back(static_cast<float>(pr.target(j, d)));
   }
-  auto sb = make_buffer(cx, q, src);
-  auto tb = make_buffer(cx, q, tgt);
+  auto sb = detail::to_device(ctx, src);
+  auto tb = detail::to_device(ctx, tgt);
   Launch L = launch(ctx, dim, sb, tb, src.size() / dim, soff, scnt, toff, tcnt, par, opt);
 
   std::vector<SinkhornLaunchStats> stats(np);
-  detail::cl_call("clEnqueueReadBuffer", [&] {
-    q.enqueue_read_buffer(L.result.stats, 0, np * sizeof(SinkhornLaunchStats), stats.data());
-  });
+  detail::from_device(q, L.result.stats, stats);
   const SinkhornLaunchInts& last = L.ints[np - 1];
   const std::size_t sslots = last.src_slot + last.npad, tslots = last.tgt_slot + last.mpad;
   std::vector<double> fh, gh, la, lb;
@@ -386,17 +389,17 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
 }  // namespace
 
 std::vector<SinkhornResult> SinkhornBatch::run(Context& ctx, const SinkhornOptions& opt) const {
-  // Launches of at most about kChunkSlots padded points (source and target) each: the device
+  // Launches of at most about chunk_slots padded points (source and target) each: the device
   // scratch (duals, scalings, transformed points: about 100 bytes a slot) grows with the batch,
   // and a scan ranked against thousands of atoms holds 10^5 problems (measured with 2000 atoms:
   // 2.1 GB resident in one launch). Results do not depend on the chunking.
-  constexpr std::size_t kChunkSlots = std::size_t{1} << 18;
+  const std::size_t chunk_slots = ctx.tuning().sinkhorn.chunk_slots;  // SinkhornTuning
   std::vector<SinkhornResult> out;
   out.reserve(problems_.size());
   std::size_t first = 0;
   while (first < problems_.size()) {
     std::size_t end = first, slots = 0;
-    while (end < problems_.size() && (end == first || slots < kChunkSlots)) {
+    while (end < problems_.size() && (end == first || slots < chunk_slots)) {
       slots += static_cast<std::size_t>(problems_[end].source.rows() + 16) +
                static_cast<std::size_t>(problems_[end].target.rows() + 16);
       ++end;

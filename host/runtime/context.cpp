@@ -117,6 +117,7 @@ struct Context::Impl {
   bc::context context;
   bc::command_queue queue;
   DeviceInfo info;
+  Tuning tuning;
   std::string build_options;
   bool dump = false;
   detail::BinaryCache disk;
@@ -130,6 +131,8 @@ struct Context::Impl {
         context(std::move(c)),
         queue(std::move(q)),
         info(describe(device)),
+        tuning(parse_tuning(o.tuning,
+                            parse_tuning(env_or("POTMAP_TUNING", ""), default_tuning(info)))),
         build_options(o.build_options),
         dump(o.dump_kernels || env_or("POTMAP_DUMP_KERNELS", "0") == "1"),
         disk(!o.disk_cache                ? std::string()
@@ -228,6 +231,13 @@ Context::~Context() = default;
 
 const DeviceInfo& Context::info() const {
   return impl_->info;
+}
+const Tuning& Context::tuning() const {
+  return impl_->tuning;
+}
+void Context::set_tuning(const Tuning& tuning) {
+  validate_tuning(tuning);
+  impl_->tuning = tuning;
 }
 bc::device& Context::device() {
   return impl_->device;

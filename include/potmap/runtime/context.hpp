@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "potmap/export.h"
+#include "potmap/runtime/tuning.hpp"
 
 POTMAP_CXX_API_BEGIN
 namespace potmap {
@@ -41,6 +42,11 @@ struct ContextOptions {
   std::string build_options;
   /// Print each kernel's source to stderr when it is built. Also set by POTMAP_DUMP_KERNELS=1.
   bool dump_kernels = false;
+  /// Overrides of the device's tuning (potmap/runtime/tuning.hpp: vector widths, work-group
+  /// and chunk sizes), as `routine.field=value` pairs, e.g. "sinkhorn.work_group=8". Applied
+  /// after the POTMAP_TUNING environment variable, which has the same form. Default none: the
+  /// device's defaults (default_tuning). A bad pair throws ArgumentError naming it.
+  std::string tuning;
 };
 
 /// Names of one OpenCL device as potmap sees it.
@@ -82,6 +88,12 @@ class Context {
   ~Context();
 
   const DeviceInfo& info() const;
+  /// The launch choices the routines built on this context read (see tuning.hpp). Objects built
+  /// on the context (MapEvaluator, ...) read it when they are constructed.
+  const Tuning& tuning() const;
+  /// Replaces the tuning (validated first: ArgumentError names a bad field); for tuners. Not
+  /// to be called while another thread uses the context.
+  void set_tuning(const Tuning& tuning);
   boost::compute::device& device();
   boost::compute::context& context();
   boost::compute::command_queue& queue();

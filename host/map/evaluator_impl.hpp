@@ -1,0 +1,61 @@
+#pragma once
+// MapEvaluator's state, shared by its three paths, one file each: host points in batches
+// (evaluate.cpp, kernels/map/evaluate.cl), grids (evaluate_grid.cpp, kernels/map/raster.cl)
+// and points already on the device (evaluate_cells.cpp, kernels/map/evaluate_cells.cl).
+
+#include <boost/compute/buffer.hpp>
+#include <string>
+
+#include "map/kernel_index.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/runtime/tuning.hpp"
+#include "runtime/device_buffers.hpp"
+
+namespace potmap {
+
+struct MapEvaluator::Impl {
+  Context* ctx;
+  KernelMap map;  // own copy: the index points into it
+  EvalOptions opt;
+  MapEvalTuning tuning;
+  int raster_rows;  // RasterTuning::rows_per_item
+  detail::KernelIndex index;
+  // Kernel positions are sent relative to this whole-metre anchor near the map's centre, split
+  // into float hi + lo parts, so that float arithmetic on the device keeps micrometres.
+  double anchor[3] = {0, 0, 0};
+  std::string defines;  // batch kernel's build options
+  boost::compute::buffer kpos_hi, kpos_lo, kpar;
+  float bias_mean = 0, bias_var = 0;  // 0 when the map has no bias
+  std::size_t last_pairs = 0;
+
+  // Batch path.
+  detail::GrowBuffer q_hi, q_lo, chunk_start, list, order, out_mean, out_var, out_prob;
+  // Grid path (outputs share the batch path's buffers).
+  detail::GrowBuffer g_col_hi, g_col_lo, g_row_hi, g_row_lo, g_row_out, g_start, g_list;
+  // Device path: per-cell kernel lists, built on first use.
+  bool cells_built = false;
+  double cell_size = 0;
+  double cell_lo[3] = {0, 0, 0};
+  cl_uint cell_n[3] = {1, 1, 1};
+  boost::compute::buffer cell_start_buf, cell_list_buf;
+
+  Impl(Context& c, const KernelMap& m, const EvalOptions& o);
+
+  void run_batch(const double* pts, std::size_t n, float* mean, float* var, float* prob);
+  void run_grid(const GridSpec& grid, float* mean, float* var, float* prob);
+  void build_cells();
+};
+
+namespace detail {
+
+/// A CSR table of per-item kernel lists: start (items + 1 offsets) and the flat list (at least
+/// one entry, so that its buffer is never empty).
+struct KernelLists {
+  std::vector<std::uint32_t> start, flat;
+};
+/// Flattens per-item lists into CSR form.
+KernelLists flatten(const std::vector<std::vector<std::uint32_t>>& lists);
+
+}  // namespace detail
+
+}  // namespace potmap

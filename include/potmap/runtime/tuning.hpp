@@ -1,0 +1,91 @@
+#pragma once
+// Device-specific launch choices, one plain struct per routine, so that a tuner can fill them
+// and a reader finds every vector width, work-group size and chunk size in one place. The
+// defaults are what each routine used before it had a tuning: wide vectors and small
+// work-groups on CPU devices (PoCL vectorises explicit vector types and runs a work-group as a
+// loop), many light work-items on GPUs. default_tuning() picks them per device; a Context holds
+// the tuning its routines read (ContextOptions::tuning or POTMAP_TUNING override fields).
+//
+// Results depend on a tuning only through the order of floating-point sums (work-group
+// reductions), never on what is computed.
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "potmap/export.h"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap {
+
+struct DeviceInfo;
+
+/// MapEvaluator's batch path (kernels/map/evaluate.cl) and device path (evaluate_cells.cl).
+struct MapEvalTuning {
+  /// Queries a work-item holds in vector registers (4, 8 or 16). CPU 16: PoCL keeps a float16
+  /// in one AVX-512 or two AVX registers; GPU 4: more work-items, fewer registers each.
+  int vector_width = 16;
+  /// Work-items per work-group of the batch kernel (a power of two). CPU 8, GPU 64.
+  int work_group = 8;
+  /// Work-items per work-group of the device-buffer kernel. CPU 16, GPU 128.
+  int cells_work_group = 16;
+  /// Chunks (vector_width x work_group queries each) that share one kernel-index query on the
+  /// host (default 16): fewer index walks, each chunk then filters the group's candidates.
+  int chunks_per_query = 16;
+};
+
+/// MapEvaluator::evaluate_grid (kernels/map/raster.cl).
+struct RasterTuning {
+  /// Grid rows a work-item owns (4, 8 or 16; default 8 on every device): rows share the
+  /// kernel loads of their 16 columns, more rows hold more accumulators in registers.
+  int rows_per_item = 8;
+};
+
+/// The batched Sinkhorn solver (kernels/ot/sinkhorn*.cl).
+struct SinkhornTuning {
+  /// Work-items per problem (a power of two); SinkhornOptions::work_group > 0 overrides it.
+  /// CPU 4: a work-group is a loop on PoCL, and small groups keep every core busy with whole
+  /// problems; GPU 64.
+  int work_group = 4;
+  /// Resident work-groups per compute unit in the stabilised scheme, each with its own kernel
+  /// matrix (default 4): enough to hide a group's barriers, few enough to bound the scratch.
+  int groups_per_compute_unit = 4;
+  /// Padded points (source and target) per launch at the most (default 2^18): the device
+  /// scratch grows with the launch (about 100 bytes a slot). Results do not depend on it.
+  std::size_t chunk_slots = std::size_t{1} << 18;
+};
+
+/// The BHM and ABHM learners (kernels/learn/).
+struct LearnTuning {
+  int bhm_work_group = 64;   ///< work-items per work-group of bhm_update.cl (default 64)
+  int abhm_work_group = 64;  ///< work-items per work-group of abhm_grad.cl (default 64)
+};
+
+/// Every routine's tuning for one device.
+struct Tuning {
+  MapEvalTuning map_eval;
+  RasterTuning raster;
+  SinkhornTuning sinkhorn;
+  LearnTuning learn;
+};
+
+/// Today's choices for `device` (the defaults above, GPU values where it is not a CPU).
+Tuning default_tuning(const DeviceInfo& device);
+
+/// `base` with the fields named in `spec` replaced: `routine.field=value` pairs separated by
+/// commas or white space, e.g. "sinkhorn.work_group=8, map_eval.vector_width=8". Routines and
+/// fields are the struct members above (map_eval, raster, sinkhorn, learn). Throws
+/// ArgumentError naming the pair for an unknown name, a value that is not a whole number, or
+/// one the routine cannot run with (see validate_tuning).
+Tuning parse_tuning(const std::string& spec, Tuning base);
+
+/// Throws ArgumentError naming the field and value if a kernel cannot be built or launched
+/// with `t` (vector widths and rows outside 4/8/16, work-groups not a power of two, zeros).
+void validate_tuning(const Tuning& t);
+
+/// The tuning as `routine.field=value` pairs, one per field, in the order of the structs: what
+/// parse_tuning reads, for logs and benchmark records.
+std::string to_string(const Tuning& t);
+
+}  // namespace potmap
+POTMAP_CXX_API_END

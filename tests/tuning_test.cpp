@@ -1,0 +1,169 @@
+// Device tunings (potmap/runtime/tuning.hpp): defaults per device, the override syntax and its
+// errors, and the routines giving the same results under two tunings (up to the order of their
+// floating-point sums).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "potmap/error.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/ot/sinkhorn.hpp"
+#include "potmap/runtime/tuning.hpp"
+#include "test_support.hpp"
+
+using namespace potmap;
+
+namespace {
+
+// Every field moved off the CPU defaults, to values the kernels accept.
+const char* kOtherTuning =
+    "map_eval.vector_width=4, map_eval.work_group=16, map_eval.cells_work_group=64,"
+    "map_eval.chunks_per_query=3 raster.rows_per_item=16 sinkhorn.work_group=16,"
+    "sinkhorn.groups_per_compute_unit=2,sinkhorn.chunk_slots=200";
+
+Context& tuned_context() {
+  static Context ctx = [] {
+    ContextOptions o;
+    o.device = test::context().info().name;
+    o.tuning = kOtherTuning;
+    return Context(o);
+  }();
+  return ctx;
+}
+
+std::string error_of(const std::string& spec) {
+  try {
+    parse_tuning(spec, Tuning{});
+  } catch (const ArgumentError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+KernelMap random_map(int dim, std::size_t m, double extent, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> pos(0, extent), lg(std::log(0.05), std::log(2.0)),
+      w(-10, 10), lv(std::log(1e-4), std::log(10.0));
+  KernelMap map;
+  map.dim = dim;
+  for (std::size_t k = 0; k < m; ++k) {
+    const double p[3] = {pos(rng), pos(rng), pos(rng) * 0.3};
+    map.push_back(p, std::exp(lg(rng)), w(rng), std::exp(lv(rng)));
+  }
+  return map;
+}
+
+void expect_close(const MapValues& a, const MapValues& b) {
+  ASSERT_EQ(a.prob.size(), b.prob.size());
+  double dp = 0, dm = 0, dv = 0;
+  for (std::size_t i = 0; i < a.prob.size(); ++i) {
+    dp = std::max(dp, double(std::abs(a.prob[i] - b.prob[i])));
+    dm = std::max(dm, std::abs(a.mean[i] - b.mean[i]) / (1.0 + std::abs(a.mean[i])));
+    dv = std::max(dv, std::abs(a.var[i] - b.var[i]) / (1.0 + a.var[i]));
+  }
+  EXPECT_LT(dp, 2e-6);
+  EXPECT_LT(dm, 2e-5);
+  EXPECT_LT(dv, 2e-5);
+}
+
+}  // namespace
+
+TEST(Tuning, DefaultsPerDevice) {
+  DeviceInfo cpu, gpu;
+  cpu.is_cpu = true;
+  gpu.is_gpu = true;
+  const Tuning c = default_tuning(cpu), g = default_tuning(gpu);
+  EXPECT_EQ(c.map_eval.vector_width, 16);
+  EXPECT_EQ(c.map_eval.work_group, 8);
+  EXPECT_EQ(c.map_eval.cells_work_group, 16);
+  EXPECT_EQ(c.sinkhorn.work_group, 4);
+  EXPECT_EQ(g.map_eval.vector_width, 4);
+  EXPECT_EQ(g.map_eval.work_group, 64);
+  EXPECT_EQ(g.map_eval.cells_work_group, 128);
+  EXPECT_EQ(g.sinkhorn.work_group, 64);
+  EXPECT_EQ(c.sinkhorn.chunk_slots, g.sinkhorn.chunk_slots);
+  validate_tuning(c);
+  validate_tuning(g);
+}
+
+TEST(Tuning, ParseOverridesOnlyTheNamedFieldsAndRoundTrips) {
+  const Tuning base;
+  const Tuning t = parse_tuning("sinkhorn.work_group=8, map_eval.vector_width=8", base);
+  EXPECT_EQ(t.sinkhorn.work_group, 8);
+  EXPECT_EQ(t.map_eval.vector_width, 8);
+  EXPECT_EQ(t.map_eval.work_group, base.map_eval.work_group);
+  EXPECT_EQ(t.learn.bhm_work_group, base.learn.bhm_work_group);
+  const Tuning other = parse_tuning(kOtherTuning, base);
+  EXPECT_EQ(to_string(parse_tuning(to_string(other), base)), to_string(other));
+  EXPECT_NE(to_string(other), to_string(base));
+  EXPECT_EQ(to_string(parse_tuning("", other)), to_string(other));
+}
+
+TEST(Tuning, BadPairsAreNamed) {
+  EXPECT_NE(error_of("map_eval.vector_width=5").find("map_eval.vector_width=5"), std::string::npos);
+  EXPECT_NE(error_of("sinkhorn.work_group=3").find("power of two"), std::string::npos);
+  EXPECT_NE(error_of("nosuch.field=1").find("'nosuch.field'"), std::string::npos);
+  EXPECT_NE(error_of("sinkhorn.work_group=abc").find("'abc'"), std::string::npos);
+  EXPECT_NE(error_of("sinkhorn.work_group").find("routine.field=value"), std::string::npos);
+  EXPECT_NE(error_of("raster.rows_per_item=-4").find("'-4'"), std::string::npos);
+  EXPECT_EQ(error_of("raster.rows_per_item=4"), "");
+  ContextOptions o;
+  o.device = test::context().info().name;
+  o.tuning = "learn.bhm_work_group=0";
+  EXPECT_THROW(Context{o}, ArgumentError);
+  o.tuning = "learn.bhm_work_group=32";
+  Context c(o);
+  EXPECT_EQ(c.tuning().learn.bhm_work_group, 32);
+  EXPECT_EQ(c.tuning().map_eval.vector_width, default_tuning(c.info()).map_eval.vector_width);
+  Tuning bad = c.tuning();
+  bad.map_eval.work_group = 6;
+  EXPECT_THROW(c.set_tuning(bad), ArgumentError);
+}
+
+TEST(Tuning, MapEvaluatorAgreesUnderTwoTunings) {
+  const KernelMap map = random_map(2, 2000, 60, 7);
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-5, 65);
+  std::vector<double> pts(2 * 6000);
+  for (double& x : pts) x = u(rng);
+  MapEvaluator a(test::context(), map), b(tuned_context(), map);
+  expect_close(a.evaluate(pts), b.evaluate(pts));
+  // Pairs are counted per chunk of vector_width x work_group queries: a different count shows
+  // that the other tuning reached the evaluator.
+  EXPECT_NE(a.last_pairs(), b.last_pairs());
+  GridSpec grid;
+  grid.dim = 2;
+  grid.origin[0] = -3;
+  grid.origin[1] = -2;
+  grid.resolution = 0.35;
+  grid.count[0] = 190;
+  grid.count[1] = 150;
+  expect_close(a.evaluate_grid(grid), b.evaluate_grid(grid));
+}
+
+TEST(Tuning, SinkhornAgreesUnderTwoTunings) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  SinkhornBatch batch;
+  for (int p = 0; p < 12; ++p) {
+    SinkhornProblem q;
+    q.source = Eigen::MatrixXd::NullaryExpr(24 + p % 9, 2, [&] { return u(rng); });
+    q.target = Eigen::MatrixXd::NullaryExpr(20 + p % 5, 2, [&] { return u(rng); });
+    q.epsilon = 0.05;
+    q.tolerance = 1e-5;
+    q.max_iterations = 2000;
+    batch.add(q);
+  }
+  SinkhornOptions o;
+  o.want_barycentric = true;
+  const auto a = batch.run(test::context(), o);
+  const auto b = batch.run(tuned_context(), o);  // 200 slots: several launches
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t p = 0; p < a.size(); ++p) {
+    EXPECT_TRUE(a[p].converged && b[p].converged) << p;
+    EXPECT_NEAR(a[p].cost, b[p].cost, 1e-4 * a[p].cost) << p;
+    EXPECT_LT((a[p].barycentric - b[p].barycentric).cwiseAbs().maxCoeff(), 1e-3) << p;
+  }
+}
