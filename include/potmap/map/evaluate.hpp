@@ -9,8 +9,7 @@
 //     relative precision in any frame (UTM included);
 //   * exp and products in float; sums in blocks of 16 kernels, the block sums added with
 //     compensated (Neumaier) summation.
-// Measured bounds are in the tests (map_eval_test.cpp) and the README: |dp| < 1e-6 everywhere;
-// |dmean| <= 1e-5 * (1 + sum_m |w_mean_m| phi_m); |dvar| <= 1e-5 * (1 + var).
+// The bounds the tests hold it to (tests/evaluate_test.cpp) are in docs/accuracy.md.
 
 #include <boost/compute/buffer.hpp>
 #include <boost/compute/event.hpp>

@@ -62,12 +62,15 @@ struct SinkhornOptions {
   /// duals) stored in single precision (2 n m reals per running work-group, a few per compute
   /// unit, not per problem), multiply-adds instead of exps, scalings absorbed into the
   /// log-domain duals when they pass e^25, sums and scalings in double where the device has
-  /// cl_khr_fp64 (1-norm marginal error floor about 2e-8). Same fixed point as the log domain.
+  /// cl_khr_fp64, so that its marginal error can fall below the default 1e-7 tolerance. Same
+  /// fixed point as the log domain.
   /// false: log-domain iterations with the cost recomputed online (memory n + m per problem,
-  /// an exp per entry per iteration, duals in single precision: its marginal error floors near
-  /// 1e-6 at the high-quality setting, eps 0.0005 on a normalised cost).
+  /// an exp per entry per iteration, duals in single precision, so its marginal error stops
+  /// far above the stabilised scheme's). The error floors of both are in docs/accuracy.md.
   bool stabilised = true;
-  int work_group = 0;  ///< work-items per problem; 0: device default
+  /// Work-items per problem (a power of two); 0 (default): the context's tuning
+  /// (SinkhornTuning::work_group, potmap/runtime/tuning.hpp).
+  int work_group = 0;
 };
 
 /// What one problem came to. Duals f, g are in cost units (f_i/eps + log a_i convention of
