@@ -128,4 +128,24 @@ static void transform_points(__global const float* src, __global const float* tg
   }
 }
 
+// Adaptive over-relaxation of both schemes, at the end of each window of `win` iterations at
+// the target epsilon: lambda, the observed decay of the error over the window, gives eta^2 by Young's
+// relation and the optimal w from it; w only grows unless the error grew.
+static void adapt_omega(const int it_target, const ACC tot, ACC* omega, ACC* ref_err, int* win,
+                        int* mark) {
+  if (*ref_err > 0) {
+    const ACC lam = pow(tot / *ref_err, (ACC)1 / *win);
+    if (lam < 1) {
+      const ACC eta2 = (lam + *omega - 1) * (lam + *omega - 1) / (lam * *omega * *omega);
+      const ACC wn = 2 / (1 + sqrt(fmax(1 - eta2, (ACC)1e-9)));
+      *omega = fmax(*omega, fmin(wn, (ACC)1.95));
+    } else if (tot > 2 * *ref_err) {
+      *omega = fmax((ACC)1, (*omega + 1) / 2);
+    }
+  }
+  *ref_err = tot;
+  *win = it_target < 20 ? 5 : 20;
+  *mark += *win;
+}
+
 #endif

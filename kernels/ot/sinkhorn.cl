@@ -16,6 +16,10 @@
 
 #include "../common/sinkhorn_common.cl"
 
+#if !USE_DOUBLE && ACC_DOUBLE
+#error "sinkhorn.cl sums in REAL: ACC must be REAL (the host sets ACC_DOUBLE only for sinkhorn_stab)"
+#endif
+
 // The exponential of the inner loops (exp or native_exp; measured in bench/).
 #ifndef EXPF
 #define EXPF exp
@@ -96,6 +100,119 @@ static REAL group_max(REAL v, __local REAL* scratch) {
   return r;
 }
 
+// 1, or 1 / max C over the real (unpadded) pairs when the problem asks for a normalised cost.
+static REAL cost_factor_of(__global const SinkhornLaunchParams* P, const int n, const int npad,
+                           const int m, const int mpad, __global const REAL* SX,
+                           __global const REAL* sz, __global const REAL* TX,
+                           __global const REAL* tz, __local REAL* scratch) {
+  REAL cost_factor = 1;
+  if (P->normalise != 0) {
+    REAL mx = 0;
+    for (int i = get_local_id(0); i < n; i += WG) {
+      for (int j = 0; j < m; ++j) {
+        REAL dx = SX[i] - TX[j], dy = SX[npad + i] - TX[mpad + j];
+        REAL d2 = dx * dx + dy * dy;
+#if DIM == 3
+        REAL dz = sz[i] - tz[j];
+        d2 += dz * dz;
+#endif
+        mx = fmax(mx, d2);
+      }
+    }
+    mx = group_max(mx, scratch);
+    if (mx > 0) cost_factor = 1 / mx;
+  }
+  return cost_factor;
+}
+
+// The f update with over-relaxation w, into FN (F keeps the plan being measured). Returns this
+// work-item's part of that plan's 1-norm marginal error, which the row sums give for free.
+static REAL update_f(const int n, const int npad, const int mpad, const REAL k, const REAL w,
+                     __global const REAL* SX, __global const REAL* sz, __global const REAL* TX,
+                     __global const REAL* tz, __global const REAL* G, __global const REAL* la,
+                     __global const REAL* F, __global REAL* FN) {
+  REAL e = 0;
+  for (int i = get_local_id(0); i < n; i += WG) {
+    const REAL old = F[i];
+    const REAL shift = la[i] - old;  // the previous log-sum-exp of this row
+    const REAL lse = row_lse(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, G, mpad, k, shift);
+    // Row sum of the plan (old f, g) is exp(old + lse).
+    e += fabs(exp(old + lse) - exp(la[i]));
+    FN[i] = (1 - w) * old + w * (la[i] - lse);
+  }
+  return e;
+}
+
+// The g update with over-relaxation w, in place.
+static void update_g(const int m, const int npad, const int mpad, const REAL k, const REAL w,
+                     __global const REAL* SX, __global const REAL* sz, __global const REAL* TX,
+                     __global const REAL* tz, __global const REAL* F, __global const REAL* lb,
+                     __global REAL* G) {
+  for (int j = get_local_id(0); j < m; j += WG) {
+    const REAL shift = lb[j] - G[j];
+    const REAL lse = row_lse(TX[j], TX[mpad + j], tz[j], SX, SX + npad, sz, F, npad, k, shift);
+    G[j] = (1 - w) * G[j] + w * (lb[j] - lse);
+  }
+}
+
+// 1-norm marginal error of the plan (F, G), summed over the work-group.
+static REAL plan_error(const int n, const int npad, const int mpad, const REAL k,
+                       __global const REAL* SX, __global const REAL* sz, __global const REAL* TX,
+                       __global const REAL* tz, __global const REAL* G, __global const REAL* la,
+                       __global const REAL* F, __local REAL* scratch) {
+  REAL e = 0;
+  for (int i = get_local_id(0); i < n; i += WG) {
+    const REAL lse =
+        row_lse(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, G, mpad, k, la[i] - F[i]);
+    e += fabs(exp(F[i] + lse) - exp(la[i]));
+  }
+  return group_sum(e, scratch);
+}
+
+// <P, C>, the coupling (when I->plan >= 0) and the barycentric map of the plan (F, G), row by
+// row. Returns this work-item's part of the cost; Y: the untransformed target points.
+static REAL write_rows(__global const SinkhornLaunchInts* I, const REAL k, const REAL cost_factor,
+                       __global const REAL* SX, __global const REAL* sz, __global const REAL* TX,
+                       __global const REAL* tz, __global const float* Y, __global const REAL* F,
+                       __global const REAL* G, __global float* plan, __global float* bary,
+                       const int want_bary) {
+  const int n = I->n, npad = I->npad, m = I->m, mpad = I->mpad;
+  REAL total = 0;
+  const long plan0 = I->plan;
+  for (int i = get_local_id(0); i < n; i += WG) {
+    REAL rs = 0, rc = 0, bx = 0, by = 0, bz = 0;
+    const REAL pxi = SX[i], pyi = SX[npad + i], pzi = sz[i];
+    for (int j = 0; j < m; ++j) {
+      REAL dx = pxi - TX[j], dy = pyi - TX[mpad + j];
+      REAL d2 = dx * dx + dy * dy;
+#if DIM == 3
+      REAL dz = pzi - tz[j];
+      d2 += dz * dz;
+#endif
+      const REAL pij = exp(F[i] + G[j] - k * d2);
+      rs += pij;
+      rc += pij * d2;
+      bx += pij * Y[j * DIM + 0];
+      by += pij * Y[j * DIM + 1];
+#if DIM == 3
+      bz += pij * Y[j * DIM + 2];
+#endif
+      if (plan0 >= 0) plan[plan0 + (long)i * m + j] = (float)pij;
+    }
+    total += rc * cost_factor;
+    if (want_bary) {
+      const long o = ((long)I->src + i) * DIM;
+      const REAL inv = rs > 0 ? 1 / rs : 0;
+      bary[o + 0] = (float)(bx * inv);
+      bary[o + 1] = (float)(by * inv);
+#if DIM == 3
+      bary[o + 2] = (float)(bz * inv);
+#endif
+    }
+  }
+  return total;
+}
+
 // src, tgt: input points (AoS). loga, logb: log marginals per padded slot (-PAD_LOGW on pads).
 // sx, tx: transformed points, structure of arrays, DIM arrays of npad per problem.
 // fh, gh, fnew: scaled duals per slot. out: the results per problem.
@@ -136,25 +253,7 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
 
   __global const REAL* sz = SX + (DIM == 3 ? 2 * npad : 0);
   __global const REAL* tz = TX + (DIM == 3 ? 2 * mpad : 0);
-
-  // Cost factor: 1, or 1 / max C over the real (unpadded) pairs.
-  REAL cost_factor = 1;
-  if (P->normalise != 0) {
-    REAL mx = 0;
-    for (int i = lid; i < n; i += WG) {
-      for (int j = 0; j < m; ++j) {
-        REAL dx = SX[i] - TX[j], dy = SX[npad + i] - TX[mpad + j];
-        REAL d2 = dx * dx + dy * dy;
-#if DIM == 3
-        REAL dz = sz[i] - tz[j];
-        d2 += dz * dz;
-#endif
-        mx = fmax(mx, d2);
-      }
-    }
-    mx = group_max(mx, scratch);
-    if (mx > 0) cost_factor = 1 / mx;
-  }
+  const REAL cost_factor = cost_factor_of(P, n, npad, m, mpad, SX, sz, TX, tz, scratch);
 
   // Epsilon schedule: eps0, eps0 * decay, ... down to eps, one iteration each, then iterations
   // at eps until converged or max_it. Duals carry over between levels (rescaled to the new eps).
@@ -164,7 +263,7 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
   REAL err = INFINITY;
   int converged = 0;
   // Over-relaxation f <- (1-w) f + w f_sinkhorn at the target epsilon; w adapted as in
-  // sinkhorn_stab.cl (see there), or fixed when P->omega > 0.
+  // sinkhorn_stab.cl (adapt_omega), or fixed when P->omega > 0.
   const REAL omega_fixed = P->omega;
   REAL omega = 1.3f, ref_err = -1;
   int mark = 5, win = 5;
@@ -174,19 +273,11 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
     if (at_target && it_target >= max_it) break;
     const int checking = at_target && it_target > 0 && (it_target % check == 0);
     const REAL w = at_target ? (omega_fixed > 0 ? (REAL)omega_fixed : omega) : (REAL)1;
-    // f update. The new value goes to FN first so that the plan that was measured (old f,
-    // current g) is the one kept if it has converged. The reduction runs on every iteration,
-    // outside any branch: barriers under a uniform condition after a loop that some work-items
-    // skip (n < WG) gave wrong results on PoCL 3.1 here (cause not narrowed down).
-    REAL e = 0;
-    for (int i = lid; i < n; i += WG) {
-      const REAL old = F[i];
-      const REAL shift = la[i] - old;  // the previous log-sum-exp of this row
-      const REAL lse = row_lse(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, G, mpad, k, shift);
-      // Row sum of the plan (old f, g) is exp(old + lse): the error comes for free here.
-      e += fabs(exp(old + lse) - exp(la[i]));
-      FN[i] = (1 - w) * old + w * (la[i] - lse);
-    }
+    // The new f goes to FN first so that the plan that was measured (old f, current g) is the
+    // one kept if it has converged. The reduction runs on every iteration, outside any branch:
+    // barriers under a uniform condition after a loop that some work-items skip (n < WG) gave
+    // wrong results on PoCL 3.1 here (cause not narrowed down).
+    const REAL e = update_f(n, npad, mpad, k, w, SX, sz, TX, tz, G, la, F, FN);
     const REAL total_e = group_sum(e, scratch);
     if (checking) {
       err = total_e;
@@ -197,31 +288,13 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
     }
     for (int i = lid; i < n; i += WG) F[i] = FN[i];
     barrier(CLK_GLOBAL_MEM_FENCE);
-    // g update.
-    for (int j = lid; j < m; j += WG) {
-      const REAL shift = lb[j] - G[j];
-      const REAL lse =
-          row_lse(TX[j], TX[mpad + j], tz[j], SX, SX + npad, sz, F, npad, k, shift);
-      G[j] = (1 - w) * G[j] + w * (lb[j] - lse);
-    }
+    update_g(m, npad, mpad, k, w, SX, sz, TX, tz, F, lb, G);
     barrier(CLK_GLOBAL_MEM_FENCE);
     ++it;
     if (at_target) {
       ++it_target;
-      if (omega_fixed <= 0 && it_target == mark) {
-        if (ref_err > 0) {
-          const REAL lam = pow(total_e / ref_err, (REAL)1 / win);
-          if (lam < 1) {
-            const REAL eta2 = (lam + omega - 1) * (lam + omega - 1) / (lam * omega * omega);
-            omega = fmax(omega, fmin(2 / (1 + sqrt(fmax(1 - eta2, (REAL)1e-9))), (REAL)1.95));
-          } else if (total_e > 2 * ref_err) {
-            omega = fmax((REAL)1, (omega + 1) / 2);
-          }
-        }
-        ref_err = total_e;
-        win = it_target < 20 ? 5 : 20;
-        mark += win;
-      }
+      if (omega_fixed <= 0 && it_target == mark)
+        adapt_omega(it_target, total_e, &omega, &ref_err, &win, &mark);
     } else {
       // Next epsilon level: the unscaled duals stay, the scaled ones follow the new epsilon.
       const REAL next = fmax(cur_eps * decay, eps);
@@ -232,60 +305,18 @@ __kernel __attribute__((reqd_work_group_size(WG, 1, 1))) void sinkhorn_solve(
       barrier(CLK_GLOBAL_MEM_FENCE);
     }
   }
-  // Error of the final plan when the limit stopped it: measured, not assumed.
-  {
-    // Unconditional for the same PoCL reason as above; only used when the limit stopped it.
-    const REAL k = cost_factor / cur_eps;
-    REAL e = 0;
-    for (int i = lid; i < n; i += WG) {
-      const REAL lse = row_lse(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, G, mpad, k,
-                               la[i] - F[i]);
-      e += fabs(exp(F[i] + lse) - exp(la[i]));
-    }
-    e = group_sum(e, scratch);
-    if (!converged) {
-      err = e;
-      // The limit was reached: converged only if the plan handed back meets the tolerance.
-      converged = err < tol ? 1 : 0;
-    }
+  // Error of the final plan when the limit stopped it: measured, not assumed. Unconditional for
+  // the same PoCL reason as above; only used when the limit stopped it.
+  const REAL k = cost_factor / cur_eps;
+  const REAL final_err = plan_error(n, npad, mpad, k, SX, sz, TX, tz, G, la, F, scratch);
+  if (!converged) {
+    err = final_err;
+    // The limit was reached: converged only if the plan handed back meets the tolerance.
+    converged = err < tol ? 1 : 0;
   }
 
-  // <P, C>, the coupling and the barycentric map, row by row.
-  const REAL k = cost_factor / cur_eps;
-  REAL total = 0;
-  const long plan0 = I->plan;
-  for (int i = lid; i < n; i += WG) {
-    REAL rs = 0, rc = 0, bx = 0, by = 0, bz = 0;
-    const REAL pxi = SX[i], pyi = SX[npad + i], pzi = sz[i];
-    for (int j = 0; j < m; ++j) {
-      REAL dx = pxi - TX[j], dy = pyi - TX[mpad + j];
-      REAL d2 = dx * dx + dy * dy;
-#if DIM == 3
-      REAL dz = pzi - tz[j];
-      d2 += dz * dz;
-#endif
-      const REAL pij = exp(F[i] + G[j] - k * d2);
-      rs += pij;
-      rc += pij * d2;
-      bx += pij * Y[j * DIM + 0];
-      by += pij * Y[j * DIM + 1];
-#if DIM == 3
-      bz += pij * Y[j * DIM + 2];
-#endif
-      if (plan0 >= 0) plan[plan0 + (long)i * m + j] = (float)pij;
-    }
-    total += rc * cost_factor;
-    if (want_bary) {
-      const long o = ((long)I->src + i) * DIM;
-      const REAL inv = rs > 0 ? 1 / rs : 0;
-      bary[o + 0] = (float)(bx * inv);
-      bary[o + 1] = (float)(by * inv);
-#if DIM == 3
-      bary[o + 2] = (float)(bz * inv);
-#endif
-    }
-  }
-  total = group_sum(total, scratch);
+  const REAL total = group_sum(
+      write_rows(I, k, cost_factor, SX, sz, TX, tz, Y, F, G, plan, bary, want_bary), scratch);
   if (lid == 0) {
     out[p].cost = (float)total;
     out[p].iterations = (float)it;

@@ -135,6 +135,235 @@ static REAL min_d2(const REAL px, const REAL py, const REAL pz, __global const R
   return r;
 }
 
+// The start: one max-plus (epsilon -> 0) iteration from zero duals, al_i = k min_j C_ij, then
+// be_j = min_i (k C_ij - al_i): every row and every column of the first K then has an entry
+// exactly 1, so no sum underflows whatever epsilon is, and no exp is needed. The marginals
+// a, b are left to the scalings (lu, lv start at 0, both generations).
+static void start_duals(const int n, const int npad, const int m, const int mpad, const REAL k,
+                        __global const REAL* SX, __global const REAL* sz, __global const REAL* TX,
+                        __global const REAL* tz, __global const ACC* la, __global ACC* AL,
+                        __global ACC* BE, __global ACC* LU, __global ACC* LV, __global ACC* EUG,
+                        __global ACC* VF, __global ACC* A) {
+  const int lid = get_local_id(0);
+  for (int i = lid; i < npad; i += WG)
+    AL[i] = i < n ? k * min_d2(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, m)
+                  : (ACC)(-PAD_LOGW);
+  for (int i = lid; i < npad; i += WG) {
+    LU[i] = 0;
+    LU[npad + i] = 0;
+    EUG[i] = i < n ? 1 : 0;
+    EUG[npad + i] = i < n ? 1 : 0;
+    A[i] = i < n ? exp((ACC)la[i]) : 0;
+  }
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  for (int j = lid * VW; j < mpad; j += WG * VW) {
+    const REALV qx = VLOAD(0, TX + j), qy = VLOAD(0, TX + mpad + j);
+#if DIM == 3
+    const REALV qz = VLOAD(0, tz + j);
+#endif
+    REALV mn = (REALV)(INFINITY);
+    for (int i = 0; i < n; ++i) {
+      REALV dx = qx - SX[i];
+      REALV d2 = dx * dx;
+      REALV dy = qy - SX[npad + i];
+      d2 = fma(dy, dy, d2);
+#if DIM == 3
+      REALV dz = qz - sz[i];
+      d2 = fma(dz, dz, d2);
+#endif
+      mn = fmin(mn, fma((REALV)(k), d2, (REALV)(-(REAL)AL[i])));
+    }
+    for (int q = 0; q < VW; ++q) {
+      BE[j + q] = j + q < m ? (ACC)((REAL*)&mn)[q] : (ACC)(-PAD_LOGW);
+      VF[j + q] = j + q < m ? 1 : 0;
+      LV[j + q] = 0;
+      LV[mpad + j + q] = 0;
+    }
+  }
+}
+
+// Absorbs the column log-scalings lv (current generation) into the duals be of the first `cnt`
+// columns (0: none), the duals rescaled by `ratio` when epsilon changes; the scalings restart
+// at 1.
+static void absorb_columns(const int cnt, const ACC ratio, __global ACC* BE, __global ACC* LVc,
+                           __global const ACC* lb, __global ACC* VF) {
+  for (int j = get_local_id(0); j < cnt; j += WG) {
+    BE[j] = (BE[j] + LVc[j] - lb[j]) * ratio + lb[j];
+    LVc[j] = 0;
+    VF[j] = 1;
+  }
+}
+
+// The same for the rows: lu into al, exp(lu) and the product copy back to 1.
+static void absorb_rows(const int cnt, const ACC ratio, __global ACC* AL, __global ACC* LUc,
+                        __global const ACC* la, __global ACC* EUGc, __global ACC* UF) {
+  for (int i = get_local_id(0); i < cnt; i += WG) {
+    AL[i] = (AL[i] + LUc[i] - la[i]) * ratio + la[i];
+    LUc[i] = 0;
+    EUGc[i] = 1;
+    UF[i] = 1;
+  }
+}
+
+// Rebuilds the first `icnt` rows of K (0: none) around the duals, and K^T from it. K by rows for
+// K^T u and its transpose by rows for K v: both products then stream rows with a broadcast
+// scalar into VW-wide sums, with no horizontal sum per row.
+static void rebuild_kernel(const int icnt, const int jcnt, const int n, const int npad,
+                           const int mpad, const REAL k, __global REAL* K, __global REAL* KT,
+                           __global const REAL* SX, __global const REAL* sz,
+                           __global const REAL* TX, __global const REAL* tz,
+                           __global const ACC* AL, __global const ACC* BE) {
+  const int lid = get_local_id(0);
+  for (int i0 = 0; i0 < icnt; i0 += WG)
+    if (i0 + lid < icnt)
+      build_row(K + (long)(i0 + lid) * mpad, SX[i0 + lid], SX[npad + i0 + lid], sz[i0 + lid], TX,
+                tz, mpad, BE, AL[i0 + lid], k);
+  barrier(CLK_GLOBAL_MEM_FENCE);
+  // K^T by copying, not by exps again (the exps of the rebuild dominate small problems).
+  // Pads of K^T rows (i >= n) must be 0 as build_row leaves them: exp(-PAD_LOGW) = 0.
+  for (int j = lid; j < jcnt; j += WG) {
+    __global REAL* KTj = KT + (long)j * npad;
+    for (int i = 0; i < n; ++i) KTj[i] = K[(long)i * mpad + j];
+    for (int i = n; i < npad; ++i) KTj[i] = 0;
+  }
+  barrier(CLK_GLOBAL_MEM_FENCE);
+}
+
+// The u update with over-relaxation w, VW rows per step so that the logs and exps run in
+// vectors: generation `LUc`/`EUGc` to `LUn`/`EUGn`, and the product copy UF. Returns this
+// work-item's lanes of the current plan's marginal error; `bv` receives the largest |lu|.
+// Pads read r = 0 and are masked.
+static ACCV scale_rows(const int n, const int npad, const int m, const ACC w,
+                       __global const REAL* KT, __global const ACC* VF, __global const ACC* LUc,
+                       __global ACC* LUn, __global const ACC* EUGc, __global ACC* EUGn,
+                       __global const ACC* A, __global const ACC* la, __global ACC* UF,
+                       ACCV* bv) {
+  ACCV ev = (ACCV)(0);
+  for (int i0 = get_local_id(0) * VW; i0 < npad; i0 += WG * VW) {
+    const ACCV r = col_dot(KT, VF, m, npad, i0);
+    const ACCV lu = ACCLOAD(0, LUc + i0);
+    ev += fabs(ACCLOAD(0, EUGc + i0) * r - ACCLOAD(0, A + i0));
+    const ACCV lav = ACCLOAD(0, la + i0);
+    const ACCV lun = select((ACCV)(0), (1 - w) * lu + w * (lav - log(fmax(r, TINY_SUM))),
+                            isless(LANES, (ACCV)(n - i0)));
+    const ACCV un = select((ACCV)(0), exp(lun), isless(LANES, (ACCV)(n - i0)));
+    ACCSTORE(lun, 0, LUn + i0);
+    ACCSTORE(un, 0, EUGn + i0);
+    ACCSTORE(un, 0, UF + i0);
+    *bv = fmax(*bv, fabs(lun));
+  }
+  return ev;
+}
+
+// The v update, VW columns per step: generation `LVc` to `LVn` and the product copy VF; `bv`
+// receives the largest |lv|.
+static void scale_columns(const int n, const int m, const int mpad, const ACC w,
+                          __global const REAL* K, __global const ACC* UF,
+                          __global const ACC* LVc, __global ACC* LVn, __global const ACC* lb,
+                          __global ACC* VF, ACCV* bv) {
+  for (int j = get_local_id(0) * VW; j < mpad; j += WG * VW) {
+    const ACCV cs = col_dot(K, UF, n, mpad, j);
+    const ACCV lv = ACCLOAD(0, LVc + j);
+    const ACCV lbv = ACCLOAD(0, lb + j);
+    const ACCV lvn = select((ACCV)(0), (1 - w) * lv + w * (lbv - log(fmax(cs, TINY_SUM))),
+                            isless(LANES, (ACCV)(m - j)));
+    ACCSTORE(lvn, 0, LVn + j);
+    ACCSTORE(select((ACCV)(0), exp(lvn), isless(LANES, (ACCV)(m - j))), 0, VF + j);
+    *bv = fmax(*bv, fabs(lvn));
+  }
+}
+
+// Sums `e` and takes the largest `b` over the work-group through the scratch rows `re`, `rb`
+// (the caller alternates rows, so that none needs a barrier before reuse).
+static ACC reduce_sum_max(const ACC e, const ACC b, __local ACC* re, __local ACC* rb, ACC* bmax) {
+  const int lid = get_local_id(0);
+  re[lid] = e;
+  rb[lid] = b;
+  barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);
+  ACC tot = 0;
+  *bmax = 0;
+  for (int l = 0; l < WG; ++l) {
+    tot += re[l];
+    *bmax = fmax(*bmax, rb[l]);
+  }
+  return tot;
+}
+
+// 1-norm marginal error of the plan u_i K_ij v_j (EU, EV), summed over the work-group in `red`.
+static ACC plan_error(const int n, const int mpad, __global const REAL* K,
+                      __global const ACC* EU, __global const ACC* EV, __global const ACC* A,
+                      __local ACC* red) {
+  const int lid = get_local_id(0);
+  ACC e = 0;
+  for (int i = lid; i < n; i += WG) {
+    ACCV r = (ACCV)(0);
+    for (int j = 0; j < mpad; j += VW)
+      r = fma(TO_ACCV(VLOAD(0, K + (long)i * mpad + j)), ACCLOAD(0, EV + j), r);
+    e += fabs(EU[i] * hsum_acc(r) - A[i]);
+  }
+  red[lid] = e;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  ACC tot = 0;
+  for (int l = 0; l < WG; ++l) tot += red[l];
+  return tot;
+}
+
+// The plan's rows handed back: the coupling (when plan0 >= 0), the barycentric map (when asked),
+// and the scaled duals fh = f/eps + log a in the log kernel's convention. Returns this
+// work-item's part of the cost <P, C>.
+static ACC write_rows(__global const SinkhornLaunchInts* I, __global const SinkhornLaunchParams* P,
+                      const REAL cost_factor, __global const REAL* K, __global const REAL* SX,
+                      __global const REAL* sz, __global const REAL* TX, __global const REAL* tz,
+                      __global const ACC* EU, __global const ACC* EV, __global const ACC* AL,
+                      __global const ACC* LUc, __global float* plan, __global float* bary,
+                      const int want_bary, __global REAL* fh) {
+  const int n = I->n, npad = I->npad, m = I->m, mpad = I->mpad, ss = I->src_slot;
+  ACC total = 0;
+  const long plan0 = I->plan;
+  const REAL inv_scale = 1 / (REAL)P->scale;
+  for (int i = get_local_id(0); i < n; i += WG) {
+    ACCV rs = (ACCV)(0), rc = (ACCV)(0), bx = (ACCV)(0), by = (ACCV)(0), bz = (ACCV)(0);
+    const ACC ui = EU[i];
+    __global const REAL* Ki = K + (long)i * mpad;
+    for (int j = 0; j < mpad; j += VW) {
+      const REALV qx = VLOAD(0, TX + j), qy = VLOAD(0, TX + mpad + j);
+      REALV dx = qx - SX[i];
+      REALV d2 = dx * dx;
+      REALV dy = qy - SX[npad + i];
+      d2 = fma(dy, dy, d2);
+#if DIM == 3
+      const REALV qz = VLOAD(0, tz + j);
+      REALV dz = qz - sz[i];
+      d2 = fma(dz, dz, d2);
+#endif
+      const ACCV pv = ui * TO_ACCV(VLOAD(0, Ki + j)) * ACCLOAD(0, EV + j);
+      rs += pv;
+      rc = fma(pv, TO_ACCV(d2), rc);
+      bx = fma(pv, TO_ACCV(qx), bx);
+      by = fma(pv, TO_ACCV(qy), by);
+#if DIM == 3
+      bz = fma(pv, TO_ACCV(qz), bz);
+#endif
+    }
+    const int pm = plan0 >= 0 ? m : 0;
+    for (int j = 0; j < pm; ++j) plan[plan0 + (long)i * m + j] = (float)(ui * Ki[j] * EV[j]);
+    total += hsum_acc(rc) * cost_factor;
+    if (want_bary) {
+      // Target points are not rotated: TX / scale are the target points in their own units.
+      const long o = ((long)I->src + i) * DIM;
+      const ACC rsum = hsum_acc(rs);
+      const ACC inv = rsum > 0 ? inv_scale / rsum : 0;
+      bary[o + 0] = (float)(hsum_acc(bx) * inv);
+      bary[o + 1] = (float)(hsum_acc(by) * inv);
+#if DIM == 3
+      bary[o + 2] = (float)(hsum_acc(bz) * inv);
+#endif
+    }
+    fh[ss + i] = (REAL)(AL[i] + LUc[i]);
+  }
+  return total;
+}
+
 // Solves problem p with this work-group; K is the work-group's kernel-matrix storage.
 static void solve(
     const int p, __global const float* src, __global const float* tgt,
@@ -174,50 +403,10 @@ static void solve(
   __global const REAL* tz = TX + (DIM == 3 ? 2 * mpad : 0);
   const REAL cost_factor = cost_normaliser(SX, npad, n, TX, mpad, m, P, &red_e[0][0]);
 
-  // Start: one max-plus (epsilon -> 0) iteration from zero duals, al_i = k min_j C_ij, then
-  // be_j = min_i (k C_ij - al_i): every row and every column of the first K then has an entry
-  // exactly 1, so no sum underflows whatever epsilon is, and no exp is needed. The marginals
-  // a, b are left to the scalings (lu, lv start at 0).
   REAL cur_eps = P->eps0 > eps ? (REAL)P->eps0 : eps;
   const REAL decay = P->decay;
-  {
-    const REAL k = cost_factor / cur_eps;
-    for (int i = lid; i < npad; i += WG)
-      AL[i] = i < n ? k * min_d2(SX[i], SX[npad + i], sz[i], TX, TX + mpad, tz, m)
-                    : (ACC)(-PAD_LOGW);
-    for (int i = lid; i < npad; i += WG) {
-      LU[i] = 0;
-      LU[npad + i] = 0;
-      EUG[i] = i < n ? 1 : 0;
-      EUG[npad + i] = i < n ? 1 : 0;
-      A[i] = i < n ? exp((ACC)la[i]) : 0;
-    }
-    barrier(CLK_GLOBAL_MEM_FENCE);
-    for (int j = lid * VW; j < mpad; j += WG * VW) {
-      const REALV qx = VLOAD(0, TX + j), qy = VLOAD(0, TX + mpad + j);
-#if DIM == 3
-      const REALV qz = VLOAD(0, tz + j);
-#endif
-      REALV mn = (REALV)(INFINITY);
-      for (int i = 0; i < n; ++i) {
-        REALV dx = qx - SX[i];
-        REALV d2 = dx * dx;
-        REALV dy = qy - SX[npad + i];
-        d2 = fma(dy, dy, d2);
-#if DIM == 3
-        REALV dz = qz - sz[i];
-        d2 = fma(dz, dz, d2);
-#endif
-        mn = fmin(mn, fma((REALV)(k), d2, (REALV)(-(REAL)AL[i])));
-      }
-      for (int q = 0; q < VW; ++q) {
-        BE[j + q] = j + q < m ? (ACC)((REAL*)&mn)[q] : (ACC)(-PAD_LOGW);
-        VF[j + q] = j + q < m ? 1 : 0;
-        LV[j + q] = 0;
-        LV[mpad + j + q] = 0;
-      }
-    }
-  }
+  start_duals(n, npad, m, mpad, cost_factor / cur_eps, SX, sz, TX, tz, la, AL, BE, LU, LV, EUG, VF,
+              A);
   barrier(CLK_GLOBAL_MEM_FENCE);
   // The plan is P_ij = exp(lu_i) K_ij exp(lv_j); al + lu, be + lv are the scaled duals of
   // sinkhorn.cl (f/eps + log a).
@@ -232,80 +421,29 @@ static void solve(
     // Absorb the scalings into the duals (columns, then rows with their rebuilt K rows). Runs as
     // zero-trip loops when not needed.
     const int jcnt = rebuild ? m : 0, icnt = rebuild ? n : 0;
-    for (int j = lid; j < jcnt; j += WG) {
-      BE[j] = (BE[j] + LV[cur * mpad + j] - lb[j]) * ratio + lb[j];
-      LV[cur * mpad + j] = 0;
-      VF[j] = 1;
-    }
+    absorb_columns(jcnt, ratio, BE, LV + cur * mpad, lb, VF);
     if (rebuild) cur_eps = next_eps;
     const REAL k = cost_factor / cur_eps;
     const int at_target = cur_eps <= eps;
     const int checking = at_target && it_target > 0 && (it_target % check == 0);
     const ACC w = at_target ? (omega_fixed > 0 ? omega_fixed : omega) : (ACC)1;
     barrier(CLK_GLOBAL_MEM_FENCE);
-    for (int i = lid; i < icnt; i += WG) {
-      AL[i] = (AL[i] + LU[cur * npad + i] - la[i]) * ratio + la[i];
-      LU[cur * npad + i] = 0;
-      EUG[cur * npad + i] = 1;
-      UF[i] = 1;
-    }
+    absorb_rows(icnt, ratio, AL, LU + cur * npad, la, EUG + cur * npad, UF);
     barrier(CLK_GLOBAL_MEM_FENCE);
-    // K by rows for K^T u and its transpose by rows for K v: both products then stream rows
-    // with a broadcast scalar into VW-wide sums, with no horizontal sum per row.
-    for (int i0 = 0; i0 < icnt; i0 += WG)
-      if (i0 + lid < icnt)
-        build_row(K + (long)(i0 + lid) * mpad, SX[i0 + lid], SX[npad + i0 + lid], sz[i0 + lid], TX,
-                  tz, mpad, BE, AL[i0 + lid], k);
-    barrier(CLK_GLOBAL_MEM_FENCE);
-    // K^T by copying, not by exps again (the exps of the rebuild dominate small problems).
-    // Pads of K^T rows (i >= n) must be 0 as build_row leaves them: exp(-PAD_LOGW) = 0.
-    for (int j = lid; j < jcnt; j += WG) {
-      __global REAL* KTj = KT + (long)j * npad;
-      for (int i = 0; i < n; ++i) KTj[i] = K[(long)i * mpad + j];
-      for (int i = n; i < npad; ++i) KTj[i] = 0;
-    }
-    barrier(CLK_GLOBAL_MEM_FENCE);
+    rebuild_kernel(icnt, jcnt, n, npad, mpad, k, K, KT, SX, sz, TX, tz, AL, BE);
     // Absorbing does not change the plan, so the limit is tested after it: K is always built.
     if (at_target && it_target >= max_it) break;
-    // u update, VW rows per step so that the logs and exps run in vectors; the error of the
-    // plan (lu, lv of generation cur) comes with it.
-    ACCV ev = (ACCV)(0), bv = (ACCV)(0);
+    // The error of the plan (lu, lv of generation cur) comes with the u update.
+    ACCV bv = (ACCV)(0);
     const int nxt = 1 - cur;
-    // Pads read r = 0 and are masked below.
-    for (int i0 = lid * VW; i0 < npad; i0 += WG * VW) {
-      const ACCV r = col_dot(KT, VF, m, npad, i0);
-      const ACCV lu = ACCLOAD(0, LU + cur * npad + i0);
-      ev += fabs(ACCLOAD(0, EUG + cur * npad + i0) * r - ACCLOAD(0, A + i0));
-      const ACCV lav = ACCLOAD(0, la + i0);
-      const ACCV lun = select((ACCV)(0), (1 - w) * lu + w * (lav - log(fmax(r, TINY_SUM))),
-                              isless(LANES, (ACCV)(n - i0)));
-      const ACCV un = select((ACCV)(0), exp(lun), isless(LANES, (ACCV)(n - i0)));
-      ACCSTORE(lun, 0, LU + nxt * npad + i0);
-      ACCSTORE(un, 0, EUG + nxt * npad + i0);
-      ACCSTORE(un, 0, UF + i0);
-      bv = fmax(bv, fabs(lun));
-    }
+    const ACCV ev = scale_rows(n, npad, m, w, KT, VF, LU + cur * npad, LU + nxt * npad,
+                               EUG + cur * npad, EUG + nxt * npad, A, la, UF, &bv);
     barrier(CLK_GLOBAL_MEM_FENCE);
-    // v update, VW columns per step.
-    for (int j = lid * VW; j < mpad; j += WG * VW) {
-      const ACCV cs = col_dot(K, UF, n, mpad, j);
-      const ACCV lv = ACCLOAD(0, LV + cur * mpad + j);
-      const ACCV lbv = ACCLOAD(0, lb + j);
-      const ACCV lvn = select((ACCV)(0), (1 - w) * lv + w * (lbv - log(fmax(cs, TINY_SUM))),
-                              isless(LANES, (ACCV)(m - j)));
-      ACCSTORE(lvn, 0, LV + nxt * mpad + j);
-      ACCSTORE(select((ACCV)(0), exp(lvn), isless(LANES, (ACCV)(m - j))), 0, VF + j);
-      bv = fmax(bv, fabs(lvn));
-    }
-    const ACC e = hsum_acc(ev), big = hmax_acc(bv);
-    red_e[par][lid] = e;
-    red_b[par][lid] = isfinite(big) ? big : (ACC)INFINITY;
-    barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);
-    ACC tot = 0, bmax = 0;
-    for (int l = 0; l < WG; ++l) {
-      tot += red_e[par][l];
-      bmax = fmax(bmax, red_b[par][l]);
-    }
+    scale_columns(n, m, mpad, w, K, UF, LV + cur * mpad, LV + nxt * mpad, lb, VF, &bv);
+    const ACC big = hmax_acc(bv);
+    ACC bmax;
+    const ACC tot = reduce_sum_max(hsum_acc(ev), isfinite(big) ? big : (ACC)INFINITY, red_e[par],
+                                   red_b[par], &bmax);
     par = 1 - par;  // the other scratch row next time: no barrier needed before reuse
     if (checking) {
       err = tot;
@@ -318,21 +456,8 @@ static void solve(
     ++it;
     if (at_target) {
       ++it_target;
-      if (omega_fixed <= 0 && it_target == mark) {
-        if (ref_err > 0) {
-          const ACC lam = pow(tot / ref_err, (ACC)1 / win);
-          if (lam < 1) {
-            const ACC eta2 = (lam + omega - 1) * (lam + omega - 1) / (lam * omega * omega);
-            const ACC wn = 2 / (1 + sqrt(fmax(1 - eta2, (ACC)1e-9)));
-            omega = fmax(omega, fmin(wn, (ACC)1.95));
-          } else if (tot > 2 * ref_err) {
-            omega = fmax((ACC)1, (omega + 1) / 2);
-          }
-        }
-        ref_err = tot;
-        win = it_target < 20 ? 5 : 20;
-        mark += win;
-      }
+      if (omega_fixed <= 0 && it_target == mark)
+        adapt_omega(it_target, tot, &omega, &ref_err, &win, &mark);
     }
     next_eps = at_target ? eps : fmax(cur_eps * decay, eps);
     rebuild = bmax > ABSORB || next_eps != cur_eps;
@@ -345,71 +470,16 @@ static void solve(
   for (int i = lid; i < n; i += WG) EU[i] = EUG[cur * npad + i];
   for (int j = lid; j < mpad; j += WG) EV[j] = j < m ? exp(LV[cur * mpad + j]) : 0;
   barrier(CLK_GLOBAL_MEM_FENCE);
-  {
-    // Its error, measured when the limit stopped it.
-    ACC e = 0;
-    for (int i = lid; i < n; i += WG) {
-      ACCV r = (ACCV)(0);
-      for (int j = 0; j < mpad; j += VW)
-        r = fma(TO_ACCV(VLOAD(0, K + (long)i * mpad + j)), ACCLOAD(0, EV + j), r);
-      e += fabs(EU[i] * hsum_acc(r) - A[i]);
-    }
-    red_e[par][lid] = e;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    ACC tot = 0;
-    for (int l = 0; l < WG; ++l) tot += red_e[par][l];
-    par = 1 - par;
-    if (!converged) {
-      err = tot;
-      converged = err < tol ? 1 : 0;
-    }
+  // Its error, measured when the limit stopped it.
+  const ACC final_err = plan_error(n, mpad, K, EU, EV, A, red_e[par]);
+  par = 1 - par;
+  if (!converged) {
+    err = final_err;
+    converged = err < tol ? 1 : 0;
   }
 
-  const REAL k = cost_factor / cur_eps;
-  ACC total = 0;
-  const long plan0 = I->plan;
-  const REAL inv_scale = 1 / (REAL)P->scale;
-  for (int i = lid; i < n; i += WG) {
-    ACCV rs = (ACCV)(0), rc = (ACCV)(0), bx = (ACCV)(0), by = (ACCV)(0), bz = (ACCV)(0);
-    const ACC ui = EU[i];
-    __global const REAL* Ki = K + (long)i * mpad;
-    for (int j = 0; j < mpad; j += VW) {
-      const REALV qx = VLOAD(0, TX + j), qy = VLOAD(0, TX + mpad + j);
-      REALV dx = qx - SX[i];
-      REALV d2 = dx * dx;
-      REALV dy = qy - SX[npad + i];
-      d2 = fma(dy, dy, d2);
-#if DIM == 3
-      const REALV qz = VLOAD(0, tz + j);
-      REALV dz = qz - sz[i];
-      d2 = fma(dz, dz, d2);
-#endif
-      const ACCV pv = ui * TO_ACCV(VLOAD(0, Ki + j)) * ACCLOAD(0, EV + j);
-      rs += pv;
-      rc = fma(pv, TO_ACCV(d2), rc);
-      bx = fma(pv, TO_ACCV(qx), bx);
-      by = fma(pv, TO_ACCV(qy), by);
-#if DIM == 3
-      bz = fma(pv, TO_ACCV(qz), bz);
-#endif
-    }
-    const int pm = plan0 >= 0 ? m : 0;
-    for (int j = 0; j < pm; ++j) plan[plan0 + (long)i * m + j] = (float)(ui * Ki[j] * EV[j]);
-    total += hsum_acc(rc) * cost_factor;
-    if (want_bary) {
-      // Target points are not rotated: TX / scale are the target points in their own units.
-      const long o = ((long)I->src + i) * DIM;
-      const ACC rsum = hsum_acc(rs);
-      const ACC inv = rsum > 0 ? inv_scale / rsum : 0;
-      bary[o + 0] = (float)(hsum_acc(bx) * inv);
-      bary[o + 1] = (float)(hsum_acc(by) * inv);
-#if DIM == 3
-      bary[o + 2] = (float)(hsum_acc(bz) * inv);
-#endif
-    }
-    // Scaled duals in the log kernel's convention for the host: fh = f/eps + log a.
-    fh[ss + i] = (REAL)(AL[i] + LU[cur * npad + i]);
-  }
+  const ACC total = write_rows(I, P, cost_factor, K, SX, sz, TX, tz, EU, EV, AL, LU + cur * npad,
+                               plan, bary, want_bary, fh);
   for (int j = lid; j < m; j += WG) gh[ts + j] = (REAL)(BE[j] + LV[cur * mpad + j]);
   red_e[par][lid] = total;
   barrier(CLK_LOCAL_MEM_FENCE);
