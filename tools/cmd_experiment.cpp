@@ -173,6 +173,275 @@ experiment::Method with_budget(experiment::Method m, double budget_ms, double ca
   return m;
 }
 
+// BHM with as many kernels (at a fixed width) as fit the time budget per scan.
+experiment::Method matched_bhm(Harness& h, const Settings& s, const experiment::MapTask& full,
+                               double budget, std::size_t max_kernels) {
+  // A fixed width (the default grid's) so that more kernels cost more time.
+  experiment::BhmSetup b = s.bhm;
+  b.gamma = b.gamma > 0 ? b.gamma : 8.0 / (b.spacing * b.spacing);
+  double vol = 1;
+  for (int k = 0; k < full.dim; ++k) vol *= full.hi[k] - full.lo[k];
+  const std::size_t start = std::max<std::size_t>(16, std::size_t(vol / (b.spacing * b.spacing)));
+  double got = 0;
+  int probes = 0;
+  b.count = match_budget(
+      [&](std::size_t n) {
+        experiment::BhmSetup x = b;
+        x.count = n;
+        const auto f = experiment::bhm_method(x).fit(h.context(), full);
+        return 1e3 * f.fit_seconds / double(full.train_scans.size());
+      },
+      start, budget, &got, double(max_kernels), &probes);
+  return with_budget(experiment::bhm_method(b, "BHM (budget)"), budget, got, probes);
+}
+
+// ABHM with as many kernels as fit the time budget per scan.
+experiment::Method matched_abhm(Harness& h, const Settings& s, const experiment::MapTask& full,
+                                double budget, std::size_t max_kernels) {
+  experiment::AbhmSetup a = s.abhm;
+  double got = 0;
+  int probes = 0;
+  a.count = match_budget(
+      [&](std::size_t n) {
+        experiment::AbhmSetup x = a;
+        x.count = n;
+        const auto f = experiment::abhm_method(x).fit(h.context(), full);
+        return 1e3 * f.fit_seconds / double(full.train_scans.size());
+      },
+      s.abhm.count, budget, &got, double(max_kernels), &probes);
+  return with_budget(experiment::abhm_method(a, "ABHM (budget)"), budget, got, probes);
+}
+
+// The per-time runner: every method at its defaults, then BHM and ABHM with kernel counts
+// matched to the budget (POT's mean time per scan unless --budget-ms).
+int run_per_time(const Settings& s, const std::vector<std::string>& data, std::size_t max_kernels) {
+  Harness h("per-time-unit", s);
+  const auto base = h.methods();
+  const std::string list = "," + s.methods + ",";
+  const bool want_bhm = list.find(",bhm,") != std::string::npos;
+  const bool want_abhm = list.find(",abhm,") != std::string::npos;
+  const bool want_pot = list.find(",pot,") != std::string::npos;
+  const bool want_transfer = want_pot || list.find(",repot,") != std::string::npos;
+  if (s.budget_ms <= 0 && !want_pot)
+    throw ArgumentError("per-time: --budget-ms 0 takes POT's time: add pot to --methods");
+  for (const std::string& d : data) {
+    const std::uint64_t seed0 = s.seeds.front();
+    const auto scans0 = h.load(d, seed0);
+    h.warm_up(scans0);
+    // POT's source: --source, or every other target (leave one out).
+    std::vector<std::string> srcs;
+    if (!s.source.empty())
+      srcs.push_back(s.source);
+    else
+      for (const std::string& o : data)
+        if (o != d) srcs.push_back(o);
+    if (want_transfer && srcs.empty())
+      throw ArgumentError("per-time: POT needs --source when there is one target");
+    std::string src_label;
+    for (const std::string& o : srcs)
+      src_label += (src_label.empty() ? "" : "+") + Harness::label(o);
+    auto places = [&](std::uint64_t seed) {
+      std::vector<std::vector<Scan>> p;
+      for (const std::string& o : srcs)
+        for (auto& pl : h.load_places(o, seed)) p.push_back(std::move(pl));
+      return p;
+    };
+    // Every method at its defaults first, POT and RePOT included; POT's mean time per
+    // scan over the seeds is then the budget (its time varies several-fold between
+    // seeds, mostly in the high-quality transport).
+    for (std::uint64_t seed : s.seeds)
+      h.run_case(want_transfer ? src_label : "",
+                 want_transfer ? places(seed) : std::vector<std::vector<Scan>>{}, Harness::label(d),
+                 h.load(d, seed), 0, seed, base);
+    std::vector<experiment::Method> methods;
+    LabelOptions lo;
+    lo.seed = seed0;
+    lo.free_per_metre = s.free_per_metre;
+    lo.holdout_fraction = s.holdout;
+    LabelledPoints test;
+    experiment::MapTask full = experiment::make_task(scans0, lo, test);
+    full.seed = seed0;
+    double budget = s.budget_ms;
+    if (budget <= 0) {
+      budget = h.mean_ms_per_scan(Harness::label(d), "POT");
+      std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": POT took " << budget
+                << " ms per scan (mean over the seeds): the budget\n";
+    }
+    std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": matching " << budget
+              << " ms per scan\n";
+    if (want_bhm) methods.push_back(matched_bhm(h, s, full, budget, max_kernels));
+    if (want_abhm) methods.push_back(matched_abhm(h, s, full, budget, max_kernels));
+    for (std::uint64_t seed : s.seeds)
+      h.run_case(want_transfer ? src_label : "",
+                 want_transfer ? places(seed) : std::vector<std::vector<Scan>>{}, Harness::label(d),
+                 h.load(d, seed), 0, seed, methods);
+  }
+  h.finish("seeds");
+  return 0;
+}
+
+// The intra-domain runner: per log and seed, its first scans are the source of the rest.
+int run_intra(const Settings& settings, const std::vector<std::string>& data) {
+  Harness h("intra-domain", settings);
+  const auto methods = h.methods();
+  bool warm = false;
+  for (const std::string& d : data)
+    for (std::uint64_t seed : settings.seeds) {
+      const auto scans = h.load(d, seed);
+      if (scans.size() <= settings.source_scans)
+        throw InputError(d + ": " + std::to_string(scans.size()) + " scans, need more than " +
+                         std::to_string(settings.source_scans));
+      if (!warm) h.warm_up(scans), warm = true;
+      const std::string l = Harness::label(d);
+      h.run_case(l, {slice(scans, 0, settings.source_scans)}, l,
+                 slice(scans, settings.source_scans, scans.size()),
+                 std::int64_t(settings.source_scans), seed, methods);
+    }
+  h.finish("seeds");
+  return 0;
+}
+
+// The inter-domain runner: every ordered pair of different datasets, per seed.
+int run_inter(const Settings& settings, const std::vector<std::string>& data) {
+  Harness h("inter-domain", settings);
+  const auto methods = h.methods();
+  bool warm = false;
+  for (std::uint64_t seed : settings.seeds)
+    for (const std::string& a : data)
+      for (const std::string& b : data) {
+        if (a == b) continue;
+        const auto src = h.load_places(a, seed);
+        const auto dst = h.load(b, seed);
+        if (!warm) h.warm_up(dst), warm = true;
+        h.run_case(Harness::label(a), src, Harness::label(b), dst, 0, seed, methods);
+      }
+  h.finish("seeds");
+  return 0;
+}
+
+// The sim-to-real runner: the simulated towns as one source of every real log, per seed.
+int run_sim2real(const Settings& settings, const std::vector<std::string>& data,
+                 const std::string& towns) {
+  Harness h("sim-to-real", settings);
+  const auto methods = h.methods();
+  bool warm = false;
+  for (std::uint64_t seed : settings.seeds) {
+    const std::string src_spec = "sim:" + towns;
+    const auto src = h.load_places(src_spec, seed);
+    for (const std::string& b : data) {
+      const auto dst = h.load(b, seed);
+      if (!warm) h.warm_up(dst), warm = true;
+      h.run_case(src_spec, src, Harness::label(b), dst, 0, seed, methods);
+    }
+  }
+  h.finish("seeds");
+  return 0;
+}
+
+// The dynamic runner: every scan of each target mapped on its own from each source.
+int run_dynamic(const Settings& settings, std::vector<std::string> data,
+                const std::vector<std::string>& sources) {
+  if (data.empty()) data.push_back("simdyn:town1");
+  Harness h("dynamic", settings);
+  const auto methods = h.methods();
+  bool warm = false;
+  for (std::uint64_t seed : settings.seeds)
+    for (const std::string& b : data) {
+      const auto dst = h.load(b, seed);
+      if (!warm) h.warm_up(dst), warm = true;
+      for (const std::string& a : sources)
+        h.run_instantaneous(Harness::label(a), h.load_places(a, seed), Harness::label(b), dst, seed,
+                            methods);
+    }
+  h.finish("scans and seeds");
+  return 0;
+}
+
+// `experiment intra`: the first scans of each log are the source, the rest the target.
+void add_intra(CLI::App* ex, Runner& runner) {
+  CLI::App* c = ex->add_subcommand(
+      "intra", "Intra-domain: the first --source-scans scans are the source, the rest the target");
+  auto s = std::make_shared<Settings>();
+  auto data = std::make_shared<std::vector<std::string>>();
+  c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(1, -1);
+  c->add_option("--source-scans", s->source_scans, "Scans forming the source")
+      ->capture_default_str();
+  add_common(c, *s);
+  c->callback([&runner, s, data] { runner.action = [s, data] { return run_intra(*s, *data); }; });
+}
+
+// `experiment inter`: every ordered pair of the datasets.
+void add_inter(CLI::App* ex, Runner& runner) {
+  CLI::App* c = ex->add_subcommand(
+      "inter", "Inter-domain: source A, target B, for every ordered pair of the datasets");
+  auto s = std::make_shared<Settings>();
+  auto data = std::make_shared<std::vector<std::string>>();
+  c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(2, -1);
+  add_common(c, *s);
+  c->callback([&runner, s, data] { runner.action = [s, data] { return run_inter(*s, *data); }; });
+}
+
+// `experiment sim2real`: the simulated towns as the source of real logs.
+void add_sim2real(CLI::App* ex, Runner& runner) {
+  CLI::App* c = ex->add_subcommand(
+      "sim2real", "Sim-to-real: source the built-in simulated towns, target real logs");
+  auto s = std::make_shared<Settings>();
+  auto data = std::make_shared<std::vector<std::string>>();
+  auto towns = std::make_shared<std::string>("town1+town2+town3");
+  c->add_option("TARGETS", *data, "Real logs (any reader's format)")->required()->expected(1, -1);
+  c->add_option("--towns", *towns, "Simulated source towns, joined by +")->capture_default_str();
+  add_common(c, *s);
+  c->callback([&runner, s, data, towns] {
+    runner.action = [s, data, towns] { return run_sim2real(*s, *data, *towns); };
+  });
+}
+
+// `experiment dynamic`: instantaneous maps of single scans (Table V).
+void add_dynamic(CLI::App* ex, Runner& runner) {
+  CLI::App* c = ex->add_subcommand(
+      "dynamic",
+      "Instantaneous maps in a dynamic scene (Table V): each scan mapped on its own, mean and "
+      "sd over scans (and seeds)");
+  auto s = std::make_shared<Settings>();
+  s->sim_scans = 50;
+  auto data = std::make_shared<std::vector<std::string>>();
+  auto sources = std::make_shared<std::vector<std::string>>(
+      std::vector<std::string>{"sim:town1", "sim:town2", "sim:town3"});
+  c->add_option("TARGETS", *data, "Target scenes (default simdyn:town1, Town 1 with traffic)");
+  c->add_option("--sources", *sources, "Source datasets, one table row each")
+      ->expected(1, -1)
+      ->capture_default_str();
+  c->add_option("--moving", s->moving, "Moving vehicles in simdyn: scenes")->capture_default_str();
+  add_common(c, *s);
+  c->callback([&runner, s, data, sources] {
+    runner.action = [s, data, sources] { return run_dynamic(*s, *data, *sources); };
+  });
+}
+
+// `experiment per-time`: BHM and ABHM matched to POT's time per scan (Table VI).
+void add_per_time(CLI::App* ex, Runner& runner) {
+  CLI::App* c = ex->add_subcommand(
+      "per-time",
+      "Per time unit (Table VI): BHM and ABHM with kernel counts matched to POT's time per "
+      "scan, beside their defaults, POT, RePOT and OGM");
+  auto s = std::make_shared<Settings>();
+  auto data = std::make_shared<std::vector<std::string>>();
+  c->add_option("TARGETS", *data, kDatasetHelp)->required()->expected(1, -1);
+  c->add_option("--budget-ms", s->budget_ms,
+                "Time per scan the matched BHM and ABHM may take, milliseconds (0: POT's, "
+                "measured on the first seed, as the paper)")
+      ->capture_default_str();
+  auto max_kernels = std::make_shared<std::size_t>(400000);
+  c->add_option("--max-kernels", *max_kernels, "Most kernels the matched BHM and ABHM may get")
+      ->capture_default_str();
+  c->add_option("--source", s->source,
+                "POT's source dataset (default: the other targets, each a place of its own)");
+  add_common(c, *s);
+  c->callback([&runner, s, data, max_kernels] {
+    runner.action = [s, data, max_kernels] { return run_per_time(*s, *data, *max_kernels); };
+  });
+}
+
 }  // namespace
 
 void register_experiment(CLI::App& app, Runner& runner) {
@@ -182,258 +451,11 @@ void register_experiment(CLI::App& app, Runner& runner) {
       "held-out beams (20 % per scan), tables of ACC, AUC, NLL and time per scan, JSON and "
       "figures");
   ex->require_subcommand(1);
-
-  // --- intra ---
-  {
-    CLI::App* c = ex->add_subcommand(
-        "intra",
-        "Intra-domain: the first --source-scans scans are the source, the rest the target");
-    auto s = std::make_shared<Settings>();
-    auto data = std::make_shared<std::vector<std::string>>();
-    c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(1, -1);
-    c->add_option("--source-scans", s->source_scans, "Scans forming the source")
-        ->capture_default_str();
-    add_common(c, *s);
-    c->callback([&runner, s, data] {
-      runner.action = [s, data] {
-        Harness h("intra-domain", *s);
-        const auto methods = h.methods();
-        bool warm = false;
-        for (const std::string& d : *data)
-          for (std::uint64_t seed : s->seeds) {
-            const auto scans = h.load(d, seed);
-            if (scans.size() <= s->source_scans)
-              throw InputError(d + ": " + std::to_string(scans.size()) + " scans, need more than " +
-                               std::to_string(s->source_scans));
-            if (!warm) h.warm_up(scans), warm = true;
-            const std::string l = Harness::label(d);
-            h.run_case(l, {slice(scans, 0, s->source_scans)}, l,
-                       slice(scans, s->source_scans, scans.size()), std::int64_t(s->source_scans),
-                       seed, methods);
-          }
-        h.finish("seeds");
-        return 0;
-      };
-    });
-  }
-
-  // --- inter ---
-  {
-    CLI::App* c = ex->add_subcommand(
-        "inter", "Inter-domain: source A, target B, for every ordered pair of the datasets");
-    auto s = std::make_shared<Settings>();
-    auto data = std::make_shared<std::vector<std::string>>();
-    c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(2, -1);
-    add_common(c, *s);
-    c->callback([&runner, s, data] {
-      runner.action = [s, data] {
-        Harness h("inter-domain", *s);
-        const auto methods = h.methods();
-        bool warm = false;
-        for (std::uint64_t seed : s->seeds)
-          for (const std::string& a : *data)
-            for (const std::string& b : *data) {
-              if (a == b) continue;
-              const auto src = h.load_places(a, seed);
-              const auto dst = h.load(b, seed);
-              if (!warm) h.warm_up(dst), warm = true;
-              h.run_case(Harness::label(a), src, Harness::label(b), dst, 0, seed, methods);
-            }
-        h.finish("seeds");
-        return 0;
-      };
-    });
-  }
-
-  // --- sim2real ---
-  {
-    CLI::App* c = ex->add_subcommand(
-        "sim2real", "Sim-to-real: source the built-in simulated towns, target real logs");
-    auto s = std::make_shared<Settings>();
-    auto data = std::make_shared<std::vector<std::string>>();
-    auto towns = std::make_shared<std::string>("town1+town2+town3");
-    c->add_option("TARGETS", *data, "Real logs (any reader's format)")->required()->expected(1, -1);
-    c->add_option("--towns", *towns, "Simulated source towns, joined by +")->capture_default_str();
-    add_common(c, *s);
-    c->callback([&runner, s, data, towns] {
-      runner.action = [s, data, towns] {
-        Harness h("sim-to-real", *s);
-        const auto methods = h.methods();
-        bool warm = false;
-        for (std::uint64_t seed : s->seeds) {
-          const std::string src_spec = "sim:" + *towns;
-          const auto src = h.load_places(src_spec, seed);
-          for (const std::string& b : *data) {
-            const auto dst = h.load(b, seed);
-            if (!warm) h.warm_up(dst), warm = true;
-            h.run_case(src_spec, src, Harness::label(b), dst, 0, seed, methods);
-          }
-        }
-        h.finish("seeds");
-        return 0;
-      };
-    });
-  }
-
-  // --- dynamic ---
-  {
-    CLI::App* c = ex->add_subcommand(
-        "dynamic",
-        "Instantaneous maps in a dynamic scene (Table V): each scan mapped on its own, mean and "
-        "sd over scans (and seeds)");
-    auto s = std::make_shared<Settings>();
-    s->sim_scans = 50;
-    auto data = std::make_shared<std::vector<std::string>>();
-    auto sources = std::make_shared<std::vector<std::string>>(
-        std::vector<std::string>{"sim:town1", "sim:town2", "sim:town3"});
-    c->add_option("TARGETS", *data, "Target scenes (default simdyn:town1, Town 1 with traffic)");
-    c->add_option("--sources", *sources, "Source datasets, one table row each")
-        ->expected(1, -1)
-        ->capture_default_str();
-    c->add_option("--moving", s->moving, "Moving vehicles in simdyn: scenes")
-        ->capture_default_str();
-    add_common(c, *s);
-    c->callback([&runner, s, data, sources] {
-      runner.action = [s, data, sources] {
-        if (data->empty()) data->push_back("simdyn:town1");
-        Harness h("dynamic", *s);
-        const auto methods = h.methods();
-        bool warm = false;
-        for (std::uint64_t seed : s->seeds)
-          for (const std::string& b : *data) {
-            const auto dst = h.load(b, seed);
-            if (!warm) h.warm_up(dst), warm = true;
-            for (const std::string& a : *sources)
-              h.run_instantaneous(Harness::label(a), h.load_places(a, seed), Harness::label(b), dst,
-                                  seed, methods);
-          }
-        h.finish("scans and seeds");
-        return 0;
-      };
-    });
-  }
-
-  // --- per-time ---
-  {
-    CLI::App* c = ex->add_subcommand(
-        "per-time",
-        "Per time unit (Table VI): BHM and ABHM with kernel counts matched to POT's time per "
-        "scan, beside their defaults, POT, RePOT and OGM");
-    auto s = std::make_shared<Settings>();
-    auto data = std::make_shared<std::vector<std::string>>();
-    c->add_option("TARGETS", *data, kDatasetHelp)->required()->expected(1, -1);
-    c->add_option("--budget-ms", s->budget_ms,
-                  "Time per scan the matched BHM and ABHM may take, milliseconds (0: POT's, "
-                  "measured on the first seed, as the paper)")
-        ->capture_default_str();
-    auto max_kernels = std::make_shared<std::size_t>(400000);
-    c->add_option("--max-kernels", *max_kernels, "Most kernels the matched BHM and ABHM may get")
-        ->capture_default_str();
-    c->add_option("--source", s->source,
-                  "POT's source dataset (default: the other targets, each a place of its own)");
-    add_common(c, *s);
-    c->callback([&runner, s, data, max_kernels] {
-      runner.action = [s, data, max_kernels] {
-        Harness h("per-time-unit", *s);
-        const auto base = h.methods();
-        const std::string list = "," + s->methods + ",";
-        const bool want_bhm = list.find(",bhm,") != std::string::npos;
-        const bool want_abhm = list.find(",abhm,") != std::string::npos;
-        const bool want_pot = list.find(",pot,") != std::string::npos;
-        const bool want_transfer = want_pot || list.find(",repot,") != std::string::npos;
-        if (s->budget_ms <= 0 && !want_pot)
-          throw ArgumentError("per-time: --budget-ms 0 takes POT's time: add pot to --methods");
-        for (const std::string& d : *data) {
-          const std::uint64_t seed0 = s->seeds.front();
-          const auto scans0 = h.load(d, seed0);
-          h.warm_up(scans0);
-          // POT's source: --source, or every other target (leave one out).
-          std::vector<std::string> srcs;
-          if (!s->source.empty())
-            srcs.push_back(s->source);
-          else
-            for (const std::string& o : *data)
-              if (o != d) srcs.push_back(o);
-          if (want_transfer && srcs.empty())
-            throw ArgumentError("per-time: POT needs --source when there is one target");
-          std::string src_label;
-          for (const std::string& o : srcs)
-            src_label += (src_label.empty() ? "" : "+") + Harness::label(o);
-          auto places = [&](std::uint64_t seed) {
-            std::vector<std::vector<Scan>> p;
-            for (const std::string& o : srcs)
-              for (auto& pl : h.load_places(o, seed)) p.push_back(std::move(pl));
-            return p;
-          };
-          // Every method at its defaults first, POT and RePOT included; POT's mean time per
-          // scan over the seeds is then the budget (its time varies several-fold between
-          // seeds, mostly in the high-quality transport).
-          for (std::uint64_t seed : s->seeds)
-            h.run_case(want_transfer ? src_label : "",
-                       want_transfer ? places(seed) : std::vector<std::vector<Scan>>{},
-                       Harness::label(d), h.load(d, seed), 0, seed, base);
-          std::vector<experiment::Method> methods;
-          LabelOptions lo;
-          lo.seed = seed0;
-          lo.free_per_metre = s->free_per_metre;
-          lo.holdout_fraction = s->holdout;
-          LabelledPoints test;
-          experiment::MapTask full = experiment::make_task(scans0, lo, test);
-          full.seed = seed0;
-          double budget = s->budget_ms;
-          if (budget <= 0) {
-            budget = h.mean_ms_per_scan(Harness::label(d), "POT");
-            std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": POT took " << budget
-                      << " ms per scan (mean over the seeds): the budget\n";
-          }
-          std::cerr << "potmap: per-time-unit " << Harness::label(d) << ": matching " << budget
-                    << " ms per scan\n";
-          if (want_bhm) {
-            // A fixed width (the default grid's) so that more kernels cost more time.
-            experiment::BhmSetup b = s->bhm;
-            b.gamma = b.gamma > 0 ? b.gamma : 8.0 / (b.spacing * b.spacing);
-            double vol = 1;
-            for (int k = 0; k < full.dim; ++k) vol *= full.hi[k] - full.lo[k];
-            const std::size_t start =
-                std::max<std::size_t>(16, std::size_t(vol / (b.spacing * b.spacing)));
-            double got = 0;
-            int probes = 0;
-            b.count = match_budget(
-                [&](std::size_t n) {
-                  experiment::BhmSetup x = b;
-                  x.count = n;
-                  const auto f = experiment::bhm_method(x).fit(h.context(), full);
-                  return 1e3 * f.fit_seconds / double(full.train_scans.size());
-                },
-                start, budget, &got, double(*max_kernels), &probes);
-            methods.push_back(
-                with_budget(experiment::bhm_method(b, "BHM (budget)"), budget, got, probes));
-          }
-          if (want_abhm) {
-            experiment::AbhmSetup a = s->abhm;
-            double got = 0;
-            int probes = 0;
-            a.count = match_budget(
-                [&](std::size_t n) {
-                  experiment::AbhmSetup x = a;
-                  x.count = n;
-                  const auto f = experiment::abhm_method(x).fit(h.context(), full);
-                  return 1e3 * f.fit_seconds / double(full.train_scans.size());
-                },
-                s->abhm.count, budget, &got, double(*max_kernels), &probes);
-            methods.push_back(
-                with_budget(experiment::abhm_method(a, "ABHM (budget)"), budget, got, probes));
-          }
-          for (std::uint64_t seed : s->seeds)
-            h.run_case(want_transfer ? src_label : "",
-                       want_transfer ? places(seed) : std::vector<std::vector<Scan>>{},
-                       Harness::label(d), h.load(d, seed), 0, seed, methods);
-        }
-        h.finish("seeds");
-        return 0;
-      };
-    });
-  }
+  add_intra(ex, runner);
+  add_inter(ex, runner);
+  add_sim2real(ex, runner);
+  add_dynamic(ex, runner);
+  add_per_time(ex, runner);
 }
 
 }  // namespace potmap::cli

@@ -62,23 +62,106 @@ void resolve_area(const AreaArgs& a, const LabelledPoints& pts, double lo[3], do
   }
 }
 
-}  // namespace
+struct BhmArgs {
+  std::string input, output, prior;
+  AreaArgs area;
+  std::string model = "joint";
+  double gamma = 0.0, var0 = 0.0;
+  int em = 3;
+  bool sequential = false, cpu = false, bias = false, no_bias = false;
+};
 
-void register_learn(CLI::App& app, Runner& runner) {
-  CLI::App* learn = app.add_subcommand("learn", "Learn a kernel map from labelled samples");
-  learn->require_subcommand(1);
+struct AbhmArgs {
+  std::string input, output, checkpoint, params;
+  AreaArgs area;
+  double gamma0 = 1.0;
+  bool halton = false, cpu = false;
+  std::size_t steps = 2450, batch = 256, report = 100;
+  std::uint64_t seed = 1;
+};
 
-  // --- bhm ---
+// The joint-posterior BHM of the samples on a grid (spacing: the model's unless given).
+void learn_joint_bhm(const BhmArgs& b, const LabelledPoints& pts, bool spacing_given) {
+  if (!b.prior.empty()) throw ArgumentError("--prior needs --model diagonal");
+  AreaArgs area = b.area;
+  if (!spacing_given) area.spacing = JointBhmOptions{}.spacing;
+  double lo[3], hi[3], spacing;
+  resolve_area(area, pts, lo, hi, spacing);
+  JointBhmOptions o;
+  o.spacing = spacing;
+  o.gamma = b.gamma;
+  if (b.var0 > 0) o.prior_var = b.var0;
+  o.bias = !b.no_bias;
+  o.em_iterations = b.em;
+  JointBhm learner(pts.dim, lo, hi, o);
+  std::cerr << "potmap: joint BHM over " << pts.size() << " samples, " << learner.size()
+            << " kernels " << spacing << " m apart, gamma " << learner.gamma() << "\n";
+  if (b.sequential)
+    learner.update_by_scan(pts);
+  else
+    learner.update(pts);
+  write_map(learner.map(), b.output);
+}
+
+// The diagonal BHM of the samples, on a grid or a given prior map, on the device or the CPU.
+void learn_diagonal_bhm(const BhmArgs& b, const LabelledPoints& pts, const std::string& device) {
+  KernelMap map;
+  if (!b.prior.empty()) {
+    map = read_map(b.prior);
+  } else {
+    double lo[3], hi[3], spacing;
+    resolve_area(b.area, pts, lo, hi, spacing);
+    const double gamma = b.gamma > 0 ? b.gamma : 8.0 / (spacing * spacing);
+    map = bhm_grid_prior(pts.dim, lo, hi, spacing, gamma, 0.0, b.var0 > 0 ? b.var0 : 1e4, b.bias);
+  }
+  std::cerr << "potmap: BHM over " << pts.size() << " samples, " << map.size() << " kernels\n";
+  BhmOptions o;
+  o.em_iterations = b.em;
+  std::unique_ptr<Context> ctx;
+  if (!b.cpu) ctx = std::make_unique<Context>(make_context(device));
+  if (b.sequential)
+    bhm_update_sequential(ctx.get(), map, pts, o);
+  else if (ctx)
+    bhm_update(*ctx, map, pts, o);
+  else
+    bhm_update_reference(map, pts, o);
+  write_map(map, b.output);
+}
+
+// ABHM from a grid or a Halton start, on the device or the CPU.
+void learn_abhm(const AbhmArgs& a, const std::string& device) {
+  const LabelledPoints pts = read_labelled_csv(a.input);
+  double lo[3], hi[3], spacing;
+  resolve_area(a.area, pts, lo, hi, spacing);
+  AbhmParams p;
+  if (a.halton) {
+    if (a.area.count == 0) throw ArgumentError("--halton needs --count");
+    p = abhm_init_halton(pts.dim, lo, hi, a.area.count, a.gamma0);
+  } else {
+    p = abhm_init_grid(pts.dim, lo, hi, spacing, a.gamma0);
+  }
+  std::cerr << "potmap: ABHM over " << pts.size() << " samples, " << p.size() << " kernels, "
+            << a.steps << " steps\n";
+  std::unique_ptr<Context> ctx;
+  if (!a.cpu) ctx = std::make_unique<Context>(make_context(device));
+  AbhmOptions o;
+  o.steps = a.steps;
+  o.batch = a.batch;
+  o.seed = a.seed;
+  o.report_every = a.report;
+  o.checkpoint = a.checkpoint;
+  o.device = ctx.get();
+  o.progress = [](std::size_t step, double elbo) {
+    std::fprintf(stderr, "potmap: step %zu ELBO %.3f\n", step, elbo);
+  };
+  abhm_train(p, pts, o);
+  write_map(p.to_map(), a.output);
+  if (!a.params.empty()) write_abhm_params(p, a.params);
+}
+
+void add_bhm(CLI::App* learn, Runner& runner) {
   CLI::App* bhm = learn->add_subcommand(
       "bhm", "Bayesian Hilbert map: kernels on a grid, weights by the Jaakkola-Jordan bound");
-  struct BhmArgs {
-    std::string input, output, prior;
-    AreaArgs area;
-    std::string model = "joint";
-    double gamma = 0.0, var0 = 0.0;
-    int em = 3;
-    bool sequential = false, cpu = false, bias = false, no_bias = false;
-  };
   auto b = std::make_shared<BhmArgs>();
   bhm->add_option("input", b->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
   bhm->add_option("-o,--output", b->output, "Map file to write")->required();
@@ -107,65 +190,18 @@ void register_learn(CLI::App& app, Runner& runner) {
     const bool spacing_given = bhm->count("--spacing") > 0;
     runner.action = [b, bdev, spacing_given] {
       const LabelledPoints pts = read_labelled_csv(b->input);
-      if (b->model == "joint") {
-        if (!b->prior.empty()) throw ArgumentError("--prior needs --model diagonal");
-        AreaArgs area = b->area;
-        if (!spacing_given) area.spacing = JointBhmOptions{}.spacing;
-        double lo[3], hi[3], spacing;
-        resolve_area(area, pts, lo, hi, spacing);
-        JointBhmOptions o;
-        o.spacing = spacing;
-        o.gamma = b->gamma;
-        if (b->var0 > 0) o.prior_var = b->var0;
-        o.bias = !b->no_bias;
-        o.em_iterations = b->em;
-        JointBhm learner(pts.dim, lo, hi, o);
-        std::cerr << "potmap: joint BHM over " << pts.size() << " samples, " << learner.size()
-                  << " kernels " << spacing << " m apart, gamma " << learner.gamma() << "\n";
-        if (b->sequential)
-          learner.update_by_scan(pts);
-        else
-          learner.update(pts);
-        write_map(learner.map(), b->output);
-        return 0;
-      }
-      KernelMap map;
-      if (!b->prior.empty()) {
-        map = read_map(b->prior);
-      } else {
-        double lo[3], hi[3], spacing;
-        resolve_area(b->area, pts, lo, hi, spacing);
-        const double gamma = b->gamma > 0 ? b->gamma : 8.0 / (spacing * spacing);
-        map = bhm_grid_prior(pts.dim, lo, hi, spacing, gamma, 0.0, b->var0 > 0 ? b->var0 : 1e4,
-                             b->bias);
-      }
-      std::cerr << "potmap: BHM over " << pts.size() << " samples, " << map.size() << " kernels\n";
-      BhmOptions o;
-      o.em_iterations = b->em;
-      std::unique_ptr<Context> ctx;
-      if (!b->cpu) ctx = std::make_unique<Context>(make_context(*bdev));
-      if (b->sequential)
-        bhm_update_sequential(ctx.get(), map, pts, o);
-      else if (ctx)
-        bhm_update(*ctx, map, pts, o);
+      if (b->model == "joint")
+        learn_joint_bhm(*b, pts, spacing_given);
       else
-        bhm_update_reference(map, pts, o);
-      write_map(map, b->output);
+        learn_diagonal_bhm(*b, pts, *bdev);
       return 0;
     };
   });
+}
 
-  // --- abhm ---
+void add_abhm(CLI::App* learn, Runner& runner) {
   CLI::App* abhm = learn->add_subcommand(
       "abhm", "Automorphing BHM: per-kernel position, width and weight by variational inference");
-  struct AbhmArgs {
-    std::string input, output, checkpoint, params;
-    AreaArgs area;
-    double gamma0 = 1.0;
-    bool halton = false, cpu = false;
-    std::size_t steps = 2450, batch = 256, report = 100;
-    std::uint64_t seed = 1;
-  };
   auto a = std::make_shared<AbhmArgs>();
   abhm->add_option("input", a->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
   abhm->add_option("-o,--output", a->output, "Map file to write (means of q)")->required();
@@ -185,36 +221,19 @@ void register_learn(CLI::App& app, Runner& runner) {
   auto adev = add_device_option(abhm);
   abhm->callback([&runner, a, adev] {
     runner.action = [a, adev] {
-      const LabelledPoints pts = read_labelled_csv(a->input);
-      double lo[3], hi[3], spacing;
-      resolve_area(a->area, pts, lo, hi, spacing);
-      AbhmParams p;
-      if (a->halton) {
-        if (a->area.count == 0) throw ArgumentError("--halton needs --count");
-        p = abhm_init_halton(pts.dim, lo, hi, a->area.count, a->gamma0);
-      } else {
-        p = abhm_init_grid(pts.dim, lo, hi, spacing, a->gamma0);
-      }
-      std::cerr << "potmap: ABHM over " << pts.size() << " samples, " << p.size() << " kernels, "
-                << a->steps << " steps\n";
-      std::unique_ptr<Context> ctx;
-      if (!a->cpu) ctx = std::make_unique<Context>(make_context(*adev));
-      AbhmOptions o;
-      o.steps = a->steps;
-      o.batch = a->batch;
-      o.seed = a->seed;
-      o.report_every = a->report;
-      o.checkpoint = a->checkpoint;
-      o.device = ctx.get();
-      o.progress = [](std::size_t step, double elbo) {
-        std::fprintf(stderr, "potmap: step %zu ELBO %.3f\n", step, elbo);
-      };
-      abhm_train(p, pts, o);
-      write_map(p.to_map(), a->output);
-      if (!a->params.empty()) write_abhm_params(p, a->params);
+      learn_abhm(*a, *adev);
       return 0;
     };
   });
+}
+
+}  // namespace
+
+void register_learn(CLI::App& app, Runner& runner) {
+  CLI::App* learn = app.add_subcommand("learn", "Learn a kernel map from labelled samples");
+  learn->require_subcommand(1);
+  add_bhm(learn, runner);
+  add_abhm(learn, runner);
 }
 
 }  // namespace potmap::cli

@@ -409,91 +409,260 @@ void Harness::warm_up(const std::vector<Scan>& scans) {
   }
 }
 
-void Harness::finish(const std::string& spread) {
-  // Cases in first-seen order; groups in method order.
-  std::vector<std::pair<std::string, std::string>> cases;
+namespace {
+
+using Case = std::pair<std::string, std::string>;  // (source, target)
+
+// One (case, group) cell of the table: the statistics of the group's chosen member.
+struct Cell {
+  Stat acc, auc, nll, ms, f1, precision, recall, chamfer;
+  std::string chosen;
+  bool present = false;
+};
+
+// The records summarised: cases in first-seen order, groups in method order, a cell for each
+// (case, group) that has records, the JSON table rows, and the figures of members not chosen.
+struct Summary {
+  std::vector<Case> cases;
   std::vector<std::string> groups;
-  for (const Record& r : records_) {
-    const auto c = std::make_pair(r.source, r.target);
-    if (std::find(cases.begin(), cases.end(), c) == cases.end()) cases.push_back(c);
-    if (std::find(groups.begin(), groups.end(), r.group) == groups.end()) groups.push_back(r.group);
-  }
+  std::map<std::pair<std::size_t, std::size_t>, Cell> cells;
   nlohmann::json table = nlohmann::json::array();
   std::set<std::string> losing_figures;
-  struct Cell {
-    Stat acc, auc, nll, ms, f1, precision, recall, chamfer;
-    std::string chosen;
-    bool present = false;
-  };
-  std::map<std::pair<std::size_t, std::size_t>, Cell> cells;
-  for (std::size_t ci = 0; ci < cases.size(); ++ci)
-    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      // Members of the group on this case; the best by mean AUC (then NLL) represents it, as
-      // the paper reports the best OGM cell size.
+};
+
+std::string case_label(const Case& c, const char* arrow) {
+  const auto& [src, dst] = c;
+  return src.empty() || src == dst ? dst : src + arrow + dst;
+}
+
+// The member of a group (in `order`) that represents it: the best by mean AUC, then NLL, as the
+// paper reports the best OGM cell size.
+std::string choose_member(const std::vector<std::string>& order,
+                          const std::map<std::string, std::vector<const Record*>>& members) {
+  std::string best;
+  double best_auc = -1, best_nll = HUGE_VAL;
+  for (const std::string& name : order) {
+    std::vector<double> a, n;
+    for (const Record* r : members.at(name)) {
+      a.push_back(r->scores.auc);
+      n.push_back(r->scores.nll);
+    }
+    const double ma = stat(a).mean, mn = stat(n).mean;
+    const double key_a = std::isfinite(ma) ? ma : -1;
+    if (best.empty() || key_a > best_auc || (key_a == best_auc && mn < best_nll)) {
+      best = name;
+      best_auc = key_a;
+      best_nll = mn;
+    }
+  }
+  return best;
+}
+
+// The statistics of one member's records; `figures` receives their figures.
+Cell member_cell(const std::vector<const Record*>& records, const std::string& name,
+                 std::set<std::string>& figures) {
+  std::vector<double> acc, auc, nll, ms, f1, precision, recall, chamfer;
+  for (const Record* r : records) {
+    acc.push_back(r->scores.acc);
+    auc.push_back(r->scores.auc);
+    nll.push_back(r->scores.nll);
+    ms.push_back(r->per_scan_ms);
+    f1.push_back(r->structure.f1);
+    precision.push_back(r->structure.precision);
+    recall.push_back(r->structure.recall);
+    chamfer.push_back(r->structure.chamfer_m);
+    for (const std::string& f : r->figures) figures.insert(f);
+  }
+  return {stat(acc),       stat(auc),    stat(nll),     stat(ms), stat(f1),
+          stat(precision), stat(recall), stat(chamfer), name,     true};
+}
+
+nlohmann::json cell_row(const Case& c, const std::string& group, const Cell& cell,
+                        const std::set<std::string>& figures) {
+  nlohmann::json row;
+  row["source"] = c.first;
+  row["target"] = c.second;
+  row["method"] = group;
+  row["chosen"] = cell.chosen;
+  row["acc"] = to_json(cell.acc);
+  row["auc"] = to_json(cell.auc);
+  row["nll"] = to_json(cell.nll);
+  row["ms_per_scan"] = to_json(cell.ms);
+  row["f1"] = to_json(cell.f1);
+  row["precision"] = to_json(cell.precision);
+  row["recall"] = to_json(cell.recall);
+  row["chamfer_m"] = to_json(cell.chamfer);
+  row["figures"] = std::vector<std::string>(figures.begin(), figures.end());
+  return row;
+}
+
+Summary summarise(const std::vector<Record>& records) {
+  Summary sum;
+  for (const Record& r : records) {
+    const Case c = std::make_pair(r.source, r.target);
+    if (std::find(sum.cases.begin(), sum.cases.end(), c) == sum.cases.end()) sum.cases.push_back(c);
+    if (std::find(sum.groups.begin(), sum.groups.end(), r.group) == sum.groups.end())
+      sum.groups.push_back(r.group);
+  }
+  for (std::size_t ci = 0; ci < sum.cases.size(); ++ci)
+    for (std::size_t gi = 0; gi < sum.groups.size(); ++gi) {
       std::map<std::string, std::vector<const Record*>> members;
       std::vector<std::string> order;
-      for (const Record& r : records_)
-        if (r.source == cases[ci].first && r.target == cases[ci].second && r.group == groups[gi]) {
+      for (const Record& r : records)
+        if (r.source == sum.cases[ci].first && r.target == sum.cases[ci].second &&
+            r.group == sum.groups[gi]) {
           if (!members.count(r.method)) order.push_back(r.method);
           members[r.method].push_back(&r);
         }
       if (members.empty()) continue;
-      std::string best;
-      double best_auc = -1, best_nll = HUGE_VAL;
-      for (const std::string& name : order) {
-        std::vector<double> a, n;
-        for (const Record* r : members[name]) {
-          a.push_back(r->scores.auc);
-          n.push_back(r->scores.nll);
-        }
-        const double ma = stat(a).mean, mn = stat(n).mean;
-        const double key_a = std::isfinite(ma) ? ma : -1;
-        if (best.empty() || key_a > best_auc || (key_a == best_auc && mn < best_nll)) {
-          best = name;
-          best_auc = key_a;
-          best_nll = mn;
-        }
-      }
+      const std::string best = choose_member(order, members);
       for (const std::string& name : order)
         if (name != best)
           for (const Record* r : members[name])
-            for (const std::string& f : r->figures) losing_figures.insert(f);
-      std::vector<double> acc, auc, nll, ms, f1, precision, recall, chamfer;
+            for (const std::string& f : r->figures) sum.losing_figures.insert(f);
       std::set<std::string> figs_of_best;
-      for (const Record* r : members[best]) {
-        acc.push_back(r->scores.acc);
-        auc.push_back(r->scores.auc);
-        nll.push_back(r->scores.nll);
-        ms.push_back(r->per_scan_ms);
-        f1.push_back(r->structure.f1);
-        precision.push_back(r->structure.precision);
-        recall.push_back(r->structure.recall);
-        chamfer.push_back(r->structure.chamfer_m);
-        for (const std::string& f : r->figures) figs_of_best.insert(f);
-      }
-      for (const std::string& f : figs_of_best) losing_figures.erase(f);
-      Cell& cell = cells[{ci, gi}];
-      cell = {stat(acc),       stat(auc),    stat(nll),     stat(ms), stat(f1),
-              stat(precision), stat(recall), stat(chamfer), best,     true};
-      nlohmann::json row;
-      row["source"] = cases[ci].first;
-      row["target"] = cases[ci].second;
-      row["method"] = groups[gi];
-      row["chosen"] = best;
-      row["acc"] = to_json(cell.acc);
-      row["auc"] = to_json(cell.auc);
-      row["nll"] = to_json(cell.nll);
-      row["ms_per_scan"] = to_json(cell.ms);
-      row["f1"] = to_json(cell.f1);
-      row["precision"] = to_json(cell.precision);
-      row["recall"] = to_json(cell.recall);
-      row["chamfer_m"] = to_json(cell.chamfer);
-      row["figures"] = std::vector<std::string>(figs_of_best.begin(), figs_of_best.end());
-      table.push_back(row);
+      Cell& cell = sum.cells[{ci, gi}];
+      cell = member_cell(members[best], best, figs_of_best);
+      for (const std::string& f : figs_of_best) sum.losing_figures.erase(f);
+      sum.table.push_back(cell_row(sum.cases[ci], sum.groups[gi], cell, figs_of_best));
     }
-  for (const std::string& f : losing_figures) fs::remove(f);
+  return sum;
+}
 
-  // Comparison figures: per case with figures, the reference, then each group's representative.
+// One text cell of the table: metric mi of a cell, "-" where the group has none.
+std::string metric_text(const Summary& sum, std::size_t ci, std::size_t gi, int mi) {
+  auto it = sum.cells.find({ci, gi});
+  if (it == sum.cells.end()) return "-";
+  const Cell& c = it->second;
+  const Stat& s = mi == 0   ? c.acc
+                  : mi == 1 ? c.auc
+                  : mi == 2 ? c.nll
+                  : mi == 3 ? c.f1
+                  : mi == 4 ? c.chamfer
+                            : c.ms;
+  char buf[256];
+  if (mi == 5)
+    std::snprintf(buf, sizeof buf, "%.1f±%.1f", s.mean, s.sd);
+  else if (mi == 4)
+    std::snprintf(buf, sizeof buf, "%.2f±%.2f", s.mean, s.sd);
+  else
+    std::snprintf(buf, sizeof buf, "%.3f±%.3f", s.mean, s.sd);
+  return buf;
+}
+
+// The paper-style table: one block per metric, methods as rows, cases as columns.
+std::string table_text(const std::string& experiment, const std::string& spread, const Summary& sum,
+                       const Settings& s) {
+  std::ostringstream out;
+  out << experiment << " (mean ± sd over " << spread << "; held-out beams only)\n";
+  // F1 and chamfer: occupied cells against the OGM reference (structure_score.hpp).
+  const char* metric_names[] = {"ACC", "AUC", "NLL", "F1", "chamfer m", "ms/scan"};
+  char buf[256];
+  for (int mi = 0; mi < 6; ++mi) {
+    std::snprintf(buf, sizeof buf, "%-9s %-16s", metric_names[mi], "method");
+    out << buf;
+    for (const Case& c : sum.cases) {
+      std::snprintf(buf, sizeof buf, " %20s", case_label(c, "→").c_str());
+      out << buf;
+    }
+    out << "\n";
+    for (std::size_t gi = 0; gi < sum.groups.size(); ++gi) {
+      std::snprintf(buf, sizeof buf, "%-9s %-16s", "", sum.groups[gi].c_str());
+      out << buf;
+      for (std::size_t ci = 0; ci < sum.cases.size(); ++ci) {
+        std::snprintf(buf, sizeof buf, " %20s", metric_text(sum, ci, gi, mi).c_str());
+        out << buf;
+      }
+      out << "\n";
+    }
+  }
+  for (std::size_t ci = 0; ci < sum.cases.size(); ++ci)
+    for (std::size_t gi = 0; gi < sum.groups.size(); ++gi) {
+      auto it = sum.cells.find({ci, gi});
+      if (it != sum.cells.end() && it->second.chosen != sum.groups[gi])
+        out << case_label(sum.cases[ci], "→") << ": " << sum.groups[gi] << " is "
+            << it->second.chosen << " (best mean AUC of its group)\n";
+    }
+  out << "F1, chamfer m: the map's occupied cells (p > 0.501) against those of an OGM at "
+      << s.structure_cell << " m of the training scans (tolerance " << s.structure_tolerance
+      << " m; mean nearest-cell distance); 2D tasks only\n";
+  return out.str();
+}
+
+nlohmann::json settings_json(const Settings& s) {
+  return {{"seeds", s.seeds},
+          {"scans_cap", s.scans},
+          {"source_scans", s.source_scans},
+          {"sim_scans", s.sim_scans},
+          {"methods", s.methods},
+          {"ogm_cells", s.ogm_cells},
+          {"bhm_joint", s.bhm.joint},
+          {"bhm_spacing", s.bhm.spacing},
+          {"bhm_gamma", s.bhm.gamma},
+          {"bhm_prior_var", s.bhm.prior_var},
+          {"bhm_em", s.bhm.options.em_iterations},
+          {"abhm_kernels", s.abhm.count},
+          {"abhm_steps", s.abhm.steps},
+          {"free_per_metre", s.free_per_metre},
+          {"max_range", s.max_range},
+          {"pot_atom_map", s.pot.atom_map},
+          {"pot_atom_scans", s.pot.atom_scans},
+          {"pot_rotations", s.rotations},
+          {"pot_sectors", s.pot.pot.sectors},
+          {"pot_merge_radius", s.pot.overall.merge_radius},
+          {"pot_kernels_at_samples", s.pot.dictionary.kernels_at_samples},
+          {"pot_wall_clearance", s.pot.pot.wall_clearance},
+          {"pot_displacement_variance", s.pot.pot.displacement_variance},
+          {"pot_sample_distance", s.pot.pot.max_sample_distance},
+          {"repot_persistent", s.pot.persistent_refine},
+          {"repot_seed_min_variance", s.pot.seed_min_variance},
+          {"holdout", s.holdout},
+          {"budget_ms", s.budget_ms},
+          {"structure",
+           {{"reference",
+             "OGM of the training scans, cells with p >= 0.5 occupied, "
+             "unknown free"},
+            {"cell_m", s.structure_cell},
+            {"tolerance_m", s.structure_tolerance},
+            {"max_cells", s.structure_max_cells}}}};
+}
+
+nlohmann::json run_json(const Record& r) {
+  nlohmann::json x;
+  x["source"] = r.source;
+  x["target"] = r.target;
+  x["method"] = r.method;
+  x["group"] = r.group;
+  x["seed"] = r.seed;
+  if (r.scan >= 0) x["scan"] = r.scan;
+  x["acc"] = finite_or_null(r.scores.acc);
+  x["auc"] = finite_or_null(r.scores.auc);
+  x["nll"] = finite_or_null(r.scores.nll);
+  x["n_test"] = r.scores.n;
+  x["scans"] = r.scans;
+  x["fit_s"] = r.fit_s;
+  x["ms_per_scan"] = finite_or_null(r.per_scan_ms);
+  x["query_s"] = r.query_s;
+  x["precision"] = finite_or_null(r.structure.precision);
+  x["recall"] = finite_or_null(r.structure.recall);
+  x["f1"] = finite_or_null(r.structure.f1);
+  x["chamfer_m"] = finite_or_null(r.structure.chamfer_m);
+  x["map_cells"] = r.structure.map_cells;
+  x["reference_cells"] = r.structure.reference_cells;
+  x["structure_cell_m"] = finite_or_null(r.structure_cell_m);
+  x["structure_tolerance_m"] = finite_or_null(r.structure_tolerance_m);
+  x["structure_s"] = r.structure_s;
+  x["info"] = r.info;
+  return x;
+}
+
+}  // namespace
+
+nlohmann::json Harness::write_compare_figures(const std::vector<Case>& cases,
+                                              const std::vector<std::string>& groups,
+                                              const std::vector<std::string>& chosen) const {
+  // Per case with figures, the reference, then each group's representative (chosen[ci *
+  // groups + gi], empty where the group has no cell).
   nlohmann::json compare = nlohmann::json::array();
   for (std::size_t ci = 0; ci < cases.size() && !s_.figures.empty(); ++ci) {
     const auto ref = compare_refs_.find(cases[ci]);
@@ -505,11 +674,11 @@ void Harness::finish(const std::string& spread) {
     }
     std::size_t methods_drawn = 0;
     for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      auto it = cells.find({ci, gi});
-      if (it == cells.end()) continue;
+      const std::string& method = chosen[ci * groups.size() + gi];
+      if (method.empty()) continue;
       for (const Record& r : records_)
-        if (r.source == cases[ci].first && r.target == cases[ci].second &&
-            r.method == it->second.chosen && r.picture) {
+        if (r.source == cases[ci].first && r.target == cases[ci].second && r.method == method &&
+            r.picture) {
           panels.push_back(r.picture.get());
           names.push_back(r.method);
           ++methods_drawn;
@@ -518,71 +687,26 @@ void Harness::finish(const std::string& spread) {
     }
     if (methods_drawn == 0) continue;
     const auto& [src, dst] = cases[ci];
-    const std::string label = src.empty() || src == dst ? dst : src + "-" + dst;
     const std::string path =
-        (fs::path(s_.figures) / (slug(experiment_ + "_" + label + "_compare") + "_prob.png"))
+        (fs::path(s_.figures) /
+         (slug(experiment_ + "_" + case_label(cases[ci], "-") + "_compare") + "_prob.png"))
             .string();
     experiment::write_side_by_side(panels, path);
     compare.push_back({{"source", src}, {"target", dst}, {"file", path}, {"panels", names}});
   }
+  return compare;
+}
 
-  // The paper-style table: one block per metric, methods as rows, cases as columns.
-  std::ostringstream out;
-  out << experiment_ << " (mean ± sd over " << spread << "; held-out beams only)\n";
-  auto case_name = [&](std::size_t ci) {
-    const auto& [src, dst] = cases[ci];
-    return src.empty() || src == dst ? dst : src + "→" + dst;
-  };
-  // F1 and chamfer: occupied cells against the OGM reference (structure_score.hpp).
-  const char* metric_names[] = {"ACC", "AUC", "NLL", "F1", "chamfer m", "ms/scan"};
-  for (int mi = 0; mi < 6; ++mi) {
-    char buf[256];
-    std::snprintf(buf, sizeof buf, "%-9s %-16s", metric_names[mi], "method");
-    out << buf;
-    for (std::size_t ci = 0; ci < cases.size(); ++ci) {
-      std::snprintf(buf, sizeof buf, " %20s", case_name(ci).c_str());
-      out << buf;
-    }
-    out << "\n";
-    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      std::snprintf(buf, sizeof buf, "%-9s %-16s", "", groups[gi].c_str());
-      out << buf;
-      for (std::size_t ci = 0; ci < cases.size(); ++ci) {
-        auto it = cells.find({ci, gi});
-        std::string v = "-";
-        if (it != cells.end()) {
-          const Stat& s = mi == 0   ? it->second.acc
-                          : mi == 1 ? it->second.auc
-                          : mi == 2 ? it->second.nll
-                          : mi == 3 ? it->second.f1
-                          : mi == 4 ? it->second.chamfer
-                                    : it->second.ms;
-          if (mi == 5)
-            std::snprintf(buf, sizeof buf, "%.1f±%.1f", s.mean, s.sd);
-          else if (mi == 4)
-            std::snprintf(buf, sizeof buf, "%.2f±%.2f", s.mean, s.sd);
-          else
-            std::snprintf(buf, sizeof buf, "%.3f±%.3f", s.mean, s.sd);
-          v = buf;
-        }
-        std::snprintf(buf, sizeof buf, " %20s", v.c_str());
-        out << buf;
-      }
-      out << "\n";
-    }
-  }
-  for (std::size_t ci = 0; ci < cases.size(); ++ci)
-    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      auto it = cells.find({ci, gi});
-      if (it != cells.end() && it->second.chosen != groups[gi])
-        out << case_name(ci) << ": " << groups[gi] << " is " << it->second.chosen
-            << " (best mean AUC of its group)\n";
-    }
-  out << "F1, chamfer m: the map's occupied cells (p > 0.501) against those of an OGM at "
-      << s_.structure_cell << " m of the training scans (tolerance " << s_.structure_tolerance
-      << " m; mean nearest-cell distance); 2D tasks only\n";
+void Harness::finish(const std::string& spread) {
+  const Summary sum = summarise(records_);
+  for (const std::string& f : sum.losing_figures) fs::remove(f);
+  std::vector<std::string> chosen(sum.cases.size() * sum.groups.size());
+  for (const auto& [key, cell] : sum.cells)
+    chosen[key.first * sum.groups.size() + key.second] = cell.chosen;
+  const nlohmann::json compare = write_compare_figures(sum.cases, sum.groups, chosen);
+  const std::string text = table_text(experiment_, spread, sum, s_);
   // With the JSON on stdout the table goes to stderr, so that stdout parses.
-  (s_.json == "-" ? std::cerr : std::cout) << out.str() << std::flush;
+  (s_.json == "-" ? std::cerr : std::cout) << text << std::flush;
 
   if (s_.json.empty()) return;
   nlohmann::json j;
@@ -591,74 +715,13 @@ void Harness::finish(const std::string& spread) {
   j["spread"] = spread;
   j["machine"] = {{"cpu", cpu_model()}, {"hardware_threads", std::thread::hardware_concurrency()}};
   j["device"] = ctx_ ? ctx_->info().summary() : std::string("CPU reference (no OpenCL)");
-  j["settings"] = {{"seeds", s_.seeds},
-                   {"scans_cap", s_.scans},
-                   {"source_scans", s_.source_scans},
-                   {"sim_scans", s_.sim_scans},
-                   {"methods", s_.methods},
-                   {"ogm_cells", s_.ogm_cells},
-                   {"bhm_joint", s_.bhm.joint},
-                   {"bhm_spacing", s_.bhm.spacing},
-                   {"bhm_gamma", s_.bhm.gamma},
-                   {"bhm_prior_var", s_.bhm.prior_var},
-                   {"bhm_em", s_.bhm.options.em_iterations},
-                   {"abhm_kernels", s_.abhm.count},
-                   {"abhm_steps", s_.abhm.steps},
-                   {"free_per_metre", s_.free_per_metre},
-                   {"max_range", s_.max_range},
-                   {"pot_atom_map", s_.pot.atom_map},
-                   {"pot_atom_scans", s_.pot.atom_scans},
-                   {"pot_rotations", s_.rotations},
-                   {"pot_sectors", s_.pot.pot.sectors},
-                   {"pot_merge_radius", s_.pot.overall.merge_radius},
-                   {"pot_kernels_at_samples", s_.pot.dictionary.kernels_at_samples},
-                   {"pot_wall_clearance", s_.pot.pot.wall_clearance},
-                   {"pot_displacement_variance", s_.pot.pot.displacement_variance},
-                   {"pot_sample_distance", s_.pot.pot.max_sample_distance},
-                   {"repot_persistent", s_.pot.persistent_refine},
-                   {"repot_seed_min_variance", s_.pot.seed_min_variance},
-                   {"holdout", s_.holdout},
-                   {"budget_ms", s_.budget_ms},
-                   {"structure",
-                    {{"reference",
-                      "OGM of the training scans, cells with p >= 0.5 occupied, "
-                      "unknown free"},
-                     {"cell_m", s_.structure_cell},
-                     {"tolerance_m", s_.structure_tolerance},
-                     {"max_cells", s_.structure_max_cells}}}};
-  j["table"] = table;
+  j["settings"] = settings_json(s_);
+  j["table"] = sum.table;
   j["compare_figures"] = compare;
   nlohmann::json runs = nlohmann::json::array();
-  for (const Record& r : records_) {
-    nlohmann::json x;
-    x["source"] = r.source;
-    x["target"] = r.target;
-    x["method"] = r.method;
-    x["group"] = r.group;
-    x["seed"] = r.seed;
-    if (r.scan >= 0) x["scan"] = r.scan;
-    x["acc"] = finite_or_null(r.scores.acc);
-    x["auc"] = finite_or_null(r.scores.auc);
-    x["nll"] = finite_or_null(r.scores.nll);
-    x["n_test"] = r.scores.n;
-    x["scans"] = r.scans;
-    x["fit_s"] = r.fit_s;
-    x["ms_per_scan"] = finite_or_null(r.per_scan_ms);
-    x["query_s"] = r.query_s;
-    x["precision"] = finite_or_null(r.structure.precision);
-    x["recall"] = finite_or_null(r.structure.recall);
-    x["f1"] = finite_or_null(r.structure.f1);
-    x["chamfer_m"] = finite_or_null(r.structure.chamfer_m);
-    x["map_cells"] = r.structure.map_cells;
-    x["reference_cells"] = r.structure.reference_cells;
-    x["structure_cell_m"] = finite_or_null(r.structure_cell_m);
-    x["structure_tolerance_m"] = finite_or_null(r.structure_tolerance_m);
-    x["structure_s"] = r.structure_s;
-    x["info"] = r.info;
-    runs.push_back(x);
-  }
+  for (const Record& r : records_) runs.push_back(run_json(r));
   j["runs"] = runs;
-  j["table_text"] = out.str();
+  j["table_text"] = text;
   if (s_.json == "-")
     std::cout << j.dump(1) << "\n";
   else

@@ -10,10 +10,12 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include "potmap/data/scan.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/experiments/figure_panels.hpp"
 #include "potmap/experiments/structure_score.hpp"
+
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::cli::exp {
@@ -137,6 +139,12 @@ class Harness {
   void finish(const std::string& spread);
 
  private:
+  /// Writes the side-by-side figure of each case (the reference, then each group's chosen
+  /// member, chosen[case * groups + group], empty where none) and returns their JSON records.
+  nlohmann::json write_compare_figures(
+      const std::vector<std::pair<std::string, std::string>>& cases,
+      const std::vector<std::string>& groups, const std::vector<std::string>& chosen) const;
+
   std::string experiment_;
   Settings s_;
   std::unique_ptr<Context> ctx_;
