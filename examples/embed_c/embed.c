@@ -17,41 +17,9 @@
 
 #include <potmap/potmap.h>
 
+#include "embed_util.h"
+
 #define SIDE 64 /* query points: a SIDE x SIDE grid over the map's bounds */
-
-/* On a potmap failure: print the status name and the full message, then go to cleanup. */
-#define POTMAP_TRY(call)                                                         \
-  do {                                                                           \
-    potmap_status st_ = (call);                                                  \
-    if (st_ != POTMAP_SUCCESS) {                                                 \
-      fprintf(stderr, "%s failed: %s\n  %s\n", #call, potmap_status_string(st_), \
-              potmap_last_error());                                              \
-      goto cleanup;                                                              \
-    }                                                                            \
-  } while (0)
-
-#define CL_TRY(call)                                                \
-  do {                                                              \
-    cl_int err_ = (call);                                           \
-    if (err_ != CL_SUCCESS) {                                       \
-      fprintf(stderr, "%s failed: OpenCL error %d\n", #call, err_); \
-      goto cleanup;                                                 \
-    }                                                               \
-  } while (0)
-
-/* The host's device: the first GPU, else the first device of any kind. */
-static cl_device_id pick_device(void) {
-  cl_platform_id platforms[16];
-  cl_uint np = 0, p;
-  cl_device_id dev = NULL;
-  if (clGetPlatformIDs(16, platforms, &np) != CL_SUCCESS) return NULL;
-  if (np > 16) np = 16;
-  for (p = 0; p < np && !dev; ++p)
-    if (clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_GPU, 1, &dev, NULL) != CL_SUCCESS) dev = NULL;
-  for (p = 0; p < np && !dev; ++p)
-    if (clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 1, &dev, NULL) != CL_SUCCESS) dev = NULL;
-  return dev;
-}
 
 /* A 10 m square room: occupied walls (positive weights), free floor (negative weights). */
 static potmap_status make_room(potmap_map** out) {

@@ -36,26 +36,25 @@ void clear_last_error() noexcept {
 extern "C" {
 
 const char* potmap_status_string(potmap_status status) {
-  switch (status) {
-#define POTMAP_CASE(c) \
-  case c:              \
-    return #c;
-    POTMAP_CASE(POTMAP_SUCCESS)
-    POTMAP_CASE(POTMAP_ERROR_NULL_ARGUMENT)
-    POTMAP_CASE(POTMAP_ERROR_INVALID_HANDLE)
-    POTMAP_CASE(POTMAP_ERROR_INVALID_ARGUMENT)
-    POTMAP_CASE(POTMAP_ERROR_DIMENSION_MISMATCH)
-    POTMAP_CASE(POTMAP_ERROR_BUFFER_TOO_SMALL)
-    POTMAP_CASE(POTMAP_ERROR_CONTEXT_MISMATCH)
-    POTMAP_CASE(POTMAP_ERROR_INPUT)
-    POTMAP_CASE(POTMAP_ERROR_IO)
-    POTMAP_CASE(POTMAP_ERROR_NO_DEVICE)
-    POTMAP_CASE(POTMAP_ERROR_OUT_OF_MEMORY)
-    POTMAP_CASE(POTMAP_ERROR_INTERNAL)
-#undef POTMAP_CASE
-    default:
-      break;
-  }
+  // potmap's own codes are POTMAP_SUCCESS and a run from POTMAP_ERROR_NULL_ARGUMENT, in the
+  // order of potmap.h; the negative ones are OpenCL's.
+  static constexpr const char* kErrors[] = {"POTMAP_ERROR_NULL_ARGUMENT",
+                                            "POTMAP_ERROR_INVALID_HANDLE",
+                                            "POTMAP_ERROR_INVALID_ARGUMENT",
+                                            "POTMAP_ERROR_DIMENSION_MISMATCH",
+                                            "POTMAP_ERROR_BUFFER_TOO_SMALL",
+                                            "POTMAP_ERROR_CONTEXT_MISMATCH",
+                                            "POTMAP_ERROR_INPUT",
+                                            "POTMAP_ERROR_IO",
+                                            "POTMAP_ERROR_NO_DEVICE",
+                                            "POTMAP_ERROR_OUT_OF_MEMORY",
+                                            "POTMAP_ERROR_INTERNAL"};
+  static_assert(
+      POTMAP_ERROR_INTERNAL - POTMAP_ERROR_NULL_ARGUMENT + 1 == sizeof kErrors / sizeof kErrors[0],
+      "one name per potmap status");
+  if (status == POTMAP_SUCCESS) return "POTMAP_SUCCESS";
+  if (status >= POTMAP_ERROR_NULL_ARGUMENT && status <= POTMAP_ERROR_INTERNAL)
+    return kErrors[status - POTMAP_ERROR_NULL_ARGUMENT];
   if (status < 0)
     if (const char* name = potmap::detail::opencl_error_cname(status)) return name;
   return "POTMAP_UNKNOWN_STATUS";

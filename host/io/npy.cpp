@@ -286,32 +286,35 @@ std::vector<double> Array::to_double() const {
   return out;
 }
 
-Array Array::from_doubles(const std::vector<double>& v, std::vector<std::size_t> shape) {
+namespace {
+
+// An array of `v` as little-endian bits of type Bits (the same size as T), `name` in errors.
+template <class Bits, class T>
+Array from_values(const std::vector<T>& v, std::vector<std::size_t> shape, DType dtype,
+                  const char* name) {
+  static_assert(sizeof(Bits) == sizeof(T), "bits of one value");
   Array a;
-  a.dtype = DType::f8;
+  a.dtype = dtype;
   a.shape = std::move(shape);
-  if (a.count() != v.size()) throw Error("npy::Array::from_doubles: shape does not match size");
-  a.data.resize(v.size() * 8);
+  if (a.count() != v.size())
+    throw Error(std::string("npy::Array::") + name + ": shape does not match size");
+  a.data.resize(v.size() * sizeof(T));
   for (std::size_t i = 0; i < v.size(); ++i) {
-    std::uint64_t b;
-    std::memcpy(&b, &v[i], 8);
-    store_le(&a.data[i * 8], b, 8);
+    Bits b;
+    std::memcpy(&b, &v[i], sizeof(T));
+    store_le(&a.data[i * sizeof(T)], b, sizeof(T));
   }
   return a;
 }
 
+}  // namespace
+
+Array Array::from_doubles(const std::vector<double>& v, std::vector<std::size_t> shape) {
+  return from_values<std::uint64_t>(v, std::move(shape), DType::f8, "from_doubles");
+}
+
 Array Array::from_floats(const std::vector<float>& v, std::vector<std::size_t> shape) {
-  Array a;
-  a.dtype = DType::f4;
-  a.shape = std::move(shape);
-  if (a.count() != v.size()) throw Error("npy::Array::from_floats: shape does not match size");
-  a.data.resize(v.size() * 4);
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    std::uint32_t b;
-    std::memcpy(&b, &v[i], 4);
-    store_le(&a.data[i * 4], b, 4);
-  }
-  return a;
+  return from_values<std::uint32_t>(v, std::move(shape), DType::f4, "from_floats");
 }
 
 Header parse_header(const void* bytes, std::size_t size, const std::string& where) {

@@ -71,6 +71,11 @@ TEST(CApi, StatusStringsAreDistinct) {
   EXPECT_STREQ(potmap_status_string(CL_BUILD_PROGRAM_FAILURE), "CL_BUILD_PROGRAM_FAILURE");
   EXPECT_STREQ(potmap_status_string(CL_INVALID_MEM_OBJECT), "CL_INVALID_MEM_OBJECT");
   EXPECT_STREQ(potmap_status_string(-12345), "POTMAP_UNKNOWN_STATUS");
+  EXPECT_STREQ(potmap_status_string(POTMAP_SUCCESS), "POTMAP_SUCCESS");
+  EXPECT_STREQ(potmap_status_string(POTMAP_ERROR_NULL_ARGUMENT), "POTMAP_ERROR_NULL_ARGUMENT");
+  EXPECT_STREQ(potmap_status_string(POTMAP_ERROR_IO), "POTMAP_ERROR_IO");
+  EXPECT_STREQ(potmap_status_string(POTMAP_ERROR_INTERNAL), "POTMAP_ERROR_INTERNAL");
+  EXPECT_STREQ(potmap_status_string(static_cast<potmap_status>(1012)), "POTMAP_UNKNOWN_STATUS");
   EXPECT_STREQ(potmap_status_string(77), "POTMAP_UNKNOWN_STATUS");
 }
 
