@@ -357,89 +357,94 @@ int run_dynamic(const Settings& settings, std::vector<std::string> data,
   return 0;
 }
 
+// A runner's subcommand, with the settings and datasets its options fill and its action reads.
+struct RunnerCommand {
+  CLI::App* app;
+  std::shared_ptr<Settings> s = std::make_shared<Settings>();
+  std::shared_ptr<std::vector<std::string>> data = std::make_shared<std::vector<std::string>>();
+};
+
+RunnerCommand runner_command(CLI::App* ex, const char* name, const char* help) {
+  return {ex->add_subcommand(name, help)};
+}
+
+// Adds the options every runner shares (after its own, so that --help lists those first) and
+// the action to run when the subcommand is chosen.
+void on_run(const RunnerCommand& c, Runner& runner, std::function<int()> action) {
+  add_common(c.app, *c.s);
+  c.app->callback([&runner, action] { runner.action = action; });
+}
+
 // `experiment intra`: the first scans of each log are the source, the rest the target.
 void add_intra(CLI::App* ex, Runner& runner) {
-  CLI::App* c = ex->add_subcommand(
-      "intra", "Intra-domain: the first --source-scans scans are the source, the rest the target");
-  auto s = std::make_shared<Settings>();
-  auto data = std::make_shared<std::vector<std::string>>();
-  c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(1, -1);
-  c->add_option("--source-scans", s->source_scans, "Scans forming the source")
+  RunnerCommand c = runner_command(
+      ex, "intra",
+      "Intra-domain: the first --source-scans scans are the source, the rest the target");
+  c.app->add_option("DATASETS", *c.data, kDatasetHelp)->required()->expected(1, -1);
+  c.app->add_option("--source-scans", c.s->source_scans, "Scans forming the source")
       ->capture_default_str();
-  add_common(c, *s);
-  c->callback([&runner, s, data] { runner.action = [s, data] { return run_intra(*s, *data); }; });
+  on_run(c, runner, [s = c.s, data = c.data] { return run_intra(*s, *data); });
 }
 
 // `experiment inter`: every ordered pair of the datasets.
 void add_inter(CLI::App* ex, Runner& runner) {
-  CLI::App* c = ex->add_subcommand(
-      "inter", "Inter-domain: source A, target B, for every ordered pair of the datasets");
-  auto s = std::make_shared<Settings>();
-  auto data = std::make_shared<std::vector<std::string>>();
-  c->add_option("DATASETS", *data, kDatasetHelp)->required()->expected(2, -1);
-  add_common(c, *s);
-  c->callback([&runner, s, data] { runner.action = [s, data] { return run_inter(*s, *data); }; });
+  RunnerCommand c = runner_command(
+      ex, "inter", "Inter-domain: source A, target B, for every ordered pair of the datasets");
+  c.app->add_option("DATASETS", *c.data, kDatasetHelp)->required()->expected(2, -1);
+  on_run(c, runner, [s = c.s, data = c.data] { return run_inter(*s, *data); });
 }
 
 // `experiment sim2real`: the simulated towns as the source of real logs.
 void add_sim2real(CLI::App* ex, Runner& runner) {
-  CLI::App* c = ex->add_subcommand(
-      "sim2real", "Sim-to-real: source the built-in simulated towns, target real logs");
-  auto s = std::make_shared<Settings>();
-  auto data = std::make_shared<std::vector<std::string>>();
+  RunnerCommand c = runner_command(
+      ex, "sim2real", "Sim-to-real: source the built-in simulated towns, target real logs");
   auto towns = std::make_shared<std::string>("town1+town2+town3");
-  c->add_option("TARGETS", *data, "Real logs (any reader's format)")->required()->expected(1, -1);
-  c->add_option("--towns", *towns, "Simulated source towns, joined by +")->capture_default_str();
-  add_common(c, *s);
-  c->callback([&runner, s, data, towns] {
-    runner.action = [s, data, towns] { return run_sim2real(*s, *data, *towns); };
-  });
+  c.app->add_option("TARGETS", *c.data, "Real logs (any reader's format)")
+      ->required()
+      ->expected(1, -1);
+  c.app->add_option("--towns", *towns, "Simulated source towns, joined by +")
+      ->capture_default_str();
+  on_run(c, runner, [s = c.s, data = c.data, towns] { return run_sim2real(*s, *data, *towns); });
 }
 
 // `experiment dynamic`: instantaneous maps of single scans (Table V).
 void add_dynamic(CLI::App* ex, Runner& runner) {
-  CLI::App* c = ex->add_subcommand(
-      "dynamic",
+  RunnerCommand c = runner_command(
+      ex, "dynamic",
       "Instantaneous maps in a dynamic scene (Table V): each scan mapped on its own, mean and "
       "sd over scans (and seeds)");
-  auto s = std::make_shared<Settings>();
-  s->sim_scans = 50;
-  auto data = std::make_shared<std::vector<std::string>>();
+  c.s->sim_scans = 50;
   auto sources = std::make_shared<std::vector<std::string>>(
       std::vector<std::string>{"sim:town1", "sim:town2", "sim:town3"});
-  c->add_option("TARGETS", *data, "Target scenes (default simdyn:town1, Town 1 with traffic)");
-  c->add_option("--sources", *sources, "Source datasets, one table row each")
+  c.app->add_option("TARGETS", *c.data,
+                    "Target scenes (default simdyn:town1, Town 1 with traffic)");
+  c.app->add_option("--sources", *sources, "Source datasets, one table row each")
       ->expected(1, -1)
       ->capture_default_str();
-  c->add_option("--moving", s->moving, "Moving vehicles in simdyn: scenes")->capture_default_str();
-  add_common(c, *s);
-  c->callback([&runner, s, data, sources] {
-    runner.action = [s, data, sources] { return run_dynamic(*s, *data, *sources); };
-  });
+  c.app->add_option("--moving", c.s->moving, "Moving vehicles in simdyn: scenes")
+      ->capture_default_str();
+  on_run(c, runner, [s = c.s, data = c.data, sources] { return run_dynamic(*s, *data, *sources); });
 }
 
 // `experiment per-time`: BHM and ABHM matched to POT's time per scan (Table VI).
 void add_per_time(CLI::App* ex, Runner& runner) {
-  CLI::App* c = ex->add_subcommand(
-      "per-time",
+  RunnerCommand c = runner_command(
+      ex, "per-time",
       "Per time unit (Table VI): BHM and ABHM with kernel counts matched to POT's time per "
       "scan, beside their defaults, POT, RePOT and OGM");
-  auto s = std::make_shared<Settings>();
-  auto data = std::make_shared<std::vector<std::string>>();
-  c->add_option("TARGETS", *data, kDatasetHelp)->required()->expected(1, -1);
-  c->add_option("--budget-ms", s->budget_ms,
-                "Time per scan the matched BHM and ABHM may take, milliseconds (0: POT's, "
-                "measured on the first seed, as the paper)")
+  c.app->add_option("TARGETS", *c.data, kDatasetHelp)->required()->expected(1, -1);
+  c.app
+      ->add_option("--budget-ms", c.s->budget_ms,
+                   "Time per scan the matched BHM and ABHM may take, milliseconds (0: POT's, "
+                   "measured on the first seed, as the paper)")
       ->capture_default_str();
   auto max_kernels = std::make_shared<std::size_t>(400000);
-  c->add_option("--max-kernels", *max_kernels, "Most kernels the matched BHM and ABHM may get")
+  c.app->add_option("--max-kernels", *max_kernels, "Most kernels the matched BHM and ABHM may get")
       ->capture_default_str();
-  c->add_option("--source", s->source,
-                "POT's source dataset (default: the other targets, each a place of its own)");
-  add_common(c, *s);
-  c->callback([&runner, s, data, max_kernels] {
-    runner.action = [s, data, max_kernels] { return run_per_time(*s, *data, *max_kernels); };
-  });
+  c.app->add_option("--source", c.s->source,
+                    "POT's source dataset (default: the other targets, each a place of its own)");
+  on_run(c, runner,
+         [s = c.s, data = c.data, max_kernels] { return run_per_time(*s, *data, *max_kernels); });
 }
 
 }  // namespace

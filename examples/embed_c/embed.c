@@ -78,15 +78,7 @@ int main(int argc, char** argv) {
   }
 
   /* 1. The host's own OpenCL objects. */
-  device = pick_device();
-  if (!device) {
-    fprintf(stderr, "no OpenCL device\n");
-    return 2;
-  }
-  cl_ctx = clCreateContext(NULL, 1, &device, NULL, NULL, &err);
-  CL_TRY(err);
-  queue = clCreateCommandQueue(cl_ctx, device, 0, &err);
-  CL_TRY(err);
+  if (!open_host_queue(&device, &cl_ctx, &queue)) goto cleanup;
 
   /* 2. potmap on that queue: its work is ordered with the host's. */
   POTMAP_TRY(potmap_context_create_from_queue(queue, &ctx));

@@ -42,4 +42,23 @@ static cl_device_id pick_device(void) {
   return dev;
 }
 
+/* The host's own OpenCL objects: a context and a queue on pick_device()'s device. Returns 0,
+ * having printed why, when there is no device or a call fails; what was made is left in
+ * *cl_ctx and *queue for the caller to release. */
+static int open_host_queue(cl_device_id* device, cl_context* cl_ctx, cl_command_queue* queue) {
+  cl_int err = CL_SUCCESS;
+  *device = pick_device();
+  if (!*device) {
+    fprintf(stderr, "no OpenCL device\n");
+    return 0;
+  }
+  *cl_ctx = clCreateContext(NULL, 1, device, NULL, NULL, &err);
+  if (err == CL_SUCCESS) *queue = clCreateCommandQueue(*cl_ctx, *device, 0, &err);
+  if (err != CL_SUCCESS) {
+    fprintf(stderr, "creating the OpenCL context and queue failed: OpenCL error %d\n", err);
+    return 0;
+  }
+  return 1;
+}
+
 #endif /* POTMAP_EMBED_UTIL_H */

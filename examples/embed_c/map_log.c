@@ -44,7 +44,6 @@ int main(int argc, char** argv) {
   cl_device_id device = NULL;
   cl_context cl_ctx = NULL;
   cl_command_queue queue = NULL;
-  cl_int err = CL_SUCCESS;
   potmap_context* ctx = NULL;
   potmap_dataset* data = NULL;
   potmap_map* source_map = NULL;
@@ -62,15 +61,7 @@ int main(int argc, char** argv) {
   }
 
   /* 1. The host's own OpenCL objects, and potmap on its queue. */
-  device = pick_device();
-  if (!device) {
-    fprintf(stderr, "no OpenCL device\n");
-    return 2;
-  }
-  cl_ctx = clCreateContext(NULL, 1, &device, NULL, NULL, &err);
-  CL_TRY(err);
-  queue = clCreateCommandQueue(cl_ctx, device, 0, &err);
-  CL_TRY(err);
+  if (!open_host_queue(&device, &cl_ctx, &queue)) goto cleanup;
   POTMAP_TRY(potmap_context_create_from_queue(queue, &ctx));
   POTMAP_TRY(potmap_context_device_info(ctx, &info));
   printf("potmap %s on %s\n", potmap_version_string(), info->name);
