@@ -13,6 +13,7 @@ packages=(
   libzip-dev libpng-dev zlib1g-dev
   liboctomap-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libgdal-dev libopenmpi-dev openmpi-bin
   python3 python3-numpy
   clang libclang-rt-14-dev
 )

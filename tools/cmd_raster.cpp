@@ -1,6 +1,8 @@
-// potmap raster: a window of a map as pictures (PNG) and arrays (.npy).
+// potmap raster: a window of a map as pictures (PNG) and arrays (.npy), or as a tiled,
+// resumable Cloud-Optimized GeoTIFF (an output ending in .tif) on one process or MPI ranks.
 #include <unistd.h>
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -13,6 +15,7 @@
 #include "potmap/io/map_io.hpp"
 #include "potmap/map/raster.hpp"
 #include "progress.hpp"
+#include "raster_tiled.hpp"
 
 namespace potmap::cli {
 
@@ -23,7 +26,21 @@ struct RasterArgs {
   double res = 0, z = 0;
   std::size_t band_cells = RasterOptions{}.max_band_cells;
   bool no_png = false, no_npy = false, json = false;
+  std::size_t tile = TiledRasterOptions{}.tile_cells;
+  std::string work_dir, crs;
+  bool keep_tiles = false, no_overviews = false;
 };
+
+bool is_geotiff(const std::string& out) {
+  auto ends = [&](const char* ext) {
+    const std::string e(ext);
+    if (out.size() < e.size()) return false;
+    std::string tail = out.substr(out.size() - e.size());
+    for (char& ch : tail) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    return tail == e;
+  };
+  return ends(".tif") || ends(".tiff");
+}
 
 // "xmin,xmax,ymin,ymax" -> spec; names the value that is wrong.
 void parse_bounds(const std::string& text, RasterSpec& spec) {
@@ -58,7 +75,10 @@ void parse_bounds(const std::string& text, RasterSpec& spec) {
 
 void register_raster(CLI::App& app, Runner& runner) {
   CLI::App* cmd = app.add_subcommand(
-      "raster", "Write probability and variance of a map window as PNG pictures and .npy arrays");
+      "raster",
+      "Write probability and variance of a map window as PNG pictures and .npy arrays, or (an "
+      "output ending in .tif) as a tiled, resumable Cloud-Optimized GeoTIFF; under mpirun the "
+      "tiles are shared by the ranks");
   auto a = std::make_shared<RasterArgs>();
   auto device = add_device_option(cmd);
   cmd->add_option("--map", a->map, "Map file (.csv, .npz, .potmap)")
@@ -68,7 +88,8 @@ void register_raster(CLI::App& app, Runner& runner) {
   cmd->add_option("--res", a->res, "Cell edge in metres")->required()->check(CLI::PositiveNumber);
   cmd->add_option("--out", a->out,
                   "Output prefix: writes PREFIX_prob.png, PREFIX_var.png, PREFIX_prob.npy, "
-                  "PREFIX_var.npy")
+                  "PREFIX_var.npy; or a .tif path: a Cloud-Optimized GeoTIFF (band 1 probability, "
+                  "band 2 variance, float32) written in tiles, resumed if run again")
       ->required();
   cmd->add_option("--z", a->z, "Slice height for 3D maps, metres (default 0)");
   cmd->add_option("--band-cells", a->band_cells,
@@ -79,6 +100,18 @@ void register_raster(CLI::App& app, Runner& runner) {
   cmd->add_flag("--no-png", a->no_png, "Do not write the PNG pictures");
   cmd->add_flag("--no-npy", a->no_npy, "Do not write the .npy arrays");
   cmd->add_flag("--json", a->json, "Print the summary as JSON on stdout");
+  cmd->add_option("--tile", a->tile,
+                  "GeoTIFF: tile edge in cells, a multiple of 64 (default 512); each tile is "
+                  "computed and kept on its own")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--work-dir", a->work_dir,
+                  "GeoTIFF: folder of the finished tiles (default OUT.tiles); a later run with "
+                  "the same arguments skips the tiles found complete there");
+  cmd->add_flag("--keep-tiles", a->keep_tiles, "GeoTIFF: keep the tile folder when done");
+  cmd->add_option("--crs", a->crs,
+                  "GeoTIFF: coordinate reference system of the map frame (EPSG:n, WKT or PROJ); "
+                  "default a local frame in metres");
+  cmd->add_flag("--no-overviews", a->no_overviews, "GeoTIFF: no reduced-resolution overviews");
   cmd->callback([&runner, a, device] {
     runner.action = [a, device] {
       RasterSpec spec;
@@ -86,6 +119,21 @@ void register_raster(CLI::App& app, Runner& runner) {
       spec.resolution = a->res;
       spec.z = a->z;
       spec.validate();  // before reading a large map
+      if (is_geotiff(a->out)) {
+        TiledRunArgs t;
+        t.map = a->map;
+        t.out = a->out;
+        t.device = *device;
+        t.spec = spec;
+        t.options.tile_cells = a->tile;
+        t.options.work_dir = a->work_dir;
+        t.options.remove_tiles = !a->keep_tiles;
+        t.options.crs = a->crs;
+        t.options.overviews = !a->no_overviews;
+        t.options.eval = RasterOptions{}.eval;
+        t.json = a->json;
+        return run_tiled_raster(t);
+      }
       RasterOptions opt;
       opt.max_band_cells = a->band_cells;
       opt.write_png = !a->no_png;

@@ -44,6 +44,10 @@ class ContainerWriter {
   void f64s(const Range& values) {
     for (double v : values) put_f64(out_, v);
   }
+  template <class Range>
+  void f32s(const Range& values) {
+    for (float v : values) put_f32(out_, v);
+  }
   void bytes(std::string_view s) { out_ += s; }
   std::size_t size() const { return out_.size(); }
   void finish(const std::string& path);
@@ -69,6 +73,7 @@ class ContainerReader {
   std::uint32_t u32(std::size_t at) const { return static_cast<std::uint32_t>(uint(at, 4)); }
   std::uint64_t u64(std::size_t at) const { return uint(at, 8); }
   double f64(std::size_t at) const { return get_f64(b_ + at); }
+  float f32(std::size_t at) const { return get_f32(b_ + at); }
 
   /// Throws InputError "<path>: byte offset <offset>: <what>".
   [[noreturn]] void fail(std::size_t offset, const std::string& what) const;

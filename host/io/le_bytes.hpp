@@ -23,6 +23,12 @@ inline void put_f64(std::string& out, double d) {
   put_u64(out, v);
 }
 
+inline void put_f32(std::string& out, float f) {
+  std::uint32_t v;
+  std::memcpy(&v, &f, 4);
+  put_u32(out, v);
+}
+
 /// n (<= 8) little-endian bytes at p as an unsigned integer.
 inline std::uint64_t get_le(const unsigned char* p, int n) {
   std::uint64_t v = 0;
@@ -34,6 +40,13 @@ inline double get_f64(const unsigned char* p) {
   double d;
   std::memcpy(&d, &v, 8);
   return d;
+}
+
+inline float get_f32(const unsigned char* p) {
+  const auto v = static_cast<std::uint32_t>(get_le(p, 4));
+  float f;
+  std::memcpy(&f, &v, 4);
+  return f;
 }
 
 /// zlib's CRC-32 of n bytes.

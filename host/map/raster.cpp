@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <future>
 #include <limits>
 #include <memory>
 #include <sstream>
@@ -98,59 +100,94 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   }
 
   const std::size_t band_rows = std::max<std::size_t>(1, options.max_band_cells / W);
-  std::vector<float> var, prob;
-  std::vector<std::uint8_t> rgb(W * 3);
   MinMax pstat, vstat;
 
-  auto to_rgb = [&](const float* v, Colormap cm, bool variance) {
-    for (std::size_t c = 0; c < W; ++c) {
-      double t = v[c];
-      // s2 / (1 + s2): see raster.hpp. Negative variances cannot occur (w_var >= 0).
-      if (variance && !std::isnan(t)) t = std::isinf(t) ? 1.0 : t / (1.0 + t);
-      const Rgb px = colormap(cm, t);
-      rgb[3 * c] = px.r;
-      rgb[3 * c + 1] = px.g;
-      rgb[3 * c + 2] = px.b;
+  // One band's rows, top row first, to one quantity's writers; each quantity has its own RGB
+  // row so that probability and variance encode at once.
+  auto write_rows = [W](const float* band, std::size_t rows, detail::NpyWriter* npy,
+                        detail::PngWriter* png, Colormap cm, bool variance, MinMax& stat,
+                        std::vector<std::uint8_t>& rgb) {
+    rgb.resize(W * 3);
+    for (std::size_t j = rows; j-- > 0;) {
+      const float* v = band + j * W;
+      for (std::size_t c = 0; c < W; ++c) stat.add(v[c]);
+      if (npy) npy->write_row(v);
+      if (!png) continue;
+      for (std::size_t c = 0; c < W; ++c) {
+        double t = v[c];
+        // s2 / (1 + s2): see raster.hpp. Negative variances cannot occur (w_var >= 0).
+        if (variance && !std::isnan(t)) t = std::isinf(t) ? 1.0 : t / (1.0 + t);
+        const Rgb px = colormap(cm, t);
+        rgb[3 * c] = px.r;
+        rgb[3 * c + 1] = px.g;
+        rgb[3 * c + 2] = px.b;
+      }
+      png->write_row(rgb.data());
     }
-    return rgb.data();
   };
 
   // Bands run top to bottom (image order) but are cut on a lattice of whole 64-row tiles counted
   // from the window's bottom, so every band is evaluated by exactly the tiles a single pass
-  // would use: the values do not depend on the band size.
+  // would use: the values do not depend on the band size. Encoding and writing band k (two
+  // threads: probability and variance) overlap the evaluation of band k + 1; two sets of
+  // buffers take turns.
   constexpr std::size_t kTileRows = 64;
   const std::size_t band = std::max<std::size_t>(kTileRows, band_rows / kTileRows * kTileRows);
-  std::size_t j_hi = H;  // rows counted from the bottom (y up): image row r is j = H - 1 - r
-  while (j_hi > 0) {
-    const std::size_t j_lo = (j_hi - 1) / band * band;
-    GridSpec g;
-    g.dim = dim;
-    g.resolution = spec.resolution;
-    g.origin[0] = spec.xmin;
-    g.origin[1] = spec.ymin + double(j_lo) * spec.resolution;
-    g.origin[2] = spec.z - 0.5 * spec.resolution;  // one layer centred on z (3D maps)
-    g.count[0] = W;
-    g.count[1] = j_hi - j_lo;
-    g.count[2] = 1;
-    const std::size_t n = g.cells();
-    var.resize(n);
-    prob.resize(n);
-    ev.evaluate_grid(g, nullptr, var.data(), prob.data());
-    for (std::size_t j = j_hi; j-- > j_lo;) {
-      const float* pr = prob.data() + (j - j_lo) * W;
-      const float* vr = var.data() + (j - j_lo) * W;
-      for (std::size_t c = 0; c < W; ++c) {
-        pstat.add(pr[c]);
-        vstat.add(vr[c]);
+  std::vector<float> var[2], prob[2];
+  std::vector<std::uint8_t> rgb_p, rgb_v;
+  std::future<void> writing_p, writing_v;
+  auto wait_writers = [&] {
+    // Both are waited for before either error propagates, so no thread outlives its buffers.
+    std::exception_ptr err;
+    for (std::future<void>* f : {&writing_p, &writing_v}) {
+      if (!f->valid()) continue;
+      try {
+        f->get();
+      } catch (...) {
+        if (!err) err = std::current_exception();
       }
-      if (prob_npy) prob_npy->write_row(pr);
-      if (var_npy) var_npy->write_row(vr);
-      if (prob_png) prob_png->write_row(to_rgb(pr, options.prob_colormap, false));
-      if (var_png) var_png->write_row(to_rgb(vr, options.var_colormap, true));
     }
-    ++sum.bands;
-    if (options.progress) options.progress(double(H - j_lo) / double(H));
-    j_hi = j_lo;
+    if (err) std::rethrow_exception(err);
+  };
+  int slot = 0;
+  std::size_t j_hi = H;  // rows counted from the bottom (y up): image row r is j = H - 1 - r
+  try {
+    while (j_hi > 0) {
+      const std::size_t j_lo = (j_hi - 1) / band * band;
+      GridSpec g;
+      g.dim = dim;
+      g.resolution = spec.resolution;
+      g.origin[0] = spec.xmin;
+      g.origin[1] = spec.ymin + double(j_lo) * spec.resolution;
+      g.origin[2] = spec.z - 0.5 * spec.resolution;  // one layer centred on z (3D maps)
+      g.count[0] = W;
+      g.count[1] = j_hi - j_lo;
+      g.count[2] = 1;
+      const std::size_t n = g.cells(), rows = j_hi - j_lo;
+      var[slot].resize(n);
+      prob[slot].resize(n);
+      ev.evaluate_grid(g, nullptr, var[slot].data(), prob[slot].data());
+      wait_writers();
+      writing_p = std::async(std::launch::async, [&, rows, pr = prob[slot].data()] {
+        write_rows(pr, rows, prob_npy.get(), prob_png.get(), options.prob_colormap, false, pstat,
+                   rgb_p);
+      });
+      writing_v = std::async(std::launch::async, [&, rows, vr = var[slot].data()] {
+        write_rows(vr, rows, var_npy.get(), var_png.get(), options.var_colormap, true, vstat,
+                   rgb_v);
+      });
+      slot ^= 1;
+      ++sum.bands;
+      if (options.progress) options.progress(double(H - j_lo) / double(H));
+      j_hi = j_lo;
+    }
+    wait_writers();
+  } catch (...) {
+    try {
+      wait_writers();
+    } catch (...) {
+    }
+    throw;
   }
 
   // Put the files in place only now that every one is complete. Should a late rename fail, the

@@ -1,0 +1,164 @@
+#!/usr/bin/env python3
+"""Raster jobs at scale: end to end against the kernel, cells per second against tile size and
+MPI ranks, and an estimate for a whole town. Prints tables and writes JSON.
+
+Usage: bench/raster_scale.py [--build build] [--res 0.25] [--ranks 1,2] [--tiles 256,512,1024]
+                             [--repeat 3] [--out raster-scale.json] [--fine]
+
+All rows come from this run on this machine, so the ratios hold wherever it runs:
+  * kernel: BM_Town1GridOpenCL (potmap_bench), the grid of the whole Town 1 map at --res;
+  * end to end: `potmap raster` on the same window, PNG + .npy (the band writer) and the tiled
+    GeoTIFF job, wall time of the whole process (reading the map, the device, writing);
+  * scale: the tiled job for every tile size and rank count (mpirun -n N), cells per second.
+--fine adds the 0.05 m window (66 M cells; slow on a small CPU).
+"""
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+TOWN1 = os.path.join(HERE, "..", "..", "shared", "data", "carla", "town1_abhm_map.csv")
+
+
+def map_bounds(path):
+    lo = [float("inf")] * 2
+    hi = [-float("inf")] * 2
+    with open(path) as f:
+        next(f)
+        for line in f:
+            x, y = line.split(",")[:2]
+            x, y = float(x), float(y)
+            lo = [min(lo[0], x), min(lo[1], y)]
+            hi = [max(hi[0], x), max(hi[1], y)]
+    return lo, hi
+
+
+def kernel_ms(build, res):
+    """Median grid time of BM_Town1GridOpenCL at 0.25 m, scaled to res by cell count."""
+    out = tempfile.mktemp(suffix=".json")
+    subprocess.run([os.path.join(build, "bench", "potmap_bench"),
+                    "--benchmark_filter=BM_Town1GridOpenCL$", "--benchmark_repetitions=3",
+                    "--benchmark_out=" + out, "--benchmark_out_format=json"],
+                   check=True, stdout=subprocess.DEVNULL)
+    with open(out) as f:
+        data = json.load(f)
+    os.unlink(out)
+    rows = [b for b in data["benchmarks"] if b.get("aggregate_name") == "median"]
+    row = rows[0]
+    return row["real_time"], row["cells"], row.get("label", "")
+
+
+def wall(cmd, env):
+    t = time.perf_counter()
+    r = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    dt = time.perf_counter() - t
+    if r.returncode != 0:
+        sys.exit("failed: %s\n%s" % (" ".join(cmd), r.stderr))
+    return dt, r.stdout
+
+
+def best(cmd, env, repeat, cleanup):
+    times = []
+    out = ""
+    for _ in range(repeat):
+        cleanup()
+        dt, out = wall(cmd, env)
+        times.append(dt)
+    times.sort()
+    return times[len(times) // 2], times, out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default="build")
+    ap.add_argument("--res", type=float, default=0.25)
+    ap.add_argument("--ranks", default="1,2")
+    ap.add_argument("--tiles", default="256,512,1024")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--fine", action="store_true")
+    ap.add_argument("--out", default="raster-scale.json")
+    a = ap.parse_args()
+    potmap = os.path.join(a.build, "tools", "potmap")
+    if not os.path.exists(TOWN1):
+        sys.exit("needs ../shared/data/carla/town1_abhm_map.csv")
+    lo, hi = map_bounds(TOWN1)
+    bounds = "%r,%r,%r,%r" % (lo[0], hi[0], lo[1], hi[1])
+    work = tempfile.mkdtemp(prefix="potmap-raster-scale-")
+    env = dict(os.environ)
+    env.setdefault("POTMAP_CACHE_DIR", os.path.join(work, "cache"))
+    wall([potmap, "raster", "--map", TOWN1, "--bounds", bounds, "--res", "1", "--out",
+          os.path.join(work, "warm"), "--no-png"], env)  # builds the programs once
+
+    def clean():
+        for name in os.listdir(work):
+            if name != "cache":
+                p = os.path.join(work, name)
+                shutil.rmtree(p) if os.path.isdir(p) else os.unlink(p)
+
+    results = {"machine": os.uname().nodename, "rows": [], "scale": []}
+    resolutions = [a.res] + ([0.05] if a.fine else [])
+    kms, kcells, label = kernel_ms(a.build, 0.25)
+    results["device"] = label
+    print("device: %s" % label)
+    print("\n%-8s %-28s %10s %10s %8s" % ("res (m)", "job", "cells", "seconds", "x kernel"))
+    for res in resolutions:
+        cells = None
+        for name, extra in (("PNG + .npy (bands)", ["--out", os.path.join(work, "w")]),
+                            ("GeoTIFF, 512 tiles", ["--out", os.path.join(work, "w.tif")])):
+            med, times, out = best([potmap, "raster", "--map", TOWN1, "--bounds", bounds, "--res",
+                                    str(res), "--json"] + extra, env, a.repeat, clean)
+            j = json.loads(out)
+            cells = j.get("cells", j["width"] * j["height"])
+            kernel_s = kms / 1000.0 * cells / kcells
+            row = {"res": res, "job": name, "cells": cells, "seconds": med, "all": times,
+                   "kernel_seconds": kernel_s, "ratio": med / kernel_s}
+            results["rows"].append(row)
+            print("%-8g %-28s %10d %10.3f %8.2f" % (res, name, cells, med, row["ratio"]))
+    print("(kernel: BM_Town1GridOpenCL median %.1f ms for %d cells, scaled by cells)" % (kms, kcells))
+
+    ranks = [int(r) for r in a.ranks.split(",")]
+    tiles = [int(t) for t in a.tiles.split(",")]
+    mpirun = shutil.which("mpirun")
+    print("\n%-6s %-6s %10s %10s %12s" % ("tile", "ranks", "cells", "seconds", "Mcells/s"))
+    for t in tiles:
+        for n in ranks:
+            cmd = [potmap, "raster", "--map", TOWN1, "--bounds", bounds, "--res", str(a.res),
+                   "--tile", str(t), "--json", "--out", os.path.join(work, "s.tif")]
+            if n > 1:
+                if not mpirun:
+                    continue
+                cmd = [mpirun, "-n", str(n), "--allow-run-as-root", "--oversubscribe", "-x",
+                       "POTMAP_CACHE_DIR"] + cmd
+            med, times, out = best(cmd, env, a.repeat, clean)
+            j = json.loads(out)
+            cells = j["width"] * j["height"]
+            row = {"tile": t, "ranks": n, "cells": cells, "tiles": j["tiles"], "seconds": med,
+                   "all": times, "cells_per_s": cells / med}
+            results["scale"].append(row)
+            print("%-6d %-6d %10d %10.3f %12.2f" % (t, n, cells, med, cells / med / 1e6))
+
+    fastest = max(results["scale"], key=lambda r: r["cells_per_s"])
+    city = 1e10  # 10 km x 10 km at 0.1 m
+    per_rank = fastest["cells_per_s"] / fastest["ranks"]
+    results["estimate"] = {
+        "cells": city, "best": fastest, "cells_per_s_per_rank": per_rank,
+        "hours_one_rank": city / per_rank / 3600.0,
+        "note": "Town 1 kernel density; one rank = one device of this kind"}
+    print("\n10 km x 10 km at 0.1 m (1e10 cells), at this run's best %.2f M cells/s per rank "
+          "(tile %d, %d ranks): %.1f h on one rank, %.1f h on 16, %.1f h on 64"
+          % (per_rank / 1e6, fastest["tile"], fastest["ranks"], city / per_rank / 3600,
+             city / per_rank / 3600 / 16, city / per_rank / 3600 / 64))
+    shutil.rmtree(work, ignore_errors=True)
+    with open(a.out, "w") as f:
+        json.dump(results, f, indent=2)
+    print("wrote", a.out)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,251 @@
+#include "io/geotiff_writer.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+#include "potmap/error.hpp"
+
+#ifdef POTMAP_WITH_GDAL
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <cpl_string.h>
+#include <gdal.h>
+#include <ogr_srs_api.h>
+#endif
+
+namespace potmap::detail {
+
+#ifdef POTMAP_WITH_GDAL
+namespace {
+
+struct DatasetCloser {
+  void operator()(void* h) const {
+    if (h) GDALClose(static_cast<GDALDatasetH>(h));
+  }
+};
+using Dataset = std::unique_ptr<void, DatasetCloser>;
+
+// GDAL reports through a handler; collect the last message instead of printing it.
+class QuietErrors {
+ public:
+  QuietErrors() {
+    CPLPushErrorHandler(CPLQuietErrorHandler);
+    CPLErrorReset();
+  }
+  ~QuietErrors() { CPLPopErrorHandler(); }
+  QuietErrors(const QuietErrors&) = delete;
+  QuietErrors& operator=(const QuietErrors&) = delete;
+};
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  const char* msg = CPLGetLastErrorMsg();
+  throw Error(path + ": " + what + (msg && *msg ? std::string(": GDAL: ") + msg : std::string()));
+}
+
+// Options as GDAL takes them: a NULL-terminated list of "KEY=VALUE".
+class Options {
+ public:
+  Options& set(const char* key, const std::string& value) {
+    list_ = CSLSetNameValue(list_, key, value.c_str());
+    return *this;
+  }
+  char** get() const { return list_; }
+  Options() = default;
+  Options(const Options&) = delete;
+  Options& operator=(const Options&) = delete;
+  ~Options() { CSLDestroy(list_); }
+
+ private:
+  char** list_ = nullptr;
+};
+
+void register_drivers() {
+  // Registration is GDAL's own process-wide table; calling it again is a no-op.
+  GDALAllRegister();
+}
+
+std::string crs_wkt(const std::string& crs, const std::string& path) {
+  if (crs.empty())
+    return "LOCAL_CS[\"potmap map frame\",LOCAL_DATUM[\"potmap map origin\",0],"
+           "UNIT[\"metre\",1,AUTHORITY[\"EPSG\",\"9001\"]],AXIS[\"X\",EAST],AXIS[\"Y\",NORTH]]";
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
+  std::unique_ptr<void, void (*)(void*)> guard(
+      srs, [](void* s) { OSRDestroySpatialReference(static_cast<OGRSpatialReferenceH>(s)); });
+  if (OSRSetFromUserInput(srs, crs.c_str()) != OGRERR_NONE)
+    throw ArgumentError(path + ": CRS '" + crs + "' is not one GDAL reads (EPSG:n, WKT, PROJ)");
+  char* wkt = nullptr;
+  if (OSRExportToWkt(srs, &wkt) != OGRERR_NONE || !wkt)
+    fail(path, "cannot export CRS '" + crs + "'");
+  std::string out = wkt;
+  CPLFree(wkt);
+  return out;
+}
+
+std::string temp_name(const std::string& path, const char* what) {
+  return path + "." + what + "-" + std::to_string(::getpid()) + ".tif";
+}
+
+struct RemoveOnExit {
+  std::string path;
+  ~RemoveOnExit() {
+    std::error_code ec;
+    std::filesystem::remove(path, ec);
+  }
+};
+
+}  // namespace
+
+void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
+               const std::function<void(double)>& progress) {
+  register_drivers();
+  QuietErrors quiet;
+  const int nb = static_cast<int>(spec.band_names.size());
+  if (nb < 1 || spec.width == 0 || spec.height == 0 || spec.block == 0 || spec.block % 16)
+    throw ArgumentError(path + ": GeoTIFF of " + std::to_string(spec.width) + " x " +
+                        std::to_string(spec.height) + " pixels, " + std::to_string(nb) +
+                        " bands, block " + std::to_string(spec.block) +
+                        ": needs pixels, a band and a block that is a multiple of 16");
+  const std::string wkt = crs_wkt(spec.crs, path);
+  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
+  GDALDriverH cog = GDALGetDriverByName("COG");
+  if (!gtiff || !cog) fail(path, "GDAL lacks the GTiff or COG driver");
+
+  // Stage: a tiled GTiff written block by block (fast compression: it is read once).
+  const std::string staging = temp_name(path, "staging");
+  RemoveOnExit remove_staging{staging};
+  {
+    Options o;
+    o.set("TILED", "YES")
+        .set("BLOCKXSIZE", std::to_string(spec.block))
+        .set("BLOCKYSIZE", std::to_string(spec.block))
+        .set("COMPRESS", "DEFLATE")
+        .set("ZLEVEL", "1")
+        .set("INTERLEAVE", "BAND")
+        .set("BIGTIFF", "IF_SAFER");
+    Dataset ds(GDALCreate(gtiff, staging.c_str(), static_cast<int>(spec.width),
+                          static_cast<int>(spec.height), nb, GDT_Float32, o.get()));
+    if (!ds) fail(path, "cannot create the staging file " + staging);
+    double gt[6] = {spec.left, spec.pixel, 0, spec.top, 0, -spec.pixel};
+    GDALSetGeoTransform(ds.get(), gt);
+    GDALSetProjection(ds.get(), wkt.c_str());
+    for (const auto& [k, v] : spec.metadata)
+      GDALSetMetadataItem(ds.get(), k.c_str(), v.c_str(), nullptr);
+    for (int b = 0; b < nb; ++b) {
+      GDALRasterBandH band = GDALGetRasterBand(ds.get(), b + 1);
+      GDALSetDescription(band, spec.band_names[b].c_str());
+      GDALSetRasterNoDataValue(band, std::nan(""));
+    }
+    std::vector<std::vector<float>> buf(nb, std::vector<float>(spec.block * spec.block));
+    std::vector<float*> ptr(nb);
+    const std::size_t bx = (spec.width + spec.block - 1) / spec.block;
+    const std::size_t by = (spec.height + spec.block - 1) / spec.block;
+    for (std::size_t r = 0; r < by; ++r)
+      for (std::size_t c = 0; c < bx; ++c) {
+        const std::size_t x0 = c * spec.block, y0 = r * spec.block;
+        const std::size_t w = std::min(spec.block, spec.width - x0);
+        const std::size_t h = std::min(spec.block, spec.height - y0);
+        for (int b = 0; b < nb; ++b) ptr[b] = buf[b].data();
+        fill(x0, y0, w, h, ptr);
+        for (int b = 0; b < nb; ++b)
+          if (GDALRasterIO(GDALGetRasterBand(ds.get(), b + 1), GF_Write, int(x0), int(y0), int(w),
+                           int(h), ptr[b], int(w), int(h), GDT_Float32, 0, 0) != CE_None)
+            fail(path, "writing block at pixel (" + std::to_string(x0) + ", " + std::to_string(y0) +
+                           ") of " + staging);
+        if (progress) progress(0.8 * double(r * bx + c + 1) / double(bx * by));
+      }
+    GDALFlushCache(ds.get());
+    if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
+  }
+
+  // The COG layout: overviews and blocks in the order readers expect; deterministic for the
+  // same input (single-threaded compression, no time stamp).
+  const std::string final_temp = temp_name(path, "partial");
+  RemoveOnExit remove_partial{final_temp};
+  {
+    Dataset src(GDALOpen(staging.c_str(), GA_ReadOnly));
+    if (!src) fail(path, "cannot reopen " + staging);
+    Options o;
+    o.set("BLOCKSIZE", std::to_string(spec.block))
+        .set("COMPRESS", "DEFLATE")
+        .set("PREDICTOR", "YES")
+        .set("OVERVIEWS", spec.overviews ? "AUTO" : "NONE")
+        .set("RESAMPLING", "AVERAGE")
+        .set("BIGTIFF", "IF_SAFER");
+    struct Ctx {
+      const std::function<void(double)>* progress;
+    } pctx{&progress};
+    GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
+      auto* c = static_cast<Ctx*>(arg);
+      if (*c->progress) (*c->progress)(0.8 + 0.2 * f);
+      return TRUE;
+    };
+    Dataset out(GDALCreateCopy(cog, final_temp.c_str(), src.get(), FALSE, o.get(), pf, &pctx));
+    if (!out) fail(path, "the COG driver could not write " + final_temp);
+    GDALFlushCache(out.get());
+  }
+  std::error_code ec;
+  std::filesystem::rename(final_temp, path, ec);
+  if (ec) throw Error(path + ": cannot rename " + final_temp + " into place: " + ec.message());
+}
+
+GeoTiffImage read_geotiff_band(const std::string& path, int band) {
+  register_drivers();
+  QuietErrors quiet;
+  Dataset ds(GDALOpen(path.c_str(), GA_ReadOnly));
+  if (!ds) fail(path, "cannot open as a raster");
+  GeoTiffImage im;
+  im.width = GDALGetRasterXSize(ds.get());
+  im.height = GDALGetRasterYSize(ds.get());
+  im.bands = GDALGetRasterCount(ds.get());
+  if (band < 1 || band > int(im.bands))
+    throw InputError(path + ": band " + std::to_string(band) + " of " + std::to_string(im.bands));
+  GDALGetGeoTransform(ds.get(), im.geotransform);
+  if (const char* w = GDALGetProjectionRef(ds.get())) im.crs_wkt = w;
+  GDALRasterBandH b = GDALGetRasterBand(ds.get(), band);
+  int bx = 0, by = 0;
+  GDALGetBlockSize(b, &bx, &by);
+  im.block_x = bx;
+  im.block_y = by;
+  im.overviews = GDALGetOverviewCount(b);
+  im.values.resize(im.width * im.height);
+  if (GDALRasterIO(b, GF_Read, 0, 0, int(im.width), int(im.height), im.values.data(), int(im.width),
+                   int(im.height), GDT_Float32, 0, 0) != CE_None)
+    fail(path, "reading band " + std::to_string(band));
+  return im;
+}
+
+void check_crs(const std::string& crs, const std::string& path) {
+  register_drivers();
+  QuietErrors quiet;
+  crs_wkt(crs, path);
+}
+
+bool geotiff_available() {
+  return true;
+}
+
+#else  // no GDAL in this build
+
+void write_cog(const std::string& path, const GeoTiffSpec&, const BlockFill&,
+               const std::function<void(double)>&) {
+  throw Error(path +
+              ": this potmap was built without GDAL, so it cannot write GeoTIFFs "
+              "(install libgdal-dev and configure again)");
+}
+GeoTiffImage read_geotiff_band(const std::string& path, int) {
+  throw Error(path + ": this potmap was built without GDAL, so it cannot read GeoTIFFs");
+}
+void check_crs(const std::string&, const std::string&) {}
+bool geotiff_available() {
+  return false;
+}
+
+#endif
+
+}  // namespace potmap::detail

@@ -1,0 +1,91 @@
+// `potmap raster ... OUT.tif` end to end: a job killed with SIGKILL mid-way and started again
+// with the same arguments skips the tiles it finished and writes the same file as a job that
+// ran through.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+#include "potmap/map/raster_tiles.hpp"
+#include "test_support.hpp"
+
+extern char** environ;
+namespace fs = std::filesystem;
+using potmap::test::quoted;
+
+namespace {
+
+std::string bytes_of(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+std::size_t tiles_in(const std::string& dir) {
+  std::size_t n = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    n += it->path().extension() == ".bin";
+  return n;
+}
+
+// The Town 1 map, a 200 m x 200 m window at 0.25 m in 64-cell tiles: 169 tiles, a few seconds.
+std::string job_args(const std::string& out) {
+  return "raster --map " + quoted(potmap::test::shared_data("carla/town1_abhm_map.csv")) +
+         " --bounds -300,-100,0,200 --res 0.25 --tile 64 --out " + quoted(out);
+}
+
+}  // namespace
+
+TEST(RasterTilesCli, AJobKilledMidwayResumesToTheSameFile) {
+  if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  if (!potmap::geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  const std::string map = potmap::test::shared_data("carla/town1_abhm_map.csv");
+  ASSERT_TRUE(fs::exists(map)) << map;
+  const std::string dir = potmap::test::temp_dir("raster-tiles-kill");
+
+  const auto whole = potmap::test::run_cli(job_args(dir + "/whole.tif") + " --json", "2>/dev/null");
+  ASSERT_EQ(whole.status, 0) << whole.out;
+  ASSERT_NE(whole.out.find("\"tiles\": 169"), std::string::npos) << whole.out;
+
+  // Start the same job elsewhere and kill it once a few tiles are done.
+  const std::string out = dir + "/killed.tif";
+  const std::string cmd = "exec " + quoted(POTMAP_CLI) + " " + job_args(out) + " >/dev/null 2>&1";
+  const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (tiles_in(out + ".tiles") < 10 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(kill(pid, SIGKILL), 0);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the job ended before it was killed";
+  const std::size_t done = tiles_in(out + ".tiles");
+  EXPECT_GE(done, 10u);
+  EXPECT_LT(done, 169u);
+  EXPECT_FALSE(fs::exists(out));
+
+  const auto resumed = potmap::test::run_cli(job_args(out) + " --json", "2>/dev/null");
+  ASSERT_EQ(resumed.status, 0) << resumed.out;
+  // Every tile written before the kill is whole (atomic rename) and reused.
+  EXPECT_NE(resumed.out.find("\"reused\": " + std::to_string(done)), std::string::npos)
+      << resumed.out;
+  EXPECT_NE(resumed.out.find("\"stale\": 0"), std::string::npos) << resumed.out;
+  EXPECT_EQ(bytes_of(out), bytes_of(dir + "/whole.tif"));
+  EXPECT_FALSE(fs::exists(out + ".tiles"));
+}
+
+TEST(RasterTilesCli, HelpNamesTheGeoTiffOptions) {
+  if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const auto r = potmap::test::run_cli("raster --help");
+  ASSERT_EQ(r.status, 0);
+  for (const char* opt : {"--tile", "--work-dir", "--keep-tiles", "--crs", "--no-overviews"})
+    EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
+}

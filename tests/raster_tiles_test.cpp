@@ -1,0 +1,209 @@
+// Tiled raster jobs: tiles equal the evaluator's grid, the GeoTIFF holds the tiles exactly and
+// is georeferenced by the window, a stopped job resumes to the same file, corrupt or foreign
+// tiles are recomputed.
+#include "potmap/map/raster_tiles.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "io/geotiff_writer.hpp"
+#include "potmap/error.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/synthetic.hpp"
+#include "test_support.hpp"
+
+using namespace potmap;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string bytes_of(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+struct Fixture {
+  SyntheticScene scene = make_synthetic_scene(3, 0.5, 10);
+  RasterSpec spec;
+  Fixture() {
+    spec.xmin = scene.bounds[0];
+    spec.xmax = scene.bounds[1];
+    spec.ymin = scene.bounds[2];
+    spec.ymax = scene.bounds[3];
+    spec.resolution = (spec.xmax - spec.xmin) / 300.0;  // 300 cells across: 5 columns of 64
+  }
+  TiledRasterOptions options(const std::string& dir) const {
+    TiledRasterOptions o;
+    o.tile_cells = 64;
+    o.work_dir = dir + "/tiles";
+    return o;
+  }
+};
+
+}  // namespace
+
+TEST(RasterTiles, TilesAreTheEvaluatorsGridAndTheGeoTiffHoldsThem) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  Fixture f;
+  const std::string dir = test::temp_dir("raster-tiles-grid");
+  const std::string out = dir + "/map.tif";
+  TiledRasterOptions o = f.options(dir);
+  o.remove_tiles = false;
+  const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+  const std::size_t tiles = ((f.spec.width() + 63) / 64) * ((f.spec.height() + 63) / 64);
+  EXPECT_GE(tiles, 16u);
+  EXPECT_EQ(s.tiles, tiles);
+  EXPECT_EQ(s.computed, tiles);
+  EXPECT_EQ(s.reused, 0u);
+  ASSERT_TRUE(fs::exists(out));
+  ASSERT_TRUE(fs::exists(s.manifest));
+
+  // The whole window through the evaluator at once (grid rows bottom-up).
+  const std::size_t W = f.spec.width(), H = f.spec.height();
+  GridSpec g;
+  g.dim = 2;
+  g.resolution = f.spec.resolution;
+  g.origin[0] = f.spec.xmin;
+  g.origin[1] = f.spec.ymin;
+  g.origin[2] = -0.5 * f.spec.resolution;
+  g.count[0] = W;
+  g.count[1] = H;
+  g.count[2] = 1;
+  MapEvaluator ev(test::context(), f.scene.map);
+  const MapValues whole = ev.evaluate_grid(g);
+
+  const detail::GeoTiffImage prob = detail::read_geotiff_band(out, 1);
+  const detail::GeoTiffImage var = detail::read_geotiff_band(out, 2);
+  ASSERT_EQ(prob.width, W);
+  ASSERT_EQ(prob.height, H);
+  EXPECT_EQ(prob.bands, 2u);
+  EXPECT_EQ(prob.block_x, 64u);
+  EXPECT_EQ(prob.block_y, 64u);
+  EXPECT_GE(prob.overviews, 1u);
+  EXPECT_DOUBLE_EQ(prob.geotransform[0], f.spec.xmin);
+  EXPECT_DOUBLE_EQ(prob.geotransform[1], f.spec.resolution);
+  EXPECT_DOUBLE_EQ(prob.geotransform[3], f.spec.ymin + double(H) * f.spec.resolution);
+  EXPECT_DOUBLE_EQ(prob.geotransform[5], -f.spec.resolution);
+  EXPECT_NE(prob.crs_wkt.find("potmap map frame"), std::string::npos) << prob.crs_wkt;
+
+  // Image row r is grid row H - 1 - r. Tiles and the one-pass grid cut the kernel lists on
+  // different tiles, so they agree to float rounding, not bit for bit.
+  double worst_p = 0, worst_v = 0;
+  for (std::size_t r = 0; r < H; ++r)
+    for (std::size_t c = 0; c < W; ++c) {
+      const std::size_t gi = (H - 1 - r) * W + c, ii = r * W + c;
+      worst_p = std::max(worst_p, double(std::fabs(prob.values[ii] - whole.prob[gi])));
+      worst_v = std::max(worst_v, double(std::fabs(var.values[ii] - whole.var[gi])) /
+                                      (1.0 + std::fabs(whole.var[gi])));
+    }
+  EXPECT_LT(worst_p, 1e-5);
+  EXPECT_LT(worst_v, 1e-5);
+
+  // And the GeoTIFF holds each stored tile exactly.
+  TiledRaster job(test::context(), f.scene.map, f.spec, out + ".again.tif", o);
+  std::vector<float> tp, tv;
+  for (const RasterTile& t : job.tiles()) {
+    ASSERT_TRUE(job.complete(t)) << t.row << "," << t.col;
+    job.load(t, tp, tv);
+    for (std::size_t r = 0; r < t.height; ++r)
+      for (std::size_t c = 0; c < t.width; ++c) {
+        const std::size_t ii = (t.y0 + r) * W + t.x0 + c;
+        ASSERT_EQ(tp[r * t.width + c], prob.values[ii]);
+        ASSERT_EQ(tv[r * t.width + c], var.values[ii]);
+      }
+  }
+}
+
+TEST(RasterTiles, AStoppedJobResumesToTheSameFile) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  Fixture f;
+  const std::string dir = test::temp_dir("raster-tiles-resume");
+  const TiledRasterSummary whole = rasterize_tiled(test::context(), f.scene.map, f.spec,
+                                                   dir + "/whole.tif", f.options(dir + "/a"));
+  EXPECT_FALSE(fs::exists(dir + "/a/tiles")) << "tiles removed once the GeoTIFF is in place";
+
+  // Stop after about half the tiles, as a kill would.
+  const std::string out = dir + "/resumed.tif";
+  const TiledRasterOptions o = f.options(dir + "/b");
+  struct Stop {};
+  EXPECT_THROW(rasterize_tiled(test::context(), f.scene.map, f.spec, out, o,
+                               [](double fraction) {
+                                 if (fraction > 0.45) throw Stop{};
+                               }),
+               Stop);
+  EXPECT_FALSE(fs::exists(out));
+  std::size_t left = 0;
+  for (const auto& e : fs::directory_iterator(o.work_dir)) left += e.path().extension() == ".bin";
+  EXPECT_GT(left, 5u);
+  EXPECT_LT(left, 20u);
+
+  const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+  EXPECT_EQ(s.reused, left);
+  EXPECT_EQ(s.computed, whole.tiles - left);
+  EXPECT_EQ(bytes_of(out), bytes_of(dir + "/whole.tif"));
+}
+
+TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  Fixture f;
+  const std::string dir = test::temp_dir("raster-tiles-corrupt");
+  TiledRasterOptions o = f.options(dir);
+  o.remove_tiles = false;
+  const std::string out = dir + "/map.tif";
+  rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+  const std::string first = bytes_of(out);
+
+  TiledRaster job(test::context(), f.scene.map, f.spec, out, o);
+  const RasterTile& t = job.tiles()[7];
+  const std::string path =
+      o.work_dir + "/tile_" + std::to_string(t.row) + "_" + std::to_string(t.col) + ".bin";
+  ASSERT_TRUE(fs::exists(path));
+  {
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    file.seekp(100);
+    file.put('\x7f');
+  }
+  bool stale = false;
+  EXPECT_FALSE(job.complete(t, &stale));
+  EXPECT_TRUE(stale);
+  EXPECT_THROW(job.assemble(), InputError);
+
+  const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+  EXPECT_EQ(s.stale, 1u);
+  EXPECT_EQ(s.computed, 1u);
+  EXPECT_EQ(bytes_of(out), first);
+
+  // Another map: every tile there belongs to another job.
+  KernelMap other = f.scene.map;
+  other.w_mean[0] += 1.0;
+  const TiledRasterSummary s2 = rasterize_tiled(test::context(), other, f.spec, out, o);
+  EXPECT_EQ(s2.stale, s2.tiles);
+  EXPECT_EQ(s2.reused, 0u);
+}
+
+TEST(RasterTiles, BadOptionsAreNamed) {
+  Fixture f;
+  const std::string dir = test::temp_dir("raster-tiles-bad");
+  TiledRasterOptions o = f.options(dir);
+  o.tile_cells = 100;
+  try {
+    TiledRaster job(test::context(), f.scene.map, f.spec, dir + "/x.tif", o);
+    FAIL() << "expected an error";
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("100"), std::string::npos) << e.what();
+  }
+  if (!geotiff_supported()) return;
+  o.tile_cells = 64;
+  o.crs = "NOT-A-CRS:42";
+  try {
+    rasterize_tiled(test::context(), f.scene.map, f.spec, dir + "/y.tif", o);
+    FAIL() << "expected an error";
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("NOT-A-CRS:42"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir + "/y.tif"));
+}

@@ -1,0 +1,103 @@
+#include "raster_tiled.hpp"
+
+#include <chrono>
+#include <cstdlib>
+#include <functional>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "commands.hpp"
+#include "potmap/error.hpp"
+#include "potmap/io/map_io.hpp"
+#include "progress.hpp"
+#include "raster_ranks.hpp"
+
+namespace potmap::cli {
+
+namespace {
+
+// With several ranks on a node, each takes its own device when there are several (unless the
+// user named one).
+std::string rank_device(const TiledRunArgs& a, const RasterRanks& ranks) {
+  if (ranks.size() == 1 || !a.device.empty() || std::getenv("POTMAP_DEVICE")) return a.device;
+  const auto devices = list_devices();
+  if (devices.empty()) return a.device;
+  return devices[std::size_t(ranks.local_rank()) % devices.size()].name;
+}
+
+void print_summary(const TiledRasterSummary& s, int ranks, std::size_t busy, bool json) {
+  if (json) {
+    nlohmann::json j = {{"width", s.width},         {"height", s.height},    {"tiles", s.tiles},
+                        {"computed", s.computed},   {"reused", s.reused},    {"stale", s.stale},
+                        {"ranks", ranks},           {"seconds", s.seconds},  {"output", s.output},
+                        {"ranks_with_tiles", busy}, {"manifest", s.manifest}};
+    std::cout << j.dump(2) << "\n";
+    return;
+  }
+  std::cout << s.width << " x " << s.height << " cells in " << s.tiles << " tiles (" << s.computed
+            << " computed, " << s.reused << " reused from an earlier run"
+            << (s.stale ? ", " + std::to_string(s.stale) + " stale recomputed" : std::string())
+            << ") on " << ranks << " rank" << (ranks == 1 ? "" : "s") << ", " << s.seconds
+            << " s\nwrote " << s.output << "\nwrote " << s.manifest << "\n";
+}
+
+}  // namespace
+
+int run_tiled_raster(const TiledRunArgs& a) {
+  if (!geotiff_supported())
+    throw Error(a.out +
+                ": this potmap was built without GDAL; a .tif output needs it "
+                "(install libgdal-dev, configure again), or give an output prefix for PNG/.npy");
+  RasterRanks ranks;
+  try {
+    const KernelMap map = read_map(a.map);
+    Context ctx = make_context(rank_device(a, ranks), a.json || ranks.rank() > 0);
+    if (ranks.size() == 1) {
+      print_summary(
+          rasterize_tiled(ctx, map, a.spec, a.out, a.options, terminal_progress("raster")), 1, 1,
+          a.json);
+      return 0;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    TiledRaster job(ctx, map, a.spec, a.out, a.options);
+    const std::size_t total = job.tiles().size();
+    auto progress = ranks.rank() == 0 ? terminal_progress("raster") : std::function<void(double)>();
+    std::size_t computed = 0, reused = 0, stale = 0;
+    std::vector<float> prob, var;
+    ranks.all_ok(true);  // every rank has its device before the first claim
+    for (std::size_t i = ranks.claim(total); i < total; i = ranks.claim(total)) {
+      const RasterTile& t = job.tiles()[i];
+      bool was_stale = false;
+      if (job.complete(t, &was_stale)) {
+        ++reused;
+      } else {
+        stale += was_stale;
+        job.evaluate(t, prob, var);
+        job.store(t, prob, var);
+        ++computed;
+      }
+      if (progress) progress(0.9 * double(i + 1) / double(total));
+    }
+    const std::size_t busy = ranks.sum(computed + reused > 0 ? 1 : 0);
+    computed = ranks.sum(computed);
+    reused = ranks.sum(reused);
+    stale = ranks.sum(stale);
+    if (ranks.rank() == 0) {
+      TiledRasterSummary s = job.assemble();
+      s.computed = computed;
+      s.reused = reused;
+      s.stale = stale;
+      s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      print_summary(s, ranks.size(), busy, a.json);
+    }
+    return ranks.all_ok(true) ? 0 : 1;
+  } catch (const std::exception& e) {
+    if (ranks.size() == 1) throw;
+    // The other ranks would wait for this one forever: end the job; tiles written stay.
+    std::cerr << "potmap: rank " << ranks.rank() << ": error: " << e.what() << "\n";
+    ranks.abort(1);
+  }
+}
+
+}  // namespace potmap::cli
