@@ -26,32 +26,41 @@
 
 using namespace potmap;
 
-int main(int argc, char** argv) {
+namespace {
+
+struct DriveArgs {
   std::size_t scans = 36000, max_kernels = 0;
   double jitter = 0.05;
-  std::string town_name = "town1", out = "overall_map_drive.json";
+  std::string town = "town1", out = "overall_map_drive.json";
   std::uint64_t seed = 0;
+};
+
+// Returns false (after naming the option) on an unknown one.
+bool parse_args(int argc, char** argv, DriveArgs& a) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--scans")
-      scans = std::stoul(v);
+      a.scans = std::stoul(v);
     else if (k == "--jitter")
-      jitter = std::stod(v);
+      a.jitter = std::stod(v);
     else if (k == "--town")
-      town_name = v;
+      a.town = v;
     else if (k == "--seed")
-      seed = std::stoull(v);
+      a.seed = std::stoull(v);
     else if (k == "--max-kernels")
-      max_kernels = std::stoul(v);
+      a.max_kernels = std::stoul(v);
     else if (k == "--out")
-      out = v;
+      a.out = v;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
-      return 2;
+      return false;
     }
   }
-  const Town town = Town::builtin(town_name, seed);
-  // The learned map: BHM over a survey drive of the whole town.
+  return true;
+}
+
+// The learned map: BHM over a survey drive of the whole town.
+KernelMap learn_town(const Town& town, std::uint64_t seed) {
   SimOptions survey;
   survey.scans = 600;
   survey.spacing = 2.0;
@@ -64,71 +73,113 @@ int main(int argc, char** argv) {
   const LabelledPoints train = label_scans(s0.scans, lo).train;
   const double lo_[3] = {0, 0, 0}, hi[3] = {town.width(), town.height(), 0};
   KernelMap learned = bhm_grid_prior(2, lo_, hi, 1.0, 8.0);
-  {
-    Context ctx;
-    BhmOptions bo;
-    bo.em_iterations = 2;
-    bhm_update(ctx, learned, train, bo);
-  }
+  Context ctx;
+  BhmOptions bo;
+  bo.em_iterations = 2;
+  bhm_update(ctx, learned, train, bo);
   std::fprintf(stderr, "learned map: %zu kernels over %.0f x %.0f m from %zu samples\n",
                learned.size(), town.width(), town.height(), train.size());
+  return learned;
+}
+
+// The learned map's kernels within r_max of (x, y), jittered as successive transports of one
+// place differ; kernels are bucketed by 1 m cell for the range query.
+class Neighbourhood {
+ public:
+  Neighbourhood(const KernelMap& map, const Town& town) : map_(map) {
+    gx_ = static_cast<int>(std::ceil(town.width())) + 1;
+    gy_ = static_cast<int>(std::ceil(town.height())) + 1;
+    cells_.resize(std::size_t(gx_) * gy_);
+    for (std::size_t k = 0; k < map.size(); ++k) {
+      const int cx = std::clamp(static_cast<int>(map.position[2 * k]), 0, gx_ - 1);
+      const int cy = std::clamp(static_cast<int>(map.position[2 * k + 1]), 0, gy_ - 1);
+      cells_[std::size_t(cy) * gx_ + cx].push_back(static_cast<std::uint32_t>(k));
+    }
+  }
+  // `g` is the drive's one distribution (it keeps a spare draw between calls).
+  KernelMap around(double x, double y, double r_max, double jitter, std::mt19937_64& rng,
+                   std::normal_distribution<double>& g) const {
+    KernelMap inst;
+    for (int cy = std::max(0, int(y - r_max)); cy <= std::min(gy_ - 1, int(y + r_max)); ++cy)
+      for (int cx = std::max(0, int(x - r_max)); cx <= std::min(gx_ - 1, int(x + r_max)); ++cx)
+        for (std::uint32_t k : cells_[std::size_t(cy) * gx_ + cx]) {
+          const double dx = map_.position[2 * k] - x, dy = map_.position[2 * k + 1] - y;
+          if (dx * dx + dy * dy > r_max * r_max) continue;
+          const double p[2] = {map_.position[2 * k] + jitter * g(rng),
+                               map_.position[2 * k + 1] + jitter * g(rng)};
+          inst.push_back(p, map_.gamma[k] * std::exp(0.1 * g(rng)), map_.w_mean[k], map_.w_var[k]);
+        }
+    return inst;
+  }
+
+ private:
+  const KernelMap& map_;
+  int gx_ = 0, gy_ = 0;
+  std::vector<std::vector<std::uint32_t>> cells_;
+};
+
+struct CurvePoint {
+  std::size_t scans = 0, kernels = 0, bytes = 0;
+  double ms_per_add = 0;
+};
+
+void write_json(const DriveArgs& a, const KernelMap& learned, const OverallMapOptions& oo,
+                std::size_t in_kernels, std::size_t merged, double add_s, double total_s,
+                const std::vector<CurvePoint>& curve) {
+  std::ofstream f(a.out);
+  f << "{\n  \"town\": \"" << a.town << "\", \"scans\": " << a.scans
+    << ", \"jitter_m\": " << a.jitter << ", \"max_kernels\": " << a.max_kernels
+    << ", \"learned_kernels\": " << learned.size() << ", \"merge_radius\": " << oo.merge_radius
+    << ", \"gamma_ratio\": " << oo.gamma_ratio << ",\n  \"input_kernels\": " << in_kernels
+    << ", \"merged\": " << merged << ", \"add_seconds\": " << add_s
+    << ", \"total_seconds\": " << total_s << ",\n  \"curve\": [";
+  for (std::size_t i = 0; i < curve.size(); ++i)
+    f << (i ? ",\n    " : "\n    ") << "{\"scans\": " << curve[i].scans
+      << ", \"kernels\": " << curve[i].kernels << ", \"memory_bytes\": " << curve[i].bytes
+      << ", \"ms_per_add\": " << curve[i].ms_per_add << "}";
+  f << "\n  ]\n}\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  DriveArgs a;
+  if (!parse_args(argc, argv, a)) return 2;
+  const Town town = Town::builtin(a.town, a.seed);
+  const KernelMap learned = learn_town(town, a.seed);
 
   // The drive: only the poses matter, so the sensor casts few beams.
   SimOptions drive;
-  drive.scans = scans;
+  drive.scans = a.scans;
   drive.spacing = 1.0;  // 10 m/s at 10 scans/s
   drive.step_deg = 90;
-  drive.seed = seed + 1;
+  drive.seed = a.seed + 1;
   const Simulation sim = simulate(town, drive);
-  const double r_max = drive.max_range;
-
-  // Kernels by 1 m cell for the range query.
-  const int gx = static_cast<int>(std::ceil(town.width())) + 1;
-  const int gy = static_cast<int>(std::ceil(town.height())) + 1;
-  std::vector<std::vector<std::uint32_t>> cells(std::size_t(gx) * gy);
-  for (std::size_t k = 0; k < learned.size(); ++k) {
-    const int cx = std::clamp(static_cast<int>(learned.position[2 * k]), 0, gx - 1);
-    const int cy = std::clamp(static_cast<int>(learned.position[2 * k + 1]), 0, gy - 1);
-    cells[std::size_t(cy) * gx + cx].push_back(static_cast<std::uint32_t>(k));
-  }
+  const Neighbourhood near(learned, town);
 
   OverallMapOptions oo;
-  oo.max_kernels = max_kernels;
+  oo.max_kernels = a.max_kernels;
   OverallMap overall(2, oo);
-  std::mt19937_64 rng(seed + 7);
+  std::mt19937_64 rng(a.seed + 7);
   std::normal_distribution<double> g(0, 1);
-  std::vector<std::size_t> at_scan, sizes, bytes;
-  std::vector<double> ms_per_add;
+  std::vector<CurvePoint> curve;
   std::size_t in_kernels = 0, merged = 0;
   double add_s = 0;
   const auto t0 = std::chrono::steady_clock::now();
   std::printf("%10s %12s %12s %12s %10s %14s\n", "scans", "kernels", "memory_MB", "input_kern",
               "merged_%", "us_per_add");
   for (std::size_t i = 0; i < sim.scans.size(); ++i) {
-    const double x = sim.route[2 * i], y = sim.route[2 * i + 1];
-    KernelMap inst;
-    for (int cy = std::max(0, int(y - r_max)); cy <= std::min(gy - 1, int(y + r_max)); ++cy)
-      for (int cx = std::max(0, int(x - r_max)); cx <= std::min(gx - 1, int(x + r_max)); ++cx)
-        for (std::uint32_t k : cells[std::size_t(cy) * gx + cx]) {
-          const double dx = learned.position[2 * k] - x, dy = learned.position[2 * k + 1] - y;
-          if (dx * dx + dy * dy > r_max * r_max) continue;
-          const double p[2] = {learned.position[2 * k] + jitter * g(rng),
-                               learned.position[2 * k + 1] + jitter * g(rng)};
-          inst.push_back(p, learned.gamma[k] * std::exp(0.1 * g(rng)), learned.w_mean[k],
-                         learned.w_var[k]);
-        }
+    const KernelMap inst =
+        near.around(sim.route[2 * i], sim.route[2 * i + 1], drive.max_range, a.jitter, rng, g);
     const auto a0 = std::chrono::steady_clock::now();
     const OverallMapAddStats st = overall.add(inst);
     add_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - a0).count();
     in_kernels += inst.size();
     merged += st.merged;
     if ((i + 1) % 1800 == 0 || i + 1 == sim.scans.size() || i + 1 == 100 || i + 1 == 600) {
-      at_scan.push_back(i + 1);
-      sizes.push_back(overall.size());
-      bytes.push_back(overall.memory_bytes());
-      ms_per_add.push_back(1e3 * add_s / double(i + 1));
+      curve.push_back({i + 1, overall.size(), overall.memory_bytes(), 1e3 * add_s / double(i + 1)});
       std::printf("%10zu %12zu %12.2f %12zu %10.1f %14.1f\n", i + 1, overall.size(),
-                  bytes.back() / 1e6, in_kernels,
+                  curve.back().bytes / 1e6, in_kernels,
                   100.0 * merged / std::max<std::size_t>(1, in_kernels),
                   1e6 * add_s / double(i + 1));
       std::fflush(stdout);
@@ -136,17 +187,7 @@ int main(int argc, char** argv) {
   }
   const double total_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::ofstream f(out);
-  f << "{\n  \"town\": \"" << town_name << "\", \"scans\": " << scans
-    << ", \"jitter_m\": " << jitter << ", \"max_kernels\": " << max_kernels
-    << ", \"learned_kernels\": " << learned.size() << ", \"merge_radius\": " << oo.merge_radius
-    << ", \"gamma_ratio\": " << oo.gamma_ratio << ",\n  \"input_kernels\": " << in_kernels
-    << ", \"merged\": " << merged << ", \"add_seconds\": " << add_s
-    << ", \"total_seconds\": " << total_s << ",\n  \"curve\": [";
-  for (std::size_t i = 0; i < at_scan.size(); ++i)
-    f << (i ? ",\n    " : "\n    ") << "{\"scans\": " << at_scan[i] << ", \"kernels\": " << sizes[i]
-      << ", \"memory_bytes\": " << bytes[i] << ", \"ms_per_add\": " << ms_per_add[i] << "}";
-  f << "\n  ]\n}\n";
-  std::printf("learned map %zu kernels; wrote %s\n", learned.size(), out.c_str());
+  write_json(a, learned, oo, in_kernels, merged, add_s, total_s, curve);
+  std::printf("learned map %zu kernels; wrote %s\n", learned.size(), a.out.c_str());
   return 0;
 }
