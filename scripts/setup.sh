@@ -14,6 +14,7 @@ packages=(
   liboctomap-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy
+  python3-dev pybind11-dev python3-pytest python3-matplotlib
   clang libclang-rt-14-dev
 )
 
