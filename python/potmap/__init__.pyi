@@ -516,24 +516,6 @@ class KernelMap:
     @positions.setter
     def positions(self, value: Any) -> None: ...
     @property
-    def gamma(self) -> numpy.ndarray:
-        """(M,) kernel widths, 1/m^2"""
-        ...
-    @gamma.setter
-    def gamma(self, value: Any) -> None: ...
-    @property
-    def w_mean(self) -> numpy.ndarray:
-        """(M,) weight means"""
-        ...
-    @w_mean.setter
-    def w_mean(self, value: Any) -> None: ...
-    @property
-    def w_var(self) -> numpy.ndarray:
-        """(M,) weight variances"""
-        ...
-    @w_var.setter
-    def w_var(self, value: Any) -> None: ...
-    @property
     def bias(self) -> Any:
         """(mean, variance) of the bias weight, or None"""
         ...
@@ -563,6 +545,24 @@ class KernelMap:
         y = ymin + (height - 1 - r + 0.5) res; width = ceil((xmax - xmin) / res).
         z: height of the slice of a 3D map, metres (default 0)."""
         ...
+    @property
+    def gamma(self) -> numpy.ndarray:
+        """(M,) kernel widths, 1/m^2"""
+        ...
+    @gamma.setter
+    def gamma(self, value: Any) -> None: ...
+    @property
+    def w_mean(self) -> numpy.ndarray:
+        """(M,) weight means"""
+        ...
+    @w_mean.setter
+    def w_mean(self, value: Any) -> None: ...
+    @property
+    def w_var(self) -> numpy.ndarray:
+        """(M,) weight variances"""
+        ...
+    @w_var.setter
+    def w_var(self, value: Any) -> None: ...
     @staticmethod
     def load(path: str) -> KernelMap:
         """Reads a KernelMap; the format follows the extension: .csv (x,y[,z],gamma,w_mean,w_var),

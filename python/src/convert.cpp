@@ -1,5 +1,6 @@
 #include "convert.hpp"
 
+#include <algorithm>
 #include <sstream>
 
 namespace potmap::python {
@@ -109,6 +110,20 @@ std::vector<std::uint8_t> labels_arg(py::handle obj, long n, const char* name) {
 py::array_t<double> points_array(const std::vector<double>& v, int dim) {
   py::ssize_t d = dim > 0 ? dim : 1;
   return to_array(v, {static_cast<py::ssize_t>(v.size()) / d, d});
+}
+
+void set_fields(py::object obj, const py::dict& kwargs, const char* what,
+                const std::vector<std::string>& fixed) {
+  py::object type = py::type::of(obj);
+  py::object property = py::module_::import("builtins").attr("property");
+  for (auto item : kwargs) {
+    std::string key = py::str(item.first);
+    bool known = py::hasattr(type, key.c_str()) && py::isinstance(type.attr(key.c_str()), property);
+    if (!known || std::find(fixed.begin(), fixed.end(), key) != fixed.end()) {
+      throw py::type_error(std::string(what) + ": unexpected keyword argument '" + key + "'");
+    }
+    obj.attr(key.c_str()) = item.second;
+  }
 }
 
 void add_fields_repr(py::object cls) {

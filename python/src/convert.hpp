@@ -45,20 +45,16 @@ py::array_t<T> to_array(const std::vector<T>& v, std::vector<py::ssize_t> shape)
 /// (n, dim) array of row-major points.
 py::array_t<double> points_array(const std::vector<double>& v, int dim);
 
-/// A plain options struct bound with def_readwrite, filled from keyword arguments: every
-/// keyword must name one of its fields (TypeError otherwise, listing the name).
+/// Sets fields of a bound object from keyword arguments: every keyword must name one of its
+/// properties (TypeError otherwise, naming `what` and the keyword) and not one of `fixed`.
+void set_fields(py::object obj, const py::dict& kwargs, const char* what,
+                const std::vector<std::string>& fixed = {});
+
+/// A plain options struct bound with def_readwrite, filled from keyword arguments.
 template <class T>
-T options_from(const py::kwargs& kwargs, const char* what) {
+T options_from(const py::dict& kwargs, const char* what) {
   py::object obj = py::cast(T{});
-  py::object type = py::type::of(obj);
-  py::object property = py::module_::import("builtins").attr("property");
-  for (auto item : kwargs) {
-    std::string key = py::str(item.first);
-    if (!py::hasattr(type, key.c_str()) || !py::isinstance(type.attr(key.c_str()), property)) {
-      throw py::type_error(std::string(what) + ": unexpected keyword argument '" + key + "'");
-    }
-    obj.attr(key.c_str()) = item.second;
-  }
+  set_fields(obj, kwargs, what);
   return obj.cast<T>();
 }
 

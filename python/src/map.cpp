@@ -104,6 +104,20 @@ Values raster_values(MapEvaluator& ev, const std::vector<double>& bounds, double
           picture(v.var, g.count[0], g.count[1])};
 }
 
+// A per-kernel array of the map as a property: read as a copy, assigned whole (M values).
+void kernel_property(py::class_<KernelMap>& cls, const char* name,
+                     std::vector<double> KernelMap::*member, const char* doc) {
+  cls.def_property(
+      name,
+      [member](const KernelMap& k) {
+        return to_array(k.*member, {static_cast<py::ssize_t>(k.size())});
+      },
+      [member, name](KernelMap& k, py::handle v) {
+        k.*member = doubles_arg(v, static_cast<long>(k.size()), name);
+      },
+      doc);
+}
+
 EvalOptions eval_options(double tau) {
   EvalOptions o;
   o.tau = tau;
@@ -122,7 +136,7 @@ Scores score_any(py::handle prob, py::handle labels) {
 void bind_map(py::module_& m) {
   bind_values(m);
 
-  py::class_<KernelMap>(
+  py::class_<KernelMap> kernel_map(
       m, "KernelMap",
       "A continuous occupancy map: M squared-exponential kernels with Gaussian\n"
       "weights, plus an optional bias weight (SPEC section 2):\n"
@@ -130,7 +144,8 @@ void bind_map(py::module_& m) {
       "  mu(x) = b_mean + sum w_mean_m phi_m(x)\n"
       "  s2(x) = b_var + sum w_var_m phi_m(x)^2\n"
       "  p(x) = sigmoid(mu / sqrt(1 + pi s2 / 8))\n"
-      "Array properties return copies (float64); assign whole arrays to change them.")
+      "Array properties return copies (float64); assign whole arrays to change them.");
+  kernel_map
       .def(py::init(&make_map), "positions"_a, "gamma"_a, "w_mean"_a, "w_var"_a,
            "bias"_a = py::none(),
            "positions: (M, 2) or (M, 3) kernel centres, metres; gamma: (M,) widths, 1/m^2, > 0;\n"
@@ -155,33 +170,6 @@ void bind_map(py::module_& m) {
             k.position.assign(p.data, p.data + p.n * k.dim);
           },
           "(M, dim) kernel centres, metres")
-      .def_property(
-          "gamma",
-          [](const KernelMap& k) {
-            return to_array(k.gamma, {static_cast<py::ssize_t>(k.size())});
-          },
-          [](KernelMap& k, py::handle v) {
-            k.gamma = doubles_arg(v, static_cast<long>(k.size()), "gamma");
-          },
-          "(M,) kernel widths, 1/m^2")
-      .def_property(
-          "w_mean",
-          [](const KernelMap& k) {
-            return to_array(k.w_mean, {static_cast<py::ssize_t>(k.size())});
-          },
-          [](KernelMap& k, py::handle v) {
-            k.w_mean = doubles_arg(v, static_cast<long>(k.size()), "w_mean");
-          },
-          "(M,) weight means")
-      .def_property(
-          "w_var",
-          [](const KernelMap& k) {
-            return to_array(k.w_var, {static_cast<py::ssize_t>(k.size())});
-          },
-          [](KernelMap& k, py::handle v) {
-            k.w_var = doubles_arg(v, static_cast<long>(k.size()), "w_var");
-          },
-          "(M,) weight variances")
       .def_property(
           "bias",
           [](const KernelMap& k) -> py::object {
@@ -256,6 +244,10 @@ void bind_map(py::module_& m) {
           "imshow(origin='upper')). Cell (r, c) is centred at x = xmin + (c + 0.5) res,\n"
           "y = ymin + (height - 1 - r + 0.5) res; width = ceil((xmax - xmin) / res).\n"
           "z: height of the slice of a 3D map, metres (default 0).");
+
+  kernel_property(kernel_map, "gamma", &KernelMap::gamma, "(M,) kernel widths, 1/m^2");
+  kernel_property(kernel_map, "w_mean", &KernelMap::w_mean, "(M,) weight means");
+  kernel_property(kernel_map, "w_var", &KernelMap::w_var, "(M,) weight variances");
 
   py::class_<MapEvaluator>(m, "Evaluator",
                            "A map uploaded once to a device, evaluated any number of times.\n"

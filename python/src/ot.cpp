@@ -36,33 +36,12 @@ SinkhornProblem make_problem(py::handle source, py::handle target, const py::kwa
   p.source = matrix_arg(source, 0, "source");
   p.target = matrix_arg(target, static_cast<int>(p.source.cols()), "target");
   py::object obj = py::cast(std::move(p));
-  py::object type = py::type::of(obj);
-  for (auto item : kw) {
-    std::string key = py::str(item.first);
-    if (!py::hasattr(type, key.c_str()) || key == "source" || key == "target") {
-      throw py::type_error("SinkhornProblem: unexpected keyword argument '" + key + "'");
-    }
-    obj.attr(key.c_str()) = item.second;
-  }
+  set_fields(obj, kw, "SinkhornProblem", {"source", "target"});
   return obj.cast<SinkhornProblem>();
 }
 
-SinkhornOptions run_options(const py::dict& kw) {
-  SinkhornOptions o;
-  py::object obj = py::cast(o);
-  py::object type = py::type::of(obj);
-  for (auto item : kw) {
-    std::string key = py::str(item.first);
-    if (!py::hasattr(type, key.c_str())) {
-      throw py::type_error("SinkhornOptions: unexpected keyword argument '" + key + "'");
-    }
-    obj.attr(key.c_str()) = item.second;
-  }
-  return obj.cast<SinkhornOptions>();
-}
-
 std::vector<SinkhornResult> run_batch(const SinkhornBatch& b, Context& ctx, const py::kwargs& kw) {
-  SinkhornOptions o = run_options(kw);
+  SinkhornOptions o = options_from<SinkhornOptions>(kw, "SinkhornOptions");
   py::gil_scoped_release release;
   return b.run(ctx, o);
 }

@@ -73,3 +73,30 @@ def test_scan_from_arrays_and_simulated_dataset(tmp_path, cli):
     written = potmap.read_labelled_csv(str(tmp_path / "sim" / "train.csv"))
     np.testing.assert_array_equal(written.positions, train.positions)
     np.testing.assert_array_equal(written.labels, train.labels)
+
+
+def test_3d_frames_and_slices(data_dir, cli):
+    kitti = potmap.read_kitti_bin(f"{data_dir}/lidar3d/kitti_000008.bin")
+    nusc = potmap.read_nuscenes_bin(f"{data_dir}/lidar3d/nuscenes_lidar_top_1532402927647951.bin")
+    for path, scan in ((f"{data_dir}/lidar3d/kitti_000008.bin", kitti),
+                       (f"{data_dir}/lidar3d/nuscenes_lidar_top_1532402927647951.bin", nusc)):
+        info = cli("data", "info", path)
+        field = dict(line.split(": ", 1) for line in info.splitlines() if ": " in line)
+        assert scan.dim == 3 and scan.hits.shape == (int(field["hits"]), 3)
+        assert scan.pose.shape == (3, 4)
+    raw = np.fromfile(f"{data_dir}/lidar3d/kitti_000008.bin", dtype=np.float32).reshape(-1, 4)
+    keep = np.all(np.isfinite(raw[:, :3]), axis=1)
+    np.testing.assert_allclose(kitti.hits, raw[keep, :3].astype(np.float64)[: len(kitti.hits)])
+    flat = potmap.slice_2d(kitti, -0.2, 0.2)
+    assert flat.dim == 2 and 0 < len(flat.hits) < len(kitti.hits)
+
+
+def test_npz_labelled_samples(tmp_path):
+    x = np.column_stack([np.repeat([0, 1], 5), np.arange(10.0), np.arange(10.0) * 2])
+    y = np.array([0, 1] * 5)
+    np.savez(tmp_path / "s.npz", X=x, Y=y)
+    pts = potmap.read_npz_labelled(str(tmp_path / "s.npz"))
+    np.testing.assert_array_equal(pts.positions, x[:, 1:])
+    np.testing.assert_array_equal(pts.labels, y)
+    np.testing.assert_array_equal(pts.scan, x[:, 0].astype(np.int64))
+    assert len(potmap.scans_from_labelled(pts)) == 2
