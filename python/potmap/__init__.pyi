@@ -316,7 +316,7 @@ class DictionaryOptions:
 
 class Evaluator:
     """A map uploaded once to a device, evaluated any number of times.
-    Keeps its Context alive. One thread at a time."""
+    Keeps its Context alive. Threads sharing one take turns."""
     def __init__(self, ctx: Context, map: KernelMap, tau: float = 18.0) -> None:
         """ctx: the device; map: a KernelMap (validated, copied to the device);
         tau: cut-off exponent (default 18)."""
@@ -691,6 +691,7 @@ class Mapper:
         ...
     @property
     def options(self) -> MapperOptions:
+        """MapperOptions (a copy)"""
         ...
     def reset(self) -> None:
         """Forgets every scan (same options)."""

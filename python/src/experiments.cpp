@@ -105,7 +105,8 @@ void bind_experiments(py::module_& m) {
       .def_readonly("uses_source", &ex::Method::uses_source)
       .def(
           "fit",
-          [](const ex::Method& mt, Context* ctx, const ex::MapTask& task) {
+          [](const ex::Method& mt, Context* ctx,
+             ex::MapTask task) {  // copied under the GIL: its fields are writable
             py::gil_scoped_release release;
             return mt.fit(ctx, task);
           },

@@ -4,6 +4,10 @@
 #include <pybind11/functional.h>
 #include <pybind11/stl.h>
 
+#include <memory>
+#include <mutex>
+#include <type_traits>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "potmap/learn/abhm.hpp"
@@ -30,12 +34,33 @@ void box_arg(const std::vector<double>& lo, const std::vector<double>& hi, int d
 }
 
 // The learner does not say its dimension; the binding keeps it to check query arrays.
+// It is not thread-safe (not even its const members) and runs without the GIL: its own lock
+// makes Python threads sharing one take turns.
 struct PyJointBhm : JointBhm {
   PyJointBhm(int d, const JointBhmOptions& o) : JointBhm(d, o), dim(d) {}
   PyJointBhm(int d, const double lo[3], const double hi[3], const JointBhmOptions& o)
       : JointBhm(d, lo, hi, o), dim(d) {}
   int dim;
+  std::unique_ptr<std::mutex> mu = std::make_unique<std::mutex>();
 };
+
+// A member of the learner run without the GIL and under its lock.
+template <class R, class... A>
+auto unlocked(R (JointBhm::*f)(A...)) {
+  return [f](PyJointBhm& b, A... a) {
+    py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(*b.mu);
+    return (b.*f)(a...);
+  };
+}
+template <class R, class... A>
+auto unlocked(R (JointBhm::*f)(A...) const) {
+  return [f](PyJointBhm& b, A... a) {
+    py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(*b.mu);
+    return std::decay_t<R>((b.*f)(a...));
+  };
+}
 
 BhmOptions bhm_options(const py::kwargs& kw) {
   return options_from<BhmOptions>(kw, "BhmOptions");
@@ -137,27 +162,34 @@ void bind_learn(py::module_& m) {
            "dim: 2 or 3. lo, hi: bounds of the grid, metres (default None: unbounded, tiles\n"
            "allocated where samples arrive). Keyword arguments: JointBhmOptions fields\n"
            "(spacing=0.5 m, gamma=0 -> from neighbour_phi=0.19, prior_var=10, bias=True, ...).")
-      .def("update", &JointBhm::update, "samples"_a, py::call_guard<py::gil_scoped_release>(),
+      .def("update", unlocked(&JointBhm::update), "samples"_a,
            "Adds one scan's LabelledPoints (EM over its xi, conjugate gradients).")
-      .def("update_by_scan", &JointBhm::update_by_scan, "samples"_a,
-           py::call_guard<py::gil_scoped_release>(),
+      .def("update_by_scan", unlocked(&JointBhm::update_by_scan), "samples"_a,
            "One update() per scan index, in increasing order.")
-      .def("seed_unreached", &JointBhm::seed_unreached, "field"_a, "min_var"_a = 1.0,
-           "min_support"_a = 0.3, py::call_guard<py::gil_scoped_release>(),
-           "Seeds the prior of kernels no sample reached from another KernelMap (RePOT).\n"
-           "Returns the number seeded.")
-      .def("map", &JointBhm::map, py::call_guard<py::gil_scoped_release>(),
+      .def(
+          "seed_unreached",
+          [](PyJointBhm& b, const KernelMap& field, double min_var, double min_support) {
+            KernelMap copy = field;  // under the GIL: no other thread changes it meanwhile
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(*b.mu);
+            return b.seed_unreached(copy, min_var, min_support);
+          },
+          "field"_a, "min_var"_a = 1.0, "min_support"_a = 0.3,
+          "Seeds the prior of kernels no sample reached from another KernelMap (RePOT).\n"
+          "Returns the number seeded.")
+      .def("map", unlocked(&JointBhm::map),
            "The KernelMap: posterior means, variances that reproduce the predictive variance\n"
            "at each centre, and the bias.")
       .def(
           "predict_exact",
-          [](const PyJointBhm& b, py::handle points) {
+          [](PyJointBhm& b, py::handle points) {
             Points p = points_arg(points, b.dim, "points");
             py::array_t<double> mean(static_cast<py::ssize_t>(p.n)),
                 var(static_cast<py::ssize_t>(p.n));
             double *pm = mean.mutable_data(), *pv = var.mutable_data();
             {
               py::gil_scoped_release release;
+              std::lock_guard<std::mutex> lock(*b.mu);
               b.predict_exact(p.data, p.n, pm, pv);
             }
             return py::make_tuple(mean, var);
@@ -165,13 +197,13 @@ void bind_learn(py::module_& m) {
           "points"_a,
           "(mean, var) of the logit at points by a sparse Cholesky factorisation: small maps.")
       .def_readonly("dim", &PyJointBhm::dim)
-      .def("__len__", &JointBhm::size)
-      .def_property_readonly("tiles", &JointBhm::tiles)
-      .def_property_readonly("bounded", &JointBhm::bounded)
-      .def_property_readonly("memory_bytes", &JointBhm::memory_bytes)
-      .def_property_readonly("gamma", &JointBhm::gamma, "kernel width, 1/m^2")
-      .def_property_readonly("options", &JointBhm::options)
-      .def_property_readonly("last_stats", &JointBhm::last_stats);
+      .def("__len__", unlocked(&JointBhm::size))
+      .def_property_readonly("tiles", unlocked(&JointBhm::tiles))
+      .def_property_readonly("bounded", unlocked(&JointBhm::bounded))
+      .def_property_readonly("memory_bytes", unlocked(&JointBhm::memory_bytes))
+      .def_property_readonly("gamma", unlocked(&JointBhm::gamma), "kernel width, 1/m^2")
+      .def_property_readonly("options", unlocked(&JointBhm::options))
+      .def_property_readonly("last_stats", unlocked(&JointBhm::last_stats));
 
   // ABHM.
   py::class_<AbhmPrior> prior(m, "AbhmPrior", "Priors of ABHM (SPEC section 3).");
@@ -237,8 +269,7 @@ void bind_learn(py::module_& m) {
       },
       "lo"_a, "hi"_a, "count"_a, "gamma0"_a = 1.0,
       "count ABHM kernels at Halton points over [lo, hi]; starting width gamma0 1/m^2.");
-  m.def("write_abhm_params", &write_abhm_params, "params"_a, "path"_a,
-        py::call_guard<py::gil_scoped_release>());
+  m.def("write_abhm_params", &write_abhm_params, "params"_a, "path"_a);
   m.def("read_abhm_params", &read_abhm_params, "path"_a, py::call_guard<py::gil_scoped_release>());
   m.def(
       "abhm_train",

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <mutex>
 
 #include "bindings.hpp"
 #include "convert.hpp"
@@ -81,24 +82,41 @@ py::array_t<float> picture(const std::vector<float>& grid, std::size_t w, std::s
   return out;
 }
 
-Values evaluate_points(MapEvaluator& ev, py::handle points) {
+EvalOptions eval_options(double tau) {
+  EvalOptions o;
+  o.tau = tau;
+  return o;
+}
+
+// MapEvaluator is not thread-safe, and the GIL is released around it: its own lock makes two
+// Python threads sharing one evaluator take turns instead of racing.
+struct Evaluator {
+  Evaluator(Context& ctx, const KernelMap& map, double tau) : ev(ctx, map, eval_options(tau)) {}
+  MapEvaluator ev;
+  std::mutex mu;
+};
+
+Values evaluate_points(Evaluator& e, py::handle points) {
+  MapEvaluator& ev = e.ev;
   Points p = points_arg(points, ev.dim(), "points");
   auto n = static_cast<py::ssize_t>(p.n);
   py::array_t<float> prob(n), mean(n), var(n);
   float *pp = prob.mutable_data(), *pm = mean.mutable_data(), *pv = var.mutable_data();
   {
     py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(e.mu);
     ev.evaluate(p.data, p.n, pm, pv, pp);
   }
   return {prob, mean, var};
 }
 
-Values raster_values(MapEvaluator& ev, const std::vector<double>& bounds, double res, double z) {
-  GridSpec g = window_grid(ev.dim(), window(bounds, res, z));
+Values raster_values(Evaluator& e, const std::vector<double>& bounds, double res, double z) {
+  GridSpec g = window_grid(e.ev.dim(), window(bounds, res, z));
   MapValues v;
   {
     py::gil_scoped_release release;
-    v = ev.evaluate_grid(g);
+    std::lock_guard<std::mutex> lock(e.mu);
+    v = e.ev.evaluate_grid(g);
   }
   return {picture(v.prob, g.count[0], g.count[1]), picture(v.mean, g.count[0], g.count[1]),
           picture(v.var, g.count[0], g.count[1])};
@@ -116,12 +134,6 @@ void kernel_property(py::class_<KernelMap>& cls, const char* name,
         k.*member = doubles_arg(v, static_cast<long>(k.size()), name);
       },
       doc);
-}
-
-EvalOptions eval_options(double tau) {
-  EvalOptions o;
-  o.tau = tau;
-  return o;
 }
 
 Scores score_any(py::handle prob, py::handle labels) {
@@ -197,11 +209,11 @@ void bind_map(py::module_& m) {
           "(lo, hi): axis-aligned bounds of the kernel positions, metres (zeros when empty).")
       .def(
           "evaluate",
-          [](const KernelMap& k, py::handle points, Context& ctx, double tau) {
-            std::unique_ptr<MapEvaluator> ev;
+          [](KernelMap k, py::handle points, Context& ctx, double tau) {
+            std::unique_ptr<Evaluator> ev;
             {
               py::gil_scoped_release release;
-              ev = std::make_unique<MapEvaluator>(ctx, k, eval_options(tau));
+              ev = std::make_unique<Evaluator>(ctx, k, tau);
             }
             return evaluate_points(*ev, points);
           },
@@ -212,7 +224,7 @@ void bind_map(py::module_& m) {
           "every call: use Evaluator for repeated queries.")
       .def(
           "evaluate_exact",
-          [](const KernelMap& k, py::handle points) {
+          [](KernelMap k, py::handle points) {
             Points p = points_arg(points, k.dim, "points");
             MapValuesExact v;
             {
@@ -228,12 +240,12 @@ void bind_map(py::module_& m) {
           "on the CPU. Probability, mean and variance as float64 arrays of n.")
       .def(
           "raster",
-          [](const KernelMap& k, const std::vector<double>& bounds, double res, Context& ctx,
-             double z, double tau) {
-            std::unique_ptr<MapEvaluator> ev;
+          [](KernelMap k, const std::vector<double>& bounds, double res, Context& ctx, double z,
+             double tau) {
+            std::unique_ptr<Evaluator> ev;
             {
               py::gil_scoped_release release;
-              ev = std::make_unique<MapEvaluator>(ctx, k, eval_options(tau));
+              ev = std::make_unique<Evaluator>(ctx, k, tau);
             }
             return raster_values(*ev, bounds, res, z);
           },
@@ -249,29 +261,34 @@ void bind_map(py::module_& m) {
   kernel_property(kernel_map, "w_mean", &KernelMap::w_mean, "(M,) weight means");
   kernel_property(kernel_map, "w_var", &KernelMap::w_var, "(M,) weight variances");
 
-  py::class_<MapEvaluator>(m, "Evaluator",
-                           "A map uploaded once to a device, evaluated any number of times.\n"
-                           "Keeps its Context alive. One thread at a time.")
-      .def(py::init([](Context& ctx, const KernelMap& map, double tau) {
+  py::class_<Evaluator>(m, "Evaluator",
+                        "A map uploaded once to a device, evaluated any number of times.\n"
+                        "Keeps its Context alive. Threads sharing one take turns.")
+      .def(py::init([](Context& ctx, KernelMap map, double tau) {
              py::gil_scoped_release release;
-             return std::make_unique<MapEvaluator>(ctx, map, eval_options(tau));
+             return std::make_unique<Evaluator>(ctx, map, tau);
            }),
            "ctx"_a, "map"_a, "tau"_a = kDefaultCutoffTau, py::keep_alive<1, 2>(),
            "ctx: the device; map: a KernelMap (validated, copied to the device);\n"
            "tau: cut-off exponent (default 18).")
-      .def_property_readonly("dim", &MapEvaluator::dim)
+      .def_property_readonly("dim", [](const Evaluator& e) { return e.ev.dim(); })
       .def("evaluate", &evaluate_points, "points"_a,
            "Probability, mean and variance (float32 arrays of n) at points, (n, dim) float64 or\n"
            "float32 in metres. A float64 C-contiguous array is read in place (no copy).\n"
            "Non-finite coordinates give NaN.")
       .def("raster", &raster_values, "bounds"_a, "res"_a, "z"_a = 0.0,
            "As KernelMap.raster: (height, width) float32 arrays, row 0 the top.")
-      .def_property_readonly("last_pairs", &MapEvaluator::last_pairs,
-                             "kernel-query pairs visited by the last call (work done)");
+      .def_property_readonly(
+          "last_pairs",
+          [](Evaluator& e) {
+            std::lock_guard<std::mutex> lock(e.mu);
+            return e.ev.last_pairs();
+          },
+          "kernel-query pairs visited by the last call (work done)");
 
   m.def(
       "rasterize",
-      [](Context& ctx, const KernelMap& map, const std::vector<double>& bounds, double res,
+      [](Context& ctx, KernelMap map, const std::vector<double>& bounds, double res,
          const std::string& out_prefix, double z, bool png, bool npy, std::size_t band_cells) {
         RasterOptions o;
         o.write_png = png;

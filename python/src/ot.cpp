@@ -42,8 +42,9 @@ SinkhornProblem make_problem(py::handle source, py::handle target, const py::kwa
 
 std::vector<SinkhornResult> run_batch(const SinkhornBatch& b, Context& ctx, const py::kwargs& kw) {
   SinkhornOptions o = options_from<SinkhornOptions>(kw, "SinkhornOptions");
+  SinkhornBatch copy = b;  // under the GIL: another thread may add() to it meanwhile
   py::gil_scoped_release release;
-  return b.run(ctx, o);
+  return copy.run(ctx, o);
 }
 
 }  // namespace

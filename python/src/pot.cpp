@@ -3,6 +3,9 @@
 
 #include <pybind11/stl.h>
 
+#include <mutex>
+#include <type_traits>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "potmap/pot/atoms.hpp"
@@ -24,6 +27,25 @@ struct ScanStats {
   MappedScan scan;
   MapperMerge merge;
 };
+
+// A Mapper is used by one thread at a time, and add_scan() runs without the GIL: its own lock
+// makes Python threads sharing one take turns.
+struct LockedMapper {
+  LockedMapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const MapperOptions& o,
+               const OverallMapOptions& overall)
+      : mapper(ctx, std::move(dict), o, overall) {}
+  Mapper mapper;
+  std::mutex mu;
+};
+
+// A getter of the Mapper under its lock, returning a copy.
+template <class R>
+auto locked(R (Mapper::*get)() const) {
+  return [get](LockedMapper& lm) {
+    std::lock_guard<std::mutex> lock(lm.mu);
+    return std::decay_t<R>((lm.mapper.*get)());
+  };
+}
 
 std::vector<Scan> scans_arg(py::handle scans) {
   if (py::hasattr(scans, "scans") && !py::isinstance<py::list>(scans)) {
@@ -114,7 +136,7 @@ void bind_pot(py::module_& m) {
 
   m.def(
       "build_dictionary",
-      [](py::handle scans, const KernelMap& map, py::object options, const py::kwargs& kw) {
+      [](py::handle scans, KernelMap map, py::object options, const py::kwargs& kw) {
         std::vector<Scan> v = scans_arg(scans);
         DictionaryOptions o = options.is_none()
                                   ? options_from<DictionaryOptions>(kw, "build_dictionary")
@@ -255,7 +277,7 @@ void bind_pot(py::module_& m) {
              return OverallMap(dim, options_from<OverallMapOptions>(kw, "OverallMap"));
            }),
            "dim"_a = 2, "Keyword arguments: OverallMapOptions fields.")
-      .def("add", &OverallMap::add, "instantaneous"_a, release())
+      .def("add", &OverallMap::add, "instantaneous"_a)  // host work; the GIL keeps adds apart
       .def_property_readonly(
           "map", [](const OverallMap& o) { return o.map(); }, "KernelMap (copy)")
       .def("__len__", &OverallMap::size)
@@ -286,7 +308,7 @@ void bind_pot(py::module_& m) {
                std::to_string(s.scan.transfer.timing.total_ms()) + " ms>";
       });
 
-  py::class_<Mapper>(
+  py::class_<LockedMapper>(
       m, "Mapper",
       "Incremental POT / RePOT mapping: add_scan() maps one scan and adds it to the\n"
       "overall map. Keeps its Context and Dictionary alive.")
@@ -296,7 +318,7 @@ void bind_pot(py::module_& m) {
              if (refine) o.pot.refine = true;
              OverallMapOptions ov =
                  overall.is_none() ? OverallMapOptions{} : overall.cast<OverallMapOptions>();
-             return std::make_unique<Mapper>(ctx, std::move(dict), o, ov);
+             return std::make_unique<LockedMapper>(ctx, std::move(dict), o, ov);
            }),
            "ctx"_a, "dictionary"_a, "refine"_a = false, "options"_a = py::none(),
            "overall"_a = py::none(), py::keep_alive<1, 2>(),
@@ -308,10 +330,11 @@ void bind_pot(py::module_& m) {
            "merged map (default merge_radius 0.25).")
       .def(
           "add_scan",
-          [](Mapper& mp, const Scan& scan) {
+          [](LockedMapper& lm, const Scan& scan) {
             py::gil_scoped_release release;
-            const MappedScan& r = mp.add_scan(scan);
-            return ScanStats{r, mp.last_merge()};
+            std::lock_guard<std::mutex> lock(lm.mu);
+            const MappedScan& r = lm.mapper.add_scan(scan);
+            return ScanStats{r, lm.mapper.last_merge()};
           },
           "scan"_a,
           "Maps one Scan (labelled with its index = scans added so far) and adds it to the\n"
@@ -319,16 +342,25 @@ void bind_pot(py::module_& m) {
           "held-out samples, merge counts.")
       .def(
           "overall_map",
-          [](const Mapper& mp) {
+          [](LockedMapper& lm) {
             py::gil_scoped_release release;
-            return mp.overall_map();
+            std::lock_guard<std::mutex> lock(lm.mu);
+            return lm.mapper.overall_map();
           },
           "The overall KernelMap (POT: merged; RePOT: the persistent BHM's export, with a bias).")
-      .def_property_readonly("overall_kernels", &Mapper::overall_kernels)
-      .def_property_readonly("overall_memory_bytes", &Mapper::overall_memory_bytes)
-      .def_property_readonly("scans", &Mapper::scans, "scans added since construction or reset()")
-      .def_property_readonly("options", &Mapper::options)
-      .def("reset", &Mapper::reset, "Forgets every scan (same options).");
+      .def_property_readonly("overall_kernels", locked(&Mapper::overall_kernels))
+      .def_property_readonly("overall_memory_bytes", locked(&Mapper::overall_memory_bytes))
+      .def_property_readonly("scans", locked(&Mapper::scans),
+                             "scans added since construction or reset()")
+      .def_property_readonly("options", locked(&Mapper::options), "MapperOptions (a copy)")
+      .def(
+          "reset",
+          [](LockedMapper& lm) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(lm.mu);
+            lm.mapper.reset();
+          },
+          "Forgets every scan (same options).");
 }
 
 }  // namespace potmap::python

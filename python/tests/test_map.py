@@ -120,3 +120,24 @@ def test_metrics_on_known_values():
     s = potmap.score(np.array([0.9, 0.2, 0.6, 0.4]), np.array([1, 0, 0, 1], dtype=bool))
     assert s.acc == 0.5 and s.auc == 0.75 and s.n == 4
     assert abs(s.nll - np.mean(-np.log([0.9, 0.8, 0.4, 0.4]))) < 1e-12
+
+
+def test_threads_sharing_one_evaluator_take_turns(scene, ctx, rng):
+    import threading
+
+    ev = potmap.Evaluator(ctx, scene.map)
+    pts = [rng.uniform(0, 20, (5000, 2)) for _ in range(8)]
+    serial = [ev.evaluate(p).prob for p in pts]
+    out = [None] * len(pts)
+
+    def work(i):
+        for _ in range(5):
+            out[i] = ev.evaluate(pts[i]).prob
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(pts))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for a, b in zip(out, serial):
+        np.testing.assert_array_equal(a, b)
