@@ -15,6 +15,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libgdal-dev libopenmpi-dev openmpi-bin
   python3 python3-numpy
+  python3-dev pybind11-dev python3-pytest python3-matplotlib
   clang libclang-rt-14-dev
 )
 

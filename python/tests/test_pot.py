@@ -1,0 +1,87 @@
+"""POT and RePOT: dictionaries and the Mapper against `potmap dict build` and `potmap map`."""
+
+import math
+
+import numpy as np
+import pytest
+
+import potmap
+
+
+@pytest.fixture(scope="module")
+def source(cli, tmp_path_factory):
+    """town1 simulated by the command, its joint BHM and dictionary, as the README builds them."""
+    d = tmp_path_factory.mktemp("pot")
+    cli("data", "simulate", "--town", "town1", "--scans", 6, "--spacing", 3, "--out", d / "src")
+    cli("learn", "bhm", d / "src" / "train.csv", "-o", d / "src.potmap", "--sequential", "--no-bias")
+    cli("dict", "build", "--scans", d / "src" / "scans.log", "--map", d / "src.potmap", "--out",
+        d / "town1.potdict", "--kernels-at-samples", 0.5, "--max-weight-var", 5)
+    cli("data", "simulate", "--town", "town2", "--scans", 3, "--spacing", 3, "--out", d / "dst")
+    return d
+
+
+def test_dictionary_equals_the_command(source, tmp_path):
+    scans = potmap.read_dataset(str(source / "src" / "scans.log"))
+    src_map = potmap.read_map(str(source / "src.potmap"))
+    mine = potmap.build_dictionary(scans, src_map, kernels_at_samples=0.5, max_weight_variance=5.0)
+    theirs = potmap.Dictionary.load(str(source / "town1.potdict"))
+    assert len(mine) == len(theirs) > 0 and mine.dim == theirs.dim == 2
+    assert mine.max_range == theirs.max_range and mine.scale == theirs.scale
+    for a, b in zip(mine.atoms, theirs.atoms):
+        assert a.sector.index == b.sector.index and a.scan_index == b.scan_index
+        np.testing.assert_array_equal(a.sector.hits, b.sector.hits)
+        np.testing.assert_array_equal(a.kernels.positions, b.kernels.positions)
+        np.testing.assert_array_equal(a.kernels.w_mean, b.kernels.w_mean)
+    path = str(tmp_path / "again.potdict")
+    mine.save(path)
+    back = potmap.read_dictionary(path)
+    assert len(back) == len(mine)
+    np.testing.assert_array_equal(back.atoms[-1].kernels.w_var, mine.atoms[-1].kernels.w_var)
+
+
+def mapper_options():
+    o = potmap.MapperOptions()
+    o.pot.rotations = [2 * math.pi * i / 8 for i in range(8)]  # as `potmap map --rotations 8`
+    return o
+
+
+@pytest.mark.parametrize("refine", [False, True])
+def test_mapper_equals_potmap_map(source, cli, ctx, tmp_path, refine):
+    out = tmp_path / "overall.potmap"
+    cli("map", "--dict", source / "town1.potdict", "--scans", source / "dst" / "scans.log",
+        "-o", out, "-q", *(["--refine"] if refine else []))
+    theirs = potmap.read_map(str(out))
+    d = potmap.Dictionary.load(str(source / "town1.potdict"))
+    mapper = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
+    del d  # the mapper keeps the dictionary
+    stats = [mapper.add_scan(s) for s in potmap.read_dataset(str(source / "dst" / "scans.log"))]
+    assert mapper.scans == 3 and [s.index for s in stats] == [0, 1, 2]
+    for s in stats:
+        assert len(s.sectors) > 0 and all(t.atom >= 0 for t in s.sectors)
+        assert s.timing.total_ms > 0 and len(s.test) > 0
+        assert (s.seeded > 0) == refine or not refine
+    mine = mapper.overall_map()
+    assert len(mine) == len(theirs) > 0
+    np.testing.assert_allclose(mine.positions, theirs.positions, atol=1e-9)
+    np.testing.assert_allclose(mine.w_mean, theirs.w_mean, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(mine.w_var, theirs.w_var, rtol=1e-6, atol=1e-9)
+    assert (mine.bias is not None) == refine  # RePOT's persistent BHM has a bias
+    # The overall map predicts the held-out beams far better than chance.
+    test = stats[-1].test
+    s = potmap.score(mine.evaluate(test.positions, ctx).prob, test.labels)
+    assert s.auc > 0.8
+    mapper.reset()
+    assert mapper.scans == 0
+
+
+def test_transfer_scan_matches_the_mapper_instantaneous_map(source, ctx):
+    d = potmap.Dictionary.load(str(source / "town1.potdict"))
+    scan = potmap.read_dataset(str(source / "dst" / "scans.log"))[0]
+    mapper = potmap.Mapper(ctx, d, refine=True, options=mapper_options())
+    first = mapper.add_scan(scan)
+    assert len(first.train) > 0  # RePOT's persistent map hands back the training samples
+    t = potmap.transfer_scan(ctx, d, first.train, scan.origin, scan.pose[2], 0,
+                             options=mapper_options().pot)
+    assert len(t.map) == len(first.map) > 0
+    np.testing.assert_allclose(t.map.positions, first.map.positions, atol=1e-9)
+    np.testing.assert_allclose(t.map.w_mean, first.map.w_mean, atol=1e-9)
