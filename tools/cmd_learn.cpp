@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "dataset_samples.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
@@ -16,6 +17,10 @@
 namespace potmap::cli {
 
 namespace {
+
+constexpr const char* kInputHelp =
+    "Labelled samples (CSV t,x,y[,z],occupied or .npz) or any dataset `potmap data info` reads "
+    "(CARMEN log, KITTI frame or sequence folder, nuScenes frame), labelled here";
 
 struct AreaArgs {
   std::vector<double> bounds;  // xmin xmax ymin ymax [zmin zmax]; empty: the data's bounds
@@ -65,7 +70,8 @@ void resolve_area(const AreaArgs& a, const LabelledPoints& pts, double lo[3], do
 }  // namespace
 
 void register_learn(CLI::App& app, Runner& runner) {
-  CLI::App* learn = app.add_subcommand("learn", "Learn a kernel map from labelled samples");
+  CLI::App* learn =
+      app.add_subcommand("learn", "Learn a kernel map from labelled samples or scans");
   learn->require_subcommand(1);
 
   // --- bhm ---
@@ -74,13 +80,15 @@ void register_learn(CLI::App& app, Runner& runner) {
   struct BhmArgs {
     std::string input, output, prior;
     AreaArgs area;
+    LabelArgs labels;
     std::string model = "joint";
     double gamma = 0.0, var0 = 0.0;
     int em = 3;
     bool sequential = false, cpu = false, bias = false, no_bias = false;
   };
   auto b = std::make_shared<BhmArgs>();
-  bhm->add_option("input", b->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
+  b->labels.labels.holdout_fraction = 0;
+  bhm->add_option("input", b->input, kInputHelp)->required();
   bhm->add_option("-o,--output", b->output, "Map file to write")->required();
   bhm->add_option("--prior", b->prior,
                   "Map file used as prior instead of a grid (positions and widths kept)");
@@ -102,11 +110,12 @@ void register_learn(CLI::App& app, Runner& runner) {
   bhm->add_flag("--sequential", b->sequential,
                 "Update scan by scan (column t), posterior of one the prior of the next");
   bhm->add_flag("--cpu", b->cpu, "Use the double-precision CPU reference instead of OpenCL");
+  add_label_options(bhm, b->labels, "--label-seed");
   auto bdev = add_device_option(bhm);
   bhm->callback([&runner, b, bdev, bhm] {
     const bool spacing_given = bhm->count("--spacing") > 0;
     runner.action = [b, bdev, spacing_given] {
-      const LabelledPoints pts = read_labelled_csv(b->input);
+      const LabelledPoints pts = read_samples(b->input, b->labels).train;
       if (b->model == "joint") {
         if (!b->prior.empty()) throw ArgumentError("--prior needs --model diagonal");
         AreaArgs area = b->area;
@@ -161,13 +170,15 @@ void register_learn(CLI::App& app, Runner& runner) {
   struct AbhmArgs {
     std::string input, output, checkpoint, params;
     AreaArgs area;
+    LabelArgs labels;
     double gamma0 = 1.0;
     bool halton = false, cpu = false;
     std::size_t steps = 2450, batch = 256, report = 100;
     std::uint64_t seed = 1;
   };
   auto a = std::make_shared<AbhmArgs>();
-  abhm->add_option("input", a->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
+  a->labels.labels.holdout_fraction = 0;
+  abhm->add_option("input", a->input, kInputHelp)->required();
   abhm->add_option("-o,--output", a->output, "Map file to write (means of q)")->required();
   add_area_options(abhm, a->area);
   abhm->add_flag("--halton", a->halton,
@@ -182,10 +193,11 @@ void register_learn(CLI::App& app, Runner& runner) {
   abhm->add_option("--params", a->params,
                    "Also write the variational parameters (read_abhm_params reads them)");
   abhm->add_flag("--cpu", a->cpu, "Use the double-precision CPU reference instead of OpenCL");
+  add_label_options(abhm, a->labels, "--label-seed");
   auto adev = add_device_option(abhm);
   abhm->callback([&runner, a, adev] {
     runner.action = [a, adev] {
-      const LabelledPoints pts = read_labelled_csv(a->input);
+      const LabelledPoints pts = read_samples(a->input, a->labels).train;
       double lo[3], hi[3], spacing;
       resolve_area(a->area, pts, lo, hi, spacing);
       AbhmParams p;
