@@ -4,8 +4,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/labelling.hpp"
@@ -22,11 +20,6 @@ test::CliResult must(const std::string& args) {
   const test::CliResult r = test::run_cli(args, "2>&1");
   EXPECT_EQ(r.status, 0) << args << "\n" << r.out;
   return r;
-}
-
-std::string bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
 }  // namespace
@@ -85,12 +78,13 @@ TEST(LabelCli, LearnFromALogEqualsLearningFromItsLabels) {
   must("learn bhm " + q + "/sim/scans.log -o " + q +
        "/from_log.potmap --spacing 1 "
        "--free-per-metre 0.5");
-  const std::string a = bytes(d + "/from_csv.potmap"), b = bytes(d + "/from_log.potmap");
+  const std::string a = test::file_bytes(d + "/from_csv.potmap"),
+                    b = test::file_bytes(d + "/from_log.potmap");
   ASSERT_GT(a.size(), 100u);
   EXPECT_EQ(a, b);
   // Another labelling gives another map: the options reach the labelling.
   must("learn bhm " + q + "/sim/scans.log -o " + q + "/other.potmap --spacing 1");
-  EXPECT_NE(bytes(d + "/other.potmap"), a);
+  EXPECT_NE(test::file_bytes(d + "/other.potmap"), a);
 }
 
 TEST(LabelCli, DictBuildLearnsItsOwnSourceMapFromALog) {

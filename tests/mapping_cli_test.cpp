@@ -3,9 +3,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 
 #include "potmap/io/map_io.hpp"
 #include "test_support.hpp"
@@ -15,25 +14,11 @@ using namespace potmap;
 
 namespace {
 
-// The default dictionary is built once per build tree, in its own cache folder.
-std::string with_cache(const std::string& args) {
-  return "env XDG_CACHE_HOME=" + test::quoted(std::string(POTMAP_BINARY_DIR) + "/user-cache") +
-         " " + std::string(POTMAP_CLI) + " " + args;
-}
-
+// The default dictionary is built once per build tree, in its own cache folder (the commands
+// inherit the variable).
 test::CliResult run(const std::string& args, const std::string& redirect = "2>&1") {
-  test::CliResult r;
-  std::FILE* p = popen((with_cache(args) + " " + redirect).c_str(), "r");
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  r.status = pclose(p);
-  return r;
-}
-
-std::string bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  ::setenv("XDG_CACHE_HOME", (std::string(POTMAP_BINARY_DIR) + "/user-cache").c_str(), 1);
+  return test::run_cli(args, redirect);
 }
 
 }  // namespace
@@ -56,16 +41,16 @@ TEST(MappingCli, RealLogToMapPicturesRosMapAndScores) {
                         "map.pgm", "scores.json"})
     EXPECT_TRUE(fs::exists(fs::path(d) / f)) << f;
   EXPECT_FALSE(read_map(d + "/map.potmap").empty());
-  EXPECT_EQ(nlohmann::json::parse(bytes(d + "/scores.json"))["overall"], j["overall"]);
+  EXPECT_EQ(nlohmann::json::parse(test::file_bytes(d + "/scores.json"))["overall"], j["overall"]);
   // The ROS map: a building has walls, free floor and unknown beyond.
-  const std::string pgm = bytes(d + "/map.pgm");
+  const std::string pgm = test::file_bytes(d + "/map.pgm");
   std::size_t counts[256] = {0};
   const std::size_t header = pgm.find("\n255\n") + 5;
   for (std::size_t i = header; i < pgm.size(); ++i) ++counts[static_cast<unsigned char>(pgm[i])];
   EXPECT_GT(counts[0], 1000u);
   EXPECT_GT(counts[254], 10000u);
   EXPECT_GT(counts[205], 1000u);
-  EXPECT_NE(bytes(d + "/map.yaml").find("image: map.pgm\n"), std::string::npos);
+  EXPECT_NE(test::file_bytes(d + "/map.yaml").find("image: map.pgm\n"), std::string::npos);
 }
 
 TEST(MappingCli, DefaultDictionaryIsCachedAndVersioned) {
@@ -77,8 +62,8 @@ TEST(MappingCli, DefaultDictionaryIsCachedAndVersioned) {
   ASSERT_EQ(second.status, 0) << second.out;
   EXPECT_EQ(second.out.find("building the default dictionary"), std::string::npos) << second.out;
   EXPECT_NE(second.out.find("default-v"), std::string::npos) << second.out;
-  const std::string a = bytes(d + "/a.potdict");
+  const std::string a = test::file_bytes(d + "/a.potdict");
   ASSERT_GT(a.size(), 1000u);
-  EXPECT_EQ(a, bytes(d + "/b.potdict"));
+  EXPECT_EQ(a, test::file_bytes(d + "/b.potdict"));
   EXPECT_NE(second.out.find("town1+town2+town3"), std::string::npos) << second.out;
 }

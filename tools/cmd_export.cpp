@@ -9,6 +9,21 @@
 
 namespace potmap::cli {
 
+namespace {
+
+// What both exports share: the unknown rule (io/known_cells.hpp) and the exact-sum switch.
+void add_known_options(CLI::App* cmd, KnownRule& known, bool& cpu) {
+  cmd->add_option("--min-support", known.min_support,
+                  "Unknown where sum of phi^2 over the kernels is below this")
+      ->capture_default_str();
+  cmd->add_option("--unknown-variance", known.unknown_variance,
+                  "Unknown where the phi^2-weighted mean weight variance is at least this")
+      ->capture_default_str();
+  cmd->add_flag("--cpu", cpu, "Exact CPU sum instead of the device");
+}
+
+}  // namespace
+
 void register_export(CLI::App& app, Runner& runner) {
   CLI::App* exp = app.add_subcommand("export", "Write a map in another stack's format");
   exp->require_subcommand(1);
@@ -41,13 +56,7 @@ void register_export(CLI::App& app, Runner& runner) {
       ->capture_default_str();
   ros->add_option("--free-thresh", r->o.free_thresh, "Free below this probability")
       ->capture_default_str();
-  ros->add_option("--min-support", r->o.known.min_support,
-                  "Unknown where sum of phi^2 over the kernels is below this")
-      ->capture_default_str();
-  ros->add_option("--unknown-variance", r->o.known.unknown_variance,
-                  "Unknown where the phi^2-weighted mean weight variance is at least this")
-      ->capture_default_str();
-  ros->add_flag("--cpu", r->cpu, "Exact CPU sum instead of the device");
+  add_known_options(ros, r->o.known, r->cpu);
   auto device = add_device_option(ros);
   ros->callback([&runner, r, device] {
     runner.action = [r, device] {
@@ -87,13 +96,7 @@ void register_export(CLI::App& app, Runner& runner) {
       ->check(CLI::PositiveNumber);
   oct->add_option("--z", t->o.z, "2D maps: height of the voxel layer, metres")
       ->capture_default_str();
-  oct->add_option("--min-support", t->o.known.min_support,
-                  "Unknown where sum of phi^2 over the kernels is below this")
-      ->capture_default_str();
-  oct->add_option("--unknown-variance", t->o.known.unknown_variance,
-                  "Unknown where the phi^2-weighted mean weight variance is at least this")
-      ->capture_default_str();
-  oct->add_flag("--cpu", t->cpu, "Exact CPU sum instead of the device");
+  add_known_options(oct, t->o.known, t->cpu);
   auto odev = add_device_option(oct);
   oct->callback([&runner, t, odev] {
     runner.action = [t, odev] {

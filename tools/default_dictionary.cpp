@@ -4,6 +4,10 @@
 #include <filesystem>
 #include <iostream>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
@@ -17,6 +21,27 @@ namespace {
 constexpr const char* kTowns[] = {"town1", "town2", "town3"};
 constexpr double kSpacing = 2.0;    // metres between scans, as the experiments' simulated drives
 constexpr double kRangeCut = 20.0;  // the towns' sensor range, the radius atoms are cut with
+
+// An advisory lock on PATH.lock for as long as it lives; nothing when the file cannot be made.
+class BuildLock {
+ public:
+  explicit BuildLock(const std::string& path) {
+    if (path.empty()) return;
+    fd_ = ::open((path + ".lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ >= 0 && ::flock(fd_, LOCK_EX) != 0) {
+      ::close(fd_);
+      fd_ = -1;
+    }
+  }
+  ~BuildLock() {
+    if (fd_ >= 0) ::close(fd_);  // closing releases the lock
+  }
+  BuildLock(const BuildLock&) = delete;
+  BuildLock& operator=(const BuildLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
 
 }  // namespace
 
@@ -53,6 +78,10 @@ Dictionary default_dictionary(std::string* where) {
   const std::string path = default_dictionary_path();
   if (where) *where = path;
   std::error_code ec;
+  if (!path.empty())
+    std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
+  // Two runs started together build it once: the second waits here, then reads the cache.
+  const BuildLock lock(path);
   if (!path.empty() && std::filesystem::exists(path, ec)) {
     try {
       return read_dictionary(path);
@@ -66,7 +95,6 @@ Dictionary default_dictionary(std::string* where) {
   const auto t0 = std::chrono::steady_clock::now();
   Dictionary dict = build_default_dictionary();
   if (!path.empty()) {
-    std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
     try {
       write_dictionary(dict, path);
     } catch (const Error& e) {
