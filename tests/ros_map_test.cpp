@@ -237,3 +237,25 @@ TEST(RosMap, RefusesBadThresholdsAndEmptyWindows) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/a.yaml"));
   EXPECT_FALSE(std::filesystem::exists(dir + "/a.pgm"));
 }
+
+TEST(RosMap, WithoutAWindowTheImageCoversTheKnownCellsAndAMargin) {
+  const std::string dir = test::temp_dir("ros_map_auto");
+  KernelMap map = test_map();
+  const double far[2] = {20, 20};
+  map.push_back(far, 4.0, 0.0, 10.0);  // a tile no scan reached: stretches the kernel bounds
+  RosMapOptions o;
+  o.resolution = 0.1;
+  const RosMapSummary s = write_ros_map(nullptr, map, dir + "/map.yaml", o);
+  const LoadedGrid g = load_like_nav2(dir + "/map.yaml");
+  // Known cells lie within 0.54 m (support 0.1 at gamma 4) of the wall, the free kernel and
+  // the kernel at (4, 4): about [-0.6, 4.6] on both axes, widened by 1 m, and cut at the
+  // kernels' bounds widened by 1 m on the low side.
+  EXPECT_NEAR(g.origin[0], -1.0, 1e-9);
+  EXPECT_NEAR(g.origin[1], -1.0, 1e-9);
+  EXPECT_NEAR(g.origin[0] + g.width * g.resolution, 5.6, 0.11);
+  EXPECT_NEAR(g.origin[1] + g.height * g.resolution, 5.6, 0.11);
+  EXPECT_EQ(s.width, g.width);
+  // The cells keep their places: the wall is still at (0, 0).
+  EXPECT_EQ(cell_at(g, 0.05, 0.05), 100);
+  EXPECT_EQ(cell_at(g, 4.05, 0.05), 0);
+}

@@ -1,6 +1,7 @@
 // map_server / nav2 occupancy maps: PGM image and YAML description (include/potmap/io/ros_map.hpp).
 #include "potmap/io/ros_map.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -37,9 +38,13 @@ void check(const RosMapOptions& o) {
                         number(o.occupied_thresh) + " need 0 <= free < occupied <= 1");
 }
 
+bool auto_window(const RosMapOptions& o) {
+  return o.xmin == 0 && o.xmax == 0 && o.ymin == 0 && o.ymax == 0;
+}
+
 GridSpec window(const KernelMap& map, const RosMapOptions& o) {
   double lo[3] = {o.xmin, o.ymin, o.z}, hi[3] = {o.xmax, o.ymax, o.z};
-  if (o.xmin == 0 && o.xmax == 0 && o.ymin == 0 && o.ymax == 0) {
+  if (auto_window(o)) {
     if (map.empty()) throw ArgumentError("ROS map: an empty map and no window");
     map.bounds(lo, hi);
     for (int d = 0; d < 2; ++d) {
@@ -93,18 +98,41 @@ RosMapSummary write_ros_map(Context* ctx, const KernelMap& map, const std::strin
   const std::vector<double> pts = cell_points(g, map.dim, o.z);
   const KnownValues kv = known_values(ctx, map, pts, o.known);
 
+  // Cells [i0, i1) x [j0, j1) of the grid are written: all of a given window; without one,
+  // the known cells' bounds widened by the margin (a persistent map's tiles reach far beyond
+  // where the scans went).
+  const std::size_t nx = g.count[0], ny = g.count[1];
+  std::size_t i0 = 0, i1 = nx, j0 = 0, j1 = ny;
+  if (auto_window(o)) {
+    std::size_t a0 = nx, a1 = 0, b0 = ny, b1 = 0;
+    for (std::size_t j = 0; j < ny; ++j)
+      for (std::size_t i = 0; i < nx; ++i)
+        if (kv.known[i + nx * j]) {
+          a0 = std::min(a0, i);
+          a1 = std::max(a1, i + 1);
+          b0 = std::min(b0, j);
+          b1 = std::max(b1, j + 1);
+        }
+    if (a1 > a0) {
+      const auto pad = static_cast<std::size_t>(std::ceil(o.margin / o.resolution));
+      i0 = a0 > pad ? a0 - pad : 0;
+      j0 = b0 > pad ? b0 - pad : 0;
+      i1 = std::min(nx, a1 + pad);
+      j1 = std::min(ny, b1 + pad);
+    }
+  }
   RosMapSummary s;
-  s.width = g.count[0];
-  s.height = g.count[1];
-  s.origin[0] = g.origin[0];
-  s.origin[1] = g.origin[1];
+  s.width = i1 - i0;
+  s.height = j1 - j0;
+  s.origin[0] = g.origin[0] + double(i0) * o.resolution;
+  s.origin[1] = g.origin[1] + double(j0) * o.resolution;
   s.yaml = yaml_path;
   s.pgm = std::filesystem::path(yaml_path).replace_extension(".pgm").string();
   // PGM rows run from the top of the picture: the window's largest y first.
   std::vector<std::uint8_t> image(s.width * s.height);
   for (std::size_t j = 0; j < s.height; ++j)
     for (std::size_t i = 0; i < s.width; ++i) {
-      const std::size_t c = i + s.width * j;
+      const std::size_t c = (i0 + i) + nx * (j0 + j);
       const std::uint8_t v = ros_map_pixel(kv.prob[c], kv.known[c] != 0, o);
       image[i + s.width * (s.height - 1 - j)] = v;
       const double occ = (255.0 - v) / 255.0;

@@ -30,10 +30,12 @@ enum class RosMapMode { trinary, scale };
 struct RosMapOptions {
   /// Metres per pixel (default 0.05, the usual resolution of ROS 2D navigation maps).
   double resolution = 0.05;
-  /// Window in metres. All four zero (default): the map's kernel bounds widened by `margin`.
+  /// Window in metres. All four zero (default): the known cells' bounds widened by `margin`
+  /// (the kernels' bounds when no cell is known): a persistent RePOT map's tiles reach well
+  /// beyond where the scans went, and a robot needs only what was seen.
   double xmin = 0, xmax = 0, ymin = 0, ymax = 0;
-  /// Metres added around the kernel bounds when no window is given (default 1: one kernel
-  /// reach of the joint BHM's kernels, whose support ends there).
+  /// Metres added around those bounds when no window is given (default 1: one kernel reach of
+  /// the joint BHM's kernels).
   double margin = 1.0;
   /// Height of the horizontal slice of a 3D map, metres (default 0).
   double z = 0;
