@@ -2,6 +2,7 @@
 # Installs the Debian/Ubuntu packages potmap needs (only those missing), then configures and
 # builds potmap in ./build (Release). Safe to run again: it does nothing that is already done.
 # Extra arguments are passed to the cmake configure step (e.g. -DPOTMAP_BUILD_BENCH=OFF).
+# POTMAP_BUILD_TARGET: build only this target (e.g. potmap_cli, the command; default: all).
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -41,4 +42,4 @@ fi
 
 jobs=$(nproc)
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release "$@"
-cmake --build build -j"$jobs"
+cmake --build build -j"$jobs" ${POTMAP_BUILD_TARGET:+--target "$POTMAP_BUILD_TARGET"}

@@ -24,6 +24,8 @@ CliResult run_cli(const std::string& args, const std::string& redirect = "2>&1")
 bool cli_built();
 /// Single-quotes a path for the shell.
 std::string quoted(const std::string& s);
+/// The whole file as bytes (empty when it cannot be read).
+std::string file_bytes(const std::string& path);
 
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();

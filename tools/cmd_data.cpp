@@ -1,4 +1,4 @@
-// potmap data info FILE | potmap data simulate --town NAME --seed S --out DIR
+// potmap data info FILE | data label DATA -o CSV | data simulate --town NAME --seed S --out DIR
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -6,10 +6,12 @@
 #include <limits>
 
 #include "commands.hpp"
+#include "dataset_samples.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/data/simulator.hpp"
+#include "potmap/error.hpp"
 
 namespace potmap::cli {
 
@@ -67,10 +69,45 @@ void register_data(CLI::App& app, Runner& runner) {
   data->require_subcommand(1);
 
   CLI::App* info = data->add_subcommand(
-      "info", "Summarise a dataset (CARMEN .log[.gz], KITTI/nuScenes .bin, .npz)");
+      "info",
+      "Summarise a dataset (CARMEN .log[.gz], KITTI/nuScenes .bin, a KITTI sequence folder or its "
+      "poses.txt, .npz, labelled .csv)");
   auto file = std::make_shared<std::string>();
   info->add_option("FILE", *file, "dataset file")->required();
   info->callback([&runner, file] { runner.action = [file] { return data_info(*file); }; });
+
+  CLI::App* label = data->add_subcommand(
+      "label",
+      "Write the labelled samples of a dataset (t,x,y[,z],occupied CSV, as `learn` reads): "
+      "hits occupied, free samples along every beam, a fraction of the beams held out");
+  struct LabelCmd {
+    std::string input, output, test;
+    LabelArgs args;
+  };
+  auto lc = std::make_shared<LabelCmd>();
+  lc->args.labels.holdout_fraction = 0;
+  label->add_option("DATA", lc->input, "any dataset `potmap data info` reads")->required();
+  label->add_option("-o,--out", lc->output, "samples to learn from (CSV)")->required();
+  label->add_option("--test", lc->test, "also write the held-out samples here (CSV)");
+  add_label_options(label, lc->args, "--seed");
+  label->callback([&runner, lc] {
+    runner.action = [lc] {
+      if (lc->args.labels.holdout_fraction > 0 && lc->test.empty())
+        throw ArgumentError("data label: --holdout " +
+                            std::to_string(lc->args.labels.holdout_fraction) +
+                            " needs --test FILE for the held-out samples");
+      const LabelledSplit split = read_samples(lc->input, lc->args);
+      write_labelled_csv(split.train, lc->output);
+      std::cout << "wrote " << lc->output << " (" << split.train.size() << " samples)\n";
+      if (!lc->test.empty()) {
+        write_labelled_csv(split.test, lc->test);
+        std::cout << "wrote " << lc->test << " (" << split.test.size() << " held-out samples)\n";
+      }
+      if (split.points_dropped)
+        std::cout << "points dropped (NaN/Inf): " << split.points_dropped << "\n";
+      return 0;
+    };
+  });
 
   CLI::App* sim = data->add_subcommand(
       "simulate",

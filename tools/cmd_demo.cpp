@@ -28,7 +28,7 @@ namespace {
 struct DemoArgs {
   std::string data = "../shared/data";
   std::string out;
-  double res = 0.25;
+  double res = 0;  // 0: each job's own (0.25 m for the authors' map)
   bool synthetic = false;
   std::string json;
 };
@@ -159,14 +159,20 @@ void register_demo(CLI::App& app, Runner& runner) {
   cmd->add_option("--out", args->out,
                   "output prefix for the pictures (default out/demo/pot, or out/demo/town1 and "
                   "out/demo/synthetic with --authors-map)");
-  cmd->add_option("--res", args->res, "picture resolution, metres per cell (default 0.25)")
+  cmd->add_option("--res", args->res,
+                  "picture resolution, metres per cell (default: 1200 pixels along the long side; "
+                  "0.25 with --authors-map)")
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--synthetic", args->synthetic,
                 "with --authors-map: the built-in synthetic scene even if data exists");
   cmd->add_option("--json", args->json, "also write the scores as JSON to this path ('-': stdout)");
   cmd->callback([&runner, args, pot, authors, device] {
     runner.action = [args, pot, authors, device] {
-      if (*authors) return run_demo(*args, *device);
+      if (*authors) {
+        DemoArgs d = *args;
+        if (d.res <= 0) d.res = 0.25;
+        return run_demo(d, *device);
+      }
       PotDemoArgs p = *pot;
       p.out = args->out;
       p.json = args->json;

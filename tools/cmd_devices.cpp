@@ -1,6 +1,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "user_cache.hpp"
 
 namespace potmap::cli {
 
@@ -15,6 +16,7 @@ std::shared_ptr<std::string> add_device_option(CLI::App* cmd) {
 Context make_context(const std::string& device, bool quiet) {
   ContextOptions o;
   o.device = device;
+  o.binary_cache_dir = kernel_cache_dir();
   Context ctx(o);
   if (!quiet) std::cerr << "potmap: device: " << ctx.info().summary() << "\n";
   return ctx;

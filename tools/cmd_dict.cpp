@@ -11,9 +11,13 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "dataset_samples.hpp"
+#include "default_dictionary.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
+#include "potmap/experiments/experiment.hpp"
 #include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
@@ -124,27 +128,51 @@ struct BuildArgs {
   std::string scans, map, out, source, json;
   DictionaryOptions opt;
   std::size_t first = 0, limit = 0;
+  double range_cut = 0;
+  bool kernels_at_samples_given = false, max_weight_var_given = false;
 };
+
+// Without --map: the experiments' source map (PotSetup::atom_bhm, a joint BHM without bias) of
+// the scans used, and their atom settings where the flags leave them.
+KernelMap learn_source_map(const std::vector<Scan>& scans, BuildArgs& a) {
+  const experiment::PotSetup setup;
+  LabelledPoints unused;
+  LabelOptions lo = setup.dictionary.labels;
+  lo.seed = a.opt.labels.seed;
+  const experiment::MapTask task = experiment::make_task(scans, lo, unused);
+  std::cerr << "potmap: learning the source map (joint BHM) of " << scans.size() << " scans, "
+            << task.train.size() << " samples\n";
+  const KernelMap map =
+      experiment::learn_bhm(nullptr, setup.atom_bhm, task.dim, task.lo, task.hi, task.train);
+  if (!a.kernels_at_samples_given) a.opt.kernels_at_samples = setup.dictionary.kernels_at_samples;
+  if (!a.max_weight_var_given) a.opt.max_weight_variance = 0.5 * JointBhmOptions{}.prior_var;
+  return map;
+}
 
 int run_build(BuildArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   std::ostream& human = a.json == "-" ? std::cerr : std::cout;
-  Dataset ds = read_dataset(a.scans);
-  const KernelMap map = read_map(a.map);
-  if (ds.scans.empty()) throw InputError(a.scans + ": no scans");
+  Dataset ds;
+  ds.scans = read_scans(a.scans, a.range_cut);
   if (a.first >= ds.scans.size())
     throw ArgumentError("--first " + std::to_string(a.first) + ": " + a.scans + " has only " +
                         std::to_string(ds.scans.size()) + " scans");
   const std::size_t end = a.limit ? std::min(ds.scans.size(), a.first + a.limit) : ds.scans.size();
+  const KernelMap map =
+      a.map.empty() ? learn_source_map(
+                          std::vector<Scan>(ds.scans.begin() + a.first, ds.scans.begin() + end), a)
+                    : read_map(a.map);
   if (ds.scans[a.first].dim != map.dim)
     throw ArgumentError("the scans of " + a.scans + " are " +
                         std::to_string(ds.scans[a.first].dim) + "D but the map " + a.map + " is " +
                         std::to_string(map.dim) + "D");
-  a.opt.source = a.source.empty() ? std::filesystem::path(a.scans).filename().string() + " + " +
-                                        std::filesystem::path(a.map).filename().string()
-                                  : a.source;
+  const std::string map_name =
+      a.map.empty() ? "joint BHM" : std::filesystem::path(a.map).filename().string();
+  a.opt.source = a.source.empty()
+                     ? std::filesystem::path(a.scans).filename().string() + " + " + map_name
+                     : a.source;
   std::cerr << "potmap: dictionary from scans " << a.first << " to " << end - 1 << " of " << a.scans
-            << " and " << map.size() << " kernels of " << a.map << "\n";
+            << " and " << map.size() << " kernels of " << map_name << "\n";
   // Built in chunks for the progress line; atoms carry their scan's index in the dataset.
   auto progress = terminal_progress("dict build");
   Dictionary dict;
@@ -195,8 +223,15 @@ void register_dict(CLI::App& app, Runner& runner) {
   auto b = std::make_shared<BuildArgs>();
   build->add_option("--scans", b->scans, "Source scans: any file `potmap data info` reads")
       ->required();
-  build->add_option("--map", b->map, "Map learned over the same place (.csv, .npz, .potmap)")
-      ->required();
+  build->add_option("--map", b->map,
+                    "Map learned over the same place (.csv, .npz, .potmap); default: a joint BHM "
+                    "of the scans used, learned here with the experiments' settings (PotSetup: "
+                    "then --kernels-at-samples 0.5 and --max-weight-var 5 unless given)");
+  build
+      ->add_option("--range-cut", b->range_cut,
+                   "Returns farther than this (metres) become no-returns (0: none)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   build->add_option("--out", b->out, "Dictionary file to write (.potdict)")->required();
   build->add_option("--sectors", b->opt.sectors.sectors, "Sectors per scan")->capture_default_str();
   build
@@ -229,7 +264,40 @@ void register_dict(CLI::App& app, Runner& runner) {
   build->add_option("--source", b->source,
                     "Provenance stored on every atom (default: the two file names)");
   build->add_option("--json", b->json, "Also write the summary as JSON to this file; '-': stdout");
-  build->callback([&runner, b] { runner.action = [b] { return run_build(*b); }; });
+  build->callback([&runner, b, build] {
+    b->kernels_at_samples_given = build->count("--kernels-at-samples") > 0;
+    b->max_weight_var_given = build->count("--max-weight-var") > 0;
+    runner.action = [b] { return run_build(*b); };
+  });
+
+  CLI::App* def = dict->add_subcommand(
+      "default",
+      "The built-in default dictionary (" + default_dictionary_recipe() +
+          "): built once, cached in the user's cache folder, used by `map` and `mapping` "
+          "without --dict");
+  auto def_out = std::make_shared<std::string>();
+  auto def_json = std::make_shared<std::string>();
+  def->add_option("--out", *def_out, "Also copy it to this file");
+  def->add_option("--json", *def_json, "Also write the summary as JSON to this file; '-': stdout");
+  def->callback([&runner, def_out, def_json] {
+    runner.action = [def_out, def_json] {
+      std::string where;
+      const Dictionary d = default_dictionary(&where);
+      std::ostream& human = *def_json == "-" ? std::cerr : std::cout;
+      human << "default           " << default_dictionary_recipe() << "\n"
+            << "cached in         " << (where.empty() ? "(no cache folder)" : where) << "\n";
+      nlohmann::json j = summary_json(d);
+      j["file"] = where;
+      j["version"] = kDefaultDictionaryVersion;
+      print_summary(j, human);
+      if (!def_out->empty()) {
+        write_dictionary(d, *def_out);
+        human << "wrote             " << *def_out << "\n";
+      }
+      emit_json(j, *def_json);
+      return 0;
+    };
+  });
 
   CLI::App* info = dict->add_subcommand("info", "Summarise a dictionary file");
   auto file = std::make_shared<std::string>();

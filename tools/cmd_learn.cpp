@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "dataset_samples.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
@@ -16,6 +17,10 @@
 namespace potmap::cli {
 
 namespace {
+
+constexpr const char* kInputHelp =
+    "Labelled samples (CSV t,x,y[,z],occupied or .npz) or any dataset `potmap data info` reads "
+    "(CARMEN log, KITTI frame or sequence folder, nuScenes frame), labelled here";
 
 struct AreaArgs {
   std::vector<double> bounds;  // xmin xmax ymin ymax [zmin zmax]; empty: the data's bounds
@@ -65,6 +70,7 @@ void resolve_area(const AreaArgs& a, const LabelledPoints& pts, double lo[3], do
 struct BhmArgs {
   std::string input, output, prior;
   AreaArgs area;
+  LabelArgs labels;
   std::string model = "joint";
   double gamma = 0.0, var0 = 0.0;
   int em = 3;
@@ -74,6 +80,7 @@ struct BhmArgs {
 struct AbhmArgs {
   std::string input, output, checkpoint, params;
   AreaArgs area;
+  LabelArgs labels;
   double gamma0 = 1.0;
   bool halton = false, cpu = false;
   std::size_t steps = 2450, batch = 256, report = 100;
@@ -130,7 +137,7 @@ void learn_diagonal_bhm(const BhmArgs& b, const LabelledPoints& pts, const std::
 
 // ABHM from a grid or a Halton start, on the device or the CPU.
 void learn_abhm(const AbhmArgs& a, const std::string& device) {
-  const LabelledPoints pts = read_labelled_csv(a.input);
+  const LabelledPoints pts = read_samples(a.input, a.labels).train;
   double lo[3], hi[3], spacing;
   resolve_area(a.area, pts, lo, hi, spacing);
   AbhmParams p;
@@ -163,7 +170,8 @@ void add_bhm(CLI::App* learn, Runner& runner) {
   CLI::App* bhm = learn->add_subcommand(
       "bhm", "Bayesian Hilbert map: kernels on a grid, weights by the Jaakkola-Jordan bound");
   auto b = std::make_shared<BhmArgs>();
-  bhm->add_option("input", b->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
+  b->labels.labels.holdout_fraction = 0;
+  bhm->add_option("input", b->input, kInputHelp)->required();
   bhm->add_option("-o,--output", b->output, "Map file to write")->required();
   bhm->add_option("--prior", b->prior,
                   "Map file used as prior instead of a grid (positions and widths kept)");
@@ -185,11 +193,12 @@ void add_bhm(CLI::App* learn, Runner& runner) {
   bhm->add_flag("--sequential", b->sequential,
                 "Update scan by scan (column t), posterior of one the prior of the next");
   bhm->add_flag("--cpu", b->cpu, "Use the double-precision CPU reference instead of OpenCL");
+  add_label_options(bhm, b->labels, "--label-seed");
   auto bdev = add_device_option(bhm);
   bhm->callback([&runner, b, bdev, bhm] {
     const bool spacing_given = bhm->count("--spacing") > 0;
     runner.action = [b, bdev, spacing_given] {
-      const LabelledPoints pts = read_labelled_csv(b->input);
+      const LabelledPoints pts = read_samples(b->input, b->labels).train;
       if (b->model == "joint")
         learn_joint_bhm(*b, pts, spacing_given);
       else
@@ -203,7 +212,8 @@ void add_abhm(CLI::App* learn, Runner& runner) {
   CLI::App* abhm = learn->add_subcommand(
       "abhm", "Automorphing BHM: per-kernel position, width and weight by variational inference");
   auto a = std::make_shared<AbhmArgs>();
-  abhm->add_option("input", a->input, "Labelled samples CSV (t,x,y[,z],occupied)")->required();
+  a->labels.labels.holdout_fraction = 0;
+  abhm->add_option("input", a->input, kInputHelp)->required();
   abhm->add_option("-o,--output", a->output, "Map file to write (means of q)")->required();
   add_area_options(abhm, a->area);
   abhm->add_flag("--halton", a->halton,
@@ -218,6 +228,7 @@ void add_abhm(CLI::App* learn, Runner& runner) {
   abhm->add_option("--params", a->params,
                    "Also write the variational parameters (read_abhm_params reads them)");
   abhm->add_flag("--cpu", a->cpu, "Use the double-precision CPU reference instead of OpenCL");
+  add_label_options(abhm, a->labels, "--label-seed");
   auto adev = add_device_option(abhm);
   abhm->callback([&runner, a, adev] {
     runner.action = [a, adev] {
@@ -230,7 +241,8 @@ void add_abhm(CLI::App* learn, Runner& runner) {
 }  // namespace
 
 void register_learn(CLI::App& app, Runner& runner) {
-  CLI::App* learn = app.add_subcommand("learn", "Learn a kernel map from labelled samples");
+  CLI::App* learn =
+      app.add_subcommand("learn", "Learn a kernel map from labelled samples or scans");
   learn->require_subcommand(1);
   add_bhm(learn, runner);
   add_abhm(learn, runner);

@@ -4,13 +4,15 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "dataset_samples.hpp"
+#include "default_dictionary.hpp"
+#include "map_pictures.hpp"
 #include "map_pipeline.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/map/raster.hpp"
+#include "potmap/io/ros_map.hpp"
 #include "potmap/pot/dictionary_io.hpp"
-#include "potmap/render/kernel_picture.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {
@@ -20,12 +22,12 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 struct MapArgs {
-  std::string dict, scans, out, instantaneous, json, picture;
+  std::string dict, scans, out, instantaneous, json, picture, ros_map;
   bool refine = false, per_scan_refine = false, cpu = false, quiet = false, no_pipeline = false,
        hits_only = false;
   double refine_min_variance = 0;
   int sectors = 5, rotations = 8, em = 1;
-  double max_range = 0, holdout = 0.2, res = 0.25;
+  double max_range = 0, holdout = 0.2, res = 0.25, range_cut = 0, ros_res = 0.05;
   std::size_t first = 0, max_scans = 0, candidates = 0, max_kernels = 0;
   std::size_t free_points = PotOptions{}.transport_free_points;
   double merge_radius = OverallMapOptions{}.merge_radius;
@@ -34,16 +36,19 @@ struct MapArgs {
 };
 
 int run_map(const MapArgs& a, const std::string& device) {
-  const Dictionary dict = read_dictionary(a.dict);
-  Dataset data = read_dataset(a.scans);
-  if (a.first >= data.scans.size())
+  std::string dict_file = a.dict;
+  const Dictionary dict = a.dict.empty() ? default_dictionary(&dict_file) : read_dictionary(a.dict);
+  if (a.dict.empty())
+    std::cerr << "potmap map: the default dictionary (" << default_dictionary_recipe() << ")\n";
+  std::vector<Scan> all = read_scans(a.scans, a.range_cut);
+  if (a.first >= all.size())
     throw ArgumentError("map: --first " + std::to_string(a.first) + " but " + a.scans + " has " +
-                        std::to_string(data.scans.size()) + " scans");
-  std::vector<Scan> scans(data.scans.begin() + static_cast<long>(a.first), data.scans.end());
+                        std::to_string(all.size()) + " scans");
+  std::vector<Scan> scans(all.begin() + static_cast<long>(a.first), all.end());
   if (a.max_scans > 0 && scans.size() > a.max_scans) scans.resize(a.max_scans);
   if (scans.front().dim != dict.dim)
     throw ArgumentError("map: " + a.scans + " holds " + std::to_string(scans.front().dim) +
-                        "D scans, the dictionary " + a.dict + " is " + std::to_string(dict.dim) +
+                        "D scans, the dictionary " + dict_file + " is " + std::to_string(dict.dim) +
                         "D");
 
   MapJob job;
@@ -95,36 +100,33 @@ int run_map(const MapArgs& a, const std::string& device) {
                r.mean_timing.placement_ms, r.mean_timing.refine_ms, r.mean_timing.prepare_ms);
 
   nlohmann::json j = r.to_json();
-  j["dictionary"] = a.dict;
+  j["dictionary"] = a.dict.empty() ? "default: " + dict_file : a.dict;
   j["scans_file"] = a.scans;
   j["method"] = a.refine ? "RePOT" : "POT";
   j["device"] = ctx ? ctx->info().summary() : "CPU reference (Eigen, double)";
   j["map"] = a.out;
   if (!a.picture.empty() && !overall.empty()) {
-    double lo[3], hi[3];
-    overall.bounds(lo, hi);
-    RasterSpec spec;
-    spec.xmin = lo[0] - 5;
-    spec.xmax = hi[0] + 5;
-    spec.ymin = lo[1] - 5;
-    spec.ymax = hi[1] + 5;
-    spec.resolution = a.res;
-    spec.z = dict.dim == 3 ? scans.front().origin()[2] : 0;
     if (!ctx) throw ArgumentError("map: --picture needs the device (drop --cpu)");
-    RasterOptions ro;
-    ro.write_npy = false;
-    ro.progress = terminal_progress("picture");
-    const RasterSummary rs = rasterize(*ctx, overall, spec, a.picture, ro);
-    const std::string kp = a.picture + "_kernels.png";
-    const KernelPictureSummary ks = write_kernel_picture(ctx.get(), overall, spec, kp);
-    std::vector<std::string> files = rs.files;
-    files.push_back(kp);
+    const MapPictures mp = write_map_pictures(*ctx, overall, a.picture, a.res, 5,
+                                              dict.dim == 3 ? scans.front().origin()[2] : 0);
     std::fprintf(human,
                  "pictures       %zu x %zu at %.2f m; kernels coloured by 1/sqrt(gamma) "
                  "from %.2f m (dark) to %.2f m (bright):\n",
-                 rs.width, rs.height, a.res, ks.min_length, ks.max_length);
-    for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
-    j["pictures"] = files;
+                 mp.width, mp.height, a.res, mp.min_length, mp.max_length);
+    for (const auto& f : mp.files) std::fprintf(human, "               %s\n", f.c_str());
+    j["pictures"] = mp.files;
+  }
+  if (!a.ros_map.empty()) {
+    RosMapOptions ro;
+    ro.resolution = a.ros_res;
+    ro.z = dict.dim == 3 ? scans.front().origin()[2] : 0;
+    const RosMapSummary rs = write_ros_map(ctx.get(), overall, a.ros_map, ro);
+    std::fprintf(
+        human,
+        "ROS map        %zu x %zu at %.3f m: %zu occupied, %zu free, %zu unknown -> %s, %s\n",
+        rs.width, rs.height, ro.resolution, rs.occupied, rs.free, rs.unknown, rs.yaml.c_str(),
+        rs.pgm.c_str());
+    j["ros_map"] = {rs.yaml, rs.pgm};
   }
   if (a.json == "-")
     std::cout << j.dump(1) << "\n";
@@ -142,7 +144,9 @@ void register_map(CLI::App& app, Runner& runner) {
       "dictionary's atoms, their kernels transported and accumulated into an overall map");
   auto a = std::make_shared<MapArgs>();
   auto device = add_device_option(cmd);
-  cmd->add_option("--dict", a->dict, "Dictionary of atoms (potmap dict build)")->required();
+  cmd->add_option("--dict", a->dict,
+                  "Dictionary of atoms (potmap dict build; default: the built-in dictionary of "
+                  "the simulated towns, built once and cached, `potmap dict default`)");
   cmd->add_option("--scans", a->scans, "Scans to map: any dataset potmap reads")->required();
   cmd->add_option("-o,--out", a->out, "Overall map to write (.potmap, .csv or .npz)")->required();
   cmd->add_flag("--refine", a->refine,
@@ -189,6 +193,15 @@ void register_map(CLI::App& app, Runner& runner) {
   cmd->add_option(
       "--picture", a->picture,
       "Write PREFIX_prob.png, PREFIX_var.png and PREFIX_kernels.png of the overall map");
+  cmd->add_option("--ros-map", a->ros_map,
+                  "Also write the overall map for ROS map_server / nav2: this YAML and a PGM "
+                  "beside it (unknown where no kernel reaches or the variance is the prior's)");
+  cmd->add_option("--ros-res", a->ros_res, "ROS map resolution, metres per pixel (default 0.05)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--range-cut", a->range_cut,
+                  "Returns farther than this (metres) become no-returns (default 0: none; the "
+                  "experiments cut real logs at 20, the towns' range)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--res", a->res, "Picture resolution, metres per pixel (default 0.25)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--json", a->json, "Write the summary as JSON to this path ('-': stdout)");

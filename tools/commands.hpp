@@ -33,6 +33,8 @@ void register_demo(CLI::App& app, Runner& runner);
 void register_learn(CLI::App& app, Runner& runner);
 void register_data(CLI::App& app, Runner& runner);
 void register_map(CLI::App& app, Runner& runner);
+void register_mapping(CLI::App& app, Runner& runner);
+void register_export(CLI::App& app, Runner& runner);
 void register_dict(CLI::App& app, Runner& runner);
 void register_experiment(CLI::App& app, Runner& runner);
 /// `experiment frames` (single 3D frames); after register_experiment.

@@ -8,15 +8,14 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "map_pictures.hpp"
 #include "map_pipeline.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm.hpp"
-#include "potmap/map/raster.hpp"
 #include "potmap/pot/atoms.hpp"
-#include "potmap/render/kernel_picture.hpp"
 #include "progress.hpp"
 
 namespace fs = std::filesystem;
@@ -121,23 +120,13 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
     if (refine || a.method == "pot") {
       const std::string p = prefix + (refine ? "_repot" : "_pot");
       write_map(r.overall_map(), p + ".potmap");
-      double lo[3], hi[3];
-      r.overall_map().bounds(lo, hi);
-      RasterSpec spec;
-      spec.xmin = lo[0] - 5;
-      spec.xmax = hi[0] + 5;
-      spec.ymin = lo[1] - 5;
-      spec.ymax = hi[1] + 5;
-      spec.resolution = a.res;
-      RasterOptions ro;
-      ro.write_npy = false;
-      const RasterSummary rs = rasterize(ctx, r.overall_map(), spec, p, ro);
-      files.insert(files.end(), rs.files.begin(), rs.files.end());
-      const KernelPictureSummary ks =
-          write_kernel_picture(&ctx, r.overall_map(), spec, p + "_kernels.png");
-      files.push_back(p + "_kernels.png");
+      // Readable whatever the town's size: 1200 pixels along the long side unless --res.
+      const double res = a.res > 0 ? a.res : picture_resolution(r.overall_map(), 5, 1200);
+      const MapPictures mp = write_map_pictures(ctx, r.overall_map(), p, res);
+      files.insert(files.end(), mp.files.begin(), mp.files.end());
       files.push_back(p + ".potmap");
-      j["kernel_length_m"] = {ks.min_length, ks.max_length};
+      j["picture_pixels"] = {mp.width, mp.height};
+      j["kernel_length_m"] = {mp.min_length, mp.max_length};
     }
   }
   std::fprintf(human, "files:\n");

@@ -13,7 +13,7 @@ struct PotDemoArgs {
   std::string method = "both";  ///< pot, repot or both
   std::string out;              ///< output prefix (default out/demo/pot)
   std::string json;
-  double res = 0.25;
+  double res = 0;  ///< picture metres per pixel; 0: 1200 pixels along the long side
 };
 
 int run_pot_demo(const PotDemoArgs& a, const std::string& device);

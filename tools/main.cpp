@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   potmap::cli::register_learn(app, runner);
   potmap::cli::register_data(app, runner);
   potmap::cli::register_map(app, runner);
+  potmap::cli::register_mapping(app, runner);
+  potmap::cli::register_export(app, runner);
   potmap::cli::register_dict(app, runner);
   potmap::cli::register_experiment(app, runner);
   potmap::cli::register_experiment_frames(app, runner);

@@ -18,6 +18,16 @@ bool ends_with(const std::string& s, const std::string& e) {
 }  // namespace
 
 Dataset read_dataset(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    // A folder in KITTI odometry layout (as `potmap data simulate --3d` writes it) is its
+    // sequence; any other folder is refused by name rather than read as an empty log.
+    const std::filesystem::path poses = std::filesystem::path(path) / "poses.txt";
+    if (std::filesystem::exists(poses, ec)) return read_dataset(poses.string());
+    throw InputError(path +
+                     ": a folder without poses.txt (a KITTI sequence folder holds "
+                     "poses.txt, calib.txt and velodyne/NNNNNN.bin)");
+  }
   std::string lower = path;
   std::transform(lower.begin(), lower.end(), lower.begin(), ::tolower);
   std::string base = lower;

@@ -89,7 +89,8 @@ LabelledPoints read_npz_labelled(const std::string& path);
 /// Reads any supported file by its name: *.log[.gz] CARMEN, *.bin KITTI (4 floats) or nuScenes
 /// (5 floats, name containing "nuscenes"), a KITTI odometry sequence by its poses.txt
 /// (velodyne/NNNNNN.bin and calib.txt beside it; frames moved into the world frame, max range
-/// 120 m), *.npz and *.csv labelled samples.
+/// 120 m) or by its folder (the one holding poses.txt), *.npz and *.csv labelled samples. Throws
+/// InputError naming a folder that holds no poses.txt.
 Dataset read_dataset(const std::string& path);
 
 }  // namespace potmap

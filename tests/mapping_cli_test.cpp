@@ -1,0 +1,69 @@
+// `potmap mapping LOG`: a real log to a map, pictures, a ROS map and scores in one command, with
+// the built-in default dictionary (README, "Map your own log").
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "potmap/io/map_io.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+using namespace potmap;
+
+namespace {
+
+// The default dictionary is built once per build tree, in its own cache folder (the commands
+// inherit the variable).
+test::CliResult run(const std::string& args, const std::string& redirect = "2>&1") {
+  ::setenv("XDG_CACHE_HOME", (std::string(POTMAP_BINARY_DIR) + "/user-cache").c_str(), 1);
+  return test::run_cli(args, redirect);
+}
+
+}  // namespace
+
+TEST(MappingCli, RealLogToMapPicturesRosMapAndScores) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("mapping-cli");
+  const test::CliResult r =
+      run("mapping " + test::quoted(test::shared_data("radish/intel-corrected.log.gz")) +
+              " --max-scans 15 -q -o " + test::quoted(d) + " --json -",
+          "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["method"], "RePOT");
+  EXPECT_EQ(j["scans"], 15);
+  // Held-out beams of a real building, mapped with atoms of the simulated towns.
+  EXPECT_GT(j["overall"]["auc"].get<double>(), 0.9) << r.out;
+  EXPECT_LT(j["overall"]["nll"].get<double>(), 0.35) << r.out;
+  for (const char* f : {"map.potmap", "map_prob.png", "map_var.png", "map_kernels.png", "map.yaml",
+                        "map.pgm", "scores.json"})
+    EXPECT_TRUE(fs::exists(fs::path(d) / f)) << f;
+  EXPECT_FALSE(read_map(d + "/map.potmap").empty());
+  EXPECT_EQ(nlohmann::json::parse(test::file_bytes(d + "/scores.json"))["overall"], j["overall"]);
+  // The ROS map: a building has walls, free floor and unknown beyond.
+  const std::string pgm = test::file_bytes(d + "/map.pgm");
+  std::size_t counts[256] = {0};
+  const std::size_t header = pgm.find("\n255\n") + 5;
+  for (std::size_t i = header; i < pgm.size(); ++i) ++counts[static_cast<unsigned char>(pgm[i])];
+  EXPECT_GT(counts[0], 1000u);
+  EXPECT_GT(counts[254], 10000u);
+  EXPECT_GT(counts[205], 1000u);
+  EXPECT_NE(test::file_bytes(d + "/map.yaml").find("image: map.pgm\n"), std::string::npos);
+}
+
+TEST(MappingCli, DefaultDictionaryIsCachedAndVersioned) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("default-dict");
+  const test::CliResult first = run("dict default --out " + test::quoted(d + "/a.potdict"));
+  ASSERT_EQ(first.status, 0) << first.out;
+  const test::CliResult second = run("dict default --out " + test::quoted(d + "/b.potdict"));
+  ASSERT_EQ(second.status, 0) << second.out;
+  EXPECT_EQ(second.out.find("building the default dictionary"), std::string::npos) << second.out;
+  EXPECT_NE(second.out.find("default-v"), std::string::npos) << second.out;
+  const std::string a = test::file_bytes(d + "/a.potdict");
+  ASSERT_GT(a.size(), 1000u);
+  EXPECT_EQ(a, test::file_bytes(d + "/b.potdict"));
+  EXPECT_NE(second.out.find("town1+town2+town3"), std::string::npos) << second.out;
+}

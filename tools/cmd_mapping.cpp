@@ -1,0 +1,177 @@
+// `potmap mapping LOG`: from a raw log to the map, its pictures, a ROS map and the scores, with
+// the settings that map the real logs (the experiments' PotSetup) and the default dictionary.
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+
+#include "commands.hpp"
+#include "dataset_samples.hpp"
+#include "default_dictionary.hpp"
+#include "map_pictures.hpp"
+#include "map_pipeline.hpp"
+#include "potmap/error.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/io/ros_map.hpp"
+#include "potmap/pot/dictionary_io.hpp"
+#include "progress.hpp"
+
+namespace fs = std::filesystem;
+
+namespace potmap::cli {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct MappingArgs {
+  std::string log, out, dict, method = "repot", json;
+  double range_cut = 20, ros_res = 0.05;
+  std::size_t first = 0, max_scans = 0, picture_pixels = 1200;
+  int rotations = 8;
+  std::uint64_t seed = 0;
+  bool quiet = false;
+};
+
+std::string default_out(const std::string& log) {
+  std::string stem = fs::path(log).filename().string();
+  for (const char* ext : {".gz", ".log", ".txt"})
+    if (stem.size() > std::strlen(ext) && stem.substr(stem.size() - std::strlen(ext)) == ext)
+      stem.resize(stem.size() - std::strlen(ext));
+  if (stem.empty() || stem == "poses") stem = fs::path(log).parent_path().filename().string();
+  return (fs::path("out") / "mapping" / stem).string();
+}
+
+int run_mapping(const MappingArgs& a, const std::string& device) {
+  if (a.method != "pot" && a.method != "repot")
+    throw ArgumentError("mapping: --method must be pot or repot, not '" + a.method + "'");
+  const std::string dir = a.out.empty() ? default_out(a.log) : a.out;
+  fs::create_directories(dir);
+  std::FILE* human = a.json == "-" ? stderr : stdout;
+
+  std::vector<Scan> all = read_scans(a.log, a.range_cut);
+  if (a.first >= all.size())
+    throw ArgumentError("mapping: --first " + std::to_string(a.first) + " but " + a.log + " has " +
+                        std::to_string(all.size()) + " scans");
+  std::vector<Scan> scans(all.begin() + static_cast<long>(a.first), all.end());
+  if (a.max_scans > 0 && scans.size() > a.max_scans) scans.resize(a.max_scans);
+  std::string dict_file = a.dict;
+  const Dictionary dict = a.dict.empty() ? default_dictionary(&dict_file) : read_dictionary(a.dict);
+  if (scans.front().dim != dict.dim)
+    throw ArgumentError("mapping: " + a.log + " holds " + std::to_string(scans.front().dim) +
+                        "D scans, the dictionary " + dict_file + " is " + std::to_string(dict.dim) +
+                        "D");
+
+  // The experiments' settings (README, Map quality), not copies of them.
+  const experiment::PotSetup setup;
+  MapJob job;
+  job.mapper.pot = setup.pot;
+  job.mapper.pot.refine = a.method == "repot";
+  job.mapper.pot.seed = a.seed;
+  job.mapper.pot.rotations.clear();
+  for (int i = 0; i < a.rotations; ++i)
+    job.mapper.pot.rotations.push_back(2 * kPi * i / a.rotations);
+  job.mapper.persistent_refine = setup.persistent_refine;
+  job.mapper.seed_min_variance = setup.seed_min_variance;
+  job.mapper.labels.seed = a.seed;
+  job.mapper.pipeline = setup.pipeline;
+  job.overall = setup.overall;
+  job.verbose = !a.quiet;
+
+  Context ctx = make_context(device);
+  std::fprintf(human, "mapping        %zu scans of %s (cut at %g m), %s, %zu atoms of %s\n",
+               scans.size(), a.log.c_str(), a.range_cut, a.method == "repot" ? "RePOT" : "POT",
+               dict.size(),
+               a.dict.empty() ? ("the default dictionary " + dict_file).c_str() : a.dict.c_str());
+  const MapJobResult r = run_map_job(&ctx, dict, scans, job);
+  const KernelMap& map = r.overall_map();
+  if (map.empty()) throw InputError("mapping: " + a.log + " gave an empty map");
+  const std::string map_file = (fs::path(dir) / "map.potmap").string();
+  write_map(map, map_file);
+  const std::string prefix = (fs::path(dir) / "map").string();
+  const double z = dict.dim == 3 ? scans.front().origin()[2] : 0;
+  const double res = picture_resolution(map, 5, a.picture_pixels);
+  const MapPictures pics = write_map_pictures(ctx, map, prefix, res, 5, z);
+  RosMapOptions ro;
+  ro.resolution = a.ros_res;
+  ro.z = z;
+  const RosMapSummary ros = write_ros_map(&ctx, map, prefix + ".yaml", ro);
+
+  std::fprintf(human,
+               "held-out beams ACC %.4f  AUC %.4f  NLL %.4f  (%zu samples, 20 %% of every "
+               "scan's beams, never mapped)\n",
+               r.overall_scores.acc, r.overall_scores.auc, r.overall_scores.nll,
+               r.overall_scores.n);
+  std::fprintf(human, "map            %zu kernels, %.1f MB, %.1f ms per scan -> %s\n",
+               r.overall_kernels(), r.overall_memory_bytes() / 1e6, r.mean_wall_ms,
+               map_file.c_str());
+  std::fprintf(human, "pictures       %zu x %zu at %.3f m per pixel\n", pics.width, pics.height,
+               pics.resolution);
+  std::fprintf(human, "ROS map        %zu x %zu at %.3f m: %zu occupied, %zu free, %zu unknown\n",
+               ros.width, ros.height, ro.resolution, ros.occupied, ros.free, ros.unknown);
+  std::vector<std::string> files = {map_file};
+  files.insert(files.end(), pics.files.begin(), pics.files.end());
+  files.push_back(ros.yaml);
+  files.push_back(ros.pgm);
+
+  nlohmann::json j = r.to_json();
+  j["log"] = a.log;
+  j["method"] = a.method == "repot" ? "RePOT" : "POT";
+  j["dictionary"] = a.dict.empty() ? "default: " + default_dictionary_recipe() : a.dict;
+  j["range_cut"] = a.range_cut;
+  j["device"] = ctx.info().summary();
+  const std::string scores = (fs::path(dir) / "scores.json").string();
+  files.push_back(scores);
+  j["files"] = files;
+  write_text_atomically(scores, j.dump(1) + "\n");
+  if (a.json == "-") std::cout << j.dump(1) << "\n";
+  std::fprintf(human, "files:\n");
+  for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
+  return 0;
+}
+
+}  // namespace
+
+void register_mapping(CLI::App& app, Runner& runner) {
+  CLI::App* cmd = app.add_subcommand(
+      "mapping",
+      "From a raw log to a map in one command: the scans mapped by RePOT with the built-in "
+      "dictionary (or --dict), written as DIR/map.potmap, pictures DIR/map_{prob,var,kernels}.png, "
+      "a ROS map DIR/map.yaml + map.pgm and DIR/scores.json (held-out beams)");
+  auto a = std::make_shared<MappingArgs>();
+  auto device = add_device_option(cmd);
+  cmd->add_option("LOG", a->log, "Any dataset potmap reads (CARMEN log, KITTI sequence folder)")
+      ->required();
+  cmd->add_option("-o,--out", a->out, "Output folder (default out/mapping/<log name>)");
+  cmd->add_option("--dict", a->dict, "Dictionary of atoms (default: the built-in one)");
+  cmd->add_option("--method", a->method, "repot (persistent joint BHM) or pot")
+      ->capture_default_str();
+  cmd->add_option("--range-cut", a->range_cut,
+                  "Returns farther than this (metres) become no-returns: the towns' range, which "
+                  "the default dictionary's atoms are cut at (0: none)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--first", a->first, "Skip this many scans")->capture_default_str();
+  cmd->add_option("--max-scans", a->max_scans, "Map at most this many scans (0: all)")
+      ->capture_default_str();
+  cmd->add_option("--rotations", a->rotations, "Rotations tried per atom")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--ros-res", a->ros_res, "ROS map resolution, metres per pixel")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--picture-pixels", a->picture_pixels, "Pixels along the pictures' long side")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--seed", a->seed, "Seed of labelling, hold-out and subsampling")
+      ->capture_default_str();
+  cmd->add_option("--json", a->json, "'-': also print the summary as JSON on stdout");
+  cmd->add_flag("-q,--quiet", a->quiet, "No line per scan (a progress bar on a terminal)");
+  cmd->callback(
+      [&runner, a, device] { runner.action = [a, device] { return run_mapping(*a, *device); }; });
+}
+
+}  // namespace potmap::cli

@@ -1,0 +1,111 @@
+#include "default_dictionary.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include "potmap/data/simulator.hpp"
+#include "potmap/error.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/pot/dictionary_io.hpp"
+#include "user_cache.hpp"
+
+namespace potmap::cli {
+
+namespace {
+
+constexpr const char* kTowns[] = {"town1", "town2", "town3"};
+constexpr double kSpacing = 2.0;    // metres between scans, as the experiments' simulated drives
+constexpr double kRangeCut = 20.0;  // the towns' sensor range, the radius atoms are cut with
+
+// An advisory lock on PATH.lock for as long as it lives; nothing when the file cannot be made.
+class BuildLock {
+ public:
+  explicit BuildLock(const std::string& path) {
+    if (path.empty()) return;
+    fd_ = ::open((path + ".lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ >= 0 && ::flock(fd_, LOCK_EX) != 0) {
+      ::close(fd_);
+      fd_ = -1;
+    }
+  }
+  ~BuildLock() {
+    if (fd_ >= 0) ::close(fd_);  // closing releases the lock
+  }
+  BuildLock(const BuildLock&) = delete;
+  BuildLock& operator=(const BuildLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
+std::string default_dictionary_recipe() {
+  return "potmap default dictionary v" + std::to_string(kDefaultDictionaryVersion) +
+         ": town1+town2+town3 (seed 0), drives 2 m apart, 20 m, joint BHM atoms (PotSetup)";
+}
+
+Dictionary build_default_dictionary(std::size_t scans) {
+  std::vector<std::vector<Scan>> places;
+  for (const char* town : kTowns) {
+    SimOptions o;
+    o.scans = scans;
+    o.spacing = kSpacing;
+    o.seed = 0;
+    Simulation sim = simulate(Town::builtin(town, 0), o);
+    places.emplace_back();
+    for (Scan& s : sim.scans) places.back().push_back(experiment::limit_range(s, kRangeCut));
+  }
+  experiment::PotSetup setup;
+  setup.dictionary.source = default_dictionary_recipe();
+  return experiment::build_atoms(nullptr, places, setup, 0);
+}
+
+std::string default_dictionary_path() {
+  const std::string dir = user_cache_dir("dictionaries");
+  if (dir.empty()) return {};
+  return (std::filesystem::path(dir) /
+          ("default-v" + std::to_string(kDefaultDictionaryVersion) + ".potdict"))
+      .string();
+}
+
+Dictionary default_dictionary(std::string* where) {
+  const std::string path = default_dictionary_path();
+  if (where) *where = path;
+  std::error_code ec;
+  if (!path.empty())
+    std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
+  // Two runs started together build it once: the second waits here, then reads the cache.
+  const BuildLock lock(path);
+  if (!path.empty() && std::filesystem::exists(path, ec)) {
+    try {
+      return read_dictionary(path);
+    } catch (const InputError& e) {
+      std::cerr << "potmap: the cached default dictionary is unreadable, building it again ("
+                << e.what() << ")\n";
+    }
+  }
+  std::cerr << "potmap: building the default dictionary (" << default_dictionary_recipe()
+            << "); once, then cached in " << (path.empty() ? "(no cache folder)" : path) << "\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  Dictionary dict = build_default_dictionary();
+  if (!path.empty()) {
+    try {
+      write_dictionary(dict, path);
+    } catch (const Error& e) {
+      std::cerr << "potmap: could not cache the default dictionary: " << e.what() << "\n";
+      if (where) where->clear();
+    }
+  }
+  std::cerr << "potmap: default dictionary: " << dict.size() << " atoms in "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
+            << " s\n";
+  return dict;
+}
+
+}  // namespace potmap::cli

@@ -1,0 +1,33 @@
+#pragma once
+// The built-in default dictionary of `potmap map` and `potmap mapping` without --dict: atoms
+// cut from drives through the three built-in towns, built once and cached in the user's cache
+// folder.
+#include <string>
+
+#include "potmap/pot/atoms.hpp"
+
+namespace potmap::cli {
+
+/// Version of the recipe below; the cached file is named after it, so a new recipe never reads
+/// an old file. Bump it whenever the towns, the drives or the atom settings change.
+constexpr int kDefaultDictionaryVersion = 1;
+
+/// What the default dictionary is made of, in words (stored as every atom's source).
+std::string default_dictionary_recipe();
+
+/// The default dictionary built from scratch: towns town1, town2 and town3 (seed 0), each
+/// driven for `scans` scans 2 m apart (route seed 0), scans cut at 20 m, the experiments'
+/// atoms (experiment::build_atoms with PotSetup's defaults, seed 0): a joint BHM of each town,
+/// atoms from 10 scans of each. Deterministic: no device is used.
+Dictionary build_default_dictionary(std::size_t scans = 200);
+
+/// The cached file (user_cache_dir("dictionaries")/default-vN.potdict); empty without a cache
+/// folder.
+std::string default_dictionary_path();
+
+/// The default dictionary: read from the cache, or built (a note on stderr, about a minute) and
+/// written there when missing or unreadable. `where` receives the file it came from ("" when
+/// built without a cache folder).
+Dictionary default_dictionary(std::string* where = nullptr);
+
+}  // namespace potmap::cli
