@@ -17,7 +17,8 @@
 //                  [--atoms 6,50,200,1000,5000] [--exhaustive-scans 100,100,100,20,5]
 //                  [--repot 1] [--cache pot_scale_cache] [--out pot_scale.json]
 //                  [--neighbours 16] [--rotations-per-atom 2] [--coarse 48,24] [--fine 3]
-//                  [--warm 1] [--snap 0]   (the indexed ranking's settings, PotOptions' defaults)
+//                  [--warm 1] [--snap 1] [--anchors 1]   (the indexed ranking's settings,
+//                  PotOptions' defaults)
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -147,6 +148,7 @@ Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
   setup.pot.fine_candidates = g_indexed.fine_candidates;
   setup.pot.warm_candidates = g_indexed.warm_candidates;
   setup.pot.snap_rotations = g_indexed.snap_rotations;
+  setup.pot.index_anchors = g_indexed.index_anchors;
   Run run;
   setup.on_scan = [&run](std::size_t i, const ScanTransfer& t) {
     for (const SectorTransfer& s : t.sectors) run.chosen[{i, s.sector}] = {s.atom, s.rotation};
@@ -343,7 +345,8 @@ int main(int argc, char** argv) {
               {"coarse_free", g_indexed.coarse_free},
               {"fine_candidates", g_indexed.fine_candidates},
               {"warm_candidates", g_indexed.warm_candidates},
-              {"snap_rotations", g_indexed.snap_rotations}}},
+              {"snap_rotations", g_indexed.snap_rotations},
+              {"index_anchors", g_indexed.index_anchors}}},
             {"target", target},
             {"first", first},
             {"dictionary", dj},

@@ -154,27 +154,32 @@ SectorSignature AtomIndex::signature(const Sector& sector) const {
   return describe(sector, Shape{options_.rings, options_.bins, options_.harmonics, radius_});
 }
 
-std::vector<std::size_t> AtomIndex::nearest(const SectorSignature& t, std::size_t k) const {
+void AtomIndex::distances(const SectorSignature& t, std::vector<double>& dh,
+                          std::vector<double>& df) const {
   if (t.dim != dim_)
     throw ArgumentError("AtomIndex: a " + std::to_string(t.dim) + "D signature for a " +
                         std::to_string(dim_) + "D dictionary");
   const std::size_t n = size();
-  std::vector<double> dh(n, 0), df(n, 0);
-  double mh = 0, mf = 0;
+  dh.assign(n, 0);
+  df.assign(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
-    if (t.hits) {
+    if (t.hits)
       dh[i] = hits_[i] ? squared_distance(t.hit_features.data(), &hit_features_[i * features_],
                                           features_)
                        : -1;
-      mh = std::max(mh, dh[i]);
-    }
-    if (t.free) {
+    if (t.free)
       df[i] = free_[i] ? squared_distance(t.free_features.data(), &free_features_[i * features_],
                                           features_)
                        : -1;
-      mf = std::max(mf, df[i]);
-    }
   }
+}
+
+std::vector<std::size_t> AtomIndex::nearest(const SectorSignature& t, std::size_t k) const {
+  std::vector<double> dh, df;
+  distances(t, dh, df);
+  const std::size_t n = size();
+  const double mh = n ? *std::max_element(dh.begin(), dh.end()) : 0;
+  const double mf = n ? *std::max_element(df.begin(), df.end()) : 0;
   std::vector<double> cost(n);
   for (std::size_t i = 0; i < n; ++i) {
     const int missing = (dh[i] < 0) + (df[i] < 0);
@@ -193,6 +198,20 @@ std::vector<std::size_t> AtomIndex::nearest(const SectorSignature& t, std::size_
   std::partial_sort(idx.begin(), idx.begin() + k, idx.end(), better);
   idx.resize(k);
   return idx;
+}
+
+std::vector<std::size_t> AtomIndex::farthest(const SectorSignature& t) const {
+  std::vector<double> dh, df;
+  distances(t, dh, df);
+  std::vector<std::size_t> out;
+  for (const std::vector<double>* d : {&dh, &df}) {
+    const auto it = std::max_element(d->begin(), d->end());
+    if (it != d->end() && *it > 0) {
+      const std::size_t a = static_cast<std::size_t>(it - d->begin());
+      if (std::find(out.begin(), out.end(), a) == out.end()) out.push_back(a);
+    }
+  }
+  return out;
 }
 
 std::vector<RotationEstimate> AtomIndex::rotations(const SectorSignature& t, std::size_t atom,

@@ -205,16 +205,25 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
     std::vector<std::size_t> chosen = index->nearest(sig, o.index_neighbours);
     for (std::size_t a : warm)
       if (std::find(chosen.begin(), chosen.end(), a) == chosen.end()) chosen.push_back(a);
-    for (std::size_t a : chosen) {
+    const std::size_t near = chosen.size();
+    // The farthest atoms at their worst estimated angle (the best one turned half a circle)
+    // stand for the exhaustive ranking's worst candidates, which set its normalisers.
+    if (o.index_anchors)
+      for (std::size_t a : index->farthest(sig))
+        if (std::find(chosen.begin(), chosen.end(), a) == chosen.end()) chosen.push_back(a);
+    for (std::size_t i = 0; i < chosen.size(); ++i) {
+      const std::size_t a = chosen[i];
       const auto& as = atoms(a);
       std::vector<double> angles;
       for (const RotationEstimate& r : index->rotations(sig, a, std::max(o.index_rotations, 1))) {
-        const double angle = o.snap_rotations ? nearest_rotation(r.angle, o.rotations) : r.angle;
+        double angle = i < near ? r.angle : std::fmod(r.angle + M_PI, 2 * M_PI);
+        if (o.snap_rotations) angle = nearest_rotation(angle, o.rotations);
         if (std::find(angles.begin(), angles.end(), angle) != angles.end()) continue;
         angles.push_back(angle);
         Candidate c;
         if (!add_candidate(a, angle, as.first, as.second, th, tf, proto, pt.ranking, c)) break;
         pt.candidates[s].push_back(c);
+        if (i >= near) break;  // one angle for an anchor
       }
     }
   }

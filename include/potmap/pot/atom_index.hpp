@@ -68,6 +68,12 @@ class AtomIndex {
   /// a class the target has come after every atom that has it. k = 0 or k >= size(): every atom.
   std::vector<std::size_t> nearest(const SectorSignature& target, std::size_t k) const;
 
+  /// The atoms farthest from the target by the feature distance of each class the target has
+  /// (one for the hits, one for the free samples; one atom when the same): the candidates that
+  /// set the exhaustive ranking's normalisers, its largest costs. Empty when no atom has a
+  /// class the target has.
+  std::vector<std::size_t> farthest(const SectorSignature& target) const;
+
   /// Up to `count` rotation estimates of atom `atom` onto the target, best first: the highest
   /// peaks of the circular cross-correlation of the polar histograms (classes both sides have,
   /// summed), at least 45 degrees apart, each refined between bins by a parabola.
@@ -80,6 +86,9 @@ class AtomIndex {
   std::size_t bytes_per_atom() const;
 
  private:
+  /// Per atom, the squared feature distance of each class to the target's (-1 where the atom
+  /// lacks a class the target has; 0 where the target lacks it).
+  void distances(const SectorSignature& t, std::vector<double>& dh, std::vector<double>& df) const;
   AtomIndexOptions options_;
   int dim_ = 2;
   double radius_ = 0;                     ///< sector radius in scaled units (max_range * scale)

@@ -122,10 +122,15 @@ struct PotOptions {
   /// Rotation estimates per candidate atom, peaks of the angular cross-correlation at least
   /// 45 degrees apart (default 2: a sector's walls often match at two angles, e.g. a corridor).
   int index_rotations = 2;
-  /// Snap each estimated rotation to the nearest of `rotations` (default false: the estimate
-  /// itself, finer than the 45 degree grid). true ranks on the exhaustive ranking's grid, so
-  /// the two choose from the same candidates.
-  bool snap_rotations = false;
+  /// Add each sector's farthest atoms (AtomIndex::farthest) at a bad rotation to the coarse
+  /// stage (default true): they set the normalisers of the score terms as the worst
+  /// candidates set the exhaustive ranking's, so that hits and free samples weigh alike.
+  bool index_anchors = true;
+  /// Snap each estimated rotation to the nearest of `rotations` (default true: the estimate
+  /// picks which of the exhaustive ranking's angles to solve, so both rank on the same grid;
+  /// on the Radish logs this scored a little better than the raw estimate, docs/pot-scale.md).
+  /// false: the estimate itself, finer than the grid.
+  bool snap_rotations = true;
   /// Coarse stage: every (atom, estimated rotation) candidate is ranked on at most this many
   /// hits and free samples a side, thinned evenly (defaults 48 and 24; a fifteenth of the work
   /// of a 200 x 200 problem: thinned evenly, small samples of matching places still match).
