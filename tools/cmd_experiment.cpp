@@ -59,7 +59,7 @@ void add_common(CLI::App* cmd, Settings& s) {
            s.pot.pot.ranking = v == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
          },
          "POT/RePOT: exhaustive (every atom at every rotation) or indexed (nearest atoms at "
-         "estimated rotations, coarse to fine; the default)")
+         "estimated rotations, coarse to fine; default exhaustive)")
       ->check(CLI::IsMember({"exhaustive", "indexed"}));
   cmd->add_option("--atom-scans", s.pot.atom_scans,
                   "POT/RePOT: source scans per place cut into atoms, evenly spaced (0: all)")

@@ -35,8 +35,8 @@ enum class PotRanking {
   /// with atoms x rotations.
   exhaustive,
   /// The PotOptions::index_neighbours atoms nearest in an AtomIndex, each at its estimated
-  /// rotations (not the PotOptions::rotations grid), ranked coarse to fine. Cost nearly flat
-  /// in the dictionary's size.
+  /// rotations (snapped to PotOptions::rotations by default), ranked coarse to fine. Cost
+  /// nearly flat in the dictionary's size.
   indexed,
 };
 
