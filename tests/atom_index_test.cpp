@@ -68,18 +68,6 @@ Dictionary town_atoms(std::size_t scans_per_town, std::uint64_t seed) {
   return d;
 }
 
-Sector rotated(const Sector& s, double a) {
-  Sector r = s;
-  const double c = std::cos(a), sn = std::sin(a);
-  for (auto* v : {&r.hits, &r.free})
-    for (std::size_t i = 0; i < v->size(); i += s.dim) {
-      const double x = (*v)[i], y = (*v)[i + 1];
-      (*v)[i] = c * x - sn * y;
-      (*v)[i + 1] = sn * x + c * y;
-    }
-  return r;
-}
-
 // A scan's samples turned by `angle` about its sensor, with the heading turned alike: every
 // sector of the result is the same sector of the scan rotated by `angle` about its centroid.
 LabelledPoints turned(LabelledPoints lp, const std::array<double, 3>& o, double angle) {
@@ -102,7 +90,8 @@ TEST(AtomIndex, RotatedCopyAmongThousandsIsNearestAndItsRotationIsFound) {
   for (std::size_t j = 7; j < dict.size(); j += dict.size() / 9) {
     if (dict.atoms[j].sector.num_hits() < 20) continue;  // an open sector has no shape to turn
     for (double angle : {0.4, 1.9, 4.0}) {
-      const SectorSignature sig = index.signature(rotated(dict.atoms[j].sector, angle));
+      const SectorSignature sig =
+          index.signature(test::rotated_sector(dict.atoms[j].sector, angle));
       const std::vector<std::size_t> near = index.nearest(sig, 8);
       ASSERT_EQ(near.size(), 8u);
       EXPECT_EQ(near[0], j) << "atom " << j << " turned " << angle;

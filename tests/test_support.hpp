@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "potmap/pot/atoms.hpp"
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::test {
@@ -24,6 +25,10 @@ CliResult run_cli(const std::string& args, const std::string& redirect = "2>&1")
 bool cli_built();
 /// Single-quotes a path for the shell.
 std::string quoted(const std::string& s);
+
+/// The sector with its hits and free samples turned by `angle` radians about its origin (the
+/// sector frame's centre), counter-clockwise (about the vertical axis in 3D).
+Sector rotated_sector(const Sector& s, double angle);
 
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();

@@ -8,7 +8,9 @@
 #include <numeric>
 #include <string>
 
+#include "class_ranking.hpp"
 #include "potmap/error.hpp"
+#include "thinning.hpp"
 
 namespace potmap {
 
@@ -144,6 +146,9 @@ AtomIndex::AtomIndex(const Dictionary& dict, const AtomIndexOptions& o)
     std::copy(g.free_features.begin(), g.free_features.end(), &free_features_[a * features_]);
     std::copy(g.hit_polar.begin(), g.hit_polar.end(), &hit_polar_[a * hist]);
     std::copy(g.free_polar.begin(), g.free_polar.end(), &free_polar_[a * hist]);
+    const Sector& sec = dict.atoms[a].sector;
+    coarse_hits_.push_back(detail::subsample_even(sec.hits, dim_, o.coarse_hits));
+    coarse_free_.push_back(detail::subsample_even(sec.free, dim_, o.coarse_free));
   }
 }
 
@@ -177,27 +182,7 @@ void AtomIndex::distances(const SectorSignature& t, std::vector<double>& dh,
 std::vector<std::size_t> AtomIndex::nearest(const SectorSignature& t, std::size_t k) const {
   std::vector<double> dh, df;
   distances(t, dh, df);
-  const std::size_t n = size();
-  const double mh = n ? *std::max_element(dh.begin(), dh.end()) : 0;
-  const double mf = n ? *std::max_element(df.begin(), df.end()) : 0;
-  std::vector<double> cost(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int missing = (dh[i] < 0) + (df[i] < 0);
-    cost[i] = 4.0 * missing + (mh > 0 ? std::max(dh[i], 0.0) / mh : 0) +
-              (mf > 0 ? std::max(df[i], 0.0) / mf : 0);
-  }
-  std::vector<std::size_t> idx(n);
-  std::iota(idx.begin(), idx.end(), std::size_t{0});
-  auto better = [&](std::size_t a, std::size_t b) {
-    return cost[a] != cost[b] ? cost[a] < cost[b] : a < b;
-  };
-  if (k == 0 || k >= n) {
-    std::sort(idx.begin(), idx.end(), better);
-    return idx;
-  }
-  std::partial_sort(idx.begin(), idx.begin() + k, idx.end(), better);
-  idx.resize(k);
-  return idx;
+  return detail::order_by_class_distance(dh, df, k);
 }
 
 std::vector<std::size_t> AtomIndex::farthest(const SectorSignature& t) const {
@@ -272,7 +257,11 @@ std::vector<RotationEstimate> AtomIndex::rotations(const SectorSignature& t, std
 
 std::size_t AtomIndex::bytes_per_atom() const {
   const std::size_t hist = static_cast<std::size_t>(options_.rings) * options_.bins;
-  return 2 * sizeof(std::size_t) + 2 * features_ * sizeof(float) + 2 * hist * sizeof(float);
+  std::size_t coarse = 0;
+  for (std::size_t a = 0; a < size(); ++a)
+    coarse += sizeof(double) * (coarse_hits_[a].size() + coarse_free_[a].size());
+  return 2 * sizeof(std::size_t) + 2 * features_ * sizeof(float) + 2 * hist * sizeof(float) +
+         2 * sizeof(Eigen::MatrixXd) + (size() ? coarse / size() : 0);
 }
 
 }  // namespace potmap

@@ -211,9 +211,12 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
     if (o.index_anchors)
       for (std::size_t a : index->farthest(sig))
         if (std::find(chosen.begin(), chosen.end(), a) == chosen.end()) chosen.push_back(a);
+    const bool stored = index->options().coarse_hits == o.coarse_hits &&
+                        index->options().coarse_free == o.coarse_free;
     for (std::size_t i = 0; i < chosen.size(); ++i) {
       const std::size_t a = chosen[i];
-      const auto& as = atoms(a);
+      const Eigen::MatrixXd* ah = stored ? &index->coarse_hits(a) : &atoms(a).first;
+      const Eigen::MatrixXd* af = stored ? &index->coarse_free(a) : &atoms(a).second;
       std::vector<double> angles;
       for (const RotationEstimate& r : index->rotations(sig, a, std::max(o.index_rotations, 1))) {
         double angle = i < near ? r.angle : std::fmod(r.angle + M_PI, 2 * M_PI);
@@ -221,7 +224,7 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
         if (std::find(angles.begin(), angles.end(), angle) != angles.end()) continue;
         angles.push_back(angle);
         Candidate c;
-        if (!add_candidate(a, angle, as.first, as.second, th, tf, proto, pt.ranking, c)) break;
+        if (!add_candidate(a, angle, *ah, *af, th, tf, proto, pt.ranking, c)) break;
         pt.candidates[s].push_back(c);
         if (i >= near) break;  // one angle for an anchor
       }

@@ -18,6 +18,8 @@
 // Query cost: the feature distance of every atom (brute force over a compact float matrix,
 // about 64 floats an atom), then the cross-correlation at every angular shift for the k nearest.
 
+#include <Eigen/Core>
+
 #include <cstddef>
 #include <vector>
 
@@ -34,6 +36,12 @@ struct AtomIndexOptions {
   int rings = 4;      ///< radial rings (>= 1) of equal width up to the sector radius, the last open
   int bins = 64;      ///< angular bins of the full circle (>= 8)
   int harmonics = 4;  ///< Fourier magnitudes per ring in the features (0 .. bins / 2)
+  /// Each atom's hits and free samples thinned evenly to at most this many, kept for the
+  /// indexed ranking's coarse stage (defaults: PotOptions::coarse_hits and coarse_free; a
+  /// ranking with other caps thins on every call instead). Thinning costs more than the rest
+  /// of a scan's preparation, so it is done once here.
+  std::size_t coarse_hits = 48;
+  std::size_t coarse_free = 24;
 };
 
 /// The signature of one sector (see the top of this file).
@@ -80,9 +88,13 @@ class AtomIndex {
   std::vector<RotationEstimate> rotations(const SectorSignature& target, std::size_t atom,
                                           int count) const;
 
+  /// Atom `atom`'s samples thinned to options().coarse_hits / coarse_free (rows are points).
+  const Eigen::MatrixXd& coarse_hits(std::size_t atom) const { return coarse_hits_.at(atom); }
+  const Eigen::MatrixXd& coarse_free(std::size_t atom) const { return coarse_free_.at(atom); }
+
   std::size_t size() const { return hits_.size(); }
   const AtomIndexOptions& options() const { return options_; }
-  /// Bytes held per atom (features and histograms).
+  /// Bytes held per atom (features, histograms and coarse samples; their mean).
   std::size_t bytes_per_atom() const;
 
  private:
@@ -96,6 +108,7 @@ class AtomIndex {
   std::vector<std::size_t> hits_, free_;  ///< sample counts per atom
   std::vector<float> hit_features_, free_features_;  ///< atoms x features_
   std::vector<float> hit_polar_, free_polar_;        ///< atoms x rings x bins
+  std::vector<Eigen::MatrixXd> coarse_hits_, coarse_free_;
 };
 
 }  // namespace potmap
