@@ -15,6 +15,7 @@
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/pot/atom_descriptor.hpp"
+#include "potmap/pot/atom_index.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/mapper.hpp"
 #include "potmap/pot/transfer.hpp"
@@ -83,8 +84,8 @@ std::vector<double> rotations(int n) {
   return r;
 }
 
-// Args: atoms, rotations, refine (0/1), candidates (descriptor pre-selection, 0: every atom).
-// `device` false: the CPU reference.
+// Args: atoms, rotations, refine (0/1), candidates (descriptor pre-selection, 0: every atom),
+// ranking (0: exhaustive, 1: indexed). `device` false: the CPU reference.
 void run_pot(benchmark::State& state, bool device) {
   Fixture& f = fixture();
   const Dictionary dict = first_atoms(static_cast<std::size_t>(state.range(0)));
@@ -93,6 +94,10 @@ void run_pot(benchmark::State& state, bool device) {
   o.refine = state.range(2) != 0;
   o.candidates = static_cast<std::size_t>(state.range(3));
   if (o.candidates > 0) o.preselector = std::make_shared<const AtomPreselector>(dict);
+  if (state.range(4) != 0) {
+    o.ranking = PotRanking::indexed;
+    o.index = std::make_shared<const AtomIndex>(dict);
+  }
   Context* ctx = device ? &f.ctx : nullptr;
   if (device) {  // build the programs outside the timing
     transfer_scan(ctx, dict, f.splits[0].train, f.targets[0].origin(), scan_heading(f.targets[0]),
@@ -103,10 +108,15 @@ void run_pot(benchmark::State& state, bool device) {
   std::size_t scans = 0, kernels = 0;
   std::vector<float> prob;
   std::vector<std::uint8_t> label;
+  std::vector<long> warm;  // the previous scan's atoms (PotOptions::warm_candidates)
   for (auto _ : state) {
     const std::size_t i = scans % f.targets.size();
-    ScanTransfer t = transfer_scan(ctx, dict, f.splits[i].train, f.targets[i].origin(),
-                                   scan_heading(f.targets[i]), static_cast<std::int64_t>(i), o);
+    ScanTransfer t = finish_transfer(
+        ctx, dict,
+        prepare_transfer(dict, f.splits[i].train, f.targets[i].origin(), scan_heading(f.targets[i]),
+                         static_cast<std::int64_t>(i), o, warm),
+        o);
+    warm = chosen_atoms(t);
     state.PauseTiming();
     sum.prepare_ms += t.timing.prepare_ms;
     sum.ranking_ms += t.timing.ranking_ms;
@@ -158,20 +168,24 @@ void BM_PotReference(benchmark::State& state) {
 
 // The setting: 5 sectors, 6 atoms, 8 rotations, POT and RePOT; then scaling.
 BENCHMARK(BM_PotOpenCL)
-    ->ArgNames({"atoms", "rotations", "refine", "candidates"})
-    ->Args({6, 8, 0, 0})
-    ->Args({6, 8, 1, 0})
-    ->Args({6, 4, 0, 0})
-    ->Args({24, 8, 0, 0})
-    ->Args({96, 8, 0, 0})
-    ->Args({200, 8, 0, 0})
-    ->Args({200, 8, 0, 24})
+    ->ArgNames({"atoms", "rotations", "refine", "candidates", "indexed"})
+    ->Args({6, 8, 0, 0, 0})
+    ->Args({6, 8, 1, 0, 0})
+    ->Args({6, 4, 0, 0, 0})
+    ->Args({24, 8, 0, 0, 0})
+    ->Args({96, 8, 0, 0, 0})
+    ->Args({200, 8, 0, 0, 0})
+    ->Args({200, 8, 0, 24, 0})
+    ->Args({6, 8, 0, 0, 1})
+    ->Args({50, 8, 0, 0, 1})
+    ->Args({200, 8, 0, 0, 1})
+    ->Args({200, 8, 1, 0, 1})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(32);  // every target scan four times
 BENCHMARK(BM_PotReference)
-    ->ArgNames({"atoms", "rotations", "refine", "candidates"})
-    ->Args({6, 8, 0, 0})
-    ->Args({6, 8, 1, 0})
+    ->ArgNames({"atoms", "rotations", "refine", "candidates", "indexed"})
+    ->Args({6, 8, 0, 0, 0})
+    ->Args({6, 8, 1, 0, 0})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(8);
 

@@ -7,6 +7,7 @@
 
 #include "potmap/error.hpp"
 #include "potmap/pot/atom_descriptor.hpp"
+#include "test_support.hpp"
 
 using namespace potmap;
 
@@ -29,18 +30,6 @@ Sector random_sector(std::mt19937_64& rng, int dim, std::size_t nh, std::size_t 
     if (dim == 3) s.free.push_back(g(rng));
   }
   return s;
-}
-
-Sector rotated(const Sector& s, double a) {
-  Sector r = s;
-  const double c = std::cos(a), sn = std::sin(a);
-  for (auto* v : {&r.hits, &r.free})
-    for (std::size_t i = 0; i < v->size(); i += s.dim) {
-      const double x = (*v)[i], y = (*v)[i + 1];
-      (*v)[i] = c * x - sn * y;
-      (*v)[i + 1] = sn * x + c * y;
-    }
-  return r;
 }
 
 Dictionary dictionary_of(std::vector<Sector> sectors, int dim) {
@@ -84,7 +73,7 @@ TEST(AtomDescriptor, RotationLeavesTheDescriptorUnchanged) {
     const Sector s = random_sector(rng, dim, 150, 40);
     const AtomDescriptor d = describe_sector(s);
     for (double a : {0.3, 1.7, 3.1, 5.0}) {
-      const AtomDescriptor r = describe_sector(rotated(s, a));
+      const AtomDescriptor r = describe_sector(test::rotated_sector(s, a));
       EXPECT_EQ(r.hits, d.hits);
       for (int i = 0; i < AtomDescriptor::kQuantiles; ++i) {
         EXPECT_NEAR(r.hit_radius[i], d.hit_radius[i], 1e-6);
@@ -112,7 +101,7 @@ TEST(AtomDescriptor, RotatedCopyIsPreselectedFirst) {
   std::mt19937_64 rng(3);
   std::vector<Sector> atoms;
   for (int i = 0; i < 200; ++i) atoms.push_back(random_sector(rng, 2, 60 + i % 50, 10 + i % 20));
-  const Sector target = rotated(atoms[137], 2.2);
+  const Sector target = test::rotated_sector(atoms[137], 2.2);
   const Dictionary dict = dictionary_of(atoms, 2);
   const auto top = preselect_atoms(dict, target, 5);
   ASSERT_EQ(top.size(), 5u);

@@ -69,4 +69,44 @@ TEST(DictCli, BuildFromSimulatedTownAndInfo) {
                     "2>&1");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("--first 99"), std::string::npos) << r.out;
+
+  // Merge: a second place's dictionary (same radius and scale) appended, coverage per source.
+  const std::string second = dir + "/second.potdict";
+  r = test::run_cli("dict build --scans " + test::quoted(dir + "/scans.log") + " --map " +
+                        test::quoted(dir + "/bhm.potmap") + " --out " + test::quoted(second) +
+                        " --first 10 --source other",
+                    "2>&1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const Dictionary d2 = read_dictionary(second);
+  const std::string both = dir + "/both.potdict";
+  r = test::run_cli("dict merge " + test::quoted(dict) + " " + test::quoted(second) + " --out " +
+                        test::quoted(both) + " --json -",
+                    "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const Dictionary m = read_dictionary(both);
+  ASSERT_EQ(m.size(), d.size() + d2.size());
+  EXPECT_EQ(m.atoms.front().source, d.atoms.front().source);
+  EXPECT_EQ(m.atoms.back().source, "other");
+  EXPECT_EQ(m.sectors, 5);  // the larger of 4 and the default 5
+  r = test::run_cli("dict info " + test::quoted(both) + " --json -", "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json mi = nlohmann::json::parse(r.out);
+  EXPECT_EQ(mi["sources"]["other"]["atoms"].get<std::size_t>(), d2.size());
+  EXPECT_EQ(mi["sources"]["other"]["scan_index"]["min"].get<long>(), 10);
+  EXPECT_GT(mi["memory_bytes_per_atom"].get<double>(), 0);
+  EXPECT_GT(mi["index_bytes_per_atom"].get<double>(), 0);
+  EXPECT_GE(mi["load_ms"].get<double>(), 0);
+  // Another scale cannot be merged; the error names the file.
+  const std::string scaled = dir + "/scaled.potdict";
+  r = test::run_cli("dict build --scans " + test::quoted(dir + "/scans.log") + " --map " +
+                        test::quoted(dir + "/bhm.potmap") + " --out " + test::quoted(scaled) +
+                        " --first 10 --scale 0.01",
+                    "2>&1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = test::run_cli("dict merge " + test::quoted(dict) + " " + test::quoted(scaled) + " --out " +
+                        test::quoted(dir + "/bad.potdict"),
+                    "2>&1");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("scaled.potdict: merge_dictionary"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir + "/bad.potdict"));
 }

@@ -1,5 +1,7 @@
 #include "test_support.hpp"
 
+#include <cmath>
+
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -60,6 +62,18 @@ Context& context() {
   // One per test process: building programs costs seconds on PoCL, so tests share them.
   static std::unique_ptr<Context> ctx = std::make_unique<Context>();
   return *ctx;
+}
+
+Sector rotated_sector(const Sector& s, double angle) {
+  Sector r = s;
+  const double c = std::cos(angle), sn = std::sin(angle);
+  for (auto* v : {&r.hits, &r.free})
+    for (std::size_t i = 0; i < v->size(); i += s.dim) {
+      const double x = (*v)[i], y = (*v)[i + 1];
+      (*v)[i] = c * x - sn * y;
+      (*v)[i + 1] = sn * x + c * y;
+    }
+  return r;
 }
 
 }  // namespace potmap::test

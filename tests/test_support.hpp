@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "potmap/pot/atoms.hpp"
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::test {
@@ -26,6 +27,10 @@ bool cli_built();
 std::string quoted(const std::string& s);
 /// The whole file as bytes (empty when it cannot be read).
 std::string file_bytes(const std::string& path);
+
+/// The sector with its hits and free samples turned by `angle` radians about its origin (the
+/// sector frame's centre), counter-clockwise (about the vertical axis in 3D).
+Sector rotated_sector(const Sector& s, double angle);
 
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();

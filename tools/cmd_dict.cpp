@@ -1,4 +1,4 @@
-// potmap dict build | info: the dictionary of atoms (SPEC section 4, step 1).
+// potmap dict build | merge | info: the dictionary of atoms (SPEC section 4, step 1).
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -18,6 +18,7 @@
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm_joint.hpp"
+#include "potmap/pot/atom_index.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
@@ -51,6 +52,7 @@ nlohmann::json summary_json(const Dictionary& d) {
   std::vector<std::size_t> kernels, hits, free;
   std::vector<std::size_t> per_sector(static_cast<std::size_t>(std::max(d.sectors, 1)), 0);
   std::map<std::string, std::size_t> sources;
+  std::map<std::string, std::pair<std::int64_t, std::int64_t>> source_scans;
   std::size_t no_hits = 0, no_free = 0, total_kernels = 0;
   std::int64_t scan_lo = 0, scan_hi = 0;
   for (std::size_t i = 0; i < d.size(); ++i) {
@@ -62,7 +64,10 @@ nlohmann::json summary_json(const Dictionary& d) {
     no_hits += a.sector.num_hits() == 0;
     no_free += a.sector.num_free() == 0;
     if (a.sector.index >= 0 && a.sector.index < d.sectors) ++per_sector[a.sector.index];
-    ++sources[a.source];
+    if (!sources[a.source]++) source_scans[a.source] = {a.scan_index, a.scan_index};
+    auto& range = source_scans[a.source];
+    range.first = std::min(range.first, a.scan_index);
+    range.second = std::max(range.second, a.scan_index);
     scan_lo = i ? std::min(scan_lo, a.scan_index) : a.scan_index;
     scan_hi = i ? std::max(scan_hi, a.scan_index) : a.scan_index;
   }
@@ -70,7 +75,9 @@ nlohmann::json summary_json(const Dictionary& d) {
     return nlohmann::json{{"min", s.min}, {"median", s.median}, {"mean", s.mean}, {"max", s.max}};
   };
   nlohmann::json src = nlohmann::json::object();
-  for (const auto& [k, v] : sources) src[k] = v;
+  for (const auto& [k, v] : sources)
+    src[k] = {{"atoms", v},
+              {"scan_index", {{"min", source_scans[k].first}, {"max", source_scans[k].second}}}};
   return {{"dim", d.dim},
           {"scale", d.scale},
           {"max_range", d.max_range},
@@ -84,7 +91,9 @@ nlohmann::json summary_json(const Dictionary& d) {
           {"atoms_without_free", no_free},
           {"atoms_per_sector", per_sector},
           {"scan_index", {{"min", scan_lo}, {"max", scan_hi}}},
-          {"sources", src}};
+          {"sources", src},
+          {"memory_bytes_per_atom",
+           d.empty() ? 0.0 : double(dictionary_memory_bytes(d)) / double(d.size())}};
 }
 
 void print_summary(const nlohmann::json& j, std::ostream& out) {
@@ -112,8 +121,14 @@ void print_summary(const nlohmann::json& j, std::ostream& out) {
   for (const auto& n : j["atoms_per_sector"]) out << n << " ";
   out << "\nsource scans      " << j["scan_index"]["min"] << " to " << j["scan_index"]["max"]
       << "\n";
+  out << "memory per atom   " << std::fixed << std::setprecision(0)
+      << j["memory_bytes_per_atom"].get<double>() << " bytes\n";
+  out.unsetf(std::ios::floatfield);
+  out << std::setprecision(6);
+  out << "coverage          " << j["sources"].size() << " sources\n";
   for (const auto& [k, v] : j["sources"].items())
-    out << "source            " << (k.empty() ? "(none)" : k) << ": " << v << " atoms\n";
+    out << "source            " << (k.empty() ? "(none)" : k) << ": " << v["atoms"]
+        << " atoms, scans " << v["scan_index"]["min"] << " to " << v["scan_index"]["max"] << "\n";
 }
 
 void emit_json(const nlohmann::json& j, const std::string& where) {
@@ -200,14 +215,55 @@ int run_build(BuildArgs& a) {
   return 0;
 }
 
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 int run_info(const std::string& file, const std::string& json) {
+  auto t0 = std::chrono::steady_clock::now();
   const Dictionary dict = read_dictionary(file);
+  const double load_ms = ms_since(t0);
+  t0 = std::chrono::steady_clock::now();
+  const AtomIndex index(dict);
+  const double index_ms = ms_since(t0);
   std::ostream& human = json == "-" ? std::cerr : std::cout;
   nlohmann::json j = summary_json(dict);
   j["file"] = file;
   j["bytes"] = std::filesystem::file_size(file);
-  human << "file              " << file << " (" << j["bytes"] << " bytes)\n";
+  j["load_ms"] = load_ms;
+  j["index_ms"] = index_ms;
+  j["index_bytes_per_atom"] = index.bytes_per_atom();
+  human << "file              " << file << " (" << j["bytes"] << " bytes, read in " << std::fixed
+        << std::setprecision(1) << load_ms << " ms)\n";
+  human << "index             " << index.bytes_per_atom() << " bytes per atom, built in "
+        << index_ms << " ms\n";
+  human.unsetf(std::ios::floatfield);
+  human << std::setprecision(6);
   print_summary(j, human);
+  emit_json(j, json);
+  return 0;
+}
+
+int run_merge(const std::vector<std::string>& inputs, const std::string& out,
+              const std::string& json) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::ostream& human = json == "-" ? std::cerr : std::cout;
+  Dictionary merged;
+  for (const std::string& in : inputs) {
+    const Dictionary d = read_dictionary(in);
+    try {
+      merge_dictionary(d, merged);
+    } catch (const ArgumentError& e) {
+      throw ArgumentError(in + ": " + e.what());
+    }
+  }
+  write_dictionary(merged, out);
+  nlohmann::json j = summary_json(merged);
+  j["file"] = out;
+  j["inputs"] = inputs;
+  j["seconds"] = ms_since(t0) / 1e3;
+  print_summary(j, human);
+  human << "wrote             " << out << " (" << inputs.size() << " dictionaries)\n";
   emit_json(j, json);
   return 0;
 }
@@ -296,6 +352,23 @@ void register_dict(CLI::App& app, Runner& runner) {
       }
       emit_json(j, *def_json);
       return 0;
+    };
+  });
+
+  CLI::App* merge = dict->add_subcommand(
+      "merge", "Join dictionaries of several places (same dimension, scale and radius) into one");
+  auto inputs = std::make_shared<std::vector<std::string>>();
+  auto merged = std::make_shared<std::string>();
+  auto merge_json = std::make_shared<std::string>();
+  merge->add_option("DICTS", *inputs, "Dictionary files, in the order their atoms are kept")
+      ->required()
+      ->expected(1, -1);
+  merge->add_option("--out", *merged, "Dictionary file to write (.potdict)")->required();
+  merge->add_option("--json", *merge_json,
+                    "Also write the summary as JSON to this file; '-': stdout");
+  merge->callback([&runner, inputs, merged, merge_json] {
+    runner.action = [inputs, merged, merge_json] {
+      return run_merge(*inputs, *merged, *merge_json);
     };
   });
 

@@ -53,6 +53,14 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "POT/RePOT: map the atoms' kernels come from, learned on the source: bhm "
                   "(fast) or abhm (the paper's, varied widths)")
       ->capture_default_str();
+  cmd->add_option_function<std::string>(
+         "--ranking",
+         [&s](const std::string& v) {
+           s.pot.pot.ranking = v == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
+         },
+         "POT/RePOT: exhaustive (every atom at every rotation) or indexed (nearest atoms at "
+         "estimated rotations, coarse to fine; default exhaustive)")
+      ->check(CLI::IsMember({"exhaustive", "indexed"}));
   cmd->add_option("--atom-scans", s.pot.atom_scans,
                   "POT/RePOT: source scans per place cut into atoms, evenly spaced (0: all)")
       ->capture_default_str();

@@ -33,6 +33,7 @@ struct MapArgs {
   double merge_radius = OverallMapOptions{}.merge_radius;
   double wall_clearance = 0, displacement_var = 0;
   std::uint64_t seed = 0;
+  std::string ranking = "exhaustive";
 };
 
 int run_map(const MapArgs& a, const std::string& device) {
@@ -62,6 +63,7 @@ int run_map(const MapArgs& a, const std::string& device) {
   po.refine_min_variance = a.refine_min_variance;
   po.refine_bhm.em_iterations = a.em;
   po.candidates = a.candidates;
+  po.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
   po.transport_free_points = a.free_points;
   po.transport_free = !a.hits_only;
   po.wall_clearance = a.wall_clearance;
@@ -163,6 +165,12 @@ void register_map(CLI::App& app, Runner& runner) {
       ->check(CLI::PositiveNumber);
   cmd->add_option("--rotations", a->rotations, "Rotations tried, evenly spaced (default 8)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--ranking", a->ranking,
+                  "exhaustive: every atom at every rotation (the paper's); indexed: nearest "
+                  "atoms by signature at estimated rotations, coarse to fine (large "
+                  "dictionaries)")
+      ->check(CLI::IsMember({"exhaustive", "indexed"}))
+      ->capture_default_str();
   cmd->add_option("--candidates", a->candidates,
                   "Atoms ranked per sector after descriptor pre-selection (default 0: all)");
   cmd->add_option("--max-range", a->max_range,

@@ -151,6 +151,8 @@ Method pot_method(const PotSetup& setup, const std::string& name,
 
     PotOptions po = setup.pot;
     po.seed = task.seed;
+    if (po.ranking == PotRanking::indexed && !po.index)
+      po.index = std::make_shared<const AtomIndex>(*dict);
     const bool persistent = po.refine && setup.persistent_refine;
     std::unique_ptr<JointBhm> learner;
     if (persistent) {
@@ -167,24 +169,28 @@ Method pot_method(const PotSetup& setup, const std::string& name,
     }
     const double range = po.max_range > 0 ? po.max_range : dict->max_range;
     const auto off = scan_offsets(task);
-    auto prepare = [&](std::size_t i) {
+    // warm: the atoms of the last scan finished (PotOptions::warm_candidates).
+    auto prepare = [&](std::size_t i, std::vector<long> warm) {
       const Scan& s = task.train_scans[i];
       const auto sensor = s.origin();
       return prepare_transfer(*dict, samples_of(task, off[i], off[i + 1], sensor, range), sensor,
-                              scan_heading(s), task.first_index + std::int64_t(i), po);
+                              scan_heading(s), task.first_index + std::int64_t(i), po, warm);
     };
 
     const auto t0 = std::chrono::steady_clock::now();
     OverallMap overall(task.dim, setup.overall);
     const auto launch = setup.pipeline ? std::launch::async : std::launch::deferred;
     const std::size_t n = task.train_scans.size();
-    std::future<PreparedTransfer> next = std::async(launch, prepare, std::size_t{0});
+    std::vector<long> warm;
+    std::future<PreparedTransfer> next = std::async(launch, prepare, std::size_t{0}, warm);
     PotTiming timing;
     std::size_t sectors = 0, inst_kernels = 0;
     for (std::size_t i = 0; i < n; ++i) {
       PreparedTransfer cur = next.get();
-      if (i + 1 < n) next = std::async(launch, prepare, i + 1);
+      if (i + 1 < n) next = std::async(launch, prepare, i + 1, warm);
       ScanTransfer t = finish_transfer(ctx, *dict, std::move(cur), po);
+      warm = chosen_atoms(t);
+      if (setup.on_scan) setup.on_scan(i, t);
       if (learner) {
         const auto r0 = std::chrono::steady_clock::now();
         learner->seed_unreached(t.map, setup.seed_min_variance);

@@ -7,6 +7,7 @@
 #include <limits>
 #include <numeric>
 
+#include "class_ranking.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -88,38 +89,12 @@ std::vector<std::size_t> AtomPreselector::select(const AtomDescriptor& t, std::s
   const std::size_t n = desc_.size();
   // Per class: raw distance, or -1 where the atom lacks a class the target has.
   std::vector<double> dh(n, 0), df(n, 0);
-  double mh = 0, mf = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const AtomDescriptor& a = desc_[i];
-    if (t.hits) {
-      dh[i] = a.hits ? descriptor_distance(t, a, true) : -1;
-      mh = std::max(mh, dh[i]);
-    }
-    if (t.free) {
-      df[i] = a.free ? descriptor_distance(t, a, false) : -1;
-      mf = std::max(mf, df[i]);
-    }
+    if (t.hits) dh[i] = a.hits ? descriptor_distance(t, a, true) : -1;
+    if (t.free) df[i] = a.free ? descriptor_distance(t, a, false) : -1;
   }
-  std::vector<double> cost(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int missing = (dh[i] < 0) + (df[i] < 0);
-    const double c =
-        (mh > 0 ? std::max(dh[i], 0.0) / mh : 0) + (mf > 0 ? std::max(df[i], 0.0) / mf : 0);
-    // Missing classes order first by how many are missing, then by the cost of the rest.
-    cost[i] = 4.0 * missing + c;
-  }
-  std::vector<std::size_t> idx(n);
-  std::iota(idx.begin(), idx.end(), std::size_t(0));
-  auto better = [&](std::size_t a, std::size_t b) {
-    return cost[a] != cost[b] ? cost[a] < cost[b] : a < b;
-  };
-  if (k == 0 || k >= n) {
-    std::sort(idx.begin(), idx.end(), better);
-    return idx;
-  }
-  std::partial_sort(idx.begin(), idx.begin() + k, idx.end(), better);
-  idx.resize(k);
-  return idx;
+  return detail::order_by_class_distance(dh, df, k);
 }
 
 std::vector<std::size_t> preselect_atoms(const Dictionary& dict, const Sector& target,

@@ -1,5 +1,6 @@
 #include "potmap/pot/atoms.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -233,6 +234,34 @@ void build_dictionary(const std::vector<Scan>& scans, const KernelMap& map,
       dict.atoms.push_back(std::move(atoms[i]));
     }
   }
+}
+
+void merge_dictionary(const Dictionary& from, Dictionary& into) {
+  if (from.empty()) return;
+  if (into.empty()) {
+    const int sectors = std::max(into.sectors, from.sectors);
+    into = from;
+    into.sectors = sectors;
+    return;
+  }
+  if (from.dim != into.dim || from.scale != into.scale || from.max_range != into.max_range)
+    throw ArgumentError("merge_dictionary: atoms of " + std::to_string(from.dim) + "D, scale " +
+                        std::to_string(from.scale) + ", radius " + std::to_string(from.max_range) +
+                        " m into a dictionary of " + std::to_string(into.dim) + "D, scale " +
+                        std::to_string(into.scale) + ", radius " + std::to_string(into.max_range) +
+                        " m");
+  into.sectors = std::max(into.sectors, from.sectors);
+  into.atoms.insert(into.atoms.end(), from.atoms.begin(), from.atoms.end());
+}
+
+std::size_t dictionary_memory_bytes(const Dictionary& dict) {
+  std::size_t b = sizeof(Dictionary);
+  for (const Atom& a : dict.atoms)
+    b += sizeof(Atom) + a.source.capacity() +
+         sizeof(double) * (a.sector.hits.capacity() + a.sector.free.capacity() +
+                           a.kernels.position.capacity() + a.kernels.gamma.capacity() +
+                           a.kernels.w_mean.capacity() + a.kernels.w_var.capacity());
+  return b;
 }
 
 }  // namespace potmap

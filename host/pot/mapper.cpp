@@ -35,7 +35,8 @@ void within_range(LabelledPoints& lp, const std::array<double, 3>& sensor, doubl
   lp.scan.resize(k);
 }
 
-Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const MapperOptions& o) {
+Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const MapperOptions& o,
+                 const std::vector<long>& warm) {
   if (scan.dim != dict.dim)
     throw ArgumentError("mapper: scan " + std::to_string(i) + " is " + std::to_string(scan.dim) +
                         "D, the dictionary " + std::to_string(dict.dim) + "D");
@@ -51,7 +52,7 @@ Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const 
   within_range(split.test, sensor, range);
   Prepared p;
   p.transfer = prepare_transfer(dict, std::move(split.train), scan.origin(), scan_heading(scan),
-                                static_cast<std::int64_t>(i), o.pot);
+                                static_cast<std::int64_t>(i), o.pot, warm);
   // Labelling is host preparation too.
   p.transfer.timing.prepare_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -59,10 +60,14 @@ Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const 
   return p;
 }
 
-// The options with the dictionary's descriptors built once when pre-selection asks for them.
+// The options with the dictionary's descriptors (pre-selection) or index (indexed ranking)
+// built once when the ranking asks for them.
 MapperOptions with_preselector(const Dictionary& dict, MapperOptions o) {
-  if (o.pot.candidates > 0 && o.pot.candidates < dict.size() && !o.pot.preselector)
+  if (o.pot.ranking == PotRanking::exhaustive && o.pot.candidates > 0 &&
+      o.pot.candidates < dict.size() && !o.pot.preselector)
     o.pot.preselector = std::make_shared<const AtomPreselector>(dict);
+  if (o.pot.ranking == PotRanking::indexed && !o.pot.index)
+    o.pot.index = std::make_shared<const AtomIndex>(dict);
   return o;
 }
 
@@ -98,14 +103,19 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
   const MapperOptions& o = with_preselector(dict, options);
   const PotOptions po = transfer_options(o);
   const auto launch = o.pipeline ? std::launch::async : std::launch::deferred;
+  // Warm candidates: the atoms of the last scan finished when the next one is prepared (with
+  // the pipeline, the scan before the one being solved).
+  std::vector<long> warm;
   std::future<Prepared> next = std::async(launch, prepare, std::cref(dict), std::cref(scans[0]),
-                                          std::size_t{0}, std::cref(o));
+                                          std::size_t{0}, std::cref(o), warm);
   for (std::size_t i = 0; i < scans.size(); ++i) {
     Prepared cur = next.get();
     if (i + 1 < scans.size())
       next = std::async(launch, prepare, std::cref(dict), std::cref(scans[i + 1]), i + 1,
-                        std::cref(o));
-    on_scan(finish(ctx, dict, std::move(cur), i, o, po));
+                        std::cref(o), warm);
+    MappedScan m = finish(ctx, dict, std::move(cur), i, o, po);
+    warm = chosen_atoms(m.transfer);
+    on_scan(std::move(m));
   }
 }
 
@@ -150,7 +160,7 @@ Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const Mappe
 }
 
 const MappedScan& Mapper::add_scan(const Scan& scan) {
-  Prepared cur = prepare(*dict_, scan, scans_, options_);
+  Prepared cur = prepare(*dict_, scan, scans_, options_, chosen_atoms(last_.transfer));
   MappedScan m = finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_));
   const auto t1 = std::chrono::steady_clock::now();
   MapperMerge merge;

@@ -194,6 +194,9 @@ struct PotSetup {
     return o;
   }();
   bool pipeline = true;  ///< prepare the next scan on a second thread
+  /// Called with every target scan's transfer, in order (benchmarks read the chosen atoms);
+  /// may be empty.
+  std::function<void(std::size_t scan, const ScanTransfer& transfer)> on_scan;
 };
 
 /// Atoms shared between the POT and RePOT methods of one run, keyed by MapTask::source_key.

@@ -121,5 +121,15 @@ struct DictionaryOptions {
 void build_dictionary(const std::vector<Scan>& scans, const KernelMap& map,
                       const DictionaryOptions& options, Dictionary& dict);
 
+/// Appends the atoms of `from` to `into` (dictionaries of many places are built place by place,
+/// each with its own map, then merged). An empty `into` takes `from`'s dim, scale, max_range and
+/// sectors. Throws ArgumentError when dim, scale or max_range differ (atoms cut with another
+/// radius or scale would be compared with targets on another scale); the sectors per source
+/// scan may differ (the larger is kept: it is provenance, not part of the atoms' frame).
+void merge_dictionary(const Dictionary& from, Dictionary& into);
+
+/// Bytes a dictionary holds in memory: points, kernels and provenance of every atom.
+std::size_t dictionary_memory_bytes(const Dictionary& dict);
+
 }  // namespace potmap
 POTMAP_CXX_API_END

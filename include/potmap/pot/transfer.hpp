@@ -21,11 +21,24 @@
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/ot/sinkhorn.hpp"
 #include "potmap/pot/atom_descriptor.hpp"
+#include "potmap/pot/atom_index.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/runtime/context.hpp"
 
 POTMAP_CXX_API_BEGIN
 namespace potmap {
+
+/// How each target sector's candidates are ranked.
+enum class PotRanking {
+  /// Every atom (or the `candidates` pre-selected ones) at every rotation of
+  /// PotOptions::rotations, one Sinkhorn solve per term each: the paper's eq. 6. Cost grows
+  /// with atoms x rotations.
+  exhaustive,
+  /// The PotOptions::index_neighbours atoms nearest in an AtomIndex, each at its estimated
+  /// rotations (snapped to PotOptions::rotations by default), ranked coarse to fine. Cost
+  /// nearly flat in the dictionary's size.
+  indexed,
+};
 
 /// The authors' settings (SPEC section 4) are the defaults.
 struct PotOptions {
@@ -39,8 +52,8 @@ struct PotOptions {
   /// the places it did not see; a kernel carried there describes the atom's place, not this one.
   double max_sample_distance = 0;
 
-  /// Rotations tried for every atom, radians about the atom's centroid (vertical axis in 3D).
-  /// Default: 45 degree steps, 8 rotations.
+  /// Rotations tried for every atom by the exhaustive ranking, radians about the atom's
+  /// centroid (vertical axis in 3D). Default: 45 degree steps, 8 rotations.
   std::vector<double> rotations = {0.0,
                                    0.7853981633974483,
                                    1.5707963267948966,
@@ -63,14 +76,13 @@ struct PotOptions {
   // and converges sooner.
   std::size_t transport_points = 1500;  ///< at most this many hits a side (the authors' cap)
   /// At most this many free samples a side in the transport (default 200). The authors' cap of
-  /// 1500 covers a sector's free samples too (about 1000 per sector of a 360-beam scan, so a
-  /// 1000 x 1000 problem per sector and about 1 s per scan here); 200 evenly thinned ones keep
-  /// the map's scores (measured, town1 -> town2, 8 scans, 6 atoms: POT AUC 0.797 at 200 against
-  /// 0.818 with every sample, RePOT 0.826 against 0.847; ACC higher at 200) at about 5 ms.
+  /// 1500 covers a sector's free samples too (about 1000 per sector of a 360-beam scan: a
+  /// 1000 x 1000 problem per sector); 200 evenly thinned ones keep the map's scores at a small
+  /// fraction of the time (docs/pot-measurements.md).
   std::size_t transport_free_points = 200;
   double transport_epsilon = 0.0005;  ///< unitless (normalised cost)
   int transport_max_iterations = 2000;
-  double transport_tolerance = 1e-5;  ///< float32 floors near 1e-7 on 1500 x 1500 (issue #3)
+  double transport_tolerance = 1e-5;  ///< float32's marginal error floors near 1e-7 at 1500 x 1500
   /// Transport the free samples too (default true): a second plan between the winner's free
   /// samples and the target's, and every kernel follows the sample nearest to it, hit or free,
   /// through that sample's plan. The SPEC (step 4) transports hits only; the paper (Sec. III-A,
@@ -91,17 +103,50 @@ struct PotOptions {
   /// while a poor match has to drag them far. The transported weight then says so.
   double displacement_variance = 0;
 
-  /// Rank only this many atoms per target sector, pre-selected by a rotation-invariant
-  /// descriptor (quantiles of the samples' distances from the sector centre,
-  /// atom_descriptor.hpp) before the Sinkhorn ranking (0, the default: every atom). For large
-  /// dictionaries. Measured with 2000 atoms (town1 -> town2, 20 sectors): k = 128 kept the full
-  /// ranking's atom in 85 % of the sectors (90 % within the k) at 1/17 of the ranking time;
-  /// k = 512: 90 % (100 % within the k; the rest differ because each score term is normalised
-  /// by its largest value over the candidates ranked).
+  /// How candidates are ranked (default: exhaustive, the paper's eq. 6).
+  PotRanking ranking = PotRanking::exhaustive;
+
+  /// Exhaustive ranking only: rank only this many atoms per target sector, pre-selected by a
+  /// rotation-invariant descriptor (quantiles of the samples' distances from the sector centre,
+  /// atom_descriptor.hpp) before the Sinkhorn ranking (0, the default: every atom). It keeps
+  /// the full ranking's atom in fewer sectors than the indexed ranking does (docs/pot-scale.md).
   std::size_t candidates = 0;
   /// The dictionary's descriptors for `candidates`, built once (AtomPreselector(dict)); null:
   /// built on every call, O(samples of the dictionary). map_scans and Mapper build it.
   std::shared_ptr<const AtomPreselector> preselector;
+
+  // Indexed ranking (PotRanking::indexed): candidates from the index, coarse-to-fine solves.
+  /// Atoms per target sector taken from the nearest-neighbour query over the index's
+  /// rotation-invariant signatures (default 16).
+  std::size_t index_neighbours = 16;
+  /// Rotation estimates per candidate atom, peaks of the angular cross-correlation at least
+  /// 45 degrees apart (default 2: a sector's walls often match at two angles, e.g. a corridor).
+  int index_rotations = 2;
+  /// Add each sector's farthest atoms (AtomIndex::farthest) at a bad rotation to the coarse
+  /// stage (default true): they set the normalisers of the score terms as the worst
+  /// candidates set the exhaustive ranking's, so that hits and free samples weigh alike.
+  bool index_anchors = true;
+  /// Snap each estimated rotation to the nearest of `rotations` (default true: the estimate
+  /// picks which of the exhaustive ranking's angles to solve, so both rank on the same grid;
+  /// on the Radish logs this scored a little better than the raw estimate, docs/pot-scale.md).
+  /// false: the estimate itself, finer than the grid.
+  bool snap_rotations = true;
+  /// Coarse stage: every (atom, estimated rotation) candidate is ranked on at most this many
+  /// hits and free samples a side, thinned evenly (defaults 48 and 24; a fifteenth of the work
+  /// of a 200 x 200 problem: thinned evenly, small samples of matching places still match).
+  std::size_t coarse_hits = 48;
+  std::size_t coarse_free = 24;
+  /// Fine stage: the best this many coarse candidates per sector are ranked again with the
+  /// ranking's caps (rank_hits, rank_free) and the best of them wins (default 3; 0: the coarse
+  /// winner wins). Their score terms are normalised by the coarse stage's largest values,
+  /// rescaled by how the survivors' fine costs compare with their coarse ones.
+  std::size_t fine_candidates = 3;
+  /// Atoms the previous scans chose join every sector's candidates (default true): consecutive
+  /// scans see the same place. Callers pass them to prepare_transfer().
+  bool warm_candidates = true;
+  /// The dictionary's index for the indexed ranking, built once (AtomIndex(dict)); null: built
+  /// on every call. map_scans and Mapper build it.
+  std::shared_ptr<const AtomIndex> index;
 
   /// RePOT (SPEC step 7): refine the transported weights with a BHM update on the scan's own
   /// training samples (default false: plain POT).
@@ -115,8 +160,7 @@ struct PotOptions {
   /// (weight units squared; default 1; 0: the transported variances as they are, as SPEC step 7
   /// reads). A source posterior's variance says how sure the source data made the weight where
   /// it was learned, not how well it fits the place it was moved to; the floor lets the scan's
-  /// own samples correct it. Measured (town1 -> town2, 8 scans, 3 EM rounds): ABHM source,
-  /// RePOT AUC 0.933 -> 0.955, NLL 0.163 -> 0.120; BHM source AUC 0.864 -> 0.871, NLL equal.
+  /// own samples correct it (docs/pot-measurements.md).
   double refine_min_variance = 1;
 
   /// RePOT's E-step solves the Jaakkola-Jordan system for the weight means as a whole (sparse
@@ -176,20 +220,32 @@ struct PreparedTransfer {
     bool free_mismatch = false;  ///< only one side has free samples: the free term scores 1
   };
   std::vector<Sector> sectors;
-  std::vector<std::vector<Candidate>> candidates;  ///< per sector
-  SinkhornBatch ranking;                           ///< every candidate's problems
-  LabelledPoints train;                            ///< the scan's training samples (RePOT)
+  /// Per sector: every candidate of the exhaustive ranking, or the coarse stage's candidates of
+  /// the indexed one.
+  std::vector<std::vector<Candidate>> candidates;
+  SinkhornBatch ranking;  ///< every candidate's problems (the coarse stage's when indexed)
+  /// Indexed ranking: per sector, the target's samples at the ranking's caps, for the fine stage.
+  std::vector<Eigen::MatrixXd> rank_hits, rank_free;
+  LabelledPoints train;  ///< the scan's training samples (RePOT)
   std::array<double, 3> sensor{0, 0, 0};
   std::int64_t scan_index = 0;
   double max_range = 0;  ///< metres, the cut's radius
-  PotTiming timing;      ///< prepare_ms filled
+  PotRanking ranking_mode = PotRanking::exhaustive;
+  PotTiming timing;  ///< prepare_ms filled
 };
 
 /// Cuts and assembles (host only, thread-safe for a shared dictionary). Arguments as for
-/// transfer_scan().
+/// transfer_scan(); `warm_atoms`: atoms chosen for recent scans (ScanTransfer::sectors[].atom),
+/// added to every sector's candidates by the indexed ranking when PotOptions::warm_candidates
+/// is set (ignored otherwise; indices outside the dictionary are ignored too).
 PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
                                   const std::array<double, 3>& sensor, double heading,
-                                  std::int64_t scan_index, const PotOptions& options = {});
+                                  std::int64_t scan_index, const PotOptions& options = {},
+                                  const std::vector<long>& warm_atoms = {});
+
+/// The atoms a transfer chose, for the next scans' prepare_transfer(): one per sector that got
+/// one, in sector order.
+std::vector<long> chosen_atoms(const ScanTransfer& transfer);
 
 /// Ranks, transports, places and (for RePOT) refines a prepared scan. `ctx` null: the CPU
 /// reference, one problem at a time. `dict` and `options` must be those it was prepared with.
