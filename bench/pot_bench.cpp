@@ -45,12 +45,8 @@ Fixture& fixture() {
     LabelOptions lo;
     lo.holdout_fraction = 0;
     const LabelledSplit s = label_scans(src.scans, lo);
-    double lo3[3] = {1e300, 1e300, 0}, hi3[3] = {-1e300, -1e300, 0};
-    for (std::size_t i = 0; i < s.train.size(); ++i)
-      for (int d = 0; d < 2; ++d) {
-        lo3[d] = std::min(lo3[d], s.train.position[2 * i + d]);
-        hi3[d] = std::max(hi3[d], s.train.position[2 * i + d]);
-      }
+    double lo3[3], hi3[3];
+    s.train.bounds(lo3, hi3);
     KernelMap map = bhm_grid_prior(2, lo3, hi3, 1.0, 4.0);
     bhm_update_sequential(&x->ctx, map, s.train);
     build_dictionary(src.scans, map, {}, x->all);

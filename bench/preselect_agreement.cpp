@@ -68,12 +68,8 @@ int main(int argc, char** argv) {
   LabelOptions learn_lo;
   learn_lo.holdout_fraction = 0;
   const LabelledPoints train = label_scans(src.scans, learn_lo).train;
-  double blo[3] = {1e300, 1e300, 0}, bhi[3] = {-1e300, -1e300, 0};
-  for (std::size_t i = 0; i < train.size(); ++i)
-    for (int d = 0; d < 2; ++d) {
-      blo[d] = std::min(blo[d], train.position[2 * i + d]);
-      bhi[d] = std::max(bhi[d], train.position[2 * i + d]);
-    }
+  double blo[3], bhi[3];
+  train.bounds(blo, bhi);
   KernelMap map = bhm_grid_prior(2, blo, bhi, 1.0, 8.0);
   bhm_update(ctx, map, train);
   DictionaryOptions dopt;

@@ -44,12 +44,8 @@ const Fixture& fixture() {
       all.label.insert(all.label.end(), s.label.begin(), s.label.end());
       all.scan.insert(all.scan.end(), s.scan.begin(), s.scan.end());
     }
-    double lo[3] = {1e300, 1e300, 0}, hi[3] = {-1e300, -1e300, 0};
-    for (std::size_t i = 0; i < all.size(); ++i)
-      for (int d = 0; d < 2; ++d) {
-        lo[d] = std::min(lo[d], all.position[2 * i + d]);
-        hi[d] = std::max(hi[d], all.position[2 * i + d]);
-      }
+    double lo[3], hi[3];
+    all.bounds(lo, hi);
     JointBhmOptions jo;
     jo.bias = false;
     JointBhm learner(2, lo, hi, jo);

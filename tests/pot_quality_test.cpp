@@ -133,12 +133,8 @@ const TownScores& town_scores() {
     LabelOptions all;
     all.holdout_fraction = 0;
     const LabelledSplit train = label_scans(src.scans, all);
-    double lo[3] = {1e300, 1e300, 0}, hi[3] = {-1e300, -1e300, 0};
-    for (std::size_t i = 0; i < train.train.size(); ++i)
-      for (int d = 0; d < 2; ++d) {
-        lo[d] = std::min(lo[d], train.train.position[2 * i + d]);
-        hi[d] = std::max(hi[d], train.train.position[2 * i + d]);
-      }
+    double lo[3], hi[3];
+    train.train.bounds(lo, hi);
     AbhmParams p = abhm_init_grid(2, lo, hi, 2.0, 1.0);
     AbhmOptions ao;
     ao.steps = 500;

@@ -21,6 +21,9 @@ struct LabelledPoints {
   std::vector<std::int64_t> scan;   ///< scan index t of each point (0 when the source has none)
   std::size_t size() const { return label.size(); }
   bool empty() const { return label.empty(); }
+  /// Smallest box holding every point, metres: lo[d] <= x_d <= hi[d] for d < dim; the unused
+  /// axes and an empty set give 0 (as KernelMap::bounds).
+  void bounds(double lo[3], double hi[3]) const;
 };
 
 /// Reads `t,x,y,occupied` (2D) or `t,x,y,z,occupied` (3D) CSV with a header line; the dimension
