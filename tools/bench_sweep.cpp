@@ -197,7 +197,9 @@ SinkhornBatch sinkhorn_batch(std::size_t problems, int side) {
 // One sweep per points-per-side: problems per launch on the axis, work-group per line.
 RoutineSweep sweep_sinkhorn(Context& ctx, int side, const SweepOptions& o, int reps) {
   const Tuning base = ctx.tuning();
-  const std::size_t problems = o.quick ? 256 : 1024;
+  // Enough problems that one run takes tens of milliseconds on a CPU: shorter runs time the
+  // machine's noise.
+  const std::size_t problems = 1024;
   const SinkhornBatch batch = sinkhorn_batch(problems, side);
   // The batch pads each side by at most 16 (sinkhorn.cpp's chunking): chunk_slots of k times
   // this gives launches of exactly k problems.
@@ -209,9 +211,7 @@ RoutineSweep sweep_sinkhorn(Context& ctx, int side, const SweepOptions& o, int r
   r.series_label = "sinkhorn.work_group";
   r.input = std::to_string(problems) + " random 2D problems, " + std::to_string(side) +
             " points a side, epsilon 0.05, tolerance 1e-5";
-  std::vector<long long> per_launch = {16, 64};
-  if (!o.quick) per_launch.push_back(256);
-  per_launch.push_back(static_cast<long long>(problems));
+  const std::vector<long long> per_launch = {16, 64, 256, static_cast<long long>(problems)};
   const std::size_t default_per_launch =
       std::min(problems, (base.sinkhorn.chunk_slots + slots_per_problem - 1) / slots_per_problem);
   const std::vector<int> groups =
@@ -262,13 +262,18 @@ std::vector<RoutineSweep> run_sweeps(Context& ctx, const SweepOptions& o) {
   const Tuning saved = ctx.tuning();
   std::vector<RoutineSweep> out;
   try {
+    // Each sweep starts from the saved tuning: its default point is the context's, not the
+    // last point of the sweep before.
     if (wanted(o, "map_eval") || wanted(o, "raster")) {
       const MapInput in = load_map(o);
       if (wanted(o, "map_eval")) out.push_back(sweep_map_eval(ctx, in, o, reps));
+      ctx.set_tuning(saved);
       if (wanted(o, "raster")) out.push_back(sweep_raster(ctx, in, o, reps));
+      ctx.set_tuning(saved);
     }
     if (wanted(o, "sinkhorn")) {
       out.push_back(sweep_sinkhorn(ctx, 32, o, reps));
+      ctx.set_tuning(saved);
       if (!o.quick) out.push_back(sweep_sinkhorn(ctx, 96, o, reps));
     }
   } catch (...) {
