@@ -56,6 +56,20 @@ TEST(BenchCli, SweepsARoutineAndWritesTableJsonAndPlot) {
   }
 }
 
+TEST(BenchCli, EachRoutineStartsFromTheContextsTuning) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-start");
+  const test::CliResult r = test::run_cli(
+      "bench --quick --repeats 1 --routines map_eval,raster --map " + test::quoted(small_map(dir)) +
+      " --out " + test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  ASSERT_EQ(j["routines"].size(), 2u);
+  // Not the last point of the map_eval sweep: the raster's default is the untuned library's.
+  for (const auto& routine : j["routines"]) EXPECT_EQ(routine["start"], j["tuning_before"]);
+  EXPECT_EQ(j["tuning_source"], "built-in defaults");
+}
+
 TEST(BenchCli, UnknownRoutineIsNamed) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const test::CliResult r =

@@ -76,6 +76,7 @@ nlohmann::json sweep_json(const Context& ctx, const SweepOptions& o,
         {"x", r.x_label},
         {"series", r.series_label},
         {"input", r.input},
+        {"start", r.start},
         {"best", r.points[r.best].setting},
         {"default", r.points[r.baseline].setting},
         {"best_over_default", r.points[r.best].throughput / r.points[r.baseline].throughput}};

@@ -97,6 +97,7 @@ RoutineSweep sweep_map_eval(Context& ctx, const MapInput& in, const SweepOptions
   const std::size_t n = o.quick ? std::size_t{1} << 17 : std::size_t{1} << 19;
   const std::vector<double> pts = random_points(in.map, n);
   RoutineSweep r;
+  r.start = to_string(base);
   r.name = "map_eval";
   r.unit = "points/s";
   r.x_label = "points per chunk (vector_width x work_group)";
@@ -142,6 +143,7 @@ RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& 
   const double res = std::sqrt((hi[0] - lo[0]) * (hi[1] - lo[1]) / cells);
   const GridSpec grid = GridSpec::covering(2, lo, hi, res);
   RoutineSweep r;
+  r.start = to_string(base);
   r.name = "raster";
   r.unit = "cells/s";
   r.x_label = "cells per launch (band)";
@@ -205,6 +207,7 @@ RoutineSweep sweep_sinkhorn(Context& ctx, int side, const SweepOptions& o, int r
   // this gives launches of exactly k problems.
   const std::size_t slots_per_problem = 2 * (static_cast<std::size_t>(side) + 16);
   RoutineSweep r;
+  r.start = to_string(base);
   r.name = "sinkhorn_" + std::to_string(side);
   r.unit = "problems/s";
   r.x_label = "problems per launch";

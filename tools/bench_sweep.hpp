@@ -40,6 +40,7 @@ struct RoutineSweep {
   std::string x_label;       ///< e.g. "points per chunk (vector_width x work_group)"
   std::string series_label;  ///< e.g. "vector_width"
   std::string input;         ///< what was run, e.g. "Town 1 map, 92372 kernels, 262144 points"
+  std::string start;         ///< the tuning the sweep started from (to_string), for the record
   std::vector<SweepPoint> points;
   std::size_t best = 0;      ///< index of the highest median throughput
   std::size_t baseline = 0;  ///< index of the default point
