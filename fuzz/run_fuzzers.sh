@@ -10,7 +10,7 @@ CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebI
   -DPOTMAP_BUILD_FUZZERS=ON -DPOTMAP_BUILD_TESTS=OFF -DPOTMAP_BUILD_BENCH=OFF \
   -DPOTMAP_BUILD_TOOLS=OFF -DBUILD_SHARED_LIBS=OFF \
   -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined" >/dev/null
-targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary"
+targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary tuning_file"
 make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null
 data=$root/../shared/data
 corpus=$build/corpus
@@ -56,6 +56,9 @@ open(sys.argv[1], "wb").write(body + struct.pack("<I", zlib.crc32(body)))
 PY
 fi
 cp "$corpus/npz/seed.npz" "$corpus/map_npz/seed.npz" 2>/dev/null || true
+# A tuning file for the fuzzer's fixed device (fuzz_tuning_file.cpp), this source's version.
+version=$(sed -n 's/^project(potmap VERSION \([0-9.]*\).*/\1/p' "$root/CMakeLists.txt")
+printf 'potmap-tuning 1\npotmap_version %s\nplatform P\nplatform_version V\ndevice D\ndriver 1\ntuning raster.rows_per_item=16,sinkhorn.work_group=2\n' "$version" > "$corpus/tuning_file/seed"
 for t in $targets; do
   echo "fuzz_$t: ${secs} s"
   "$build/fuzz/fuzz_$t" -seed=1 -artifact_prefix="$build/" -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 \

@@ -37,6 +37,8 @@ void register_mapping(CLI::App& app, Runner& runner);
 void register_export(CLI::App& app, Runner& runner);
 void register_dict(CLI::App& app, Runner& runner);
 void register_experiment(CLI::App& app, Runner& runner);
+void register_bench(CLI::App& app, Runner& runner);
+void register_tune(CLI::App& app, Runner& runner);
 /// `experiment frames` (single 3D frames); after register_experiment.
 void register_experiment_frames(CLI::App& app, Runner& runner);
 

@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
   potmap::cli::register_dict(app, runner);
   potmap::cli::register_experiment(app, runner);
   potmap::cli::register_experiment_frames(app, runner);
+  potmap::cli::register_bench(app, runner);
+  potmap::cli::register_tune(app, runner);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "potmap/runtime/tuning_file.hpp"
 #include "runtime/binary_cache.hpp"
 #include "runtime/cl_check.hpp"
 #include "runtime/hash.hpp"
@@ -87,6 +88,28 @@ bc::device pick_device(const std::string& wanted) {
   return devices.front();
 }
 
+// The device's tuning file (if present and measured here) over the built-in defaults, then
+// POTMAP_TUNING, then the option: the closer to the call, the later it applies.
+Tuning initial_tuning(const DeviceInfo& info, const ContextOptions& o, std::string& source) {
+  Tuning base = default_tuning(info);
+  source = "built-in defaults";
+  if (o.tuning_file) {
+    const std::string dir = o.tuning_dir.empty() ? default_tuning_dir() : o.tuning_dir;
+    if (!dir.empty()) {
+      const std::string path = tuning_file_path(dir, info);
+      TuningFileRead file = read_tuning_file(path, info, base);
+      if (!file.problem.empty())
+        std::cerr << "potmap: warning: tuning file '" << path << "' ignored: " << file.problem
+                  << "\n";
+      if (file.tuning) {
+        base = *file.tuning;
+        source = path;
+      }
+    }
+  }
+  return parse_tuning(o.tuning, parse_tuning(env_or("POTMAP_TUNING", ""), base));
+}
+
 }  // namespace
 
 std::string DeviceInfo::summary() const {
@@ -117,6 +140,7 @@ struct Context::Impl {
   bc::context context;
   bc::command_queue queue;
   DeviceInfo info;
+  std::string tuning_source;
   Tuning tuning;
   std::string build_options;
   bool dump = false;
@@ -131,8 +155,7 @@ struct Context::Impl {
         context(std::move(c)),
         queue(std::move(q)),
         info(describe(device)),
-        tuning(parse_tuning(o.tuning,
-                            parse_tuning(env_or("POTMAP_TUNING", ""), default_tuning(info)))),
+        tuning(initial_tuning(info, o, tuning_source)),
         build_options(o.build_options),
         dump(o.dump_kernels || env_or("POTMAP_DUMP_KERNELS", "0") == "1"),
         disk(!o.disk_cache                ? std::string()
@@ -238,6 +261,9 @@ const Tuning& Context::tuning() const {
 void Context::set_tuning(const Tuning& tuning) {
   validate_tuning(tuning);
   impl_->tuning = tuning;
+}
+const std::string& Context::tuning_source() const {
+  return impl_->tuning_source;
 }
 bc::device& Context::device() {
   return impl_->device;

@@ -47,6 +47,14 @@ struct ContextOptions {
   /// after the POTMAP_TUNING environment variable, which has the same form. Default none: the
   /// device's defaults (default_tuning). A bad pair throws ArgumentError naming it.
   std::string tuning;
+  /// Folder of the per-device tuning files `potmap tune` writes (potmap/runtime/tuning_file.hpp).
+  /// Empty: default_tuning_dir() (POTMAP_CACHE_DIR, else $XDG_CACHE_HOME/potmap, else
+  /// ~/.cache/potmap). The device's file, when present and measured on this device, driver and
+  /// potmap version, replaces default_tuning(); a stale or corrupt one is ignored with a warning
+  /// on stderr naming the file and what is wrong. POTMAP_TUNING and `tuning` apply after it.
+  std::string tuning_dir;
+  /// false: read no tuning file (the built-in defaults, then the overrides). Default true.
+  bool tuning_file = true;
 };
 
 /// Names of one OpenCL device as potmap sees it.
@@ -94,6 +102,9 @@ class Context {
   /// Replaces the tuning (validated first: ArgumentError names a bad field); for tuners. Not
   /// to be called while another thread uses the context.
   void set_tuning(const Tuning& tuning);
+  /// Where the tuning came from before the overrides: the path of the tuning file read, or
+  /// "built-in defaults". For logs and benchmark records.
+  const std::string& tuning_source() const;
   boost::compute::device& device();
   boost::compute::context& context();
   boost::compute::command_queue& queue();

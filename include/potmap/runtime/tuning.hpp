@@ -4,7 +4,9 @@
 // defaults are what each routine used before it had a tuning: wide vectors and small
 // work-groups on CPU devices (PoCL vectorises explicit vector types and runs a work-group as a
 // loop), many light work-items on GPUs. default_tuning() picks them per device; a Context holds
-// the tuning its routines read (ContextOptions::tuning or POTMAP_TUNING override fields).
+// the tuning its routines read: the device's tuning file from `potmap tune` when there is one
+// (tuning_file.hpp), else these defaults, then ContextOptions::tuning or POTMAP_TUNING override
+// fields.
 //
 // Results depend on a tuning only through the order of floating-point sums (work-group
 // reductions), never on what is computed.

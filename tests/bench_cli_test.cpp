@@ -1,0 +1,101 @@
+// `potmap bench` and `potmap tune` end to end, on one routine of a small map so that the sweep
+// takes seconds: the table, JSON and plot of bench; the file tune writes, read back by a Context.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+#include "potmap/runtime/tuning_file.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+using namespace potmap;
+
+namespace {
+
+// Nine kernels over 20 x 20 m: the raster of the quick sweep (2^20 cells) takes milliseconds.
+std::string small_map(const std::string& dir) {
+  const std::string path = dir + "/map.csv";
+  std::ofstream f(path);
+  f << "x,y,gamma,w_mean,w_var\n";
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) f << i * 10 << "," << j * 10 << ",0.5," << (i - j) << ",0.2\n";
+  return path;
+}
+
+std::string device_args() {
+  return " --device " + test::quoted(test::context().info().name);
+}
+
+}  // namespace
+
+TEST(BenchCli, SweepsARoutineAndWritesTableJsonAndPlot) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli");
+  const test::CliResult r = test::run_cli("bench --quick --repeats 2 --routines raster --map " +
+                                          test::quoted(small_map(dir)) + " --out " +
+                                          test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("best: raster.rows_per_item="), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("* raster.rows_per_item=8,band=4194304"), std::string::npos) << r.out;
+  ASSERT_TRUE(fs::exists(dir + "/b.png"));
+  EXPECT_GT(fs::file_size(dir + "/b.png"), 500u);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  EXPECT_EQ(j["device"]["name"], test::context().info().name);
+  EXPECT_EQ(j["device"]["driver"], test::context().info().driver_version);
+  ASSERT_EQ(j["routines"].size(), 1u);
+  const auto& points = j["routines"][0]["points"];
+  EXPECT_EQ(points.size(), 12u);  // 3 rows per item x 4 bands
+  for (const auto& p : points) {
+    ASSERT_EQ(p["seconds"].size(), 2u);
+    EXPECT_LE(p["min_s"].get<double>(), p["median_s"].get<double>());
+    EXPECT_LE(p["median_s"].get<double>(), p["max_s"].get<double>());
+    EXPECT_GT(p["throughput"].get<double>(), 0);
+  }
+}
+
+TEST(BenchCli, EachRoutineStartsFromTheContextsTuning) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-start");
+  const test::CliResult r = test::run_cli(
+      "bench --quick --repeats 1 --routines map_eval,raster --map " + test::quoted(small_map(dir)) +
+      " --out " + test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  ASSERT_EQ(j["routines"].size(), 2u);
+  // Not the last point of the map_eval sweep: the raster's default is the untuned library's.
+  for (const auto& routine : j["routines"]) EXPECT_EQ(routine["start"], j["tuning_before"]);
+  EXPECT_EQ(j["tuning_source"], "built-in defaults");
+}
+
+TEST(BenchCli, UnknownRoutineIsNamed) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const test::CliResult r =
+      test::run_cli("bench --quick --routines rastr --out ''" + device_args());
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("'rastr'"), std::string::npos) << r.out;
+}
+
+TEST(BenchCli, TuneWritesTheFileAContextReads) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("tune-cli");
+  // --min-gain 0: the best point is taken whatever its margin, so the file holds what the
+  // table names best.
+  const test::CliResult r = test::run_cli(
+      "tune --quick --repeats 1 --routines raster --min-gain 0 --map " +
+      test::quoted(small_map(dir)) + " --dir " + test::quoted(dir + "/t") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::string path = tuning_file_path(dir + "/t", test::context().info());
+  ASSERT_TRUE(fs::exists(path)) << r.out;
+  const std::size_t at = r.out.find("best: raster.rows_per_item=");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const int best_rows = std::stoi(r.out.substr(at + 27));
+  ContextOptions o;
+  o.device = test::context().info().name;
+  o.tuning_dir = dir + "/t";
+  Context c(o);
+  EXPECT_EQ(c.tuning_source(), path);
+  EXPECT_EQ(c.tuning().raster.rows_per_item, best_rows);
+}

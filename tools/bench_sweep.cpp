@@ -1,0 +1,290 @@
+#include "bench_sweep.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <random>
+
+#include "potmap/error.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/synthetic.hpp"
+#include "potmap/ot/sinkhorn.hpp"
+
+namespace potmap::cli {
+
+namespace {
+
+constexpr const char* kTown1 = "../shared/data/carla/town1_abhm_map.csv";
+
+struct MapInput {
+  KernelMap map;
+  std::string label;
+};
+
+MapInput load_map(const SweepOptions& o) {
+  std::string path = o.map_path;
+  std::error_code ec;
+  if (path.empty() && std::filesystem::exists(kTown1, ec)) path = kTown1;
+  if (!path.empty()) {
+    MapInput in{read_map(path), ""};
+    if (in.map.dim != 2) throw ArgumentError("bench: map '" + path + "' is not 2D");
+    in.label = path + " (" + std::to_string(in.map.size()) + " kernels)";
+    return in;
+  }
+  SyntheticScene scene = make_synthetic_scene(1, 0.5, 10);
+  return {scene.map, "synthetic scene (" + std::to_string(scene.map.size()) + " kernels)"};
+}
+
+// One warm-up call (builds the kernels, fills caches), then `repeats` timed calls.
+SweepPoint time_point(const std::function<void()>& run, int repeats, double work) {
+  run();
+  SweepPoint p;
+  for (int r = 0; r < repeats; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    run();
+    p.seconds.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::vector<double> s = p.seconds;
+  std::sort(s.begin(), s.end());
+  p.median_s = s.size() % 2 ? s[s.size() / 2] : 0.5 * (s[s.size() / 2 - 1] + s[s.size() / 2]);
+  p.min_s = s.front();
+  p.max_s = s.back();
+  p.throughput = work / p.median_s;
+  return p;
+}
+
+void finish(RoutineSweep& r) {
+  for (std::size_t i = 0; i < r.points.size(); ++i) {
+    if (r.points[i].throughput > r.points[r.best].throughput) r.best = i;
+    if (r.points[i].is_default) r.baseline = i;
+  }
+}
+
+void progress(const RoutineSweep& r, const SweepPoint& p) {
+  std::cerr << "potmap: bench " << r.name << " " << p.setting << ": " << p.throughput << " "
+            << r.unit << "\n";
+}
+
+std::vector<double> random_points(const KernelMap& map, std::size_t n) {
+  double lo[3], hi[3];
+  map.bounds(lo, hi);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> ux(lo[0], hi[0]), uy(lo[1], hi[1]);
+  std::vector<std::array<double, 2>> xy(n);
+  for (auto& p : xy) p = {ux(rng), uy(rng)};
+  // In rows of 2 m, each along x, as a scan or a picture's rows arrive: a chunk's points lie
+  // together, as they do in use (random order would time the kernel lists, not the launch).
+  std::sort(xy.begin(), xy.end(), [](const auto& a, const auto& b) {
+    const double ra = std::floor(a[1] / 2), rb = std::floor(b[1] / 2);
+    return ra != rb ? ra < rb : a[0] < b[0];
+  });
+  std::vector<double> pts(2 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    pts[2 * i] = xy[i][0];
+    pts[2 * i + 1] = xy[i][1];
+  }
+  return pts;
+}
+
+RoutineSweep sweep_map_eval(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
+  const Tuning base = ctx.tuning();
+  const std::size_t n = o.quick ? std::size_t{1} << 17 : std::size_t{1} << 19;
+  const std::vector<double> pts = random_points(in.map, n);
+  RoutineSweep r;
+  r.start = to_string(base);
+  r.name = "map_eval";
+  r.unit = "points/s";
+  r.x_label = "points per chunk (vector_width x work_group)";
+  r.series_label = "map_eval.vector_width";
+  r.input = in.label + ", " + std::to_string(n) + " random points in rows of 2 m";
+  const std::vector<int> widths = o.quick ? std::vector<int>{8, 16} : std::vector<int>{4, 8, 16};
+  const std::vector<int> groups =
+      o.quick ? std::vector<int>{4, 8, 16, 32} : std::vector<int>{2, 4, 8, 16, 32, 64};
+  std::vector<float> mean(n), var(n), prob(n);
+  for (int vw : widths)
+    for (int wg : groups) {
+      Tuning t = base;
+      t.map_eval.vector_width = vw;
+      t.map_eval.work_group = wg;
+      ctx.set_tuning(t);
+      MapEvaluator ev(ctx, in.map);
+      SweepPoint p =
+          time_point([&] { ev.evaluate(pts.data(), n, mean.data(), var.data(), prob.data()); },
+                     reps, double(n));
+      p.x = static_cast<long long>(vw) * wg;
+      p.series = vw;
+      p.setting = "map_eval.vector_width=" + std::to_string(vw) +
+                  ",map_eval.work_group=" + std::to_string(wg);
+      p.is_default = vw == base.map_eval.vector_width && wg == base.map_eval.work_group;
+      progress(r, p);
+      r.points.push_back(std::move(p));
+    }
+  finish(r);
+  const SweepPoint& b = r.points[r.best];
+  r.best_tuning = base;
+  r.best_tuning.map_eval.vector_width = static_cast<int>(b.series);
+  r.best_tuning.map_eval.work_group = static_cast<int>(b.x / b.series);
+  return r;
+}
+
+RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
+  const Tuning base = ctx.tuning();
+  double lo[3], hi[3];
+  in.map.bounds(lo, hi);
+  // About 2^20 cells (quick) or 2^22 whatever the map's extent, so that the time per point
+  // stays bounded on any map.
+  const double cells = o.quick ? double(1 << 20) : double(1 << 22);
+  const double res = std::sqrt((hi[0] - lo[0]) * (hi[1] - lo[1]) / cells);
+  const GridSpec grid = GridSpec::covering(2, lo, hi, res);
+  RoutineSweep r;
+  r.start = to_string(base);
+  r.name = "raster";
+  r.unit = "cells/s";
+  r.x_label = "cells per launch (band)";
+  r.series_label = "raster.rows_per_item";
+  r.input = in.label + ", grid " + std::to_string(grid.count[0]) + " x " +
+            std::to_string(grid.count[1]) + " cells";
+  const std::vector<long long> bands =
+      o.quick ? std::vector<long long>{1 << 16, 1 << 18, 1 << 20, 1 << 22}
+              : std::vector<long long>{1 << 14, 1 << 16, 1 << 18, 1 << 20, 1 << 22};
+  const long long default_band = static_cast<long long>(EvalOptions{}.cells_per_launch);
+  std::vector<float> mean(grid.cells()), var(grid.cells()), prob(grid.cells());
+  for (int rows : {4, 8, 16})
+    for (long long band : bands) {
+      Tuning t = base;
+      t.raster.rows_per_item = rows;
+      ctx.set_tuning(t);
+      EvalOptions eo;
+      eo.cells_per_launch = static_cast<std::size_t>(band);
+      MapEvaluator ev(ctx, in.map, eo);
+      SweepPoint p =
+          time_point([&] { ev.evaluate_grid(grid, mean.data(), var.data(), prob.data()); }, reps,
+                     double(grid.cells()));
+      p.x = band;
+      p.series = rows;
+      p.setting = "raster.rows_per_item=" + std::to_string(rows) + ",band=" + std::to_string(band);
+      p.is_default = rows == base.raster.rows_per_item && band == default_band;
+      progress(r, p);
+      r.points.push_back(std::move(p));
+    }
+  finish(r);
+  r.best_tuning = base;
+  r.best_tuning.raster.rows_per_item = static_cast<int>(r.points[r.best].series);
+  r.best_band = r.points[r.best].x;
+  return r;
+}
+
+SinkhornBatch sinkhorn_batch(std::size_t problems, int side) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  SinkhornBatch batch;
+  for (std::size_t p = 0; p < problems; ++p) {
+    SinkhornProblem q;
+    q.source = Eigen::MatrixXd::NullaryExpr(side, 2, [&] { return u(rng); });
+    q.target = Eigen::MatrixXd::NullaryExpr(side, 2, [&] { return u(rng); });
+    q.epsilon = 0.05;
+    q.tolerance = 1e-5;
+    q.max_iterations = 2000;
+    batch.add(q);
+  }
+  return batch;
+}
+
+// One sweep per points-per-side: problems per launch on the axis, work-group per line.
+RoutineSweep sweep_sinkhorn(Context& ctx, int side, const SweepOptions& o, int reps) {
+  const Tuning base = ctx.tuning();
+  // Enough problems that one run takes tens of milliseconds on a CPU: shorter runs time the
+  // machine's noise.
+  const std::size_t problems = 1024;
+  const SinkhornBatch batch = sinkhorn_batch(problems, side);
+  // The batch pads each side by at most 16 (sinkhorn.cpp's chunking): chunk_slots of k times
+  // this gives launches of exactly k problems.
+  const std::size_t slots_per_problem = 2 * (static_cast<std::size_t>(side) + 16);
+  RoutineSweep r;
+  r.start = to_string(base);
+  r.name = "sinkhorn_" + std::to_string(side);
+  r.unit = "problems/s";
+  r.x_label = "problems per launch";
+  r.series_label = "sinkhorn.work_group";
+  r.input = std::to_string(problems) + " random 2D problems, " + std::to_string(side) +
+            " points a side, epsilon 0.05, tolerance 1e-5";
+  const std::vector<long long> per_launch = {16, 64, 256, static_cast<long long>(problems)};
+  const std::size_t default_per_launch =
+      std::min(problems, (base.sinkhorn.chunk_slots + slots_per_problem - 1) / slots_per_problem);
+  const std::vector<int> groups =
+      o.quick ? std::vector<int>{2, 4, 8, 16} : std::vector<int>{1, 2, 4, 8, 16, 32};
+  for (int wg : groups)
+    for (long long k : per_launch) {
+      Tuning t = base;
+      t.sinkhorn.work_group = wg;
+      t.sinkhorn.chunk_slots = static_cast<std::size_t>(k) * slots_per_problem;
+      // The whole batch in one launch is the default's behaviour: record the default's value.
+      if (static_cast<std::size_t>(k) == problems)
+        t.sinkhorn.chunk_slots = std::max(t.sinkhorn.chunk_slots, base.sinkhorn.chunk_slots);
+      ctx.set_tuning(t);
+      SweepPoint p = time_point([&] { batch.run(ctx); }, reps, double(problems));
+      p.x = k;
+      p.series = wg;
+      p.setting = "sinkhorn.work_group=" + std::to_string(wg) +
+                  ",sinkhorn.chunk_slots=" + std::to_string(t.sinkhorn.chunk_slots);
+      p.is_default =
+          wg == base.sinkhorn.work_group && static_cast<std::size_t>(k) == default_per_launch;
+      progress(r, p);
+      r.points.push_back(std::move(p));
+    }
+  finish(r);
+  r.best_tuning = base;
+  r.best_tuning.sinkhorn.work_group = static_cast<int>(r.points[r.best].series);
+  // The whole batch in one launch is what the default chunk already gives: keep the default
+  // then, so that the file does not cap larger batches at this sweep's size.
+  if (static_cast<std::size_t>(r.points[r.best].x) < problems)
+    r.best_tuning.sinkhorn.chunk_slots =
+        static_cast<std::size_t>(r.points[r.best].x) * slots_per_problem;
+  return r;
+}
+
+bool wanted(const SweepOptions& o, const std::string& name) {
+  return o.routines.empty() ||
+         std::find(o.routines.begin(), o.routines.end(), name) != o.routines.end();
+}
+
+}  // namespace
+
+std::vector<RoutineSweep> run_sweeps(Context& ctx, const SweepOptions& o) {
+  for (const std::string& name : o.routines)
+    if (name != "map_eval" && name != "raster" && name != "sinkhorn")
+      throw ArgumentError("bench: no routine named '" + name +
+                          "' (routines: map_eval, raster, sinkhorn)");
+  const int reps = o.repeats > 0 ? o.repeats : (o.quick ? 3 : 5);
+  const Tuning saved = ctx.tuning();
+  std::vector<RoutineSweep> out;
+  try {
+    // Each sweep starts from the saved tuning: its default point is the context's, not the
+    // last point of the sweep before.
+    if (wanted(o, "map_eval") || wanted(o, "raster")) {
+      const MapInput in = load_map(o);
+      if (wanted(o, "map_eval")) out.push_back(sweep_map_eval(ctx, in, o, reps));
+      ctx.set_tuning(saved);
+      if (wanted(o, "raster")) out.push_back(sweep_raster(ctx, in, o, reps));
+      ctx.set_tuning(saved);
+    }
+    if (wanted(o, "sinkhorn")) {
+      out.push_back(sweep_sinkhorn(ctx, 32, o, reps));
+      ctx.set_tuning(saved);
+      if (!o.quick) out.push_back(sweep_sinkhorn(ctx, 96, o, reps));
+    }
+  } catch (...) {
+    ctx.set_tuning(saved);
+    throw;
+  }
+  ctx.set_tuning(saved);
+  return out;
+}
+
+}  // namespace potmap::cli
