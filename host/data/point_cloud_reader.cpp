@@ -156,9 +156,11 @@ Scan read_point_cloud(const std::string& path, double max_range, std::size_t* dr
   Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
   {
     QuietPcl quiet;
-    check_header(path, ply);
     int version = 0, rc = 0;
+    // PCL's readers throw standard exceptions on some malformed headers (std::out_of_range on a
+    // FIELDS line shorter than its SIZE line, found by fuzz_point_cloud): they become InputError.
     try {
+      check_header(path, ply);
       if (ply) {
         pcl::PLYReader r;
         rc = r.read(path, cloud, origin, orientation, version);
@@ -166,8 +168,11 @@ Scan read_point_cloud(const std::string& path, double max_range, std::size_t* dr
         pcl::PCDReader r;
         rc = r.read(path, cloud, origin, orientation, version);
       }
+    } catch (const InputError&) {
+      throw;
     } catch (const std::exception& e) {
-      throw InputError(path + ": malformed " + (ply ? "PLY" : "PCD") + " body: " + e.what());
+      throw InputError(path + ": malformed " + (ply ? "PLY" : "PCD") + " file (PCL: " + e.what() +
+                       ")");
     }
     if (rc < 0)
       throw InputError(path + ": malformed or truncated " + std::string(ply ? "PLY" : "PCD") +
