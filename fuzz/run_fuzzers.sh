@@ -10,7 +10,8 @@ CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebI
   -DPOTMAP_BUILD_FUZZERS=ON -DPOTMAP_BUILD_TESTS=OFF -DPOTMAP_BUILD_BENCH=OFF \
   -DPOTMAP_BUILD_TOOLS=OFF -DBUILD_SHARED_LIBS=OFF \
   -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined" >/dev/null
-targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary tuning_file"
+targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary tuning_file
+  point_cloud point_cloud_poses"
 make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null
 data=$root/../shared/data
 corpus=$build/corpus
@@ -42,6 +43,16 @@ if [ -d "$data/carla" ]; then
 fi
 printf 'x,y,z,gamma,w_mean,w_var\n# bias 0.5 2\n1,2,3,0.5,1,2\n' > "$corpus/map_csv/seed3d.csv"
 printf 'POTMAP' > "$corpus/map_potmap/seed"
+# Point clouds: a tiny ASCII PCD, a binary PCD and an ASCII PLY (PCL's headers, hand-written
+# so that the corpus needs no PCL tool); poses naming the frame the poses fuzzer writes.
+printf 'VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA ascii\n1 2 3\nnan 5 6\n' \
+  > "$corpus/point_cloud/ascii.pcd"
+{ printf 'VERSION .7\nFIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA binary\n'
+  head -c 32 /dev/zero; } > "$corpus/point_cloud/binary.pcd"
+printf 'ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 5 6\n' \
+  > "$corpus/point_cloud/ascii.ply"
+printf '# frame pose\npotmap-fuzz-frame.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n/tmp/potmap-fuzz-frame.pcd 0 -1 0 1 1 0 0 2 0 0 1 3\n' \
+  > "$corpus/point_cloud_poses/seed"
 # A valid one-atom 2D dictionary (layout: include/potmap/pot/dictionary_io.hpp), so that the
 # dictionary fuzzer starts past the checksum.
 if command -v python3 >/dev/null; then

@@ -12,7 +12,7 @@ packages=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
   libboost-dev libeigen3-dev libcli11-dev nlohmann-json3-dev
   libzip-dev libpng-dev zlib1g-dev
-  liboctomap-dev
+  liboctomap-dev libpcl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libgdal-dev libopenmpi-dev openmpi-bin
   python3 python3-numpy

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
+
 #include <filesystem>
 
 #include "potmap/error.hpp"
@@ -45,6 +47,30 @@ TEST(Context, EmbeddedKernelsCarryTheirSharedParts) {
   }
   for (const char* n : {"ot/sinkhorn", "ot/sinkhorn_stab"})
     EXPECT_NE(embedded_kernel_source(n).find("} SinkhornLaunchInts;"), std::string::npos) << n;
+}
+
+// A kernel the compiler warns about builds quietly; the warnings reach stderr only when the
+// kernels are dumped (POTMAP_DUMP_KERNELS, ContextOptions::dump_kernels).
+TEST(Context, BuildWarningsOnlyWhenDumping) {
+  for (const bool dump : {false, true}) {
+    // A source of its own every run, so that PoCL's own kernel cache cannot skip the compiler.
+    const std::string src =
+        "// " + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()) +
+        "\n__kernel void g(__global float* x) { __global int* q = x; q[get_global_id(0)] = 1; }";
+    ContextOptions o;
+    o.disk_cache = false;
+    o.dump_kernels = dump;
+    Context ctx(o);
+    testing::internal::CaptureStderr();
+    ctx.program_from_source("warns", src);
+    const std::string err = testing::internal::GetCapturedStderr();
+    if (dump) {
+      EXPECT_NE(err.find("build log of 'warns'"), std::string::npos) << err;
+      EXPECT_NE(err.find("incompatible pointer types"), std::string::npos) << err;
+    } else {
+      EXPECT_EQ(err, "");
+    }
+  }
 }
 
 TEST(Context, ProgramsAreCachedInMemory) {

@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cstdint>
 #include <filesystem>
 
 #include "test_support.hpp"
@@ -77,6 +79,20 @@ TEST(DemoCli, PotDemoMapsAnotherTown) {
   // RePOT's persistent map is a regular grid of one width: its kernel picture is one colour
   // and compresses to little, but it is written.
   EXPECT_GT(fs::file_size(out + "_repot_kernels.png"), 100u);
+  // The true town beside the estimate: two panels of one window and scale, 1200 pixels along
+  // the long side, 4 white columns apart.
+  const std::string png = test::file_bytes(out + "_repot_compare.png");
+  ASSERT_GT(png.size(), 24u);
+  auto be32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (int k = 0; k < 4; ++k) v = v << 8 | static_cast<unsigned char>(png[at + k]);
+    return v;
+  };
+  const std::uint32_t width = be32(16), height = be32(20);
+  ASSERT_GE(width, 6u);
+  EXPECT_EQ((width - 4) % 2, 0u) << width;
+  const std::uint32_t panel = (width - 4) / 2;
+  EXPECT_NEAR(std::max(panel, height), 1200, 1) << panel << " x " << height;
 }
 
 TEST(DemoCli, PotDemoRejectsABadMethod) {

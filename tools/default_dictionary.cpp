@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <iterator>
 #include <iostream>
 
 #include <fcntl.h>
@@ -12,6 +13,7 @@
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/pot/dictionary_io.hpp"
+#include "progress.hpp"
 #include "user_cache.hpp"
 
 namespace potmap::cli {
@@ -50,20 +52,32 @@ std::string default_dictionary_recipe() {
          ": town1+town2+town3 (seed 0), drives 2 m apart, 20 m, joint BHM atoms (PotSetup)";
 }
 
-Dictionary build_default_dictionary(std::size_t scans) {
-  std::vector<std::vector<Scan>> places;
-  for (const char* town : kTowns) {
+Dictionary build_default_dictionary(std::size_t scans,
+                                    const std::function<void(double)>& progress) {
+  experiment::PotSetup setup;
+  setup.dictionary.source = default_dictionary_recipe();
+  // One town at a time, so that progress can be shown between them; build_atoms appends the
+  // atoms of its places in order, so the dictionary is the one a single call over all three
+  // towns gives, byte for byte.
+  Dictionary dict;
+  const std::size_t towns = std::size(kTowns);
+  for (std::size_t t = 0; t < towns; ++t) {
     SimOptions o;
     o.scans = scans;
     o.spacing = kSpacing;
     o.seed = 0;
-    Simulation sim = simulate(Town::builtin(town, 0), o);
-    places.emplace_back();
-    for (Scan& s : sim.scans) places.back().push_back(experiment::limit_range(s, kRangeCut));
+    Simulation sim = simulate(Town::builtin(kTowns[t], 0), o);
+    std::vector<std::vector<Scan>> place(1);
+    for (Scan& s : sim.scans) place[0].push_back(experiment::limit_range(s, kRangeCut));
+    Dictionary part = experiment::build_atoms(nullptr, place, setup, 0);
+    if (dict.empty()) {
+      dict = std::move(part);
+    } else {
+      for (Atom& a : part.atoms) dict.atoms.push_back(std::move(a));
+    }
+    if (progress) progress(double(t + 1) / towns);
   }
-  experiment::PotSetup setup;
-  setup.dictionary.source = default_dictionary_recipe();
-  return experiment::build_atoms(nullptr, places, setup, 0);
+  return dict;
 }
 
 std::string default_dictionary_path() {
@@ -93,7 +107,7 @@ Dictionary default_dictionary(std::string* where) {
   std::cerr << "potmap: building the default dictionary (" << default_dictionary_recipe()
             << "); once, then cached in " << (path.empty() ? "(no cache folder)" : path) << "\n";
   const auto t0 = std::chrono::steady_clock::now();
-  Dictionary dict = build_default_dictionary();
+  Dictionary dict = build_default_dictionary(200, terminal_progress("default dictionary"));
   if (!path.empty()) {
     try {
       write_dictionary(dict, path);

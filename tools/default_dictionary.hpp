@@ -2,6 +2,7 @@
 // The built-in default dictionary of `potmap map` and `potmap mapping` without --dict: atoms
 // cut from drives through the three built-in towns, built once and cached in the user's cache
 // folder.
+#include <functional>
 #include <string>
 
 #include "potmap/pot/atoms.hpp"
@@ -18,8 +19,10 @@ std::string default_dictionary_recipe();
 /// The default dictionary built from scratch: towns town1, town2 and town3 (seed 0), each
 /// driven for `scans` scans 2 m apart (route seed 0), scans cut at 20 m, the experiments'
 /// atoms (experiment::build_atoms with PotSetup's defaults, seed 0): a joint BHM of each town,
-/// atoms from 10 scans of each. Deterministic: no device is used.
-Dictionary build_default_dictionary(std::size_t scans = 200);
+/// atoms from 10 scans of each. Deterministic: no device is used. `progress`, when set, is
+/// called with the fraction done (0 to 1) after each town (the build takes about a minute).
+Dictionary build_default_dictionary(std::size_t scans = 200,
+                                    const std::function<void(double)>& progress = {});
 
 /// The cached file (user_cache_dir("dictionaries")/default-vN.potdict); empty without a cache
 /// folder.

@@ -1,9 +1,12 @@
 #include "demo_pot.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
@@ -13,6 +16,8 @@
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/experiments/figure_panels.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm.hpp"
 #include "potmap/pot/atoms.hpp"
@@ -45,6 +50,29 @@ KernelMap learn_source_map(Context& ctx, const std::vector<Scan>& scans) {
   KernelMap map = bhm_grid_prior(2, lo3, hi3, 1.0, 4.0);
   bhm_update_sequential(&ctx, map, s.train);
   return map;
+}
+
+// The true town over the window [lo, hi] (metres) at the scale probability_picture uses for
+// it (max(extent) / max_pixels metres a pixel): buildings and obstacles dark on white, the route
+// red, so that it stands beside the estimate pixel for pixel.
+experiment::Picture town_picture(const Town& town, const std::vector<double>& route,
+                                 const double lo[3], const double hi[3], std::size_t max_pixels) {
+  const double mpp = std::max(hi[0] - lo[0], hi[1] - lo[1]) / max_pixels;
+  experiment::Picture p;
+  p.width = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((hi[0] - lo[0]) / mpp)));
+  p.height = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((hi[1] - lo[1]) / mpp)));
+  p.rgb.assign(p.width * p.height * 3, 255);
+  for (std::size_t j = 0; j < p.height; ++j)
+    for (std::size_t i = 0; i < p.width; ++i)
+      if (town.occupied(lo[0] + (i + 0.5) * mpp, hi[1] - (j + 0.5) * mpp))
+        std::fill_n(&p.rgb[(j * p.width + i) * 3], 3, 40);
+  for (std::size_t k = 0; k + 1 < route.size(); k += 2) {
+    const double i = (route[k] - lo[0]) / mpp, j = (hi[1] - route[k + 1]) / mpp;
+    if (i < 0 || j < 0 || i >= p.width || j >= p.height) continue;
+    std::uint8_t* px = &p.rgb[(std::size_t(j) * p.width + std::size_t(i)) * 3];
+    px[0] = 220, px[1] = 20, px[2] = 20;
+  }
+  return p;
 }
 
 }  // namespace
@@ -126,6 +154,19 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
       files.insert(files.end(), mp.files.begin(), mp.files.end());
       files.push_back(p + ".potmap");
       j["picture_pixels"] = {mp.width, mp.height};
+      // The true town (left) beside the estimate's probability (right), one window and scale:
+      // the map's kernels and 5 m around them, as the other pictures, within the town.
+      double lo[3], hi[3];
+      r.overall_map().bounds(lo, hi);
+      lo[0] = std::max(0.0, lo[0] - 5), lo[1] = std::max(0.0, lo[1] - 5), lo[2] = 0;
+      hi[0] = std::min(tgt.width(), hi[0] + 5), hi[1] = std::min(tgt.height(), hi[1] + 5),
+      hi[2] = 0;
+      const auto fitted =
+          experiment::kernel_fitted_map(&ctx, std::make_shared<const KernelMap>(r.overall_map()));
+      const experiment::Picture truth = town_picture(tgt, target.route, lo, hi, 1200);
+      const experiment::Picture estimate = experiment::probability_picture(fitted, 2, lo, hi, 1200);
+      experiment::write_side_by_side({&truth, &estimate}, p + "_compare.png");
+      files.push_back(p + "_compare.png");
       j["kernel_length_m"] = {mp.min_length, mp.max_length};
     }
   }

@@ -26,7 +26,8 @@ Dataset read_dataset(const std::string& path) {
     if (std::filesystem::exists(poses, ec)) return read_dataset(poses.string());
     throw InputError(path +
                      ": a folder without poses.txt (a KITTI sequence folder holds "
-                     "poses.txt, calib.txt and velodyne/NNNNNN.bin)");
+                     "poses.txt, calib.txt and velodyne/NNNNNN.bin; a point-cloud sequence "
+                     "folder poses.txt naming its .pcd or .ply frames)");
   }
   std::string lower = path;
   std::transform(lower.begin(), lower.end(), lower.begin(), ::tolower);
@@ -36,6 +37,13 @@ Dataset read_dataset(const std::string& path) {
     const bool nus = lower.find("nuscenes") != std::string::npos;
     return read_velodyne_dataset(path, nus ? 5 : 4, nus ? 110 : 120);
   }
+  if (ends_with(base, ".pcd") || ends_with(base, ".ply")) {
+    Dataset ds;
+    ds.scans.push_back(read_point_cloud(path, 120, &ds.stats.points_dropped));
+    return ds;
+  }
+  // A poses file naming .pcd/.ply frames; KITTI's poses.txt holds numbers only.
+  if (ends_with(base, ".txt") && is_point_cloud_poses(path)) return read_point_cloud_sequence(path);
   if (ends_with(base, "poses.txt")) {
     // A KITTI odometry sequence: velodyne/NNNNNN.bin frames beside poses.txt and calib.txt.
     const std::filesystem::path dir = std::filesystem::path(path).parent_path();

@@ -10,6 +10,7 @@
 #include "runtime/binary_cache.hpp"
 #include "runtime/cl_check.hpp"
 #include "runtime/hash.hpp"
+#include "runtime/quiet_stderr.hpp"
 
 namespace bc = boost::compute;
 
@@ -193,7 +194,28 @@ struct Context::Impl {
       return bc::program::create_with_source(source, context);
     });
     try {
-      p.build(options);
+      if (dump) {
+        p.build(options);
+      } else {
+        detail::QuietStderr quiet;
+        try {
+          p.build(options);
+        } catch (...) {
+          std::string log;
+          try {
+            log = p.build_log();
+          } catch (...) {
+          }
+          std::cerr << detail::not_from_compiler(quiet.release(), log);
+          throw;
+        }
+        std::string log;
+        try {
+          log = p.build_log();
+        } catch (const bc::opencl_error&) {
+        }
+        std::cerr << detail::not_from_compiler(quiet.release(), log);
+      }
     } catch (const bc::opencl_error& e) {
       std::string log;
       try {
@@ -204,6 +226,16 @@ struct Context::Impl {
       throw BuildError(e.error_code(), label, options, log);
     }
     ++source_builds;
+    if (dump) {
+      std::string log;
+      try {
+        log = p.build_log();
+      } catch (const bc::opencl_error&) {
+      }
+      if (log.find_first_not_of(" \t\r\n") != std::string::npos)
+        std::cerr << "---- potmap: build log of '" << label << "' ----\n"
+                  << log << "\n---- end of the build log of '" << label << "' ----\n";
+    }
     if (disk.enabled()) {
       try {
         disk.store(disk_key, p.binary());

@@ -74,6 +74,29 @@ Scan read_nuscenes_bin(const std::string& path, double max_range = 110);
 std::vector<std::array<double, 12>> read_kitti_poses(const std::string& poses_path,
                                                      const std::string& calib_path);
 
+/// Point-cloud frame: PCD (ascii, binary or binary_compressed) or PLY (ascii or binary), by its
+/// name's extension, parsed by PCL's io module. Fields x, y, z (float32 or float64; others are
+/// ignored) are the hits; NaN or Inf points (an organised cloud's missing returns) are dropped
+/// and counted in `dropped` when given. A PCD VIEWPOINT (PLY camera) is the sensor's pose in the
+/// cloud's frame and becomes pose3d; the points stay as stored. max_range in metres (default
+/// 120, as KITTI frames: a cloud does not say its sensor's range). Throws InputError naming the
+/// file and what is wrong for an unreadable header, a missing or non-float x/y/z field, an empty
+/// cloud, a truncated body (byte offset and sizes), or a cloud with no finite point.
+Scan read_point_cloud(const std::string& path, double max_range = 120,
+                      std::size_t* dropped = nullptr);
+
+/// A sequence of point-cloud frames by its poses file: one line per frame, `FRAME r00 r01 r02 tx
+/// r10 r11 r12 ty r20 r21 r22 tz` (the frame's .pcd or .ply path, relative to the poses file's
+/// folder unless absolute, then its sensor-to-world 3 x 4 row-major [R | t], KITTI's order);
+/// blank lines and lines starting with '#' are skipped. Each frame is read by read_point_cloud
+/// and moved into the world by its pose; timestamps are the frame indices. Throws InputError
+/// naming the poses file and line for a short or non-numeric pose, a missing frame, or no frame.
+Dataset read_point_cloud_sequence(const std::string& poses_path, double max_range = 120);
+
+/// True when the first non-comment line of a text file starts with a .pcd or .ply name (a
+/// point-cloud poses file rather than KITTI's poses.txt, whose lines are 12 numbers).
+bool is_point_cloud_poses(const std::string& path);
+
 /// Moves a 3D scan's points from the sensor frame into the world by `pose` (3 x 4 row-major).
 void apply_pose(Scan& scan, const std::array<double, 12>& pose);
 
@@ -89,8 +112,10 @@ LabelledPoints read_npz_labelled(const std::string& path);
 /// Reads any supported file by its name: *.log[.gz] CARMEN, *.bin KITTI (4 floats) or nuScenes
 /// (5 floats, name containing "nuscenes"), a KITTI odometry sequence by its poses.txt
 /// (velodyne/NNNNNN.bin and calib.txt beside it; frames moved into the world frame, max range
-/// 120 m) or by its folder (the one holding poses.txt), *.npz and *.csv labelled samples. Throws
-/// InputError naming a folder that holds no poses.txt.
+/// 120 m) or by its folder (the one holding poses.txt), *.pcd and *.ply point-cloud frames, a
+/// point-cloud sequence by its poses file (*.txt whose lines start with a frame name, see
+/// read_point_cloud_sequence) or by its folder (holding such a poses.txt), *.npz and *.csv
+/// labelled samples. Throws InputError naming a folder that holds no poses.txt.
 Dataset read_dataset(const std::string& path);
 
 }  // namespace potmap

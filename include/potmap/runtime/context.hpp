@@ -40,7 +40,10 @@ struct ContextOptions {
   bool disk_cache = true;
   /// Extra options appended to every program build (e.g. "-cl-fast-relaxed-math"). Default none.
   std::string build_options;
-  /// Print each kernel's source to stderr when it is built. Also set by POTMAP_DUMP_KERNELS=1.
+  /// Print each kernel's source to stderr when it is built, and the compiler's log (warnings)
+  /// of each successful build from source. Also set by POTMAP_DUMP_KERNELS=1. Off by default:
+  /// warnings in potmap's own kernels are for its developers, not for the user's terminal (a
+  /// failed build's log is always in the BuildError).
   bool dump_kernels = false;
   /// Overrides of the device's tuning (potmap/runtime/tuning.hpp: vector widths, work-group
   /// and chunk sizes), as `routine.field=value` pairs, e.g. "sinkhorn.work_group=8". Applied
