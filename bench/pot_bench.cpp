@@ -34,14 +34,19 @@ struct Fixture {
   std::vector<LabelledSplit> splits;
 };
 
+// `scans` scans of a built-in town, `spacing` metres apart along its route.
+Simulation drive(const char* town, std::size_t scans, double spacing, std::uint64_t seed) {
+  SimOptions o;
+  o.scans = scans;
+  o.spacing = spacing;
+  o.seed = seed;
+  return simulate(Town::builtin(town), o);
+}
+
 Fixture& fixture() {
   static std::unique_ptr<Fixture> f = [] {
     auto x = std::make_unique<Fixture>();
-    SimOptions so;
-    so.scans = 40;
-    so.spacing = 3;
-    so.seed = 1;
-    const Simulation src = simulate(Town::builtin("town1"), so);
+    const Simulation src = drive("town1", 40, 3, 1);
     LabelOptions lo;
     lo.holdout_fraction = 0;
     const LabelledSplit s = label_scans(src.scans, lo);
@@ -53,11 +58,7 @@ Fixture& fixture() {
     std::stable_sort(x->all.atoms.begin(), x->all.atoms.end(), [](const Atom& a, const Atom& b) {
       return a.sector.num_hits() > b.sector.num_hits();
     });
-    SimOptions to;
-    to.scans = 8;
-    to.spacing = 5;
-    to.seed = 7;
-    x->targets = simulate(Town::builtin("town2"), to).scans;
+    x->targets = drive("town2", 8, 5, 7).scans;
     for (std::size_t i = 0; i < x->targets.size(); ++i) {
       LabelledSplit sp;
       label_scan(x->targets[i], static_cast<std::int64_t>(i), LabelOptions{}, sp);

@@ -206,30 +206,34 @@ std::pair<double, double> agreement(const Run& a, const Run& b) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+struct ScaleArgs {
   std::string data = "../shared/data/radish", target = "intel", cache = "pot_scale_cache",
               out = "pot_scale.json";
   std::size_t first = 10, scans = 100;
   bool repot = true;
   std::vector<std::size_t> sizes = {6, 50, 200, 1000, 5000}, ex_scans = {100, 100, 100, 20, 5};
+};
+
+// Fills `a` and the indexed ranking's knobs; false (after naming the option) on an unknown one.
+bool parse_args(int argc, char** argv, ScaleArgs& a) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--data")
-      data = v;
+      a.data = v;
     else if (k == "--target")
-      target = v;
+      a.target = v;
     else if (k == "--first")
-      first = std::stoul(v);
+      a.first = std::stoul(v);
     else if (k == "--scans")
-      scans = std::stoul(v);
+      a.scans = std::stoul(v);
     else if (k == "--atoms")
-      sizes = numbers(v);
+      a.sizes = numbers(v);
     else if (k == "--exhaustive-scans")
-      ex_scans = numbers(v);
+      a.ex_scans = numbers(v);
     else if (k == "--repot")
-      repot = v != "0";
+      a.repot = v != "0";
     else if (k == "--cache")
-      cache = v;
+      a.cache = v;
     else if (k == "--neighbours")
       g_indexed.index_neighbours = std::stoul(v);
     else if (k == "--rotations-per-atom")
@@ -245,13 +249,23 @@ int main(int argc, char** argv) {
     else if (k == "--snap")
       g_indexed.snap_rotations = v != "0";
     else if (k == "--out")
-      out = v;
+      a.out = v;
     else {
       std::fprintf(stderr, "pot_scale: unknown option %s (see the top of bench/pot_scale.cpp)\n",
                    k.c_str());
-      return 2;
+      return false;
     }
   }
+  return true;
+}
+
+int main(int argc, char** argv) {
+  ScaleArgs args;
+  if (!parse_args(argc, argv, args)) return 2;
+  const std::string &data = args.data, &target = args.target, &cache = args.cache, &out = args.out;
+  const std::size_t first = args.first, scans = args.scans;
+  const bool repot = args.repot;
+  const std::vector<std::size_t>&sizes = args.sizes, &ex_scans = args.ex_scans;
   Context ctx;
   const std::size_t want = *std::max_element(sizes.begin(), sizes.end());
   std::filesystem::create_directories(cache);
