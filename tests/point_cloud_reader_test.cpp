@@ -213,6 +213,28 @@ TEST(PointCloudReadersMalformed, WrongFieldLayout) {
   expect_input_error([&] { read_point_cloud(junk); }, {junk, "not a readable PLY file"});
 }
 
+// fuzz_point_cloud's second find: PCL sizes its buffer from the header's count before reading
+// the body, so a header claiming 5 x 10^18 points exhausted memory inside PCL.
+TEST(PointCloudReadersMalformed, PointCountBeyondTheFile) {
+  const std::string d = test::temp_dir("pc_huge_count");
+  const std::string pcd = write(d, "huge.pcd",
+                                "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                "WIDTH 1\nHEIGHT 1\nPOINTS 4999999999999999999\nDATA binary\n" +
+                                    std::string(12, '\0'));
+  expect_input_error([&] { read_point_cloud(pcd); },
+                     {pcd, "4999999999999999999 points", "more than any encoding holds"});
+  const std::string ply = write(d, "huge.ply",
+                                "ply\nformat binary_little_endian 1.0\nelement vertex "
+                                "4999999999999999999\nproperty float x\nproperty float y\n"
+                                "property float z\nend_header\n" +
+                                    std::string(12, '\0'));
+  expect_input_error([&] { read_point_cloud(ply); }, {ply, "4999999999999999999 points"});
+  const std::string bad = write(d, "bad.pcd",
+                                "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                "WIDTH 1\nHEIGHT 1\nPOINTS 99999999999999999999999\nDATA binary\n");
+  expect_input_error([&] { read_point_cloud(bad); }, {bad, "line 8", "is not a count"});
+}
+
 TEST(PointCloudReadersMalformed, PosesFileLines) {
   const std::string d = test::temp_dir("pc_poses_bad");
   ASSERT_EQ(pcl::io::savePCDFileBinary(d + "/0.pcd", random_cloud(5, 9)), 0);

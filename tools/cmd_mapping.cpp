@@ -28,7 +28,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 struct MappingArgs {
-  std::string log, out, dict, method = "repot", json;
+  std::string log, out, dict, method = "repot", json, ranking = "exhaustive";
   double range_cut = 20, ros_res = 0.05;
   std::size_t first = 0, max_scans = 0, picture_pixels = 1200;
   int rotations = 8;
@@ -71,6 +71,7 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
   job.mapper.pot = setup.pot;
   job.mapper.pot.refine = a.method == "repot";
   job.mapper.pot.seed = a.seed;
+  job.mapper.pot.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
   job.mapper.pot.rotations.clear();
   for (int i = 0; i < a.rotations; ++i)
     job.mapper.pot.rotations.push_back(2 * kPi * i / a.rotations);
@@ -120,6 +121,7 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
   nlohmann::json j = r.to_json();
   j["log"] = a.log;
   j["method"] = a.method == "repot" ? "RePOT" : "POT";
+  j["ranking"] = a.ranking;
   j["dictionary"] = a.dict.empty() ? "default: " + default_dictionary_recipe() : a.dict;
   j["range_cut"] = a.range_cut;
   j["device"] = ctx.info().summary();
@@ -156,6 +158,12 @@ void register_mapping(CLI::App& app, Runner& runner) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--first", a->first, "Skip this many scans")->capture_default_str();
   cmd->add_option("--max-scans", a->max_scans, "Map at most this many scans (0: all)")
+      ->capture_default_str();
+  cmd->add_option("--ranking", a->ranking,
+                  "exhaustive: every atom at every rotation (the paper's); indexed: nearest "
+                  "atoms by signature at estimated rotations, coarse to fine (potmap map's "
+                  "--ranking)")
+      ->check(CLI::IsMember({"exhaustive", "indexed"}))
       ->capture_default_str();
   cmd->add_option("--rotations", a->rotations, "Rotations tried per atom")
       ->capture_default_str()

@@ -6,9 +6,12 @@
 #include <pcl/io/ply_io.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <sstream>
 
@@ -75,6 +78,48 @@ class QuietPcl {
   std::lock_guard<std::mutex> lock_;
   pcl::console::VERBOSITY_LEVEL saved_;
 };
+
+// PCL's header readers size the cloud's buffer from the header's point count before looking
+// at the body, so a header claiming 10^18 points exhausts memory inside PCL. Read the counts
+// ourselves first and refuse any that the file cannot hold: every encoding stores a point in at
+// least one byte per field (ASCII: a digit and a separator; LZF-compressed PCD: at most about
+// 1:100, taken as the bound), so a point count above 100 x the file size is never genuine.
+void check_point_count(const std::string& path, bool ply) {
+  std::error_code ec;
+  const std::uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec) return;  // PCL reports the unreadable file
+  std::ifstream f(path, std::ios::binary);
+  std::string line;
+  std::uint64_t claimed = 0;
+  for (int n = 0; n < 200 && std::getline(f, line); ++n) {
+    std::istringstream ls(line);
+    std::string key;
+    ls >> key;
+    std::string value;
+    if (!ply && (key == "POINTS" || key == "WIDTH" || key == "HEIGHT")) {
+      ls >> value;
+    } else if (ply && key == "element") {
+      std::string name;
+      ls >> name >> value;
+    } else if ((!ply && key == "DATA") || (ply && key == "end_header")) {
+      break;
+    } else {
+      continue;
+    }
+    errno = 0;
+    char* end = nullptr;
+    const unsigned long long v = std::strtoull(value.c_str(), &end, 10);
+    if (value.empty() || *end != '\0' || errno == ERANGE || value[0] == '-')
+      throw InputError(path + ": header line " + std::to_string(n + 1) + ": " + key + " '" + value +
+                       "' is not a count");
+    claimed = std::max<std::uint64_t>(claimed, v);
+  }
+  const std::uint64_t bound = 100 * size + 1024;
+  if (claimed > bound)
+    throw InputError(path + ": header: " + std::to_string(claimed) +
+                     " points (or rows) in a file of " + std::to_string(size) +
+                     " bytes, more than any encoding holds");
+}
 
 // The header alone: its fields, point count and where the data begin, so that a truncated
 // binary body is named with the sizes involved rather than as PCL's bare -1.
@@ -160,6 +205,7 @@ Scan read_point_cloud(const std::string& path, double max_range, std::size_t* dr
     // PCL's readers throw standard exceptions on some malformed headers (std::out_of_range on a
     // FIELDS line shorter than its SIZE line, found by fuzz_point_cloud): they become InputError.
     try {
+      check_point_count(path, ply);
       check_header(path, ply);
       if (ply) {
         pcl::PLYReader r;
