@@ -14,6 +14,7 @@
 #include <fstream>
 #include <mutex>
 #include <sstream>
+#include <vector>
 
 #include "data/file_bytes.hpp"
 #include "potmap/data/scan.hpp"
@@ -121,6 +122,83 @@ void check_point_count(const std::string& path, bool ply) {
                      " bytes, more than any encoding holds");
 }
 
+// PCL's PCD header parser trusts its input: inconsistent lines (a FIELDS line longer than its
+// SIZE line, found by fuzz_point_cloud) make it throw or write past its buffers. So the header
+// must be the one the PCD format describes before PCL reads it: the known keywords in order,
+// FIELDS, SIZE, TYPE and COUNT of one length, sizes 1/2/4/8 with types F/I/U, counts >= 1,
+// POINTS = WIDTH x HEIGHT, DATA ascii, binary or binary_compressed.
+void check_pcd_header(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::string line;
+  std::vector<std::string> fields, sizes, types, counts;
+  unsigned long long width = 0, height = 0, points = 0;
+  bool have_width = false, have_height = false, have_points = false;
+  auto fail = [&](int n, const std::string& what) {
+    throw InputError(path + ": header line " + std::to_string(n) + ": " + what);
+  };
+  auto count = [&](int n, const std::string& key, std::istringstream& ls) {
+    std::string v;
+    ls >> v;
+    errno = 0;
+    char* end = nullptr;
+    const unsigned long long x = std::strtoull(v.c_str(), &end, 10);
+    if (v.empty() || *end != '\0' || errno == ERANGE || v[0] == '-')
+      fail(n, key + " '" + v + "' is not a count");
+    return x;
+  };
+  for (int n = 1; n <= 200 && std::getline(f, line); ++n) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    std::string key, item;
+    ls >> key;
+    std::vector<std::string> rest;
+    if (key == "VERSION" || key == "VIEWPOINT") continue;
+    if (key == "FIELDS" || key == "SIZE" || key == "TYPE" || key == "COUNT") {
+      while (ls >> item) rest.push_back(item);
+      (key == "FIELDS" ? fields : key == "SIZE" ? sizes : key == "TYPE" ? types : counts) = rest;
+    } else if (key == "WIDTH") {
+      width = count(n, key, ls), have_width = true;
+    } else if (key == "HEIGHT") {
+      height = count(n, key, ls), have_height = true;
+    } else if (key == "POINTS") {
+      points = count(n, key, ls), have_points = true;
+    } else if (key == "DATA") {
+      ls >> item;
+      if (item != "ascii" && item != "binary" && item != "binary_compressed")
+        fail(n, "DATA '" + item + "' is not ascii, binary or binary_compressed");
+      if (fields.empty() || sizes.size() != fields.size() || types.size() != fields.size() ||
+          (!counts.empty() && counts.size() != fields.size()))
+        fail(n, std::to_string(fields.size()) + " FIELDS, " + std::to_string(sizes.size()) +
+                    " SIZE, " + std::to_string(types.size()) + " TYPE and " +
+                    std::to_string(counts.size()) + " COUNT entries: they must match");
+      for (std::size_t i = 0; i < fields.size(); ++i) {
+        const std::string& z = sizes[i];
+        const std::string& t = types[i];
+        if (z != "1" && z != "2" && z != "4" && z != "8")
+          fail(n, "field '" + fields[i] + "' has SIZE '" + z + "', not 1, 2, 4 or 8");
+        if (t != "F" && t != "I" && t != "U")
+          fail(n, "field '" + fields[i] + "' has TYPE '" + t + "', not F, I or U");
+        if (t == "F" && z != "4" && z != "8")
+          fail(n, "field '" + fields[i] + "' is a float of " + z + " bytes");
+        if (!counts.empty()) {
+          std::istringstream cs(counts[i]);
+          const unsigned long long c = count(n, "COUNT", cs);
+          if (c < 1 || c > 1000000) fail(n, "field '" + fields[i] + "' has COUNT " + counts[i]);
+        }
+      }
+      if (!have_width || !have_height) fail(n, "WIDTH and HEIGHT must come before DATA");
+      if (height != 0 && width > ~0ull / height) fail(n, "WIDTH x HEIGHT overflows");
+      if (have_points && points != width * height)
+        fail(n, "POINTS " + std::to_string(points) + " is not WIDTH x HEIGHT " +
+                    std::to_string(width * height));
+      return;
+    } else {
+      fail(n, "'" + key.substr(0, 40) + "' is not a PCD header keyword");
+    }
+  }
+  throw InputError(path + ": header: no DATA line in the first 200 lines: not a PCD file");
+}
+
 // The header alone: its fields, point count and where the data begin, so that a truncated
 // binary body is named with the sizes involved rather than as PCL's bare -1.
 void check_header(const std::string& path, bool ply) {
@@ -206,6 +284,7 @@ Scan read_point_cloud(const std::string& path, double max_range, std::size_t* dr
     // FIELDS line shorter than its SIZE line, found by fuzz_point_cloud): they become InputError.
     try {
       check_point_count(path, ply);
+      if (!ply) check_pcd_header(path);
       check_header(path, ply);
       if (ply) {
         pcl::PLYReader r;
