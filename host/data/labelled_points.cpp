@@ -1,5 +1,6 @@
 // Labelled points as CSV text: `t,x,y[,z],occupied` (see labelled_points.hpp).
 #include "potmap/data/labelled_points.hpp"
+#include "map/point_bounds.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -127,17 +128,7 @@ void write_labelled_csv(const LabelledPoints& points, const std::string& path) {
 }
 
 void LabelledPoints::bounds(double lo[3], double hi[3]) const {
-  for (int d = 0; d < 3; ++d) lo[d] = hi[d] = 0;
-  if (empty()) return;
-  for (int d = 0; d < dim; ++d) {
-    lo[d] = std::numeric_limits<double>::infinity();
-    hi[d] = -std::numeric_limits<double>::infinity();
-  }
-  for (std::size_t i = 0; i < size(); ++i)
-    for (int d = 0; d < dim; ++d) {
-      lo[d] = std::min(lo[d], position[i * dim + d]);
-      hi[d] = std::max(hi[d], position[i * dim + d]);
-    }
+  detail::point_bounds(position, size(), dim, lo, hi);
 }
 
 }  // namespace potmap

@@ -1,4 +1,5 @@
 #include "potmap/map/kernel_map.hpp"
+#include "map/point_bounds.hpp"
 
 #include <cmath>
 #include <limits>
@@ -64,20 +65,7 @@ void KernelMap::validate(const std::string& source) const {
 }
 
 void KernelMap::bounds(double lo[3], double hi[3]) const {
-  for (int d = 0; d < 3; ++d) {
-    lo[d] = 0;
-    hi[d] = 0;
-  }
-  if (empty()) return;
-  for (int d = 0; d < dim; ++d) {
-    lo[d] = std::numeric_limits<double>::infinity();
-    hi[d] = -std::numeric_limits<double>::infinity();
-  }
-  for (std::size_t i = 0; i < size(); ++i)
-    for (int d = 0; d < dim; ++d) {
-      lo[d] = std::min(lo[d], position[i * dim + d]);
-      hi[d] = std::max(hi[d], position[i * dim + d]);
-    }
+  detail::point_bounds(position, size(), dim, lo, hi);
 }
 
 }  // namespace potmap
