@@ -1,6 +1,5 @@
 // Labelled points as CSV text: `t,x,y[,z],occupied` (see labelled_points.hpp).
 #include "potmap/data/labelled_points.hpp"
-#include "map/point_bounds.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +8,7 @@
 
 #include "io/file_util.hpp"
 #include "io/text_io.hpp"
+#include "map/point_bounds.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {

@@ -1,10 +1,10 @@
 #include "potmap/map/kernel_map.hpp"
-#include "map/point_bounds.hpp"
 
 #include <cmath>
 #include <limits>
 #include <sstream>
 
+#include "map/point_bounds.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
