@@ -17,6 +17,18 @@ namespace {
 std::string errno_text() {
   return std::strerror(errno);
 }
+
+// After a rename the folder's entry is what must reach the disk. Best effort: the file itself is
+// complete and in place, and a folder that cannot be opened or synced (some network and FUSE
+// file systems) is no reason to report a failed write.
+void sync_folder_of(const std::string& path) {
+  const std::string::size_type slash = path.find_last_of('/');
+  const std::string folder = slash == std::string::npos ? "." : path.substr(0, slash + 1);
+  const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
 }  // namespace
 
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {
@@ -47,25 +59,19 @@ AtomicFile::~AtomicFile() {
 
 void AtomicFile::write(const void* data, std::size_t n) {
   if (n == 0) return;
+  if (!file_) throw Error("cannot write " + path_ + ": already committed or discarded");
   if (std::fwrite(data, 1, n, file_) != n)
     throw Error("cannot write " + path_ + ": " + errno_text());
 }
 
-void AtomicFile::commit() {
-  if (done_) return;
+void AtomicFile::sync() {
+  if (done_) throw Error("cannot write " + path_ + ": already committed or discarded");
+  if (synced_) return;
   bool ok = std::fflush(file_) == 0 && !std::ferror(file_);
   std::string why = ok ? "" : errno_text();
   // fsync before rename: otherwise a crash could leave the final name pointing at an empty file.
+  // EINVAL: a file (pipe, some FUSE folders) that cannot be synced, which is not a failure.
   if (ok && ::fsync(::fileno(file_)) != 0 && errno != EINVAL) {
-    ok = false;
-    why = errno_text();
-  }
-  if (std::fclose(file_) != 0 && ok) {
-    ok = false;
-    why = errno_text();
-  }
-  file_ = nullptr;
-  if (ok && std::rename(temp_.c_str(), path_.c_str()) != 0) {
     ok = false;
     why = errno_text();
   }
@@ -73,7 +79,25 @@ void AtomicFile::commit() {
     discard();
     throw Error("cannot write " + path_ + ": " + why);
   }
+  synced_ = true;
+}
+
+void AtomicFile::commit() {
+  if (done_) return;
+  sync();
+  std::string why;
+  const int closed = std::fclose(file_);
+  file_ = nullptr;
+  if (closed != 0)
+    why = errno_text();
+  else if (std::rename(temp_.c_str(), path_.c_str()) != 0)
+    why = errno_text();
+  if (!why.empty()) {
+    discard();
+    throw Error("cannot write " + path_ + ": " + why);
+  }
   done_ = true;
+  sync_folder_of(path_);
 }
 
 void AtomicFile::discard() noexcept {

@@ -21,8 +21,14 @@ class AtomicFile {
   const std::string& path() const { return path_; }
   /// Writes `n` bytes; throws potmap::Error naming the file on a short write.
   void write(const void* data, std::size_t n);
-  /// Flushes, closes and renames the temporary file to its final name. Throws on failure (the
-  /// temporary file is then removed).
+  /// Flushes the temporary file and fsyncs it: a full disk shows here at the latest. A writer of
+  /// several files syncs every one before committing any, so that a failure leaves all the
+  /// previous files in place. Throws potmap::Error naming the file (the temporary file is then
+  /// removed).
+  void sync();
+  /// Syncs (unless sync() already did), closes and renames the temporary file to its final
+  /// name, then fsyncs the folder so that the new name survives a crash. Throws on failure (the
+  /// temporary file is then removed and the previous file is left as it was).
   void commit();
   /// Removes the temporary file now (also done by the destructor unless committed).
   void discard() noexcept;
@@ -31,6 +37,7 @@ class AtomicFile {
   std::string path_;
   std::string temp_;
   std::FILE* file_ = nullptr;
+  bool synced_ = false;
   bool done_ = false;
 };
 
