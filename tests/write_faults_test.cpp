@@ -70,10 +70,11 @@ std::uintmax_t largest_file(const std::string& dir) {
 
 // `write(dir, version)` writes a writer's file(s) into `dir`: version 0 the previous content,
 // version 1 a different, larger one. Version 1 is written once freely (to learn its size), then
-// over version 0 with files limited to half its largest file: it must throw an Error naming
-// `named` (a file name) and leave version 0's folder exactly as it was.
+// over version 0 with files limited to `limit` bytes (0: half its largest file): it must throw
+// an Error naming `named` (a file name) and leave version 0's folder exactly as it was.
 void expect_full_disk_keeps_previous(const std::string& name, const std::string& named,
-                                     const std::function<void(const std::string&, int)>& write) {
+                                     const std::function<void(const std::string&, int)>& write,
+                                     std::uintmax_t limit = 0) {
   const std::string target = test::temp_dir(name + "-target");
   const std::string probe = test::temp_dir(name + "-probe");
   write(target, 0);
@@ -81,7 +82,7 @@ void expect_full_disk_keeps_previous(const std::string& name, const std::string&
   const auto before = snapshot(target);
   ASSERT_FALSE(before.empty());
   ASSERT_NE(before, snapshot(probe)) << "the two versions must differ for the test to mean much";
-  const std::uintmax_t limit = largest_file(probe) / 2;
+  if (limit == 0) limit = largest_file(probe) / 2;
   ASSERT_GT(limit, 0u);
   std::string message;
   {
@@ -174,6 +175,26 @@ TEST(WriteFaults, RasterGeoTiffAndManifest) {
     o.work_dir = work + "/" + fs::path(dir).filename().string() + std::to_string(v);
     rasterize_tiled(test::context(), map, spec, dir + "/map.tif", o);
   });
+}
+
+// The tiles themselves (containers in the work folder, here inside the output's folder): the
+// first tile cannot be written, so the job stops before the GeoTIFF, which stays as it was.
+TEST(WriteFaults, RasterTiles) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  const KernelMap map = grid_map(6);
+  expect_full_disk_keeps_previous(
+      "tiles", "tile_",
+      [&](const std::string& dir, int v) {
+        RasterSpec spec;
+        spec.xmin = spec.ymin = -1;
+        spec.xmax = spec.ymax = v ? 4.0 : 2.0;
+        spec.resolution = v ? 0.02 : 0.1;
+        TiledRasterOptions o;
+        o.tile_cells = 64;
+        o.work_dir = dir + "/tiles";
+        rasterize_tiled(test::context(), map, spec, dir + "/map.tif", o);
+      },
+      4096);  // a tile of 64 x 64 cells holds 32 kB
 }
 
 TEST(WriteFaults, RosMap) {
