@@ -110,6 +110,15 @@ KernelMap grid_map(int side) {
   return m;
 }
 
+// The raster window of version v: 30 x 30 cells, then 250 x 250 (250 kB a .npy).
+RasterSpec window(int v) {
+  RasterSpec spec;
+  spec.xmin = spec.ymin = -1;
+  spec.xmax = spec.ymax = v ? 4.0 : 2.0;
+  spec.resolution = v ? 0.02 : 0.1;
+  return spec;
+}
+
 Dictionary small_dictionary(std::size_t atoms) {
   Dictionary d;
   d.dim = 2;
@@ -151,12 +160,7 @@ TEST(WriteFaults, Dictionary) {
 TEST(WriteFaults, RasterPngAndNpy) {
   const KernelMap map = grid_map(6);
   expect_full_disk_keeps_previous("raster", "map_", [&](const std::string& dir, int v) {
-    RasterSpec spec;
-    spec.xmin = -1;
-    spec.ymin = -1;
-    spec.xmax = spec.ymax = v ? 5.0 : 2.0;
-    spec.resolution = v ? 0.02 : 0.1;
-    rasterize(test::context(), map, spec, dir + "/map", {});
+    rasterize(test::context(), map, window(v), dir + "/map", {});
   });
 }
 
@@ -165,15 +169,10 @@ TEST(WriteFaults, RasterGeoTiffAndManifest) {
   const KernelMap map = grid_map(6);
   const std::string work = test::temp_dir("geotiff-fault-tiles");
   expect_full_disk_keeps_previous("geotiff", "map.tif", [&](const std::string& dir, int v) {
-    RasterSpec spec;
-    spec.xmin = -1;
-    spec.ymin = -1;
-    spec.xmax = spec.ymax = v ? 4.0 : 2.0;
-    spec.resolution = v ? 0.02 : 0.1;
     TiledRasterOptions o;
     o.tile_cells = 64;
     o.work_dir = work + "/" + fs::path(dir).filename().string() + std::to_string(v);
-    rasterize_tiled(test::context(), map, spec, dir + "/map.tif", o);
+    rasterize_tiled(test::context(), map, window(v), dir + "/map.tif", o);
   });
 }
 
@@ -185,14 +184,10 @@ TEST(WriteFaults, RasterTiles) {
   expect_full_disk_keeps_previous(
       "tiles", "tile_",
       [&](const std::string& dir, int v) {
-        RasterSpec spec;
-        spec.xmin = spec.ymin = -1;
-        spec.xmax = spec.ymax = v ? 4.0 : 2.0;
-        spec.resolution = v ? 0.02 : 0.1;
         TiledRasterOptions o;
         o.tile_cells = 64;
         o.work_dir = dir + "/tiles";
-        rasterize_tiled(test::context(), map, spec, dir + "/map.tif", o);
+        rasterize_tiled(test::context(), map, window(v), dir + "/map.tif", o);
       },
       4096);  // a tile of 64 x 64 cells holds 32 kB
 }
