@@ -3,11 +3,14 @@
 #include <cmath>
 
 #include <array>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <stdexcept>
 
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <memory>
@@ -81,6 +84,27 @@ MapperOptions small_mapper_options(bool refine) {
   o.pot.refine = refine;
   o.labels.seed = o.pot.seed = 3;
   return o;
+}
+
+FileSizeLimit::FileSizeLimit(unsigned long long bytes) {
+  rlimit r{};
+  getrlimit(RLIMIT_FSIZE, &r);
+  saved_cur_ = r.rlim_cur;
+  saved_max_ = r.rlim_max;
+  old_handler_ = std::signal(SIGXFSZ, SIG_IGN);
+  r.rlim_cur = static_cast<rlim_t>(bytes);
+  if (setrlimit(RLIMIT_FSIZE, &r) != 0) {
+    std::signal(SIGXFSZ, old_handler_);
+    throw std::runtime_error("setrlimit(RLIMIT_FSIZE) refused");
+  }
+}
+
+FileSizeLimit::~FileSizeLimit() {
+  rlimit r{};
+  r.rlim_cur = static_cast<rlim_t>(saved_cur_);
+  r.rlim_max = static_cast<rlim_t>(saved_max_);
+  setrlimit(RLIMIT_FSIZE, &r);
+  std::signal(SIGXFSZ, old_handler_);
 }
 
 Context& context() {

@@ -42,6 +42,21 @@ KernelMap grid_around(const std::array<double, 3>& c, double half);
 /// rotations, seed 3): a scan maps in a fraction of a second on PoCL.
 MapperOptions small_mapper_options(bool refine);
 
+/// While alive, no file of this process can grow past `bytes`: the kernel fails a write beyond
+/// (EFBIG, as ENOSPC on a full disk), whoever writes. SIGXFSZ, which would kill the process, is
+/// ignored meanwhile. The limit is the process's: nothing else may write files while it lives.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(unsigned long long bytes);  ///< throws std::runtime_error if refused
+  ~FileSizeLimit();
+  FileSizeLimit(const FileSizeLimit&) = delete;
+  FileSizeLimit& operator=(const FileSizeLimit&) = delete;
+
+ private:
+  unsigned long long saved_cur_ = 0, saved_max_ = 0;
+  void (*old_handler_)(int) = nullptr;
+};
+
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();
 

@@ -5,9 +5,6 @@
 // library writes (stdio, libpng, GDAL), with no test hook in the writers themselves.
 #include <gtest/gtest.h>
 
-#include <sys/resource.h>
-
-#include <csignal>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -27,30 +24,6 @@ using namespace potmap;
 namespace fs = std::filesystem;
 
 namespace {
-
-// While alive, no file of this process can grow past `bytes`: a write beyond fails with EFBIG
-// (SIGXFSZ, which would kill the process, is ignored meanwhile). The tests are single-threaded
-// while it is in force, so nothing else of the suite writes under it.
-class FileSizeLimit {
- public:
-  explicit FileSizeLimit(rlim_t bytes) {
-    getrlimit(RLIMIT_FSIZE, &saved_);
-    old_handler_ = std::signal(SIGXFSZ, SIG_IGN);
-    rlimit r = saved_;
-    r.rlim_cur = bytes;
-    EXPECT_EQ(setrlimit(RLIMIT_FSIZE, &r), 0);
-  }
-  ~FileSizeLimit() {
-    setrlimit(RLIMIT_FSIZE, &saved_);
-    std::signal(SIGXFSZ, old_handler_);
-  }
-  FileSizeLimit(const FileSizeLimit&) = delete;
-  FileSizeLimit& operator=(const FileSizeLimit&) = delete;
-
- private:
-  rlimit saved_{};
-  void (*old_handler_)(int) = SIG_DFL;
-};
 
 // Every file under `dir` (relative name -> bytes).
 std::map<std::string, std::string> snapshot(const std::string& dir) {
@@ -86,7 +59,7 @@ void expect_full_disk_keeps_previous(const std::string& name, const std::string&
   ASSERT_GT(limit, 0u);
   std::string message;
   {
-    FileSizeLimit full(limit);
+    test::FileSizeLimit full(limit);
     try {
       write(target, 1);
     } catch (const Error& e) {

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -137,29 +138,33 @@ void BinaryCache::store(const std::string& key, const std::vector<unsigned char>
   out.append(reinterpret_cast<const char*>(binary.data()), binary.size());
   // fsync before the rename: a crash must not leave the entry's name on missing blocks (the
   // checksum would catch it, but at the cost of a warning and a rebuild).
-  bool ok = false;
+  std::string why;
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (fd >= 0) {
+  if (fd < 0) {
+    why = std::strerror(errno);
+  } else {
     std::size_t done = 0;
-    while (done < out.size()) {
+    while (done < out.size() && why.empty()) {
       const ssize_t n = ::write(fd, out.data() + done, out.size() - done);
-      if (n <= 0) break;
-      done += static_cast<std::size_t>(n);
+      if (n > 0)
+        done += static_cast<std::size_t>(n);
+      else if (n < 0 && errno != EINTR)
+        why = std::strerror(errno);
     }
-    ok = done == out.size() && (::fsync(fd) == 0 || errno == EINVAL);
-    ok = ::close(fd) == 0 && ok;
+    if (why.empty() && ::fsync(fd) != 0 && errno != EINVAL) why = std::strerror(errno);
+    if (::close(fd) != 0 && why.empty()) why = std::strerror(errno);
   }
   std::error_code ec;
-  if (!ok) {
+  if (!why.empty()) {
     fs::remove(tmp, ec);
-    warn_disabled(dir_, "write failed");
+    warn_disabled(dir_, "cannot write " + tmp + ": " + why);
     enabled_ = false;
     return;
   }
   fs::rename(tmp, path, ec);
   if (ec) {
     fs::remove(tmp, ec);
-    warn_disabled(dir_, "rename failed");
+    warn_disabled(dir_, "cannot rename " + tmp + ": " + ec.message());
     enabled_ = false;
   }
 }
