@@ -10,6 +10,7 @@
 #include <map>
 #include <string>
 
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/io/ros_map.hpp"
@@ -181,5 +182,13 @@ TEST(WriteFaults, TuningFile) {
     Tuning t = test::context().tuning();
     t.map_eval.work_group = v ? 16 : 8;
     write_tuning_file(dir + "/tuning.txt", test::context().info(), t);
+  });
+}
+
+TEST(WriteFaults, SimulatedLog) {
+  expect_full_disk_keeps_previous("simulation", "scans.log", [](const std::string& dir, int v) {
+    SimOptions o;
+    o.scans = v ? 20 : 2;
+    write_simulation(simulate(Town::builtin("town1"), o), o, dir);
   });
 }
