@@ -17,18 +17,6 @@ namespace {
 std::string errno_text() {
   return std::strerror(errno);
 }
-
-// After a rename the folder's entry is what must reach the disk. Best effort: the file itself is
-// complete and in place, and a folder that cannot be opened or synced (some network and FUSE
-// file systems) is no reason to report a failed write.
-void sync_folder_of(const std::string& path) {
-  const std::string::size_type slash = path.find_last_of('/');
-  const std::string folder = slash == std::string::npos ? "." : path.substr(0, slash + 1);
-  const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
-}
 }  // namespace
 
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {
@@ -97,7 +85,6 @@ void AtomicFile::commit() {
     throw Error("cannot write " + path_ + ": " + why);
   }
   done_ = true;
-  sync_folder_of(path_);
 }
 
 void AtomicFile::discard() noexcept {
