@@ -118,6 +118,8 @@ TEST(MapCheckpointCli, KilledAtRandomAndResumedEndsWithTheSameMap) {
   ASSERT_TRUE(fs::exists(out));
   EXPECT_EQ(potmap::test::file_bytes(out), potmap::test::file_bytes(dir + "/whole.potmap"));
   EXPECT_FALSE(fs::exists(ckpt)) << "removed after a successful finish";
+  for (const auto& e : fs::directory_iterator(dir))  // nor what a kill mid-write left
+    EXPECT_EQ(e.path().filename().string().find("run.ckpt.tmp-"), std::string::npos) << e.path();
   // The summary covers every scan, scored as the uninterrupted run's.
   const std::string a = potmap::test::file_bytes(dir + "/whole.json"),
                     b = potmap::test::file_bytes(dir + "/killed.json");

@@ -39,8 +39,10 @@ MapperOptions small_options(bool refine) {
   o.pot.transport_tolerance = 1e-4;
   o.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
   o.pot.refine = refine;
-  // Warm candidates take part in the ranking: the restored mapper must carry them over.
-  o.pot.candidates = 3;
+  // The indexed ranking adds the atoms of recent scans to each sector's few nearest ones: the
+  // restored mapper must carry them over.
+  o.pot.ranking = PotRanking::indexed;
+  o.pot.index_neighbours = 2;
   o.labels.seed = o.pot.seed = 3;
   return o;
 }
@@ -78,7 +80,7 @@ void expect_bitwise(const KernelMap& a, const KernelMap& b) {
 
 OverallMapOptions capped() {
   OverallMapOptions o;
-  o.max_kernels = 400;  // retirements too, so counts and ages must come back
+  o.max_kernels = 250;  // retirements too (225 kernels kept), so counts and ages must come back
   return o;
 }
 

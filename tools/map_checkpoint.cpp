@@ -1,6 +1,11 @@
 #include "map_checkpoint.hpp"
 
+#include <signal.h>
+
+#include <cerrno>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 
 #include "potmap/error.hpp"
 
@@ -128,6 +133,25 @@ void decode_checkpoint(const std::string& bytes, const std::string& path, nlohma
   t.kernels = static_cast<std::size_t>(r.u64());
   t.scans = static_cast<std::size_t>(r.u64());
   r.done();
+}
+
+std::size_t remove_stale_temporaries(const std::string& path) {
+  namespace fs = std::filesystem;
+  const fs::path p(path);
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  const std::string prefix = p.filename().string() + ".tmp-";
+  std::size_t removed = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const long pid = std::strtol(name.c_str() + prefix.size(), nullptr, 10);
+    // A process that still runs (or one we may not signal) may be writing it.
+    if (pid <= 0 || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code rm;
+    removed += fs::remove(it->path(), rm) ? 1 : 0;
+  }
+  return removed;
 }
 
 void check_same_run(const std::string& path, const nlohmann::json& saved,

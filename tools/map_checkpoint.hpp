@@ -35,6 +35,10 @@ std::string encode_checkpoint(const nlohmann::json& run, const MapRunTotals& tot
 void decode_checkpoint(const std::string& bytes, const std::string& path, nlohmann::json& run,
                        MapRunTotals& totals);
 
+/// Removes what runs killed while writing the checkpoint at `path` left: its temporary files
+/// (PATH.tmp-PID-*, io/atomic_file.hpp) of processes that no longer run. Returns how many.
+std::size_t remove_stale_temporaries(const std::string& path);
+
 /// Throws ArgumentError naming `path` and every entry of the run record that differs ("--sectors:
 /// the checkpoint has 5, this run 7") when `saved` is not `run`.
 void check_same_run(const std::string& path, const nlohmann::json& saved,

@@ -68,6 +68,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   const MapCheckpointing& ck = job.checkpoint;
   MapRunTotals t;
   t.test.dim = dict.dim;
+  if (!ck.path.empty()) remove_stale_temporaries(ck.path);
   if (resume(ck, mapper, t, scans.size())) {
     r.resumed_at = mapper.scans();
     std::fprintf(stderr, "potmap map: resumed from %s at scan %zu/%zu (%zu scans mapped before)\n",
