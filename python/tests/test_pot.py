@@ -90,7 +90,7 @@ def test_transfer_scan_matches_the_mapper_instantaneous_map(source, ctx):
 @pytest.mark.parametrize("refine", [False, True])
 def test_mapper_state_continues_bit_for_bit(source, ctx, tmp_path, refine):
     d = potmap.Dictionary.load(str(source / "town1.potdict"))
-    scans = potmap.read_dataset(str(source / "dst" / "scans.log"))
+    scans = list(potmap.read_dataset(str(source / "dst" / "scans.log")))
     whole = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
     for s in scans:
         whole.add_scan(s)
