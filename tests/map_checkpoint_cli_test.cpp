@@ -80,7 +80,7 @@ TEST(MapCheckpointCli, KilledAtRandomAndResumedEndsWithTheSameMap) {
   std::mt19937 rng(20261201);
   std::uniform_int_distribution<int> delay_ms(0, 400);
   int kills = 0;
-  for (int attempt = 0; attempt < 6 && kills < 4; ++attempt) {
+  for (int attempt = 0; attempt < 5 && kills < 3; ++attempt) {
     const ino_t before = inode_of(ckpt);
     const std::string log = dir + "/run" + std::to_string(attempt) + ".log";
     const pid_t pid = spawn(args, log);

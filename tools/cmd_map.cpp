@@ -44,21 +44,15 @@ struct MapArgs {
   bool resume = false, keep_checkpoint = false;
 };
 
-std::string hex(std::uint64_t v) {
-  char b[24];
-  std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(v));
-  return b;
-}
-
 // What a checkpoint must match to be resumed: the inputs (by content) and every option that
 // changes the overall map, under the names the user typed them with.
 nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const Dictionary& dict,
                           const std::vector<Scan>& scans, const MapJob& job,
                           const std::string& device) {
   return {{"--dict", dict_file},
-          {"dictionary fingerprint", hex(fingerprint(dict))},
+          {"dictionary fingerprint", fingerprint(dict)},
           {"--scans", a.scans},
-          {"scans fingerprint", hex(fingerprint(scans))},
+          {"scans fingerprint", fingerprint(scans)},
           {"scans", scans.size()},
           {"--first", a.first},
           {"--max-scans", a.max_scans},
@@ -80,7 +74,7 @@ nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const 
           {"--displacement-var", a.displacement_var},
           {"--merge-radius", a.merge_radius},
           {"--max-kernels", a.max_kernels},
-          {"mapper options fingerprint", hex(fingerprint(job.mapper, job.overall))},
+          {"mapper options fingerprint", fingerprint(job.mapper, job.overall)},
           {"device", a.cpu ? std::string("CPU reference") : device}};
 }
 

@@ -3,16 +3,19 @@
 #include <cstring>
 #include <string>
 
+#include "runtime/hash.hpp"
+
 namespace potmap {
 
 namespace {
 
-// FNV-1a, 64 bits, fed values as little-endian bytes.
+// FNV-1a, 64 bits (runtime/hash.hpp), fed values as little-endian bytes.
 class Fnv {
  public:
-  void byte(std::uint8_t b) { h_ = (h_ ^ b) * 0x100000001b3ULL; }
   void u64(std::uint64_t v) {
-    for (int i = 0; i < 8; ++i) byte(static_cast<std::uint8_t>(v >> (8 * i)));
+    char b[8];
+    for (int i = 0; i < 8; ++i) b[i] = static_cast<char>(v >> (8 * i));
+    h_ = detail::fnv1a64(std::string_view(b, 8), h_);
   }
   void i64(std::int64_t v) { u64(static_cast<std::uint64_t>(v)); }
   void f64(double d) {
@@ -27,12 +30,12 @@ class Fnv {
   }
   void text(const std::string& s) {
     u64(s.size());
-    for (char c : s) byte(static_cast<std::uint8_t>(c));
+    h_ = detail::fnv1a64(s, h_);
   }
   std::uint64_t value() const { return h_; }
 
  private:
-  std::uint64_t h_ = 0xcbf29ce484222325ULL;
+  std::uint64_t h_ = detail::fnv1a64("");
 };
 
 void add(Fnv& f, const KernelMap& k) {

@@ -7,7 +7,6 @@
 // fingerprints (u64 each), the scan count, the chosen atoms of the two last scans, the last
 // merge's counters, POT's overall map (pot/overall_map_state.hpp), and a byte saying whether
 // the persistent RePOT learner follows (learn/bhm_joint_state.hpp).
-#include <cstdio>
 #include <string>
 
 #include "io/container_cursor.hpp"
@@ -16,6 +15,7 @@
 #include "potmap/error.hpp"
 #include "potmap/pot/fingerprint.hpp"
 #include "potmap/pot/mapper.hpp"
+#include "runtime/hash.hpp"
 
 namespace potmap {
 
@@ -24,12 +24,6 @@ namespace detail {
 namespace {
 
 constexpr ContainerLayout kLayout{"POTMST\r\n", "a potmap mapper state", 1, 24, 16};
-
-std::string hex(std::uint64_t v) {
-  char b[24];
-  std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(v));
-  return b;
-}
 
 void put_atoms(ContainerWriter& w, const std::vector<long>& atoms) {
   std::vector<std::uint64_t> v(atoms.begin(), atoms.end());
@@ -86,12 +80,12 @@ struct MapperState {
     const std::size_t fp_at = c.at();
     const std::uint64_t dict_fp = c.u64(), options_fp = c.u64();
     if (dict_fp != fingerprint(*m.dict_))
-      r.fail(fp_at, "saved with another dictionary (fingerprint " + hex(dict_fp) +
-                        ", this mapper's dictionary " + hex(fingerprint(*m.dict_)) + ")");
+      r.fail(fp_at, "saved with another dictionary (fingerprint " + hex64(dict_fp) +
+                        ", this mapper's dictionary " + hex64(fingerprint(*m.dict_)) + ")");
     const std::uint64_t have = fingerprint(m.options_, m.overall_.options());
     if (options_fp != have)
-      r.fail(fp_at + 8, "saved with other mapper options (fingerprint " + hex(options_fp) +
-                            ", this mapper's " + hex(have) + ")");
+      r.fail(fp_at + 8, "saved with other mapper options (fingerprint " + hex64(options_fp) +
+                            ", this mapper's " + hex64(have) + ")");
     const std::uint64_t scans = c.u64();
     std::vector<long> warm0 = get_atoms(c), warm1 = get_atoms(c);
     MapperMerge g;
