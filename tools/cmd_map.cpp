@@ -36,8 +36,9 @@ struct MapArgs {
   double wall_clearance = 0, displacement_var = 0;
   std::uint64_t seed = 0;
   std::string ranking = "exhaustive";
-  // Checkpoints: why every 100 scans by default: on the real logs that is a checkpoint every
-  // few seconds to a minute of mapping, for well under a tenth of the time (README).
+  // Checkpoints every 100 scans by default: at most 100 scans of work lost, for about 2 % of
+  // the time (RePOT on Intel: a 35 MB checkpoint in 0.14 s against 7.5 s for 100 scans; POT's
+  // are 1 to 3 MB, 0.02 s; README).
   std::string checkpoint;  // default: OUT + ".ckpt"
   std::size_t checkpoint_every = 100;
   double checkpoint_seconds = 0;
@@ -181,6 +182,8 @@ int run_map(const MapArgs& a, const std::string& device) {
     j["ros_map"] = {rs.yaml, rs.pgm};
   }
   if (r.resumed_at > 0) j["resumed_at_scan"] = r.resumed_at;
+  if (r.checkpoints > 0)
+    j["checkpoints"] = {{"written", r.checkpoints}, {"seconds", r.checkpoint_seconds}};
   if (a.json == "-")
     std::cout << j.dump(1) << "\n";
   else if (!a.json.empty())

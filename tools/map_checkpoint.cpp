@@ -77,7 +77,7 @@ class Reader {
 
 }  // namespace
 
-std::string encode_checkpoint(const nlohmann::json& run, const MapRunTotals& t) {
+std::string encode_checkpoint(const nlohmann::json& run, const MapRunTotals& t, double seconds) {
   Bytes b;
   const std::string r = run.dump();
   b.u64(r.size());
@@ -92,7 +92,7 @@ std::string encode_checkpoint(const nlohmann::json& run, const MapRunTotals& t) 
   b.out.append(t.test.label.begin(), t.test.label.end());
   for (std::int64_t s : t.test.scan) b.u64(static_cast<std::uint64_t>(s));
   for (double x : {t.timing.prepare_ms, t.timing.ranking_ms, t.timing.transport_ms,
-                   t.timing.placement_ms, t.timing.refine_ms, t.wall_ms, t.max_wall_ms, t.seconds})
+                   t.timing.placement_ms, t.timing.refine_ms, t.wall_ms, t.max_wall_ms, seconds})
     b.f64(x);
   b.u64(t.kernels);
   b.u64(t.scans);

@@ -25,11 +25,13 @@ struct MapRunTotals {
   double wall_ms = 0, max_wall_ms = 0;
   std::size_t kernels = 0;  ///< instantaneous kernels, summed
   std::size_t scans = 0;
-  double seconds = 0;  ///< wall-clock time of the run so far (every stretch of it)
+  double seconds = 0;  ///< wall-clock time of the earlier stretches of the run (resumed ones)
 };
 
-/// The extra bytes of a checkpoint: `run` (the run's record) and the totals.
-std::string encode_checkpoint(const nlohmann::json& run, const MapRunTotals& totals);
+/// The extra bytes of a checkpoint: `run` (the run's record) and the totals, with `seconds` the
+/// wall-clock time of the whole run so far in place of totals.seconds.
+std::string encode_checkpoint(const nlohmann::json& run, const MapRunTotals& totals,
+                              double seconds);
 
 /// Reads what encode_checkpoint() wrote; throws InputError naming `path` when it is malformed.
 void decode_checkpoint(const std::string& bytes, const std::string& path, nlohmann::json& run,

@@ -76,6 +76,11 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   } else if (ck.resume) {
     std::fprintf(stderr, "potmap map: no checkpoint at %s; starting from scan 1\n",
                  ck.path.c_str());
+  } else if (std::error_code ec; !ck.path.empty() && std::filesystem::exists(ck.path, ec)) {
+    std::fprintf(stderr,
+                 "potmap map: %s exists (a stopped run?) and will be replaced; --resume would "
+                 "continue it\n",
+                 ck.path.c_str());
   }
   const auto t0 = std::chrono::steady_clock::now();
   auto last_checkpoint = t0;
@@ -135,10 +140,11 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
             ck.every_seconds > 0 &&
             std::chrono::duration<double>(now - last_checkpoint).count() >= ck.every_seconds;
         if (!by_count && !by_time) return;
-        MapRunTotals saved = t;
-        saved.seconds += std::chrono::duration<double>(now - t0).count();
-        mapper.save_state(ck.path, encode_checkpoint(ck.run, saved));
+        const double seconds = t.seconds + std::chrono::duration<double>(now - t0).count();
+        mapper.save_state(ck.path, encode_checkpoint(ck.run, t, seconds));
         last_checkpoint = std::chrono::steady_clock::now();
+        ++r.checkpoints;
+        r.checkpoint_seconds += std::chrono::duration<double>(last_checkpoint - now).count();
       },
       mapper.continuation());
   r.scans = t.scans;

@@ -43,9 +43,11 @@ struct MapJobResult {
   std::size_t overall_kernels() const { return mapper->overall_kernels(); }
   std::size_t overall_memory_bytes() const { return mapper->overall_memory_bytes(); }
   bool persistent() const { return mapper->repot() != nullptr; }
-  std::size_t resumed_at = 0;  ///< scans a checkpoint held when the run began (0: none)
-  Scores instantaneous;        ///< every scan's held-out samples on its own instantaneous map
-  Scores overall_scores;       ///< every scan's held-out samples on the final overall map
+  std::size_t resumed_at = 0;     ///< scans a checkpoint held when the run began (0: none)
+  std::size_t checkpoints = 0;    ///< checkpoints written by this stretch of the run
+  double checkpoint_seconds = 0;  ///< wall-clock time they took
+  Scores instantaneous;           ///< every scan's held-out samples on its own instantaneous map
+  Scores overall_scores;          ///< every scan's held-out samples on the final overall map
   std::size_t scans = 0;
   PotTiming mean_timing;     ///< per scan
   double mean_wall_ms = 0;   ///< per scan, solve to callback
