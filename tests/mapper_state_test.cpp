@@ -17,33 +17,12 @@
 namespace potmap {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-KernelMap grid_around(const std::array<double, 3>& c, double half) {
-  KernelMap map;
-  map.dim = 2;
-  for (double x = -half; x <= half + 1e-9; x += 2)
-    for (double y = -half; y <= half + 1e-9; y += 2) {
-      const double p[2] = {c[0] + x, c[1] + y};
-      map.push_back(p, 2.0, 0.1 * static_cast<double>(map.size() % 17) - 0.8, 0.5);
-    }
-  return map;
-}
-
 MapperOptions small_options(bool refine) {
-  MapperOptions o;
-  o.pot.rank_hits = 40;
-  o.pot.rank_free = 20;
-  o.pot.transport_points = 120;
-  o.pot.transport_max_iterations = 600;
-  o.pot.transport_tolerance = 1e-4;
-  o.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
-  o.pot.refine = refine;
+  MapperOptions o = test::small_mapper_options(refine);
   // The indexed ranking adds the atoms of recent scans to each sector's few nearest ones: the
   // restored mapper must carry them over.
   o.pot.ranking = PotRanking::indexed;
   o.pot.index_neighbours = 2;
-  o.labels.seed = o.pot.seed = 3;
   return o;
 }
 
@@ -56,8 +35,8 @@ struct Scene {
     so.scans = 8;
     so.spacing = 3;
     sim = simulate(Town::builtin("town1"), so);
-    build_dictionary({sim.scans[0], sim.scans[1]}, grid_around(sim.scans[0].origin(), 30), {},
-                     *dict);
+    build_dictionary({sim.scans[0], sim.scans[1]},
+                     test::kernel_grid_around(sim.scans[0].origin(), 30), {}, *dict);
     targets.assign(sim.scans.begin() + 2, sim.scans.end());
   }
 };

@@ -64,6 +64,31 @@ Context& context() {
   return *ctx;
 }
 
+KernelMap kernel_grid_around(const std::array<double, 3>& c, double half) {
+  KernelMap map;
+  map.dim = 2;
+  for (double x = -half; x <= half + 1e-9; x += 2)
+    for (double y = -half; y <= half + 1e-9; y += 2) {
+      const double p[2] = {c[0] + x, c[1] + y};
+      map.push_back(p, 2.0, 0.1 * static_cast<double>(map.size() % 17) - 0.8, 0.5);
+    }
+  return map;
+}
+
+MapperOptions small_mapper_options(bool refine) {
+  constexpr double kPi = 3.14159265358979323846;
+  MapperOptions o;
+  o.pot.rank_hits = 40;
+  o.pot.rank_free = 20;
+  o.pot.transport_points = 120;
+  o.pot.transport_max_iterations = 600;
+  o.pot.transport_tolerance = 1e-4;
+  o.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  o.pot.refine = refine;
+  o.labels.seed = o.pot.seed = 3;
+  return o;
+}
+
 Sector rotated_sector(const Sector& s, double angle) {
   Sector r = s;
   const double c = std::cos(angle), sn = std::sin(angle);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::test {
@@ -31,6 +32,14 @@ std::string file_bytes(const std::string& path);
 /// The sector with its hits and free samples turned by `angle` radians about its origin (the
 /// sector frame's centre), counter-clockwise (about the vertical axis in 3D).
 Sector rotated_sector(const Sector& s, double angle);
+
+/// 2D kernels every 2 m over a square of half-width `half` around `centre`, each weight mean
+/// tagging its index: a source map for small dictionaries.
+KernelMap kernel_grid_around(const std::array<double, 3>& centre, double half);
+
+/// Mapper settings small enough for tests (fewer samples and rotations, seed 3), RePOT with
+/// `refine`.
+MapperOptions small_mapper_options(bool refine);
 
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();
