@@ -6,7 +6,10 @@
 //
 // Mapper is the incremental form for a program that receives scans one at a time (a ROS node,
 // a SLAM front end): add_scan() maps one scan and adds it to an overall map. It gives the
-// same instantaneous maps as map_scans() on the same scans in the same order.
+// same instantaneous maps as map_scans() on the same scans in the same order, except with the
+// indexed ranking: its warm candidates (PotOptions::warm_candidates) are the previous scan's
+// atoms in add_scan(), the ones of the scan before that in map_scans() (whose next scan is
+// prepared while the current one is solved). add_mapped() adds map_scans()' results instead.
 //
 // The overall map: POT merges the instantaneous maps into an OverallMap (overall_map.hpp).
 // RePOT, by default (MapperOptions::persistent_refine), keeps one persistent joint BHM
