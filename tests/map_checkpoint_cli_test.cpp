@@ -41,10 +41,12 @@ const std::string& dictionary() {
   return path;
 }
 
-std::string map_args(const std::string& out, const std::string& extra = "") {
+// RePOT by default (its persistent learner is most of a checkpoint); method "" maps POT.
+std::string map_args(const std::string& out, const std::string& extra = "",
+                     const std::string& method = "--refine") {
   return "map --dict " + quoted(dictionary()) + " --scans " +
          quoted(potmap::test::shared_data("radish/intel-corrected.log.gz")) +
-         " --max-scans 40 --rotations 4 --refine -q -o " + quoted(out) + " " + extra;
+         " --max-scans 40 --rotations 4 " + method + " -q -o " + quoted(out) + " " + extra;
 }
 
 // The inode of the file at `path`, 0 when there is none: a checkpoint replaced by rename() is a
@@ -141,10 +143,10 @@ TEST(MapCheckpointCli, RefusesOtherRunsAndBrokenCheckpoints) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string dir = potmap::test::temp_dir("map-checkpoint-refusals");
   const std::string ckpt = dir + "/kept.ckpt";
-  // 8 scans, a checkpoint after 5 kept at the end.
+  // POT (the kill test maps RePOT), 8 scans, a checkpoint after 5 kept at the end.
   const std::string base = "--max-scans 8 --checkpoint " + quoted(ckpt);
   auto args = [&](const std::string& extra) {
-    std::string a = map_args(dir + "/m.potmap", base + " " + extra);
+    std::string a = map_args(dir + "/m.potmap", base + " " + extra, "");
     return a.replace(a.find("--max-scans 40 "), 15, "");
   };
   auto r = potmap::test::run_cli(args("--checkpoint-every 5 --keep-checkpoint"), "2>&1");
@@ -176,6 +178,15 @@ TEST(MapCheckpointCli, RefusesOtherRunsAndBrokenCheckpoints) {
   EXPECT_NE(r.out.find(ckpt), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("checksum"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir + "/m.potmap.ckpt"));
+
+  // By time: a checkpoint after the first scan already.
+  fs::remove(ckpt);
+  r = potmap::test::run_cli(
+      args("--checkpoint-every 0 --checkpoint-seconds 0.000001 --keep-checkpoint --json -"),
+      "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("\"written\": 7"), std::string::npos) << r.out;  // after scans 1 to 7
+  EXPECT_TRUE(fs::exists(ckpt));
 
   // The good one resumes at scan 6 and ends as a run from the start.
   std::ofstream(ckpt, std::ios::binary) << good;
