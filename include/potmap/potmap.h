@@ -478,8 +478,7 @@ POTMAP_EXPORT potmap_status potmap_mapper_reset(potmap_mapper* mapper);
  *  need, through a temporary file renamed into place (a half-written file never replaces an
  *  earlier one). The last scan's instantaneous map is not saved. Errors: POTMAP_ERROR_IO
  *  (cannot write). */
-POTMAP_EXPORT potmap_status potmap_mapper_save_state(const potmap_mapper* mapper,
-                                                     const char* path);
+POTMAP_EXPORT potmap_status potmap_mapper_save_state(const potmap_mapper* mapper, const char* path);
 
 /** Restores a state written by potmap_mapper_save_state into a mapper created with the same
  *  dictionary and options: adding the remaining scans then gives the same overall map, bit for
