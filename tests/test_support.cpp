@@ -113,6 +113,7 @@ Context& context() {
   return *ctx;
 }
 
+
 Sector rotated_sector(const Sector& s, double angle) {
   Sector r = s;
   const double c = std::cos(angle), sn = std::sin(angle);

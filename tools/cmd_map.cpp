@@ -1,6 +1,7 @@
 // `potmap map`: map scans by POT or RePOT with a dictionary of atoms (SPEC section 4).
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 
 #include "commands.hpp"
@@ -13,6 +14,7 @@
 #include "potmap/io/map_io.hpp"
 #include "potmap/io/ros_map.hpp"
 #include "potmap/pot/dictionary_io.hpp"
+#include "potmap/pot/fingerprint.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {
@@ -34,7 +36,48 @@ struct MapArgs {
   double wall_clearance = 0, displacement_var = 0;
   std::uint64_t seed = 0;
   std::string ranking = "exhaustive";
+  // Checkpoints every 100 scans by default: at most 100 scans of work lost, for about 2 % of
+  // the time (RePOT on Intel: a 35 MB checkpoint in 0.14 s against 7.5 s for 100 scans; POT's
+  // are 1 to 3 MB, 0.02 s; README).
+  std::string checkpoint;  // default: OUT + ".ckpt"
+  std::size_t checkpoint_every = 100;
+  double checkpoint_seconds = 0;
+  bool resume = false, keep_checkpoint = false;
 };
+
+// What a checkpoint must match to be resumed: the inputs (by content) and every option that
+// changes the overall map, under the names the user typed them with.
+nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const Dictionary& dict,
+                          const std::vector<Scan>& scans, const MapJob& job,
+                          const std::string& device) {
+  return {{"--dict", dict_file},
+          {"dictionary fingerprint", fingerprint(dict)},
+          {"--scans", a.scans},
+          {"scans fingerprint", fingerprint(scans)},
+          {"scans", scans.size()},
+          {"--first", a.first},
+          {"--max-scans", a.max_scans},
+          {"--range-cut", a.range_cut},
+          {"--refine", a.refine},
+          {"--per-scan-refine", a.per_scan_refine},
+          {"--refine-min-variance", a.refine_min_variance},
+          {"--em", a.em},
+          {"--sectors", a.sectors},
+          {"--rotations", a.rotations},
+          {"--ranking", a.ranking},
+          {"--candidates", a.candidates},
+          {"--max-range", a.max_range},
+          {"--free-points", a.free_points},
+          {"--hits-only", a.hits_only},
+          {"--holdout", a.holdout},
+          {"--seed", a.seed},
+          {"--wall-clearance", a.wall_clearance},
+          {"--displacement-var", a.displacement_var},
+          {"--merge-radius", a.merge_radius},
+          {"--max-kernels", a.max_kernels},
+          {"mapper options fingerprint", fingerprint(job.mapper, job.overall)},
+          {"device", a.cpu ? std::string("CPU reference") : device}};
+}
 
 int run_map(const MapArgs& a, const std::string& device) {
   std::string dict_file = a.dict;
@@ -79,6 +122,14 @@ int run_map(const MapArgs& a, const std::string& device) {
 
   std::unique_ptr<Context> ctx;
   if (!a.cpu) ctx = std::make_unique<Context>(make_context(device));
+  MapCheckpointing& ck = job.checkpoint;
+  ck.path = a.checkpoint.empty() ? a.out + ".ckpt" : a.checkpoint;
+  ck.every = a.checkpoint_every;
+  ck.every_seconds = a.checkpoint_seconds;
+  ck.resume = a.resume;
+  if (ck.every == 0 && ck.every_seconds == 0 && !ck.resume) ck.path.clear();
+  if (!ck.path.empty())
+    ck.run = run_record(a, dict_file, dict, scans, job, ctx ? ctx->info().summary() : "");
   std::cerr << "potmap map: " << dict.size() << " atoms, " << scans.size() << " scans, "
             << (a.refine ? "RePOT" : "POT") << ", " << a.sectors << " sectors, " << a.rotations
             << " rotations" << (a.cpu ? ", CPU reference" : "") << "\n";
@@ -89,7 +140,7 @@ int run_map(const MapArgs& a, const std::string& device) {
   std::FILE* human = a.json == "-" ? stderr : stdout;
   std::fprintf(human, "scans          %zu (%s)\n", r.scans, a.refine ? "RePOT" : "POT");
   std::fprintf(human, "overall map    %zu kernels, %.1f MB%s -> %s\n", r.overall_kernels(),
-               r.overall_memory_bytes() / 1e6, r.repot ? " (persistent joint BHM)" : "",
+               r.overall_memory_bytes() / 1e6, r.persistent() ? " (persistent joint BHM)" : "",
                a.out.c_str());
   std::fprintf(human, "instantaneous  ACC %.4f  AUC %.4f  NLL %.4f  (%zu held-out samples)\n",
                r.instantaneous.acc, r.instantaneous.auc, r.instantaneous.nll, r.instantaneous.n);
@@ -130,10 +181,16 @@ int run_map(const MapArgs& a, const std::string& device) {
         rs.pgm.c_str());
     j["ros_map"] = {rs.yaml, rs.pgm};
   }
+  if (r.resumed_at > 0) j["resumed_at_scan"] = r.resumed_at;
+  if (r.checkpoints > 0)
+    j["checkpoints"] = {{"written", r.checkpoints}, {"seconds", r.checkpoint_seconds}};
   if (a.json == "-")
     std::cout << j.dump(1) << "\n";
   else if (!a.json.empty())
     write_text_atomically(a.json, j.dump(1) + "\n");
+  // Only now is the run's work safe in its outputs.
+  std::error_code ec;
+  if (!ck.path.empty() && !a.keep_checkpoint) std::filesystem::remove(ck.path, ec);
   return 0;
 }
 
@@ -217,6 +274,20 @@ void register_map(CLI::App& app, Runner& runner) {
   cmd->add_flag("--no-pipeline", a->no_pipeline,
                 "Prepare each scan only after the previous one (no second thread)");
   cmd->add_flag("-q,--quiet", a->quiet, "No line per scan (a progress bar on a terminal)");
+  cmd->add_option("--checkpoint", a->checkpoint,
+                  "Checkpoint file: the overall map and everything needed to continue the run, "
+                  "replaced atomically (default: OUT.ckpt; removed when the run ends well)");
+  cmd->add_option("--checkpoint-every", a->checkpoint_every,
+                  "Write the checkpoint after every N scans (default 100; 0: not by count)");
+  cmd->add_option("--checkpoint-seconds", a->checkpoint_seconds,
+                  "Also write it when T seconds have passed since the last one (default 0: "
+                  "not by time). With both 0 no checkpoint is written")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--resume", a->resume,
+                "Continue from the checkpoint (if there is one) and end with the same overall "
+                "map as a run that was never stopped; the same input and options are required");
+  cmd->add_flag("--keep-checkpoint", a->keep_checkpoint,
+                "Keep the checkpoint after the run ends (default: removed)");
   cmd->callback(
       [&runner, a, device] { runner.action = [a, device] { return run_map(*a, *device); }; });
 }

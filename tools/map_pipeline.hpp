@@ -1,9 +1,11 @@
 #pragma once
 // The POT mapping job shared by `potmap map` and `potmap demo`: stream scans through
 // map_scans(), accumulate the overall map (POT's OverallMap, or RePOT's persistent RepotMap), score
-// instantaneous and overall maps on the scans' held-out samples, report per-scan timing.
+// instantaneous and overall maps on the scans' held-out samples, report per-scan timing; and,
+// for `potmap map`, write checkpoints of the run and continue one.
 #include <nlohmann/json.hpp>
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -16,24 +18,36 @@
 
 namespace potmap::cli {
 
+/// Checkpoints of a mapping run (`potmap map --checkpoint`): the mapper's state and the run's
+/// totals in one file, replaced atomically, so that a run killed at any moment can continue.
+struct MapCheckpointing {
+  std::string path;          ///< checkpoint file (empty: none written, none resumed)
+  std::size_t every = 0;     ///< after every this many scans (0: not by count)
+  double every_seconds = 0;  ///< or when this long has passed since the last one (0: not)
+  bool resume = false;       ///< continue from `path` when it exists
+  nlohmann::json run;        ///< the run's record: a resumed checkpoint must hold the same
+};
+
 struct MapJob {
   MapperOptions mapper;
   OverallMapOptions overall;
   std::string instantaneous_dir;  ///< write each instantaneous map here (empty: don't)
   bool verbose = true;            ///< a line per scan on stderr (else a progress bar on a tty)
+  MapCheckpointing checkpoint;
 };
 
 struct MapJobResult {
-  OverallMap overall;             ///< POT's merged map (empty for RePOT's persistent map)
-  std::optional<RepotMap> repot;  ///< RePOT's persistent map (persistent_refine(job.mapper))
-  /// The overall map, whichever the kind.
-  const KernelMap& overall_map() const { return repot ? repot->map() : overall.map(); }
-  std::size_t overall_kernels() const { return repot ? repot->size() : overall.size(); }
-  std::size_t overall_memory_bytes() const {
-    return repot ? repot->memory_bytes() : overall.memory_bytes();
-  }
-  Scores instantaneous;   ///< every scan's held-out samples on its own instantaneous map
-  Scores overall_scores;  ///< every scan's held-out samples on the final overall map
+  /// The overall map: POT's merged map, or RePOT's persistent map (persistent_refine()).
+  std::unique_ptr<Mapper> mapper;
+  const KernelMap& overall_map() const { return mapper->overall_map(); }
+  std::size_t overall_kernels() const { return mapper->overall_kernels(); }
+  std::size_t overall_memory_bytes() const { return mapper->overall_memory_bytes(); }
+  bool persistent() const { return mapper->repot() != nullptr; }
+  std::size_t resumed_at = 0;     ///< scans a checkpoint held when the run began (0: none)
+  std::size_t checkpoints = 0;    ///< checkpoints written by this stretch of the run
+  double checkpoint_seconds = 0;  ///< wall-clock time they took
+  Scores instantaneous;           ///< every scan's held-out samples on its own instantaneous map
+  Scores overall_scores;          ///< every scan's held-out samples on the final overall map
   std::size_t scans = 0;
   PotTiming mean_timing;     ///< per scan
   double mean_wall_ms = 0;   ///< per scan, solve to callback

@@ -182,4 +182,20 @@ potmap_status potmap_mapper_reset(potmap_mapper* mapper) {
                [&] { checked(mapper).mapper->reset(); });
 }
 
+potmap_status potmap_mapper_save_state(const potmap_mapper* mapper, const char* path) {
+  return guard("potmap_mapper_save_state", POTMAP_ERROR_IO, [&] {
+    const potmap::Mapper& m = *checked(mapper).mapper;
+    require(path, "path");
+    m.save_state(path);
+  });
+}
+
+potmap_status potmap_mapper_load_state(potmap_mapper* mapper, const char* path) {
+  return guard("potmap_mapper_load_state", POTMAP_ERROR_INPUT, [&] {
+    potmap::Mapper& m = *checked(mapper).mapper;
+    require(path, "path");
+    m.load_state(path);
+  });
+}
+
 }  // extern "C"

@@ -21,17 +21,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
+using detail::hex64;
+
 // A finished tile: the job's fingerprint and the tile's place, then probability and variance
 // in image order (row 0 = top), float32.
 constexpr std::size_t kTileHeader = 48;
 constexpr detail::ContainerLayout kTileLayout{"POTTILE\n", "a potmap raster tile", 1, kTileHeader,
                                               16};
-
-std::string hex64(std::uint64_t v) {
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
-  return buf;
-}
 
 std::uint64_t hash_doubles(const std::vector<double>& v, std::uint64_t h) {
   return detail::fnv1a64(

@@ -99,16 +99,24 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
                const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan) {
-  if (scans.empty()) return;
+  map_scans(ctx, dict, scans, options, on_scan, MapScansStart{});
+}
+
+void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
+               const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan,
+               const MapScansStart& start) {
+  if (start.first >= scans.size()) return;
   const MapperOptions& o = with_preselector(dict, options);
   const PotOptions po = transfer_options(o);
   const auto launch = o.pipeline ? std::launch::async : std::launch::deferred;
   // Warm candidates: the atoms of the last scan finished when the next one is prepared (with
-  // the pipeline, the scan before the one being solved).
-  std::vector<long> warm;
-  std::future<Prepared> next = std::async(launch, prepare, std::cref(dict), std::cref(scans[0]),
-                                          std::size_t{0}, std::cref(o), warm);
-  for (std::size_t i = 0; i < scans.size(); ++i) {
+  // the pipeline, the scan before the one being solved; without, the same scan, so that both
+  // give the same maps).
+  std::vector<long> warm = start.warm_last;
+  std::future<Prepared> next =
+      std::async(launch, prepare, std::cref(dict), std::cref(scans[start.first]), start.first,
+                 std::cref(o), start.warm_before);
+  for (std::size_t i = start.first; i < scans.size(); ++i) {
     Prepared cur = next.get();
     if (i + 1 < scans.size())
       next = std::async(launch, prepare, std::cref(dict), std::cref(scans[i + 1]), i + 1,
@@ -160,8 +168,19 @@ Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const Mappe
 }
 
 const MappedScan& Mapper::add_scan(const Scan& scan) {
-  Prepared cur = prepare(*dict_, scan, scans_, options_, chosen_atoms(last_.transfer));
-  MappedScan m = finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_));
+  Prepared cur = prepare(*dict_, scan, scans_, options_, warm_[1]);
+  add_mapped(finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_)));
+  return last_;
+}
+
+const MapperMerge& Mapper::add_mapped(MappedScan&& m) {
+  if (m.index != scans_)
+    throw ArgumentError("Mapper::add_mapped: scan " + std::to_string(m.index) +
+                        " given, the mapper expects scan " + std::to_string(scans_));
+  if (m.transfer.map.dim != dict_->dim)
+    throw ArgumentError("Mapper::add_mapped: scan " + std::to_string(m.index) + " is " +
+                        std::to_string(m.transfer.map.dim) + "D, the dictionary " +
+                        std::to_string(dict_->dim) + "D");
   const auto t1 = std::chrono::steady_clock::now();
   MapperMerge merge;
   if (repot_) {
@@ -171,10 +190,20 @@ const MappedScan& Mapper::add_scan(const Scan& scan) {
     if (!m.transfer.map.empty()) merge.stats = overall_.add(m.transfer.map);
     merge.merge_ms = ms_since(t1);
   }
+  warm_[0] = std::move(warm_[1]);
+  warm_[1] = chosen_atoms(m.transfer);
   last_ = std::move(m);
   merge_ = merge;
   ++scans_;
-  return last_;
+  return merge_;
+}
+
+MapScansStart Mapper::continuation() const {
+  MapScansStart s;
+  s.first = scans_;
+  s.warm_before = warm_[0];
+  s.warm_last = warm_[1];
+  return s;
 }
 
 const KernelMap& Mapper::overall_map() const {
@@ -196,6 +225,8 @@ void Mapper::reset() {
   last_.transfer.map.dim = last_.test.dim = last_.train.dim = dict_->dim;
   merge_ = MapperMerge();
   scans_ = 0;
+  warm_[0].clear();
+  warm_[1].clear();
 }
 
 }  // namespace potmap

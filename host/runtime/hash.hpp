@@ -1,5 +1,7 @@
 #pragma once
 #include <cstdint>
+#include <cstdio>
+#include <string>
 #include <string_view>
 
 namespace potmap::detail {
@@ -12,6 +14,13 @@ inline std::uint64_t fnv1a64(std::string_view s, std::uint64_t h = 1469598103934
     h *= 1099511628211ull;
   }
   return h;
+}
+
+/// A hash as 16 hex digits, for messages and file names.
+inline std::string hex64(std::uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
 }
 
 }  // namespace potmap::detail

@@ -473,6 +473,20 @@ POTMAP_EXPORT potmap_status potmap_mapper_overall_map(const potmap_mapper* mappe
 /** Forgets every scan (empty maps, scan index 0); keeps the context, dictionary and options. */
 POTMAP_EXPORT potmap_status potmap_mapper_reset(potmap_mapper* mapper);
 
+/** Writes the mapper's whole state to `path` (potmap/pot/mapper.hpp, Mapper::save_state): the
+ *  overall map (RePOT's persistent learner with it), the scan count and what the next scans
+ *  need, through a temporary file renamed into place (a half-written file never replaces an
+ *  earlier one). The last scan's instantaneous map is not saved. Errors: POTMAP_ERROR_IO
+ *  (cannot write). */
+POTMAP_EXPORT potmap_status potmap_mapper_save_state(const potmap_mapper* mapper, const char* path);
+
+/** Restores a state written by potmap_mapper_save_state into a mapper created with the same
+ *  dictionary and options: adding the remaining scans then gives the same overall map, bit for
+ *  bit, as a mapper that never stopped. Errors: POTMAP_ERROR_INPUT (missing, truncated or
+ *  corrupt file, or a state of another dictionary, options or dimension; the message names the
+ *  file and byte offset); the mapper is unchanged then. */
+POTMAP_EXPORT potmap_status potmap_mapper_load_state(potmap_mapper* mapper, const char* path);
+
 #ifdef __cplusplus
 } /* extern "C" */
 #endif

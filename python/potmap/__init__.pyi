@@ -696,6 +696,17 @@ class Mapper:
     def reset(self) -> None:
         """Forgets every scan (same options)."""
         ...
+    def save_state(self, path: str) -> None:
+        """Writes the whole state (overall map, RePOT's persistent learner, scan count) to
+        path, through a temporary file renamed into place: load_state() into a Mapper
+        with the same dictionary and options continues exactly (the same overall map,
+        bit for bit). The last scan's MappedScan is not saved."""
+        ...
+    def load_state(self, path: str) -> None:
+        """Restores a state written by save_state(). InputError (naming the file) for a
+        missing, truncated or corrupt file, or a state of another dictionary or other
+        options; the mapper is unchanged then."""
+        ...
 
 class MapperOptions:
     """Settings of a Mapper."""

@@ -360,7 +360,30 @@ void bind_pot(py::module_& m) {
             std::lock_guard<std::mutex> lock(lm.mu);
             lm.mapper.reset();
           },
-          "Forgets every scan (same options).");
+          "Forgets every scan (same options).")
+      .def(
+          "save_state",
+          [](LockedMapper& lm, const std::string& path) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(lm.mu);
+            lm.mapper.save_state(path);
+          },
+          "path"_a,
+          "Writes the whole state (overall map, RePOT's persistent learner, scan count) to\n"
+          "path, through a temporary file renamed into place: load_state() into a Mapper\n"
+          "with the same dictionary and options continues exactly (the same overall map,\n"
+          "bit for bit). The last scan's MappedScan is not saved.")
+      .def(
+          "load_state",
+          [](LockedMapper& lm, const std::string& path) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(lm.mu);
+            lm.mapper.load_state(path);
+          },
+          "path"_a,
+          "Restores a state written by save_state(). InputError (naming the file) for a\n"
+          "missing, truncated or corrupt file, or a state of another dictionary or other\n"
+          "options; the mapper is unchanged then.");
 }
 
 }  // namespace potmap::python

@@ -85,3 +85,33 @@ def test_transfer_scan_matches_the_mapper_instantaneous_map(source, ctx):
     assert len(t.map) == len(first.map) > 0
     np.testing.assert_allclose(t.map.positions, first.map.positions, atol=1e-9)
     np.testing.assert_allclose(t.map.w_mean, first.map.w_mean, atol=1e-9)
+
+
+@pytest.mark.parametrize("refine", [False, True])
+def test_mapper_state_continues_bit_for_bit(source, ctx, tmp_path, refine):
+    d = potmap.Dictionary.load(str(source / "town1.potdict"))
+    scans = list(potmap.read_dataset(str(source / "dst" / "scans.log")))
+    whole = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
+    for s in scans:
+        whole.add_scan(s)
+    first = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
+    first.add_scan(scans[0])
+    path = str(tmp_path / "mapper.state")
+    first.save_state(path)
+    resumed = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
+    resumed.load_state(path)
+    assert resumed.scans == 1
+    assert [resumed.add_scan(s).index for s in scans[1:]] == [1, 2]
+    a, b = whole.overall_map(), resumed.overall_map()
+    assert len(a) == len(b) > 0
+    np.testing.assert_array_equal(a.positions, b.positions)  # exactly, not close
+    np.testing.assert_array_equal(a.w_mean, b.w_mean)
+    np.testing.assert_array_equal(a.w_var, b.w_var)
+    other = mapper_options()
+    other.pot.seed = 9
+    with pytest.raises(potmap.InputError, match="options"):
+        potmap.Mapper(ctx, d, refine=refine, options=other).load_state(path)
+    (tmp_path / "half.state").write_bytes(open(path, "rb").read()[:100])
+    with pytest.raises(potmap.InputError, match="half.state"):
+        resumed.load_state(str(tmp_path / "half.state"))
+    assert resumed.scans == 3

@@ -51,6 +51,8 @@ int potmap_c99_check(void) {
   CHECK(dictionary_options.sectors == 5);
   stats.struct_size = sizeof stats;
   CHECK(potmap_mapper_add_scan(NULL, &scan, &stats) == POTMAP_ERROR_NULL_ARGUMENT);
+  CHECK(potmap_mapper_save_state(NULL, "x.state") == POTMAP_ERROR_NULL_ARGUMENT);
+  CHECK(potmap_mapper_load_state(NULL, "x.state") == POTMAP_ERROR_NULL_ARGUMENT);
   CHECK(potmap_mapper_destroy(NULL) == POTMAP_SUCCESS);
   CHECK(potmap_dictionary_destroy(NULL) == POTMAP_SUCCESS);
   CHECK(potmap_dataset_destroy(NULL) == POTMAP_SUCCESS);

@@ -626,3 +626,68 @@ TEST(CApiMapper, UseAfterDestroyIsDetected) {
   POTMAP_EXPECT_FAIL(potmap_dictionary_destroy(d), POTMAP_ERROR_INVALID_HANDLE);
 #endif
 }
+
+// A mapper saved after two scans and loaded into a new one maps the rest to the same overall map,
+// bit for bit, as a mapper that never stopped; a file that is not a state, or a state of other
+// options, is POTMAP_ERROR_INPUT naming the file, and leaves the mapper as it was.
+TEST(CApiMapper, SavedStateContinuesBitForBit) {
+  const Source& src = source();
+  const std::vector<RoomScan> tgt = targets(4);
+  const std::string dir = temp_dir("capi-mapper-state");
+  for (int refine = 0; refine <= 1; ++refine) {
+    SCOPED_TRACE(refine ? "RePOT" : "POT");
+    const potmap_mapper_options o = fast_options(refine);
+    potmap_mapper *whole = nullptr, *first = nullptr, *resumed = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &whole));
+    POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &first));
+    POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &resumed));
+    for (std::size_t i = 0; i < tgt.size(); ++i) {
+      const potmap_scan s = tgt[i].scan();
+      POTMAP_ASSERT_OK(potmap_mapper_add_scan(whole, &s, nullptr));
+      if (i < 2) POTMAP_ASSERT_OK(potmap_mapper_add_scan(first, &s, nullptr));
+    }
+    const std::string path = dir + "/mapper.state";
+    POTMAP_ASSERT_OK(potmap_mapper_save_state(first, path.c_str()));
+    POTMAP_ASSERT_OK(potmap_mapper_load_state(resumed, path.c_str()));
+    for (std::size_t i = 2; i < tgt.size(); ++i) {
+      const potmap_scan s = tgt[i].scan();
+      potmap_scan_stats st;
+      st.struct_size = sizeof st;
+      POTMAP_ASSERT_OK(potmap_mapper_add_scan(resumed, &s, &st));
+      EXPECT_EQ(st.scan_index, i);  // the scan count came back
+    }
+    potmap_map *a = nullptr, *b = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_overall_map(whole, &a));
+    POTMAP_ASSERT_OK(potmap_mapper_overall_map(resumed, &b));
+    const potmap::KernelMap ka = read_back(a), kb = read_back(b);
+    EXPECT_GT(ka.size(), 0u);
+    EXPECT_EQ(ka.position, kb.position);
+    EXPECT_EQ(ka.gamma, kb.gamma);
+    EXPECT_EQ(ka.w_mean, kb.w_mean);
+    EXPECT_EQ(ka.w_var, kb.w_var);
+    POTMAP_ASSERT_OK(potmap_map_destroy(a));
+    POTMAP_ASSERT_OK(potmap_map_destroy(b));
+
+    // Refusals: another kind of file, a truncated state, other options; `first` unchanged.
+    write_text(dir + "/not.state", "hello");
+    EXPECT_EQ(potmap_mapper_load_state(first, (dir + "/not.state").c_str()), POTMAP_ERROR_INPUT);
+    EXPECT_TRUE(contains(potmap_last_error(), "not.state")) << potmap_last_error();
+    EXPECT_EQ(potmap_mapper_load_state(first, (dir + "/none.state").c_str()), POTMAP_ERROR_INPUT);
+    potmap_mapper_options other = o;
+    other.seed = 6;
+    potmap_mapper* elsewise = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &other, &elsewise));
+    EXPECT_EQ(potmap_mapper_load_state(elsewise, path.c_str()), POTMAP_ERROR_INPUT);
+    EXPECT_TRUE(contains(potmap_last_error(), "options")) << potmap_last_error();
+    EXPECT_EQ(potmap_mapper_load_state(first, nullptr), POTMAP_ERROR_NULL_ARGUMENT);
+    EXPECT_EQ(potmap_mapper_save_state(first, (dir + "/no/such/dir/x.state").c_str()),
+              POTMAP_ERROR_IO);
+    const potmap_scan s = tgt[2].scan();
+    potmap_scan_stats st;
+    st.struct_size = sizeof st;
+    POTMAP_ASSERT_OK(potmap_mapper_add_scan(first, &s, &st));
+    EXPECT_EQ(st.scan_index, 2u);
+    for (potmap_mapper* m : {whole, first, resumed, elsewise})
+      POTMAP_ASSERT_OK(potmap_mapper_destroy(m));
+  }
+}

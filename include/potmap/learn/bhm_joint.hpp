@@ -38,6 +38,12 @@
 #include "potmap/export.h"
 #include "potmap/map/kernel_map.hpp"
 
+// Internal (host/), declared outside the exported region so that it stays hidden: saves and
+// restores the private state (Mapper::save_state).
+namespace potmap::detail {
+struct JointBhmState;
+}
+
 POTMAP_CXX_API_BEGIN
 namespace potmap {
 
@@ -144,6 +150,7 @@ class JointBhm {
   const JointBhmStats& last_stats() const { return stats_; }
 
  private:
+  friend struct detail::JointBhmState;
   static constexpr std::uint32_t kNone = 0xffffffffu;
   struct Feature {
     std::uint32_t kernel;  // storage index (kNone: not stored, at its prior)

@@ -6,13 +6,22 @@
 //
 // Mapper is the incremental form for a program that receives scans one at a time (a ROS node,
 // a SLAM front end): add_scan() maps one scan and adds it to an overall map. It gives the
-// same instantaneous maps as map_scans() on the same scans in the same order.
+// same instantaneous maps as map_scans() on the same scans in the same order, except with the
+// indexed ranking: its warm candidates (PotOptions::warm_candidates) are the previous scan's
+// atoms in add_scan(), the ones of the scan before that in map_scans() (whose next scan is
+// prepared while the current one is solved). add_mapped() adds map_scans()' results instead.
 //
 // The overall map: POT merges the instantaneous maps into an OverallMap (overall_map.hpp).
 // RePOT, by default (MapperOptions::persistent_refine), keeps one persistent joint BHM
 // (RepotMap, a growable JointBhm) whose kernels every scan updates with its own training
 // samples, the scan's transported kernels seeding only the space no sample has reached yet;
 // its memory grows with the area driven, not with the number of scans.
+//
+// Checkpoints: Mapper::save_state() writes the mapper's whole state (overall map, persistent
+// learner, scan count, warm candidates) to a file, and load_state() restores it into a mapper
+// built with the same dictionary and options; mapping the remaining scans then gives the same
+// overall map, bit for bit, as a mapper that never stopped. map_scans() continues a run from a
+// restored mapper's continuation().
 //
 // Thread safety: a Dictionary is read-only once built and may be shared by any number of
 // threads and mappers at once. A Mapper is used by one thread at a time; different mappers may
@@ -22,6 +31,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "potmap/export.h"
@@ -33,6 +43,12 @@
 #include "potmap/pot/overall_map.hpp"
 #include "potmap/pot/transfer.hpp"
 #include "potmap/runtime/context.hpp"
+
+// Internal (host/), declared outside the exported region so that it stays hidden: the state file of
+// Mapper::save_state (host/pot/mapper_state.cpp).
+namespace potmap::detail {
+struct MapperState;
+}
 
 POTMAP_CXX_API_BEGIN
 namespace potmap {
@@ -103,6 +119,7 @@ class RepotMap {
   const JointBhm& learner() const { return learner_; }
 
  private:
+  friend struct detail::MapperState;
   JointBhm learner_;
   double seed_min_variance_ = 10;
   mutable std::optional<KernelMap> export_;
@@ -116,6 +133,23 @@ class RepotMap {
 /// (RepotMap::add(m.transfer.map, m.train)), as Mapper does.
 void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
                const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan);
+
+/// Where map_scans() starts: a run that continues after scan `first - 1` (a checkpoint; see
+/// Mapper::continuation()). The warm candidates of scan i are the atoms chosen for scan i - 2
+/// (the pipeline prepares scan i while scan i - 1 is solved, with or without a second thread),
+/// so a run continues exactly only with the atoms of the two scans before `first`.
+struct MapScansStart {
+  std::size_t first = 0;          ///< index of the first scan to map (those before are skipped)
+  std::vector<long> warm_before;  ///< chosen_atoms() of scan first - 2 (empty if none)
+  std::vector<long> warm_last;    ///< chosen_atoms() of scan first - 1 (empty if none)
+};
+
+/// map_scans() from `start`: scans[start.first ..] are mapped with their own indices (which seed
+/// the labelling and subsampling), as they would be in a run over every scan. start.first past
+/// the end maps nothing.
+void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
+               const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan,
+               const MapScansStart& start);
 
 /// What Mapper::add_scan() did to the overall map.
 struct MapperMerge {
@@ -146,6 +180,37 @@ class Mapper {
   /// unchanged then.
   const MappedScan& add_scan(const Scan& scan);
 
+  /// Adds a scan mapped elsewhere (map_scans() with this mapper's options(), e.g. pipelined)
+  /// to the overall map, as add_scan() would have after mapping it: its index must be scans()
+  /// (ArgumentError otherwise, the mapper unchanged). m.transfer.timing.refine_ms gains the
+  /// persistent map's update. Returns what the merge did.
+  const MapperMerge& add_mapped(MappedScan&& m);
+
+  /// Where map_scans() continues this mapper's run: scans() and the atoms of the two last scans.
+  MapScansStart continuation() const;
+
+  /// Writes the mapper's state to `path` (a binary container, written atomically: a
+  /// half-written file never replaces an earlier one): the overall map (POT's merged kernels
+  /// with their counts and ages, or RePOT's persistent learner with its precision, natural
+  /// parameters and caches), the scan count, the warm candidates of the next scans, and
+  /// fingerprints of the dictionary and options. `extra`: the caller's own bytes (e.g. its
+  /// position in the input), returned by load_state() (default: none). Throws potmap::Error
+  /// naming the path when it cannot be written. The last mapped scan (last()) is not saved.
+  void save_state(const std::string& path, const std::string& extra = {}) const;
+
+  /// Restores a state written by save_state() into this mapper, which must have been built
+  /// with the same dictionary (same atoms) and options: mapping the remaining scans then gives
+  /// what the saved mapper would have given, bit for bit. Returns the caller's `extra` bytes.
+  /// Throws InputError "<path>: byte offset <n>: ..." for a missing, truncated or corrupt file
+  /// (checksum), or a state saved with another dictionary, options or dimension (the mapper is
+  /// unchanged then). last() afterwards is an empty scan with index scans() - 1.
+  std::string load_state(const std::string& path);
+
+  /// The `extra` bytes of a state file, without restoring anything (a caller checks its own
+  /// record of the run, e.g. which input it was, before load_state()). Throws as load_state()
+  /// for a missing, truncated or corrupt file.
+  static std::string state_extra(const std::string& path);
+
   /// The last mapped scan (index 0 and an empty map before the first add_scan()).
   const MappedScan& last() const { return last_; }
   /// What the last add_scan() did to the overall map.
@@ -171,6 +236,7 @@ class Mapper {
   void reset();
 
  private:
+  friend struct detail::MapperState;
   Context* ctx_;
   std::shared_ptr<const Dictionary> dict_;
   MapperOptions options_;
@@ -179,6 +245,7 @@ class Mapper {
   MappedScan last_;
   MapperMerge merge_;
   std::size_t scans_ = 0;
+  std::vector<long> warm_[2];  // chosen atoms of scans scans_ - 2 and scans_ - 1
 };
 
 }  // namespace potmap

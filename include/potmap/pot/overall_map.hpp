@@ -47,6 +47,12 @@
 
 #include "potmap/map/kernel_map.hpp"
 
+// Internal (host/), declared outside the exported region so that it stays hidden: saves and
+// restores the private state (Mapper::save_state).
+namespace potmap::detail {
+struct OverallMapState;
+}
+
 POTMAP_CXX_API_BEGIN
 namespace potmap {
 
@@ -91,6 +97,7 @@ class OverallMap {
   const OverallMapOptions& options() const { return opt_; }
 
  private:
+  friend struct detail::OverallMapState;
   using CellKey = std::uint64_t;
   CellKey key_of(const double* p) const;
   CellKey key_of(const std::int64_t c[3]) const;

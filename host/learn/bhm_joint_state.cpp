@@ -1,0 +1,140 @@
+#include "learn/bhm_joint_state.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+namespace potmap::detail {
+
+namespace {
+
+// The values a restored learner must share with the saved one: those derived from the options
+// and the constructor (the options themselves are the caller's to check).
+void put_shape(ContainerWriter& w, int dim, bool bounded, const double lo[3],
+               const std::int64_t n[3], double gamma, std::int64_t tile, std::int64_t slots) {
+  w.u32(static_cast<std::uint32_t>(dim));
+  put_u8(w, bounded ? 1 : 0);
+  for (int d = 0; d < 3; ++d) w.f64(lo[d]);
+  for (int d = 0; d < 3; ++d) w.u64(static_cast<std::uint64_t>(n[d]));
+  w.f64(gamma);
+  w.u64(static_cast<std::uint64_t>(tile));
+  w.u64(static_cast<std::uint64_t>(slots));
+}
+
+template <class T>
+void expect_same(ContainerCursor& c, std::size_t at, const char* what, T found, T have) {
+  const bool same = std::memcmp(&found, &have, sizeof(T)) == 0;
+  if (!same)
+    c.reader().fail(at, std::string("joint BHM state: ") + what + " " + std::to_string(found) +
+                            ", the learner it is restored into has " + std::to_string(have) +
+                            " (saved with other options)");
+}
+
+template <class V>
+void expect_size(ContainerCursor& c, std::size_t at, const char* what, const V& v,
+                 std::size_t want) {
+  if (v.size() != want)
+    c.reader().fail(at, std::string("joint BHM state: ") + what + " holds " +
+                            std::to_string(v.size()) + " values, " + std::to_string(want) +
+                            " expected");
+}
+
+}  // namespace
+
+void JointBhmState::write(ContainerWriter& w, const JointBhm& m) {
+  put_shape(w, m.dim_, m.bounded_, m.lo_, m.n_, m.gamma_, m.tile_, m.slots_);
+  std::vector<std::uint32_t> tiles;
+  tiles.reserve(m.tiles_.size() * 30);
+  for (const JointBhm::Tile& t : m.tiles_) {
+    for (int d = 0; d < 3; ++d) tiles.push_back(static_cast<std::uint32_t>(t.coord[d]));
+    for (int k = 0; k < 27; ++k) tiles.push_back(static_cast<std::uint32_t>(t.nb[k]));
+  }
+  put_uints(w, tiles);
+  // var_ and tile_dirty_ are mutable caches: spell the pointer type out.
+  const std::vector<double>* doubles[] = {&m.prec_, &m.eta_, &m.mean_, &m.bcoup_, &m.var_};
+  for (const std::vector<double>* v : doubles) put_f64s(w, *v);
+  const std::vector<std::uint8_t>* flags[] = {&m.touched_, &m.seeded_, &m.tile_dirty_};
+  for (const std::vector<std::uint8_t>* v : flags) put_uints(w, *v);
+  for (double x : {m.pbb_, m.etab_, m.meanb_}) w.f64(x);
+  w.u64(m.stats_.samples);
+  w.u64(m.stats_.active);
+  w.u64(m.stats_.cg_iterations);
+  w.f64(m.stats_.residual);
+}
+
+void JointBhmState::read(ContainerCursor& c, JointBhm& m) {
+  std::size_t at = c.at();
+  expect_same<std::uint32_t>(c, at, "dimension", c.u32(), static_cast<std::uint32_t>(m.dim_));
+  at = c.at();
+  expect_same<std::uint32_t>(c, at, "bounded", c.u8(), m.bounded_ ? 1u : 0u);
+  for (int d = 0; d < 3; ++d) {
+    at = c.at();
+    expect_same<double>(c, at, "grid origin", c.f64(), m.lo_[d]);
+  }
+  for (int d = 0; d < 3; ++d) {
+    at = c.at();
+    expect_same<std::uint64_t>(c, at, "kernels per axis", c.u64(),
+                               static_cast<std::uint64_t>(m.n_[d]));
+  }
+  at = c.at();
+  expect_same<double>(c, at, "kernel width gamma", c.f64(), m.gamma_);
+  at = c.at();
+  expect_same<std::uint64_t>(c, at, "tile edge", c.u64(), static_cast<std::uint64_t>(m.tile_));
+  at = c.at();
+  expect_same<std::uint64_t>(c, at, "stencil slots", c.u64(), static_cast<std::uint64_t>(m.slots_));
+
+  at = c.at();
+  const std::vector<std::uint32_t> tiles = c.uints<std::uint32_t>("joint BHM tiles");
+  if (tiles.size() % 30 != 0)
+    c.reader().fail(at, "joint BHM state: " + std::to_string(tiles.size()) +
+                            " tile values, not a multiple of 30");
+  const std::size_t ntiles = tiles.size() / 30;
+  const std::size_t cells = ntiles * static_cast<std::size_t>(m.tile_cells_);
+  std::vector<JointBhm::Tile> restored(ntiles);
+  std::unordered_map<std::uint64_t, std::uint32_t> index;
+  for (std::size_t i = 0; i < ntiles; ++i) {
+    JointBhm::Tile& t = restored[i];
+    std::int64_t coord[3];
+    for (int d = 0; d < 3; ++d)
+      coord[d] = t.coord[d] = static_cast<std::int32_t>(tiles[i * 30 + d]);
+    for (int k = 0; k < 27; ++k) {
+      t.nb[k] = static_cast<std::int32_t>(tiles[i * 30 + 3 + k]);
+      if (t.nb[k] < -1 || t.nb[k] >= std::int64_t(ntiles))
+        c.reader().fail(at, "joint BHM state: tile " + std::to_string(i) + " names neighbour " +
+                                std::to_string(t.nb[k]) + " of " + std::to_string(ntiles));
+    }
+    index.emplace(JointBhm::tile_key(coord), static_cast<std::uint32_t>(i));
+  }
+  std::vector<double>* doubles[] = {&m.prec_, &m.eta_, &m.mean_, &m.bcoup_, &m.var_};
+  const char* names[] = {"precision", "eta", "means", "bias coupling", "variances"};
+  const std::size_t want[] = {cells * static_cast<std::size_t>(m.slots_), cells, cells, cells,
+                              cells};
+  for (int k = 0; k < 5; ++k) {
+    at = c.at();
+    *doubles[k] = c.f64s(names[k]);
+    expect_size(c, at, names[k], *doubles[k], want[k]);
+  }
+  std::vector<std::uint8_t>* flags[] = {&m.touched_, &m.seeded_, &m.tile_dirty_};
+  const char* flag_names[] = {"touched flags", "seeded flags", "dirty tiles"};
+  const std::size_t flag_want[] = {cells, cells, ntiles};
+  for (int k = 0; k < 3; ++k) {
+    at = c.at();
+    *flags[k] = c.uints<std::uint8_t>(flag_names[k]);
+    expect_size(c, at, flag_names[k], *flags[k], flag_want[k]);
+  }
+  m.pbb_ = c.f64();
+  m.etab_ = c.f64();
+  m.meanb_ = c.f64();
+  m.stats_.samples = c.u64();
+  m.stats_.active = c.u64();
+  m.stats_.cg_iterations = c.u64();
+  m.stats_.residual = c.f64();
+  m.tiles_ = std::move(restored);
+  m.tile_index_ = std::move(index);
+  // Scratch: update() leaves mark_ zero and the solver's p zero outside its rows.
+  m.mark_.assign(cells, 0);
+  m.lin_.clear();
+  m.scratch_ = JointBhm::Scratch();
+}
+
+}  // namespace potmap::detail
