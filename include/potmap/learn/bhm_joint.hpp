@@ -75,7 +75,7 @@ struct JointBhmOptions {
   /// tightened), and a seed speaks for space no sample has reached. A seed is a guess from
   /// another place (RePOT's transported kernels): kept as the prior under the data it biased
   /// the posterior for good, and RePOT lost up to 0.001 AUC and NLL against the BHM it refines
-  /// on the real logs (docs/results.md). false: the seed stays the kernel's prior.
+  /// on the real logs (docs/pot-measurements.md). false: the seed stays the kernel's prior.
   bool seeds_yield = true;
   /// At most this many stored kernels (default 2^26, the most the storage can address): a
   /// guard against runaway input (samples scattered over a huge area). Each stored kernel
