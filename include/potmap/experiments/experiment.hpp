@@ -170,8 +170,9 @@ struct PotSetup {
   /// RePOT's overall map (default true): one persistent joint BHM over the task's area (the
   /// experiments' BHM, `target_bhm`), which every scan updates with its own training samples,
   /// its kernels' priors seeded from the scan's transported kernels where no sample has
-  /// reached them yet. false: each scan refined on its own (PotOptions::refine) and the
-  /// instantaneous maps merged into an OverallMap, as POT's.
+  /// reached them yet (until one does: JointBhmOptions::seeds_yield). false: each scan refined
+  /// on its own (PotOptions::refine) and the instantaneous maps merged into an OverallMap, as
+  /// POT's.
   bool persistent_refine = true;
   BhmSetup target_bhm;  ///< the persistent RePOT map (joint; the spacing and prior of BHM)
   /// Seeded prior variances are at least this (weight units squared; default 10, the joint
