@@ -180,6 +180,11 @@ struct PotSetup {
   /// the source was, not how well the atom fits here; smaller floors (1, 3) made RePOT worse
   /// than BHM on the real logs (docs/results.md).
   double seed_min_variance = 10.0;
+  /// Seeds of the persistent map yield to data (JointBhmOptions::seeds_yield; default true:
+  /// a seed lasts until a sample reaches its kernel). false: seeds stay the kernels' priors
+  /// under the data, as before (RePOT then lost to BHM on half the real-log runs,
+  /// docs/pot-measurements.md).
+  bool seeds_yield = true;
   /// Sector cut and kernel filter of the atoms. Default: kernels at the atoms' own samples,
   /// thinned to 0.5 m (DictionaryOptions::kernels_at_samples).
   DictionaryOptions dictionary = [] {
