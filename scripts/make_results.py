@@ -193,7 +193,9 @@ def main():
                     f"{st['pot_wall_clearance']:g} m, displacement variance "
                     f"{st['pot_displacement_variance']:g} per m^2; RePOT: "
                     + ("one persistent joint BHM seeded by the transported kernels (seed variance "
-                       f"at least {st['repot_seed_min_variance']:g})"
+                       f"at least {st['repot_seed_min_variance']:g}"
+                       + ("; a seed yields when a sample reaches its kernel)"
+                          if st.get("repot_seeds_yield") else ")")
                        if st.get("repot_persistent") else "per-scan refinement, merged"))
             if "bhm_joint" in st:
                 lines.append(

@@ -399,3 +399,66 @@ TEST(JointBhm, GrowableSeedsOnlyUnreachedKernels) {
 
 }  // namespace
 }  // namespace potmap
+
+namespace potmap {
+namespace {
+
+// A seed speaks only for space no sample has reached: once samples arrive, the kernels they
+// reach return to the plain prior (seeds_yield; the seed's mean only starts the bound's xi), so
+// their posterior is the unseeded one up to how tight the bound is, while the seeds beyond them
+// stay. With seeds_yield off the seeds stay under the data and pull the posterior there.
+TEST(JointBhm, SeedsYieldToData) {
+  KernelMap field;
+  field.dim = 2;
+  for (double x = -2; x <= 12; x += 0.5)
+    for (double y = -2; y <= 2; y += 0.5) {
+      const double p[3] = {x, y, 0};
+      field.push_back(p, JointBhm(2).gamma(), 2.0, 1.0);
+    }
+  auto run = [&](bool seeded, bool yield, int em) {
+    JointBhmOptions o;
+    o.seeds_yield = yield;
+    o.em_iterations = em;
+    JointBhm m(2, o);
+    if (seeded) EXPECT_GT(m.seed_unreached(field, 10.0), 0u);
+    m.update(wall_scan(5, 0));
+    m.update(wall_scan(6, 1));
+    return m.map();
+  };
+  // The default EM (3 rounds) and one run to convergence, where the bound's start is forgotten.
+  for (const int em : {3, 40}) {
+    const KernelMap plain = run(false, true, em), yielded = run(true, true, em),
+                    kept = run(true, false, em);
+    std::map<std::pair<long, long>, std::size_t> at;
+    for (std::size_t k = 0; k < plain.size(); ++k) at[cell_key(plain, k, 0.5)] = k;
+    // Largest change of a mean against the unseeded map where the data are; the seeds far away.
+    auto near_change = [&](const KernelMap& m, std::size_t* far_seeds) {
+      double change = 0;
+      std::size_t near = 0;
+      for (std::size_t k = 0; k < m.size(); ++k) {
+        const double x = m.position[2 * k], y = m.position[2 * k + 1];
+        const auto it = at.find(cell_key(m, k, 0.5));
+        if (x >= 0.5 && x <= 2.5 && std::abs(y) <= 1 && it != at.end()) {
+          change = std::max(change, std::abs(m.w_mean[k] - plain.w_mean[it->second]));
+          ++near;
+        }
+        // The wall is at x = 2 and the features' cut-off about 1.6 m: no sample reaches x >= 6.
+        if (x >= 6 && x <= 10 && std::abs(y) <= 1 && std::abs(m.w_mean[k] - 2.0) < 0.3)
+          ++*far_seeds;
+      }
+      EXPECT_GT(near, 10u);
+      return change;
+    };
+    std::size_t far_yielded = 0, far_kept = 0;
+    const double yielded_change = near_change(yielded, &far_yielded);
+    const double kept_change = near_change(kept, &far_kept);
+    EXPECT_GT(far_yielded, 10u);
+    EXPECT_EQ(far_yielded, far_kept);
+    EXPECT_GT(kept_change, 0.5) << em;
+    EXPECT_LT(yielded_change, (em == 3 ? 0.5 : 0.01) * kept_change)
+        << em << ": " << yielded_change << " vs " << kept_change;
+  }
+}
+
+}  // namespace
+}  // namespace potmap

@@ -78,7 +78,7 @@ void expect_targets(const FrameEvaluation& e, double pot_auc, double pot_nll) {
   const Scores& repot = result(e, "RePOT").scores;
   EXPECT_GT(bhm.auc, 0.95);
   EXPECT_GE(repot.auc, bhm.auc - 0.002);
-  EXPECT_LE(repot.nll, bhm.nll + 0.005);
+  EXPECT_LE(repot.nll, bhm.nll);
   EXPECT_GT(pot.auc, pot_auc);
   EXPECT_LT(pot.nll, pot_nll);
   EXPECT_GT(e.test.size(), 1000u);
@@ -86,7 +86,7 @@ void expect_targets(const FrameEvaluation& e, double pot_auc, double pot_nll) {
 
 // Measured (frame every 8th return, one thinned scan of town1 as source): BHM AUC 0.975 NLL
 // 0.185; POT AUC 0.800 NLL 1.76 (one source scan is a small dictionary: with three towns and the
-// full frame POT reaches AUC 0.886, NLL 0.46); RePOT AUC 0.975 NLL 0.177.
+// full frame POT reaches AUC 0.886, NLL 0.46); RePOT AUC 0.975 NLL 0.180 (seeds yield to data).
 TEST(Frames3d, NuScenesFromSimulatedTowns) {
   const Scan frame = real_frame("nuscenes_lidar_top_1532402927647951.bin", 8);
   const FrameEvaluation e =
@@ -95,8 +95,8 @@ TEST(Frames3d, NuScenesFromSimulatedTowns) {
   expect_targets(e, 0.76, 2.2);
 }
 
-// Real to real. Measured: BHM AUC 0.986 NLL 0.109; POT AUC 0.930 NLL 0.368; RePOT AUC 0.986
-// NLL 0.106.
+// Real to real. Measured: BHM AUC 0.986 NLL 0.109; POT AUC 0.930 NLL 0.399; RePOT AUC 0.986
+// NLL 0.107.
 TEST(Frames3d, KittiFromNuScenes) {
   FrameSource src;
   src.label = "nuscenes";
@@ -108,7 +108,7 @@ TEST(Frames3d, KittiFromNuScenes) {
 }
 
 // Measured (town2 frame every 4th beam, one thinned scan of town1): BHM AUC 0.979 NLL 0.130;
-// POT AUC 0.964 NLL 0.222; RePOT AUC 0.982 NLL 0.117.
+// POT AUC 0.965 NLL 0.225; RePOT AUC 0.980 NLL 0.122.
 TEST(Frames3d, SimulatedTownFromOtherTowns) {
   const Scan frame =
       thin_sim(simulate(Town::builtin("town2"), sim_options_3d(3, 1000)).scans.at(2), 4);

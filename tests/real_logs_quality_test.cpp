@@ -59,7 +59,9 @@ std::string logs(std::initializer_list<const char*> names) {
 
 // Measured (40 scans, seed 0), BHM / POT / RePOT / OGM AUC: intel 0.980/0.932/0.980/0.939,
 // aces 0.980/0.930/0.980/0.938, csail 0.971/0.868/0.970/0.943, freiburg 0.991/0.948/0.991/0.978;
-// NLL BHM 0.11-0.18, POT 0.25-0.37, OGM 0.20-0.30; F1 BHM 0.59-0.83, POT 0.53-0.68.
+// NLL BHM 0.11-0.18, POT 0.25-0.37, OGM 0.20-0.30; F1 BHM 0.59-0.83, POT 0.53-0.68. RePOT
+// against BHM (seeds yield to data), AUC / NLL differences: intel +0.0002 / -0.0010, aces
+// +0.00003 / -0.0010, csail -0.0003 / -0.0008, freiburg +0.0003 / -0.0038.
 TEST(RealLogs, IntraDomainMapsDepictThePlace) {
   const auto rows = run("intra", "intra" + logs({"intel", "aces", "csail", "freiburg-079"}) +
                                      " --scans 40 --methods ogm,bhm,pot,repot");
@@ -82,15 +84,16 @@ TEST(RealLogs, IntraDomainMapsDepictThePlace) {
     EXPECT_GT(pot.auc, 0.85) << t;
     EXPECT_LT(pot.nll, 0.40) << t;
     EXPECT_GT(pot.f1, 0.45) << t;
-    // RePOT: the BHM it refines, within the run-to-run spread of a seed.
-    EXPECT_GT(repot.auc, bhm.auc - 0.003) << t;
-    EXPECT_LT(repot.nll, bhm.nll + 0.005) << t;
+    // RePOT: at least the BHM it refines (NLL), AUC within the margin of csail's shortfall.
+    EXPECT_GT(repot.auc, bhm.auc - 0.001) << t;
+    EXPECT_LE(repot.nll, bhm.nll) << t;
     EXPECT_GT(repot.f1, 0.5) << t;
   }
 }
 
 // Measured (30 scans, seed 0): intel -> csail POT AUC 0.867 NLL 0.359 F1 0.60; csail -> intel
-// 0.934 / 0.261 / 0.54; RePOT within 0.002 of BHM.
+// 0.934 / 0.261 / 0.54; RePOT against BHM, AUC / NLL differences: intel -> csail +0.00001 /
+// -0.0004, csail -> intel +0.0002 / -0.0013.
 TEST(RealLogs, InterDomainTransferIsNeverConfidentlyWrong) {
   const auto rows =
       run("inter", "inter" + logs({"intel", "csail"}) + " --scans 30 --methods bhm,pot,repot");
@@ -102,8 +105,8 @@ TEST(RealLogs, InterDomainTransferIsNeverConfidentlyWrong) {
     EXPECT_GT(pot.auc, 0.84) << c;
     EXPECT_LT(pot.nll, 0.42) << c;
     EXPECT_GT(pot.f1, 0.45) << c;
-    EXPECT_GT(repot.auc, bhm.auc - 0.003) << c;
-    EXPECT_LT(repot.nll, bhm.nll + 0.005) << c;
+    EXPECT_GT(repot.auc, bhm.auc - 0.001) << c;
+    EXPECT_LE(repot.nll, bhm.nll) << c;
   }
 }
 

@@ -86,6 +86,10 @@ void add_common(CLI::App* cmd, Settings& s) {
   cmd->add_option("--repot-seed-var", s.pot.seed_min_variance,
                   "RePOT: least prior variance of a kernel seeded from transported kernels")
       ->capture_default_str();
+  cmd->add_option("--repot-seeds-yield", s.pot.seeds_yield,
+                  "RePOT: a seeded kernel returns to the plain prior when a sample first "
+                  "reaches it (false: the seed stays its prior under the data)")
+      ->capture_default_str();
   cmd->add_option("--repot-persistent", s.pot.persistent_refine,
                   "RePOT: one persistent joint BHM seeded by the transported kernels (true) or "
                   "per-scan refinement merged as POT's map (false)")

@@ -616,6 +616,7 @@ nlohmann::json settings_json(const Settings& s) {
           {"pot_sample_distance", s.pot.pot.max_sample_distance},
           {"repot_persistent", s.pot.persistent_refine},
           {"repot_seed_min_variance", s.pot.seed_min_variance},
+          {"repot_seeds_yield", s.pot.seeds_yield},
           {"holdout", s.holdout},
           {"budget_ms", s.budget_ms},
           {"structure",

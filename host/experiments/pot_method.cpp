@@ -165,6 +165,7 @@ Method pot_method(const PotSetup& setup, const std::string& name,
       jo.bias = b.bias;
       jo.em_iterations = b.options.em_iterations;
       jo.tau = b.options.tau;
+      jo.seeds_yield = setup.seeds_yield;
       learner = std::make_unique<JointBhm>(task.dim, task.lo, task.hi, jo);
     }
     const double range = po.max_range > 0 ? po.max_range : dict->max_range;

@@ -526,6 +526,13 @@ void JointBhm::update(const LabelledPoints& samples) {
     for (const Feature& x : fs)
       if (!mark_[x.kernel]) {
         mark_[x.kernel] = 1;
+        if (seeded_[x.kernel] && !touched_[x.kernel] && o_.seeds_yield) {
+          // No sample has reached this kernel before, so its natural parameters are the seed's
+          // alone (no coupling, no data in eta): the prior it had before the seed, exactly. Its
+          // mean stays as the starting point of this scan's xi (and of the solve).
+          prec_[std::size_t(x.kernel) * slots_ + centre] = 1.0 / o_.prior_var;
+          eta_[x.kernel] = 0;
+        }
         touched_[x.kernel] = 1;
         reached.push_back(x.kernel);
       }

@@ -170,8 +170,9 @@ struct PotSetup {
   /// RePOT's overall map (default true): one persistent joint BHM over the task's area (the
   /// experiments' BHM, `target_bhm`), which every scan updates with its own training samples,
   /// its kernels' priors seeded from the scan's transported kernels where no sample has
-  /// reached them yet. false: each scan refined on its own (PotOptions::refine) and the
-  /// instantaneous maps merged into an OverallMap, as POT's.
+  /// reached them yet (until one does: JointBhmOptions::seeds_yield). false: each scan refined
+  /// on its own (PotOptions::refine) and the instantaneous maps merged into an OverallMap, as
+  /// POT's.
   bool persistent_refine = true;
   BhmSetup target_bhm;  ///< the persistent RePOT map (joint; the spacing and prior of BHM)
   /// Seeded prior variances are at least this (weight units squared; default 10, the joint
@@ -179,6 +180,11 @@ struct PotSetup {
   /// the source was, not how well the atom fits here; smaller floors (1, 3) made RePOT worse
   /// than BHM on the real logs (docs/results.md).
   double seed_min_variance = 10.0;
+  /// Seeds of the persistent map yield to data (JointBhmOptions::seeds_yield; default true:
+  /// a seed lasts until a sample reaches its kernel). false: seeds stay the kernels' priors
+  /// under the data, as before (RePOT then lost to BHM on half the real-log runs,
+  /// docs/pot-measurements.md).
+  bool seeds_yield = true;
   /// Sector cut and kernel filter of the atoms. Default: kernels at the atoms' own samples,
   /// thinned to 0.5 m (DictionaryOptions::kernels_at_samples).
   DictionaryOptions dictionary = [] {
