@@ -146,6 +146,7 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
   f.i64(j.cg_max_iterations);
   f.i64(j.solve_margin);
   f.u64(j.max_kernels);
+  f.i64(j.seeds_yield);
   f.f64(o.seed_min_variance);
   f.f64(overall.merge_radius);
   f.f64(overall.gamma_ratio);
