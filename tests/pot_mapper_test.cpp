@@ -16,33 +16,6 @@
 namespace potmap {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-// Kernels every 2 m around a point, each weight mean tagging its index.
-KernelMap grid_around(const std::array<double, 3>& c, double half) {
-  KernelMap map;
-  map.dim = 2;
-  for (double x = -half; x <= half + 1e-9; x += 2)
-    for (double y = -half; y <= half + 1e-9; y += 2) {
-      const double p[2] = {c[0] + x, c[1] + y};
-      map.push_back(p, 2.0, 0.1 * static_cast<double>(map.size() % 17) - 0.8, 0.5);
-    }
-  return map;
-}
-
-MapperOptions small_options(bool refine) {
-  MapperOptions o;
-  o.pot.rank_hits = 40;
-  o.pot.rank_free = 20;
-  o.pot.transport_points = 120;
-  o.pot.transport_max_iterations = 600;
-  o.pot.transport_tolerance = 1e-4;
-  o.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
-  o.pot.refine = refine;
-  o.labels.seed = o.pot.seed = 3;
-  return o;
-}
-
 struct Scene {
   Simulation sim;
   std::shared_ptr<Dictionary> dict = std::make_shared<Dictionary>();
@@ -51,7 +24,7 @@ struct Scene {
     so.scans = 6;
     so.spacing = 4;
     sim = simulate(Town::builtin("town1"), so);
-    build_dictionary({sim.scans[0], sim.scans[1]}, grid_around(sim.scans[0].origin(), 30), {},
+    build_dictionary({sim.scans[0], sim.scans[1]}, test::grid_around(sim.scans[0].origin(), 30), {},
                      *dict);
   }
 };
@@ -70,7 +43,7 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
   for (const bool refine : {false, true}) {
     SCOPED_TRACE(refine ? "RePOT" : "POT");
-    const MapperOptions o = small_options(refine);
+    const MapperOptions o = test::small_mapper_options(refine);
     std::vector<MappedScan> want;
     map_scans(&test::context(), *s.dict, targets, o,
               [&](MappedScan&& m) { want.push_back(std::move(m)); });
@@ -122,11 +95,11 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
 TEST(PotMapper, PersistentRepotMapKeepsItsMemoryOverRepeatedDrives) {
   const Scene s;
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
-  MapperOptions per_scan = small_options(true);
+  MapperOptions per_scan = test::small_mapper_options(true);
   per_scan.persistent_refine = false;
   Mapper old_design(&test::context(), s.dict, per_scan);
-  Mapper pot(&test::context(), s.dict, small_options(false));
-  Mapper persistent(&test::context(), s.dict, small_options(true));
+  Mapper pot(&test::context(), s.dict, test::small_mapper_options(false));
+  Mapper persistent(&test::context(), s.dict, test::small_mapper_options(true));
   LabelledPoints test;
   test.dim = 2;
   std::vector<std::size_t> memory;
@@ -164,7 +137,7 @@ TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {
   EXPECT_THROW(Mapper(&test::context(), nullptr), ArgumentError);
   EXPECT_THROW(Mapper(&test::context(), std::make_shared<Dictionary>()), ArgumentError);
   const Scene s;
-  Mapper mapper(&test::context(), s.dict, small_options(false));
+  Mapper mapper(&test::context(), s.dict, test::small_mapper_options(false));
   mapper.add_scan(s.sim.scans[2]);
   const KernelMap before = mapper.overall().map();
   Scan wrong = s.sim.scans[3];

@@ -3,11 +3,14 @@
 #include <cmath>
 
 #include <array>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <stdexcept>
 
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <memory>
@@ -56,6 +59,52 @@ std::string quoted(const std::string& s) {
 std::string file_bytes(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+KernelMap grid_around(const std::array<double, 3>& c, double half) {
+  KernelMap map;
+  map.dim = 2;
+  for (double x = -half; x <= half + 1e-9; x += 2)
+    for (double y = -half; y <= half + 1e-9; y += 2) {
+      const double p[2] = {c[0] + x, c[1] + y};
+      map.push_back(p, 2.0, 0.1 * static_cast<double>(map.size() % 17) - 0.8, 0.5);
+    }
+  return map;
+}
+
+MapperOptions small_mapper_options(bool refine) {
+  constexpr double kPi = 3.14159265358979323846;
+  MapperOptions o;
+  o.pot.rank_hits = 40;
+  o.pot.rank_free = 20;
+  o.pot.transport_points = 120;
+  o.pot.transport_max_iterations = 600;
+  o.pot.transport_tolerance = 1e-4;
+  o.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  o.pot.refine = refine;
+  o.labels.seed = o.pot.seed = 3;
+  return o;
+}
+
+FileSizeLimit::FileSizeLimit(unsigned long long bytes) {
+  rlimit r{};
+  getrlimit(RLIMIT_FSIZE, &r);
+  saved_cur_ = r.rlim_cur;
+  saved_max_ = r.rlim_max;
+  old_handler_ = std::signal(SIGXFSZ, SIG_IGN);
+  r.rlim_cur = static_cast<rlim_t>(bytes);
+  if (setrlimit(RLIMIT_FSIZE, &r) != 0) {
+    std::signal(SIGXFSZ, old_handler_);
+    throw std::runtime_error("setrlimit(RLIMIT_FSIZE) refused");
+  }
+}
+
+FileSizeLimit::~FileSizeLimit() {
+  rlimit r{};
+  r.rlim_cur = static_cast<rlim_t>(saved_cur_);
+  r.rlim_max = static_cast<rlim_t>(saved_max_);
+  setrlimit(RLIMIT_FSIZE, &r);
+  std::signal(SIGXFSZ, old_handler_);
 }
 
 Context& context() {

@@ -1,9 +1,11 @@
 #pragma once
 // Shared helpers for the test suite.
 
+#include <array>
 #include <string>
 
 #include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::test {
@@ -31,6 +33,29 @@ std::string file_bytes(const std::string& path);
 /// The sector with its hits and free samples turned by `angle` radians about its origin (the
 /// sector frame's centre), counter-clockwise (about the vertical axis in 3D).
 Sector rotated_sector(const Sector& s, double angle);
+
+/// Kernels every 2 m over [c - half, c + half]^2, each weight mean tagging its index (so that a
+/// test sees which kernels a transport moved where): a source map for small dictionaries.
+KernelMap grid_around(const std::array<double, 3>& c, double half);
+
+/// Mapper options small enough for tests (40 + 20 ranked samples, 120 transport points, four
+/// rotations, seed 3): a scan maps in a fraction of a second on PoCL.
+MapperOptions small_mapper_options(bool refine);
+
+/// While alive, no file of this process can grow past `bytes`: the kernel fails a write beyond
+/// (EFBIG, as ENOSPC on a full disk), whoever writes. SIGXFSZ, which would kill the process, is
+/// ignored meanwhile. The limit is the process's: nothing else may write files while it lives.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(unsigned long long bytes);  ///< throws std::runtime_error if refused
+  ~FileSizeLimit();
+  FileSizeLimit(const FileSizeLimit&) = delete;
+  FileSizeLimit& operator=(const FileSizeLimit&) = delete;
+
+ private:
+  unsigned long long saved_cur_ = 0, saved_max_ = 0;
+  void (*old_handler_)(int) = nullptr;
+};
 
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();

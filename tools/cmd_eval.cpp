@@ -3,7 +3,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 
@@ -13,6 +12,7 @@
 #include "potmap/io/map_io.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
+#include "progress.hpp"
 
 namespace potmap::cli {
 
@@ -90,9 +90,7 @@ int run_eval(const EvalArgs& a, const std::string& device) {
     if (json_stdout) {
       std::cout << j.dump(2) << "\n";
     } else {
-      std::ofstream out(a.json);
-      out << j.dump(2) << "\n";
-      if (!out.flush()) throw Error("cannot write " + a.json);
+      write_text_atomically(a.json, j.dump(2) + "\n");
     }
   }
   return 0;

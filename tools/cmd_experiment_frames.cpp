@@ -19,6 +19,7 @@
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
 #include "potmap/version.hpp"
+#include "progress.hpp"
 
 namespace potmap::cli {
 
@@ -192,7 +193,7 @@ int run_frames(const FramesSettings& s) {
     if (s.json == "-")
       std::cout << j.dump(1) << "\n";
     else
-      std::ofstream(s.json) << j.dump(1) << "\n";
+      write_text_atomically(s.json, j.dump(1) + "\n");
   }
   return 0;
 }

@@ -1,11 +1,13 @@
 #include "progress.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
-
-#include <unistd.h>
 
 #include "potmap/error.hpp"
 
@@ -26,21 +28,33 @@ std::function<void(double)> terminal_progress(const std::string& label) {
 }
 
 void write_text_atomically(const std::string& path, const std::string& text) {
+  // The library's AtomicFile is private to it; this is the same sequence for the command's own
+  // JSON: every write checked, fsync before the rename, the temporary file removed on failure.
   const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f || !(f << text) || !f.flush()) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw Error("cannot write " + path);
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
+  const auto fail = [&](const char* what) {
+    const std::string why = std::strerror(errno);
+    std::error_code ec;
     std::filesystem::remove(tmp, ec);
-    throw Error("cannot write " + path + ": " + ec.message());
+    throw Error("cannot write " + path + ": " + what + ": " + why);
+  };
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) fail("cannot create the temporary file");
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      ::close(fd);
+      fail("write");
+    }
+    done += static_cast<std::size_t>(n);
   }
+  if (::fsync(fd) != 0 && errno != EINVAL) {
+    ::close(fd);
+    fail("fsync");
+  }
+  if (::close(fd) != 0) fail("close");
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename");
 }
 
 }  // namespace potmap::cli

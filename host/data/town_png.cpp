@@ -1,12 +1,10 @@
 // A top view of a simulated town, for humans checking what the simulator drew.
-#include <png.h>
-
 #include <cmath>
-#include <cstdio>
-#include <memory>
+#include <vector>
 
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
+#include "render/png_writer.hpp"
 
 namespace potmap {
 
@@ -39,21 +37,10 @@ void write_town_png(const Town& town, const std::vector<double>& route, const st
   }
   for (std::size_t k = 0; k + 1 < route.size(); k += 2) put(route[k], route[k + 1], 220, 20, 20);
 
-  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), std::fclose);
-  if (!f) throw InputError(path + ": cannot open for writing");
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!png || !info || setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    throw InputError(path + ": PNG write failed");
-  }
-  png_init_io(png, f.get());
-  png_set_IHDR(png, info, w, h, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_write_info(png, info);
-  for (int j = 0; j < h; ++j) png_write_row(png, &img[static_cast<std::size_t>(j) * w * 3]);
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
+  // The shared writer: atomic (a full disk leaves a previous picture), every write checked.
+  detail::PngWriter png(path, static_cast<std::size_t>(w), static_cast<std::size_t>(h));
+  for (int j = 0; j < h; ++j) png.write_row(&img[static_cast<std::size_t>(j) * w * 3]);
+  png.finish();
 }
 
 }  // namespace potmap

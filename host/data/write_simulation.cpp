@@ -2,8 +2,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
+#include <sstream>
+#include <string>
 
+#include "io/file_util.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 
@@ -15,8 +17,7 @@ std::string write_simulation(const Simulation& sim, const SimOptions& o, const s
   constexpr double kPi = 3.14159265358979323846;
   if (!o.three_d) {
     const std::string path = (fs::path(dir) / "scans.log").string();
-    std::ofstream f(path);
-    if (!f) throw InputError(path + ": cannot open for writing");
+    std::ostringstream f;
     f << "# potmap simulated 2D scans: CARMEN ROBOTLASER1, ranges >= max range are no-returns\n";
     char buf[64];
     for (const Scan& s : sim.scans) {
@@ -42,13 +43,17 @@ std::string write_simulation(const Simulation& sim, const SimOptions& o, const s
       std::snprintf(buf, sizeof buf, " 0 %.6f %.6f %.9f", s.pose2d[0], s.pose2d[1], s.pose2d[2]);
       f << buf << buf + 2 << " 0 0 0 0 0 " << s.timestamp << " sim " << s.timestamp << "\n";
     }
-    if (!f) throw InputError(path + ": write failed");
+    detail::write_file_atomically(path, f.str());
     return path;
   }
   fs::create_directories(fs::path(dir) / "velodyne");
   const std::string poses = (fs::path(dir) / "poses.txt").string();
-  std::ofstream pf(poses), cf((fs::path(dir) / "calib.txt").string());
-  cf << "Tr: 1 0 0 0 0 1 0 0 0 0 1 0\n";
+  // Every file written whole and atomically (io/file_util.hpp): a full disk fails naming the
+  // file and leaves no half-written scan. poses.txt comes last: a new folder that has one holds
+  // every scan (an overwritten one keeps its previous poses.txt, beside the scans renamed so far).
+  detail::write_file_atomically((fs::path(dir) / "calib.txt").string(),
+                                "Tr: 1 0 0 0 0 1 0 0 0 0 1 0\n");
+  std::ostringstream pf;
   char name[32];
   for (std::size_t n = 0; n < sim.scans.size(); ++n) {
     const Scan& s = sim.scans[n];
@@ -56,17 +61,19 @@ std::string write_simulation(const Simulation& sim, const SimOptions& o, const s
     for (int k = 0; k < 12; ++k) pf << (k ? " " : "") << T[k];
     pf << "\n";
     std::snprintf(name, sizeof name, "%06zu.bin", n);
-    std::ofstream bf(fs::path(dir) / "velodyne" / name, std::ios::binary);
+    std::string bin;
+    bin.reserve(s.num_hits() * 16);
     for (std::size_t i = 0; i < s.num_hits(); ++i) {
       const double w[3] = {s.hits[3 * i] - T[3], s.hits[3 * i + 1] - T[7],
                            s.hits[3 * i + 2] - T[11]};
       float v[4] = {0, 0, 0, 0};
       for (int r = 0; r < 3; ++r)  // R^T (world - t): back into the sensor frame
         v[r] = static_cast<float>(T[r] * w[0] + T[4 + r] * w[1] + T[8 + r] * w[2]);
-      bf.write(reinterpret_cast<const char*>(v), sizeof v);
+      bin.append(reinterpret_cast<const char*>(v), sizeof v);
     }
+    detail::write_file_atomically((fs::path(dir) / "velodyne" / name).string(), bin);
   }
-  if (!pf) throw InputError(poses + ": write failed");
+  detail::write_file_atomically(poses, pf.str());
   return poses;
 }
 

@@ -47,29 +47,40 @@ AtomicFile::~AtomicFile() {
 
 void AtomicFile::write(const void* data, std::size_t n) {
   if (n == 0) return;
+  if (!file_) throw Error("cannot write " + path_ + ": already committed or discarded");
   if (std::fwrite(data, 1, n, file_) != n)
     throw Error("cannot write " + path_ + ": " + errno_text());
 }
 
-void AtomicFile::commit() {
-  if (done_) return;
+void AtomicFile::sync() {
+  if (done_) throw Error("cannot write " + path_ + ": already committed or discarded");
+  if (synced_) return;
   bool ok = std::fflush(file_) == 0 && !std::ferror(file_);
   std::string why = ok ? "" : errno_text();
   // fsync before rename: otherwise a crash could leave the final name pointing at an empty file.
+  // EINVAL: a file (pipe, some FUSE folders) that cannot be synced, which is not a failure.
   if (ok && ::fsync(::fileno(file_)) != 0 && errno != EINVAL) {
     ok = false;
     why = errno_text();
   }
-  if (std::fclose(file_) != 0 && ok) {
-    ok = false;
-    why = errno_text();
-  }
-  file_ = nullptr;
-  if (ok && std::rename(temp_.c_str(), path_.c_str()) != 0) {
-    ok = false;
-    why = errno_text();
-  }
   if (!ok) {
+    discard();
+    throw Error("cannot write " + path_ + ": " + why);
+  }
+  synced_ = true;
+}
+
+void AtomicFile::commit() {
+  if (done_) return;
+  sync();
+  std::string why;
+  const int closed = std::fclose(file_);
+  file_ = nullptr;
+  if (closed != 0)
+    why = errno_text();
+  else if (std::rename(temp_.c_str(), path_.c_str()) != 0)
+    why = errno_text();
+  if (!why.empty()) {
     discard();
     throw Error("cannot write " + path_ + ": " + why);
   }

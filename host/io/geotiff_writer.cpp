@@ -1,10 +1,13 @@
 #include "io/geotiff_writer.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <sstream>
@@ -99,6 +102,17 @@ struct RemoveOnExit {
   }
 };
 
+// fsync before the rename, as AtomicFile does: a crash must not leave the final name on a file
+// whose blocks never reached the disk.
+void sync_file(const std::string& path, const std::string& file) {
+  const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(path + ": cannot reopen " + file + ": " + std::strerror(errno));
+  const bool ok = ::fsync(fd) == 0 || errno == EINVAL;
+  const std::string why = ok ? "" : std::strerror(errno);
+  ::close(fd);
+  if (!ok) throw Error(path + ": cannot write " + file + ": " + why);
+}
+
 }  // namespace
 
 void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
@@ -160,6 +174,7 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
         if (progress) progress(0.8 * double(r * bx + c + 1) / double(bx * by));
       }
     GDALFlushCache(ds.get());
+    ds.reset();  // closing writes the last blocks: its failure must show below too
     if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
   }
 
@@ -185,10 +200,16 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
       if (*c->progress) (*c->progress)(0.8 + 0.2 * f);
       return TRUE;
     };
+    CPLErrorReset();
     Dataset out(GDALCreateCopy(cog, final_temp.c_str(), src.get(), FALSE, o.get(), pf, &pctx));
     if (!out) fail(path, "the COG driver could not write " + final_temp);
     GDALFlushCache(out.get());
+    // GDAL 3.6's GDALClose returns nothing: a write that fails while closing (the last blocks,
+    // the directory) shows only as the last error.
+    out.reset();
+    if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + final_temp);
   }
+  sync_file(path, final_temp);
   std::error_code ec;
   std::filesystem::rename(final_temp, path, ec);
   if (ec) throw Error(path + ": cannot rename " + final_temp + " into place: " + ec.message());

@@ -66,12 +66,17 @@ void NpyWriter::write_row(const float* values) {
   ++written_;
 }
 
-void NpyWriter::finish() {
+void NpyWriter::complete() {
   if (written_ != rows_) {
     out_.discard();
     throw Error("cannot write " + out_.path() + ": only " + std::to_string(written_) + " of " +
                 std::to_string(rows_) + " rows written");
   }
+  out_.sync();
+}
+
+void NpyWriter::finish() {
+  complete();
   out_.commit();
 }
 

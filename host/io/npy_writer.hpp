@@ -15,7 +15,11 @@ class NpyWriter {
   NpyWriter(const std::string& path, std::size_t rows, std::size_t cols);
   /// Appends the next row of `cols` floats (stored little-endian whatever the host).
   void write_row(const float* values);
-  /// Renames the file into place; throws if rows are missing or the write fails.
+  /// Checks that every row came and syncs the temporary file (AtomicFile::sync), so that a
+  /// writer of several arrays meets a full disk before it renames any. Throws potmap::Error if
+  /// rows are missing or the write fails; the temporary file is removed then.
+  void complete();
+  /// complete() and renames the file into place; throws as complete() does.
   void finish();
 
   /// The header (magic, version 1.0, dictionary padded to a multiple of 64 bytes) for a

@@ -161,7 +161,10 @@ RosMapSummary write_ros_map(Context* ctx, const KernelMap& map, const std::strin
   detail::AtomicFile yaml(yaml_path);
   const std::string text = y.str();
   yaml.write(text.data(), text.size());
-  // The image first: a YAML never names a PGM that is not there.
+  // Both synced before either is renamed: a full disk leaves the previous pair as it was. The
+  // image first: a YAML never names a PGM that is not there.
+  pgm.sync();
+  yaml.sync();
   pgm.commit();
   yaml.commit();
   return s;

@@ -49,14 +49,20 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
     sy[i] = batch.label[i] ? 1.0f : 0.0f;
   }
   std::vector<float> gf(n), ll(n), dw(m), dg(m), dh(m * dim);
-  bc::buffer b_kpos = to_device(ctx, kpos), b_kg = to_device(ctx, kg), b_kw = to_device(ctx, kw),
-             b_spos = to_device(ctx, spos), b_sy = to_device(ctx, sy),
-             b_sstart = to_device(ctx, pairs.sample_start),
-             b_slist = to_device(ctx, pairs.sample_kernels),
-             b_kstart = to_device(ctx, pairs.kernel_start),
-             b_klist = to_device(ctx, pairs.kernel_samples), b_gf = to_device(ctx, gf),
-             b_ll = to_device(ctx, ll), b_dw = to_device(ctx, dw), b_dg = to_device(ctx, dg),
-             b_dh = to_device(ctx, dh);
+  bc::buffer b_kpos = to_device(ctx, kpos, "ABHM: kernel positions"),
+             b_kg = to_device(ctx, kg, "ABHM: kernel gammas"),
+             b_kw = to_device(ctx, kw, "ABHM: kernel weights"),
+             b_spos = to_device(ctx, spos, "ABHM: sample positions"),
+             b_sy = to_device(ctx, sy, "ABHM: sample labels"),
+             b_sstart = to_device(ctx, pairs.sample_start, "ABHM: sample pair starts"),
+             b_slist = to_device(ctx, pairs.sample_kernels, "ABHM: sample pair kernels"),
+             b_kstart = to_device(ctx, pairs.kernel_start, "ABHM: kernel pair starts"),
+             b_klist = to_device(ctx, pairs.kernel_samples, "ABHM: kernel pair samples"),
+             b_gf = to_device(ctx, gf, "ABHM: sample logits"),
+             b_ll = to_device(ctx, ll, "ABHM: sample log-likelihoods"),
+             b_dw = to_device(ctx, dw, "ABHM: weight gradients"),
+             b_dg = to_device(ctx, dg, "ABHM: gamma gradients"),
+             b_dh = to_device(ctx, dh, "ABHM: position gradients");
   const std::string defs = "-DDIM=" + std::to_string(dim);
   const std::size_t wg = static_cast<std::size_t>(ctx.tuning().learn.abhm_work_group);
   if (n > 0) {

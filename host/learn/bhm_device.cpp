@@ -47,13 +47,21 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
   std::vector<float> lambda(n, static_cast<float>(detail::jj_lambda(options.xi_init)));
   std::vector<float> a(m), b(m), wm(m), wv(m);
 
-  bc::buffer b_khi = to_device(ctx, khi), b_klo = to_device(ctx, klo), b_kg = to_device(ctx, kg),
-             b_shi = to_device(ctx, shi), b_slo = to_device(ctx, slo), b_sy = to_device(ctx, sy),
-             b_lambda = to_device(ctx, lambda), b_kstart = to_device(ctx, pairs.kernel_start),
-             b_klist = to_device(ctx, pairs.kernel_samples),
-             b_sstart = to_device(ctx, pairs.sample_start),
-             b_slist = to_device(ctx, pairs.sample_kernels), b_a = to_device(ctx, a),
-             b_b = to_device(ctx, b), b_wm = to_device(ctx, wm), b_wv = to_device(ctx, wv);
+  bc::buffer b_khi = to_device(ctx, khi, "BHM: kernel positions (hi)"),
+             b_klo = to_device(ctx, klo, "BHM: kernel positions (lo)"),
+             b_kg = to_device(ctx, kg, "BHM: kernel gammas"),
+             b_shi = to_device(ctx, shi, "BHM: sample positions (hi)"),
+             b_slo = to_device(ctx, slo, "BHM: sample positions (lo)"),
+             b_sy = to_device(ctx, sy, "BHM: sample labels"),
+             b_lambda = to_device(ctx, lambda, "BHM: sample lambdas"),
+             b_kstart = to_device(ctx, pairs.kernel_start, "BHM: kernel pair starts"),
+             b_klist = to_device(ctx, pairs.kernel_samples, "BHM: kernel pair samples"),
+             b_sstart = to_device(ctx, pairs.sample_start, "BHM: sample pair starts"),
+             b_slist = to_device(ctx, pairs.sample_kernels, "BHM: sample pair kernels"),
+             b_a = to_device(ctx, a, "BHM: precision a"),
+             b_b = to_device(ctx, b, "BHM: precision b"),
+             b_wm = to_device(ctx, wm, "BHM: weight means"),
+             b_wv = to_device(ctx, wv, "BHM: weight variances");
 
   const std::string defs = "-DDIM=" + std::to_string(dim);
   bc::kernel acc = ctx.kernel("learn/bhm_update", "bhm_accumulate", defs);
@@ -84,8 +92,8 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
       wm[k] = static_cast<float>(map.w_mean[k]);
       wv[k] = static_cast<float>(map.w_var[k]);
     }
-    upload(ctx, b_wm, wm);
-    upload(ctx, b_wv, wv);
+    upload(ctx, b_wm, wm, "BHM: weight means");
+    upload(ctx, b_wv, wv, "BHM: weight variances");
     detail::launch_1d(ctx.queue(), lam, "bhm_lambda", round_up(n, wg), wg, b_khi, b_klo, b_kg, b_wm,
                       b_wv, b_shi, b_slo, b_sstart, b_slist, static_cast<cl_uint>(n),
                       static_cast<float>(map.has_bias ? map.bias_mean : 0.0),

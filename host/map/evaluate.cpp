@@ -260,9 +260,9 @@ MapEvaluator::Impl::Impl(Context& c, const KernelMap& m, const EvalOptions& o)
     par[4 * k + 1] = static_cast<float>(map.w_mean[k]);
     par[4 * k + 2] = static_cast<float>(map.w_var[k]);
   }
-  kpos_hi = detail::to_device(*ctx, hi_f);
-  kpos_lo = detail::to_device(*ctx, lo_f);
-  kpar = detail::to_device(*ctx, par);
+  kpos_hi = detail::to_device(*ctx, hi_f, "evaluator: kernel positions (hi)");
+  kpos_lo = detail::to_device(*ctx, lo_f, "evaluator: kernel positions (lo)");
+  kpar = detail::to_device(*ctx, par, "evaluator: kernel parameters");
 }
 
 void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_m, float* out_v,

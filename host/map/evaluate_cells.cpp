@@ -88,8 +88,8 @@ void MapEvaluator::Impl::build_cells() {
           }
     }
   }
-  cell_start_buf = detail::to_device(*ctx, start);
-  cell_list_buf = detail::to_device(*ctx, list);
+  cell_start_buf = detail::to_device(*ctx, start, "evaluator: cell list starts");
+  cell_list_buf = detail::to_device(*ctx, list, "evaluator: cell kernel lists");
   cells_built = true;
 }
 

@@ -29,9 +29,15 @@ struct MapEvaluator::Impl {
   std::size_t last_pairs = 0;
 
   // Batch path.
-  detail::GrowBuffer q_hi, q_lo, chunk_start, list, order, out_mean, out_var, out_prob;
-  // Grid path (outputs share the batch path's buffers).
-  detail::GrowBuffer g_col_hi, g_col_lo, g_row_hi, g_row_lo, g_row_out, g_start, g_list;
+  detail::GrowBuffer q_hi{"evaluator: query points (hi)"}, q_lo{"evaluator: query points (lo)"},
+      chunk_start{"evaluator: chunk list starts"}, list{"evaluator: chunk kernel lists"},
+      order{"evaluator: query order"}, out_mean{"evaluator: mean output"},
+      out_var{"evaluator: variance output"}, out_prob{"evaluator: probability output"};
+  // Grid path (outputs share the batch path's buffers); rasters come through here.
+  detail::GrowBuffer g_col_hi{"evaluator: grid columns (hi)"},
+      g_col_lo{"evaluator: grid columns (lo)"}, g_row_hi{"evaluator: grid rows (hi)"},
+      g_row_lo{"evaluator: grid rows (lo)"}, g_row_out{"evaluator: grid row outputs"},
+      g_start{"evaluator: grid list starts"}, g_list{"evaluator: grid kernel lists"};
   // Device path: per-cell kernel lists, built on first use.
   bool cells_built = false;
   double cell_size = 0;

@@ -190,8 +190,14 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
     throw;
   }
 
-  // Put the files in place only now that every one is complete. Should a late rename fail, the
-  // files already renamed by this run are removed, so no partial set is left behind.
+  // Put the files in place only now that every one is complete and synced: a full disk fails
+  // one of the complete() calls, before any rename, so the previous files all stay as they were.
+  // Should a rename itself then fail (rare: same folder), the files already renamed by this run
+  // are removed, so no mixed set of old and new is left behind.
+  if (prob_png) prob_png->complete();
+  if (var_png) var_png->complete();
+  if (prob_npy) prob_npy->complete();
+  if (var_npy) var_npy->complete();
   std::vector<std::string> done;
   try {
     if (prob_png) prob_png->finish(), done.push_back(out_prefix + "_prob.png");

@@ -179,8 +179,8 @@ void upload_log_weights(Context& ctx, const LaunchTable& t, const LaunchProblems
     fill_logw(a, I.src_slot, I.n, I.npad, &lp.par[p]->source_weights);
     fill_logw(b, I.tgt_slot, I.m, I.mpad, &lp.par[p]->target_weights);
   }
-  L.loga = detail::to_device(ctx, a);
-  L.logb = detail::to_device(ctx, b);
+  L.loga = detail::to_device(ctx, a, "Sinkhorn: source log weights");
+  L.logb = detail::to_device(ctx, b, "Sinkhorn: target log weights");
 }
 
 // Stage 3, stabilised scheme only: the persistent work-groups' scratch (K, absorbed duals,
@@ -203,10 +203,10 @@ std::size_t bind_stabilised_scratch(Context& ctx, const LaunchTable& t, std::siz
   const std::size_t bytes[] = {kbytes,   ss * acc, ts * acc,     2 * ss * acc, 2 * ts * acc,
                                ss * acc, ts * acc, 2 * ss * acc, ss * acc};
   for (std::size_t b : bytes) {
-    L.scratch.push_back(detail::device_buffer(ctx.context(), b));
+    L.scratch.push_back(detail::device_buffer(ctx.context(), b, "Sinkhorn: stabilised scratch"));
     detail::set_kernel_arg(k, name, next++, L.scratch.back());
   }
-  L.scratch.push_back(detail::to_device(ctx, std::vector<int>{0}));
+  L.scratch.push_back(detail::to_device(ctx, std::vector<int>{0}, "Sinkhorn: work counter"));
   detail::set_kernel_args_from(k, name, next, L.scratch.back(), static_cast<cl_int>(np),
                                static_cast<cl_long>(t.kelems));
   return groups;
@@ -234,17 +234,20 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   else
     upload_log_weights<float>(ctx, t, lp, L);
   L.ints = t.ints;
-  auto ib = detail::to_device(ctx, t.ints);
-  auto pb = detail::to_device(ctx, t.params);
-  auto sx = detail::device_buffer(cx, t.sslots * dim * sizeof(R));
-  auto tx = detail::device_buffer(cx, t.tslots * dim * sizeof(R));
-  L.fh = detail::device_buffer(cx, t.sslots * sizeof(R));
-  L.gh = detail::device_buffer(cx, t.tslots * sizeof(R));
-  auto fn = detail::device_buffer(cx, t.sslots * sizeof(R));
-  L.result.stats = detail::device_buffer(cx, np * sizeof(SinkhornLaunchStats));
-  L.result.coupling = detail::device_buffer(cx, static_cast<std::size_t>(t.plan) * sizeof(float));
+  auto ib = detail::to_device(ctx, t.ints, "Sinkhorn: problem table");
+  auto pb = detail::to_device(ctx, t.params, "Sinkhorn: problem parameters");
+  auto sx = detail::device_buffer(cx, t.sslots * dim * sizeof(R), "Sinkhorn: scaled source points");
+  auto tx = detail::device_buffer(cx, t.tslots * dim * sizeof(R), "Sinkhorn: scaled target points");
+  L.fh = detail::device_buffer(cx, t.sslots * sizeof(R), "Sinkhorn: source duals");
+  L.gh = detail::device_buffer(cx, t.tslots * sizeof(R), "Sinkhorn: target duals");
+  auto fn = detail::device_buffer(cx, t.sslots * sizeof(R), "Sinkhorn: next source duals");
+  L.result.stats =
+      detail::device_buffer(cx, np * sizeof(SinkhornLaunchStats), "Sinkhorn: statistics");
+  L.result.coupling = detail::device_buffer(cx, static_cast<std::size_t>(t.plan) * sizeof(float),
+                                            "Sinkhorn: couplings");
   L.result.barycentric =
-      detail::device_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0);
+      detail::device_buffer(cx, opt.want_barycentric ? source_points * dim * sizeof(float) : 0,
+                            "Sinkhorn: barycentric images");
 
   const int wg = opt.work_group > 0 ? opt.work_group : ctx.tuning().sinkhorn.work_group;
   if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");
@@ -325,8 +328,8 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
     for (Eigen::Index j = 0; j < pr.target.rows(); ++j)
       for (int d = 0; d < dim; ++d) tgt.push_back(static_cast<float>(pr.target(j, d)));
   }
-  auto sb = detail::to_device(ctx, src);
-  auto tb = detail::to_device(ctx, tgt);
+  auto sb = detail::to_device(ctx, src, "Sinkhorn: source points");
+  auto tb = detail::to_device(ctx, tgt, "Sinkhorn: target points");
   Launch L = launch(ctx, dim, sb, tb, src.size() / dim, soff, scnt, toff, tcnt, par, opt);
 
   std::vector<SinkhornLaunchStats> stats(np);

@@ -61,6 +61,7 @@ struct PngWriter::Impl {
   png_infop info = nullptr;
   std::size_t height = 0;
   std::size_t rows = 0;
+  bool completed = false;
 
   explicit Impl(const std::string& path) : out(path) {}
   ~Impl() { png_destroy_write_struct(&png, &info); }
@@ -99,13 +100,20 @@ void PngWriter::write_row(const std::uint8_t* rgb) {
   ++impl_->rows;
 }
 
-void PngWriter::finish() {
+void PngWriter::complete() {
+  if (impl_->completed) return;
   if (impl_->rows != impl_->height)
     impl_->fail(("only " + std::to_string(impl_->rows) + " of " + std::to_string(impl_->height) +
                  " rows written")
                     .c_str());
   if (!end(impl_->png, impl_->info)) impl_->fail("end");
   png_destroy_write_struct(&impl_->png, &impl_->info);
+  impl_->out.sync();
+  impl_->completed = true;
+}
+
+void PngWriter::finish() {
+  complete();
   impl_->out.commit();
 }
 

@@ -19,8 +19,11 @@ class PngWriter {
 
   /// Appends the next row, top first: `rgb` holds width * 3 bytes (R, G, B).
   void write_row(const std::uint8_t* rgb);
-  /// Writes the end of the image and renames the file into place. Throws potmap::Error if rows
-  /// are missing or the write fails; the temporary file is removed then.
+  /// Writes the end of the image and syncs the temporary file (AtomicFile::sync), so that a
+  /// writer of several images meets a full disk before it renames any. Throws potmap::Error if
+  /// rows are missing or the write fails; the temporary file is removed then.
+  void complete();
+  /// complete() (unless done) and renames the file into place. Throws as complete() does.
   void finish();
 
  private:

@@ -186,8 +186,10 @@ struct Context::Impl {
         ++disk_hits;
         programs.emplace(mem_key, p);
         return p;
-      } catch (const bc::opencl_error&) {
-        disk.forget(disk_key);  // stale or corrupt: fall back to source below
+      } catch (const bc::opencl_error& e) {
+        // A binary the driver no longer takes (or one damaged in a way the checksum cannot
+        // see): warn, drop it and build from source below, which stores a fresh one.
+        disk.reject(disk_key, opencl_error_name(e.error_code()));
       }
     }
     bc::program p = detail::cl_call("clCreateProgramWithSource", [&] {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include <boost/compute/buffer.hpp>
@@ -20,35 +21,65 @@ namespace potmap::detail {
 /// smaller than this.
 constexpr std::size_t kMinBufferBytes = 64;
 
-/// A new, uninitialised buffer of at least `bytes` bytes.
-inline boost::compute::buffer device_buffer(boost::compute::context& cx, std::size_t bytes) {
+/// "<call>(<label>, <bytes> bytes)", plus the device's largest allocation when `bytes` is above
+/// it: an out-of-memory error then says which of a routine's buffers did not fit, and why.
+inline std::string buffer_call(const char* call, boost::compute::context& cx, const char* label,
+                               std::size_t bytes) {
+  std::string where = std::string(call) + "(" + label + ", " + std::to_string(bytes) + " bytes";
+  try {
+    const cl_ulong most = cx.get_device().get_info<cl_ulong>(CL_DEVICE_MAX_MEM_ALLOC_SIZE);
+    if (bytes > most)
+      where += "; the device allows at most " + std::to_string(most) +
+               " bytes per buffer (CL_DEVICE_MAX_MEM_ALLOC_SIZE)";
+  } catch (const boost::compute::opencl_error&) {
+    // The limit is only a hint in a message that already names the failure.
+  }
+  return where + ")";
+}
+
+/// A new, uninitialised buffer of at least `bytes` bytes; `label` names it in the error should
+/// the device refuse it (e.g. "evaluator: kernel positions"). A buffer made before a failure
+/// is released by its destructor as the exception unwinds.
+inline boost::compute::buffer device_buffer(boost::compute::context& cx, std::size_t bytes,
+                                            const char* label) {
   const std::size_t size = std::max(bytes, kMinBufferBytes);
-  return cl_call("clCreateBuffer", [&] { return boost::compute::buffer(cx, size); });
+  try {
+    return boost::compute::buffer(cx, size);
+  } catch (const boost::compute::opencl_error& e) {
+    throw OpenCLError(e.error_code(), buffer_call("clCreateBuffer", cx, label, size));
+  }
 }
 
-/// Writes v to the start of b (blocking); nothing for an empty v.
+/// Writes v to the start of b (blocking); nothing for an empty v. Drivers that allocate lazily
+/// (PoCL) report an allocation failure here, so the error names the buffer too.
 template <class T>
-void upload(boost::compute::command_queue& q, boost::compute::buffer& b, const std::vector<T>& v) {
+void upload(boost::compute::command_queue& q, boost::compute::buffer& b, const std::vector<T>& v,
+            const char* label) {
   if (v.empty()) return;
-  cl_call("clEnqueueWriteBuffer",
-          [&] { q.enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data()); });
+  try {
+    q.enqueue_write_buffer(b, 0, v.size() * sizeof(T), v.data());
+  } catch (const boost::compute::opencl_error& e) {
+    boost::compute::context cx = q.get_context();
+    throw OpenCLError(e.error_code(),
+                      buffer_call("clEnqueueWriteBuffer", cx, label, v.size() * sizeof(T)));
+  }
 }
 template <class T>
-void upload(Context& ctx, boost::compute::buffer& b, const std::vector<T>& v) {
-  upload(ctx.queue(), b, v);
+void upload(Context& ctx, boost::compute::buffer& b, const std::vector<T>& v, const char* label) {
+  upload(ctx.queue(), b, v, label);
 }
 
-/// A new buffer holding v.
+/// A new buffer holding v (`label` as for device_buffer).
 template <class T>
 boost::compute::buffer to_device(boost::compute::context& cx, boost::compute::command_queue& q,
-                                 const std::vector<T>& v) {
-  boost::compute::buffer b = device_buffer(cx, v.size() * sizeof(T));
-  upload(q, b, v);
+                                 const std::vector<T>& v, const char* label) {
+  boost::compute::buffer b = device_buffer(cx, v.size() * sizeof(T), label);
+  upload(q, b, v, label);
   return b;
 }
 template <class T>
-boost::compute::buffer to_device(Context& ctx, const std::vector<T>& v) {
-  return to_device(ctx.context(), ctx.queue(), v);
+boost::compute::buffer to_device(Context& ctx, const std::vector<T>& v, const char* label) {
+  return to_device(ctx.context(), ctx.queue(), v, label);
 }
 
 /// Reads `bytes` bytes from the start of b into dst (blocking); nothing for zero bytes.
@@ -71,15 +102,20 @@ void from_device(Context& ctx, const boost::compute::buffer& b, std::vector<T>& 
 
 /// A device buffer that only grows, for paths that launch again and again with varying sizes.
 struct GrowBuffer {
+  const char* label;  ///< names the buffer in an allocation error
   boost::compute::buffer buf;
   std::size_t bytes = 0;
+  explicit GrowBuffer(const char* name) : label(name) {}
   /// The buffer, grown (by a quarter more than asked, so that slowly growing inputs do not
   /// reallocate every time) to hold at least `need` bytes; its contents are undefined.
   boost::compute::buffer& get(boost::compute::context& cx, std::size_t need) {
     need = std::max(need, kMinBufferBytes);
     if (need > bytes) {
+      // The old buffer goes first: holding both would need the old size more than the new.
+      buf = boost::compute::buffer();
+      bytes = 0;
+      buf = device_buffer(cx, need + need / 4, label);
       bytes = need + need / 4;
-      buf = device_buffer(cx, bytes);
     }
     return buf;
   }
@@ -88,7 +124,7 @@ struct GrowBuffer {
   boost::compute::buffer& put(boost::compute::context& cx, boost::compute::command_queue& q,
                               const std::vector<T>& v) {
     boost::compute::buffer& b = get(cx, v.size() * sizeof(T));
-    upload(q, b, v);
+    upload(q, b, v, label);
     return b;
   }
 };
