@@ -6,10 +6,9 @@ set -euo pipefail
 secs=${1:-20}
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${2:-$root/build-fuzz}
-CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DPOTMAP_BUILD_FUZZERS=ON -DPOTMAP_BUILD_TESTS=OFF -DPOTMAP_BUILD_BENCH=OFF \
-  -DPOTMAP_BUILD_TOOLS=OFF -DBUILD_SHARED_LIBS=OFF \
-  -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined" >/dev/null
+# shellcheck source=scripts/sanitizer_build.sh
+source "$root/scripts/sanitizer_build.sh"
+sanitizer_configure "$root" "$build"
 targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary tuning_file
   point_cloud point_cloud_poses"
 make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null

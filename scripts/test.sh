@@ -4,8 +4,12 @@
 # POTMAP_SUITE_TIMEOUT: limit for the whole run in seconds (default 3600).
 # POTMAP_FUZZ_SECONDS: after the tests, every reader's libFuzzer target runs this long with a
 #   fixed seed (default 10; 0 skips; skipped too when clang is missing).
-# POTMAP_SANITIZE_CAPI: 1 (default) runs the C API tests under ASan + UBSan + LSan after that
-#   (scripts/sanitize_capi.sh, sharing the fuzz build); 0 skips; skipped without clang.
+# POTMAP_SANITIZE: 1 (default) runs the test suite under ASan + UBSan + LSan after that
+#   (scripts/sanitize_suite.sh, sharing the fuzz build; the tests under 2 s in the Release run,
+#   POTMAP_SANITIZE_SUITE=full for all); 0 skips; skipped without clang.
+# POTMAP_SANITIZE_THREADS: 1 also runs the threaded tests under ThreadSanitizer
+#   (scripts/sanitize_threads.sh, its own build; default 0: a second instrumented build of the
+#   library does not fit CI's time).
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -31,12 +35,16 @@ if ((status == 0 && fuzz_secs > 0)); then
   fi
 fi
 san_status=0
-if ((status == 0 && fuzz_status == 0)) && [[ "${POTMAP_SANITIZE_CAPI:-1}" != 0 ]]; then
+if ((status == 0 && fuzz_status == 0)) && [[ "${POTMAP_SANITIZE:-1}" != 0 ]]; then
   if command -v clang++ >/dev/null; then
-    echo "test.sh: C API tests under AddressSanitizer + UBSan (scripts/sanitize_capi.sh)"
-    ./scripts/sanitize_capi.sh || san_status=$?
+    echo "test.sh: the test suite under AddressSanitizer + UBSan + LSan (scripts/sanitize_suite.sh)"
+    ./scripts/sanitize_suite.sh || san_status=$?
+    if ((san_status == 0)) && [[ "${POTMAP_SANITIZE_THREADS:-0}" == 1 ]]; then
+      echo "test.sh: threaded tests under ThreadSanitizer (scripts/sanitize_threads.sh)"
+      ./scripts/sanitize_threads.sh || san_status=$?
+    fi
   else
-    echo "test.sh: clang++ not found: sanitizer run of the C API tests skipped"
+    echo "test.sh: clang++ not found: sanitizer run of the test suite skipped"
   fi
 fi
 elapsed=$(($(date +%s) - start))
@@ -58,7 +66,7 @@ elif ((fuzz_status != 0)); then
   echo "test.sh: FAILED: a fuzz target crashed (see above; the crashing input is in build-fuzz)" >&2
   status=$fuzz_status
 else
-  echo "test.sh: FAILED: the C API tests failed under the sanitizers (see above)" >&2
+  echo "test.sh: FAILED: tests failed under the sanitizers (see above)" >&2
   status=$san_status
 fi
 echo "$summary"

@@ -21,6 +21,7 @@ void simulate(std::uint32_t seed, const std::vector<std::pair<double, double>>& 
               double step_deg, int free_per_ray, LabelledPoints& train, LabelledPoints& test) {
   std::mt19937 rng(seed + 100);
   std::uniform_real_distribution<double> u(0, 1);
+  const SyntheticTruth truth(seed);
   train.dim = test.dim = 2;
   int ray = 0;
   for (std::size_t t = 0; t < poses.size(); ++t) {
@@ -30,7 +31,7 @@ void simulate(std::uint32_t seed, const std::vector<std::pair<double, double>>& 
       const double c = std::cos(a * M_PI / 180), s = std::sin(a * M_PI / 180);
       double r = 0.05;
       const double rmax = 25;
-      while (r < rmax && !synthetic_occupied(seed, px + r * c, py + s * r)) r += 0.05;
+      while (r < rmax && !truth.occupied(px + r * c, py + s * r)) r += 0.05;
       const bool hit = r < rmax;
       if (hit) {
         out.position.insert(out.position.end(), {px + r * c, py + r * s});
@@ -107,6 +108,22 @@ const Scene& scene() {
 KernelMap grid(double spacing = 1.0, double gamma = 8.0, bool bias = false) {
   const double lo[3] = {0, 0, 0}, hi[3] = {40, 32, 0};
   return bhm_grid_prior(2, lo, hi, spacing, gamma, 0.0, 1e4, bias);
+}
+
+// The test scenes' ray caster uses the drawn-once ground truth; it must be the per-call one.
+TEST(Synthetic, TruthDrawnOnceIsTheGroundTruth) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> ux(-2, 82), uy(-2, 62);
+  for (std::uint32_t seed : {1u, 7u}) {
+    const SyntheticTruth truth(seed);
+    int inside = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const double x = ux(rng), y = uy(rng);
+      ASSERT_EQ(truth.occupied(x, y), synthetic_occupied(seed, x, y)) << x << ", " << y;
+      inside += truth.occupied(x, y);
+    }
+    EXPECT_GT(inside, 30);  // both sides of the boundary are exercised
+  }
 }
 
 TEST(Bhm, AucHelperIsRight) {

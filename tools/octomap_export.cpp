@@ -68,7 +68,7 @@ OctomapExportSummary write_octomap(Context* ctx, const KernelMap& map, const std
         continue;
       }
       const double p = std::min(std::max(v.prob[c], kClamp), 1 - kClamp);
-      const octomap::point3d at(float(pts[c * map.dim]), float(pts[c * map.dim + 1]), float(z));
+      const octomap::point3d at{float(pts[c * map.dim]), float(pts[c * map.dim + 1]), float(z)};
       tree.setNodeValue(at, float(std::log(p / (1 - p))), true);
       ++(p > 0.5 ? s.occupied : s.free);
     }

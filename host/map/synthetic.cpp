@@ -60,6 +60,17 @@ bool synthetic_occupied(std::uint32_t seed, double x, double y) {
   return signed_distance(obstacles(seed), x, y) <= 0;
 }
 
+SyntheticTruth::SyntheticTruth(std::uint32_t seed) {
+  for (const Box& b : obstacles(seed)) boxes_.insert(boxes_.end(), {b.x0, b.x1, b.y0, b.y1});
+}
+
+bool SyntheticTruth::occupied(double x, double y) const {
+  for (std::size_t i = 0; i + 3 < boxes_.size(); i += 4)
+    if (x >= boxes_[i] && x <= boxes_[i + 1] && y >= boxes_[i + 2] && y <= boxes_[i + 3])
+      return true;
+  return false;
+}
+
 SyntheticScene make_synthetic_scene(std::uint32_t seed, double spacing, std::size_t test_points) {
   const std::vector<Box> boxes = obstacles(seed);
   SyntheticScene s;

@@ -5,6 +5,7 @@
 // points drawn from the ground truth. Deterministic for a given seed.
 
 #include <cstdint>
+#include <vector>
 
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/export.h"
@@ -24,8 +25,20 @@ struct SyntheticScene {
 SyntheticScene make_synthetic_scene(std::uint32_t seed = 1, double spacing = 0.5,
                                     std::size_t test_points = 2000);
 
-/// Ground truth of the scene made with `seed`: true where (x, y) is inside an obstacle.
+/// Ground truth of the scene made with `seed`: true where (x, y) is inside an obstacle. Draws
+/// the scene's obstacles again on every call: for many queries, use SyntheticTruth.
 bool synthetic_occupied(std::uint32_t seed, double x, double y);
+
+/// The same ground truth with the obstacles drawn once, for many queries (ray casting).
+class SyntheticTruth {
+ public:
+  explicit SyntheticTruth(std::uint32_t seed);
+  /// true where (x, y), metres, is inside an obstacle.
+  bool occupied(double x, double y) const;
+
+ private:
+  std::vector<double> boxes_;  // x0, x1, y0, y1 per obstacle
+};
 
 }  // namespace potmap
 POTMAP_CXX_API_END
