@@ -10,13 +10,14 @@
 # hooks and UBSan's checks keep Eigen from inlining), so the few end-to-end runs of whole logs
 # would take 2 to 5 minutes each there (docs/sanitizers.md). POTMAP_SANITIZE_SUITE=full runs
 # all of them (about an hour on 2 cores). Always left out, with the reason:
-#   *Cli.*, raster_mpi_ranks, full_disk_check  run the potmap command, which this build does not
-#                     make (its code is the library's, which the other tests reach); the command's
-#                     readers are fuzzed in this same build.
+#   *Cli.*, OctomapExport.*, raster_mpi_ranks, full_disk_check  run the potmap command, which
+#                     this build does not make (its code is the library's, which the other
+#                     tests reach); the command's readers are fuzzed in this same build.
 #   python_*          the interpreter is not instrumented (ASan must be first in the process).
 #   install_consumer  packaging, not memory safety.
-#   capi.CApiSoak.*   resident-memory bounds mean nothing under ASan's quarantine, which holds
-#                     freed memory on purpose; LeakSanitizer checks leaks instead.
+#   capi.CApiSoak.*, MapperMemory.*  resident-memory bounds mean nothing under ASan's
+#                     quarantine, which holds freed memory on purpose; LeakSanitizer checks
+#                     leaks instead.
 # LeakSanitizer suppressions: scripts/lsan-opencl.supp (the OpenCL driver only, never potmap).
 # Usage: scripts/sanitize_suite.sh [BUILD_DIR [RELEASE_BUILD_DIR]]
 #        (extra ctest flags in POTMAP_SANITIZE_ARGS)
@@ -30,7 +31,7 @@ source "$root/scripts/sanitizer_build.sh"
 sanitizer_configure "$root" "$build"
 cmake --build "$build" -j"$(nproc)" --target potmap_tests potmap_capi_tests >/dev/null
 
-exclude='^(python_|install_consumer$|raster_mpi_ranks$|full_disk_check$|abi_exports$|capi\.CApiSoak\.|[A-Za-z0-9]*Cli\.)'
+exclude='^(python_|install_consumer$|raster_mpi_ranks$|full_disk_check$|abi_exports$|capi\.CApiSoak\.|MapperMemory\.|OctomapExport\.|[A-Za-z0-9]*Cli\.)'
 costs=$release/Testing/Temporary/CTestCostData.txt
 if [[ "${POTMAP_SANITIZE_SUITE:-}" != full ]]; then
   if [[ ! -f "$costs" ]]; then
