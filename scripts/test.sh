@@ -7,9 +7,8 @@
 # POTMAP_SANITIZE: 1 (default) runs the test suite under ASan + UBSan + LSan after that
 #   (scripts/sanitize_suite.sh, sharing the fuzz build; the tests under 2 s in the Release run,
 #   POTMAP_SANITIZE_SUITE=full for all); 0 skips; skipped without clang.
-# POTMAP_SANITIZE_THREADS: 1 also runs the threaded tests under ThreadSanitizer
-#   (scripts/sanitize_threads.sh, its own build; default 0: a second instrumented build of the
-#   library does not fit CI's time).
+# POTMAP_SANITIZE_THREADS: 1 (default) then runs the threaded tests under ThreadSanitizer
+#   (scripts/sanitize_threads.sh, its own build of the library and three test files); 0 skips.
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -39,7 +38,7 @@ if ((status == 0 && fuzz_status == 0)) && [[ "${POTMAP_SANITIZE:-1}" != 0 ]]; th
   if command -v clang++ >/dev/null; then
     echo "test.sh: the test suite under AddressSanitizer + UBSan + LSan (scripts/sanitize_suite.sh)"
     ./scripts/sanitize_suite.sh || san_status=$?
-    if ((san_status == 0)) && [[ "${POTMAP_SANITIZE_THREADS:-0}" == 1 ]]; then
+    if ((san_status == 0)) && [[ "${POTMAP_SANITIZE_THREADS:-1}" != 0 ]]; then
       echo "test.sh: threaded tests under ThreadSanitizer (scripts/sanitize_threads.sh)"
       ./scripts/sanitize_threads.sh || san_status=$?
     fi
