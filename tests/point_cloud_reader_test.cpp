@@ -21,6 +21,9 @@ using namespace potmap;
 
 namespace {
 
+using test::expect_input_error;
+using test::write_file;
+
 pcl::PointCloud<pcl::PointXYZI> random_cloud(std::size_t n, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-60.f, 60.f);
@@ -44,23 +47,6 @@ void expect_same_points(const Scan& s, const pcl::PointCloud<pcl::PointXYZI>& c,
     const float v[3] = {c[i].x, c[i].y, c[i].z};
     for (int d = 0; d < 3; ++d)
       ASSERT_NEAR(s.hits[3 * i + d], v[d], rel * std::abs(v[d])) << "point " << i << " axis " << d;
-  }
-}
-
-std::string write(const std::string& dir, const std::string& name, const std::string& body) {
-  const std::string p = dir + "/" + name;
-  std::ofstream(p, std::ios::binary) << body;
-  return p;
-}
-
-template <class F>
-void expect_input_error(F f, std::initializer_list<std::string> needles) {
-  try {
-    f();
-    FAIL() << "no InputError";
-  } catch (const InputError& e) {
-    const std::string m = e.what();
-    for (const auto& n : needles) EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
   }
 }
 
@@ -132,10 +118,10 @@ TEST(PointCloudReaders, SequenceByPosesFileOrFolder) {
   ASSERT_EQ(pcl::io::savePCDFileBinary(d + "/frames/0.pcd", a), 0);
   ASSERT_EQ(pcl::io::savePLYFile(d + "/frames/1.ply", b, true), 0);
   // Frame 1: a quarter turn about z and 10 m along x.
-  write(d, "poses.txt",
-        "# frame r00 r01 r02 tx r10 r11 r12 ty r20 r21 r22 tz\n"
-        "frames/0.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n\n"
-        "frames/1.ply 0 -1 0 10 1 0 0 0 0 0 1 0\n");
+  write_file(d, "poses.txt",
+             "# frame r00 r01 r02 tx r10 r11 r12 ty r20 r21 r22 tz\n"
+             "frames/0.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n\n"
+             "frames/1.ply 0 -1 0 10 1 0 0 0 0 0 1 0\n");
   for (const std::string& path : {d, d + "/poses.txt"}) {
     const Dataset ds = read_dataset(path);
     ASSERT_EQ(ds.scans.size(), 2u) << path;
@@ -173,49 +159,53 @@ TEST(PointCloudReadersMalformed, TruncatedBinaryPcdAndPly) {
 
 TEST(PointCloudReadersMalformed, TruncatedAsciiPcd) {
   const std::string d = test::temp_dir("pc_trunc_ascii");
-  const std::string p = write(d, "a.pcd",
-                              "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                              "WIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA ascii\n1 2 3\n4 5 6\n");
+  const std::string p = write_file(d, "a.pcd",
+                                   "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                   "WIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA ascii\n1 2 3\n4 5 6\n");
   expect_input_error([&] { read_point_cloud(p); }, {p, "truncated", "header's 3"});
 }
 
 TEST(PointCloudReadersMalformed, EmptyCloud) {
   const std::string d = test::temp_dir("pc_empty");
-  const std::string p = write(d, "e.pcd",
-                              "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                              "WIDTH 0\nHEIGHT 1\nPOINTS 0\nDATA ascii\n");
+  const std::string p = write_file(d, "e.pcd",
+                                   "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                                   "WIDTH 0\nHEIGHT 1\nPOINTS 0\nDATA ascii\n");
   expect_input_error([&] { read_point_cloud(p); }, {p, "no points"});
 }
 
 TEST(PointCloudReadersMalformed, AllPointsNan) {
   const std::string d = test::temp_dir("pc_allnan");
-  const std::string p = write(d, "n.pcd",
-                              "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                              "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\nnan nan nan\n1 nan 2\n");
+  const std::string p =
+      write_file(d, "n.pcd",
+                 "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                 "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\nnan nan nan\n1 nan 2\n");
   expect_input_error([&] { read_point_cloud(p); }, {p, "all 2 points", "NaN"});
 }
 
 TEST(PointCloudReadersMalformed, WrongFieldLayout) {
   const std::string d = test::temp_dir("pc_fields");
-  const std::string no_z = write(d, "noz.pcd",
-                                 "VERSION .7\nFIELDS x y intensity\nSIZE 4 4 4\nTYPE F F F\n"
-                                 "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
+  const std::string no_z =
+      write_file(d, "noz.pcd",
+                 "VERSION .7\nFIELDS x y intensity\nSIZE 4 4 4\nTYPE F F F\n"
+                 "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
   expect_input_error([&] { read_point_cloud(no_z); }, {no_z, "no field 'z'", "x y intensity"});
-  const std::string ints = write(d, "int.pcd",
-                                 "VERSION .7\nFIELDS x y z\nSIZE 1 4 4\nTYPE U F F\n"
-                                 "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
+  const std::string ints =
+      write_file(d, "int.pcd",
+                 "VERSION .7\nFIELDS x y z\nSIZE 1 4 4\nTYPE U F F\n"
+                 "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
   expect_input_error([&] { read_point_cloud(ints); }, {ints, "'x'", "uint8"});
   // fuzz_point_cloud's first find: PCL's header reader throws std::out_of_range on this (and
   // other inconsistent headers corrupt its heap), so potmap checks the header first.
-  const std::string thrower =
-      write(d, "thrower.pcd", "DATAION\".7\001\nFIELDS x y z inteVnsiEt" + std::string(32, '\xcd'));
+  const std::string thrower = write_file(
+      d, "thrower.pcd", "DATAION\".7\001\nFIELDS x y z inteVnsiEt" + std::string(32, '\xcd'));
   expect_input_error([&] { read_point_cloud(thrower); }, {thrower, "not a PCD header keyword"});
-  const std::string mismatch = write(d, "mismatch.pcd",
-                                     "VERSION .7\nFIELDS x y z intensity\nSIZE 4 4 4\nTYPE F F F\n"
-                                     "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
+  const std::string mismatch =
+      write_file(d, "mismatch.pcd",
+                 "VERSION .7\nFIELDS x y z intensity\nSIZE 4 4 4\nTYPE F F F\n"
+                 "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
   expect_input_error([&] { read_point_cloud(mismatch); },
                      {mismatch, "4 FIELDS, 3 SIZE, 3 TYPE", "must match"});
-  const std::string junk = write(d, "junk.ply", "not a ply file\n");
+  const std::string junk = write_file(d, "junk.ply", "not a ply file\n");
   expect_input_error([&] { read_point_cloud(junk); }, {junk, "not a readable PLY file"});
 }
 
@@ -223,21 +213,23 @@ TEST(PointCloudReadersMalformed, WrongFieldLayout) {
 // the body, so a header claiming 5 x 10^18 points exhausted memory inside PCL.
 TEST(PointCloudReadersMalformed, PointCountBeyondTheFile) {
   const std::string d = test::temp_dir("pc_huge_count");
-  const std::string pcd = write(d, "huge.pcd",
-                                "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                                "WIDTH 1\nHEIGHT 1\nPOINTS 4999999999999999999\nDATA binary\n" +
-                                    std::string(12, '\0'));
+  const std::string pcd =
+      write_file(d, "huge.pcd",
+                 "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                 "WIDTH 1\nHEIGHT 1\nPOINTS 4999999999999999999\nDATA binary\n" +
+                     std::string(12, '\0'));
   expect_input_error([&] { read_point_cloud(pcd); },
                      {pcd, "4999999999999999999 points", "more than any encoding holds"});
-  const std::string ply = write(d, "huge.ply",
-                                "ply\nformat binary_little_endian 1.0\nelement vertex "
-                                "4999999999999999999\nproperty float x\nproperty float y\n"
-                                "property float z\nend_header\n" +
-                                    std::string(12, '\0'));
+  const std::string ply = write_file(d, "huge.ply",
+                                     "ply\nformat binary_little_endian 1.0\nelement vertex "
+                                     "4999999999999999999\nproperty float x\nproperty float y\n"
+                                     "property float z\nend_header\n" +
+                                         std::string(12, '\0'));
   expect_input_error([&] { read_point_cloud(ply); }, {ply, "4999999999999999999 points"});
-  const std::string bad = write(d, "bad.pcd",
-                                "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-                                "WIDTH 1\nHEIGHT 1\nPOINTS 99999999999999999999999\nDATA binary\n");
+  const std::string bad =
+      write_file(d, "bad.pcd",
+                 "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                 "WIDTH 1\nHEIGHT 1\nPOINTS 99999999999999999999999\nDATA binary\n");
   expect_input_error([&] { read_point_cloud(bad); }, {bad, "line 8", "is not a count"});
 }
 
@@ -245,10 +237,10 @@ TEST(PointCloudReadersMalformed, PosesFileLines) {
   const std::string d = test::temp_dir("pc_poses_bad");
   ASSERT_EQ(pcl::io::savePCDFileBinary(d + "/0.pcd", random_cloud(5, 9)), 0);
   const std::string short_pose =
-      write(d, "short.txt", "0.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n0.pcd 1 0\n");
+      write_file(d, "short.txt", "0.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n0.pcd 1 0\n");
   expect_input_error([&] { read_dataset(short_pose); }, {short_pose, "line 2", "12 numbers"});
-  const std::string nan_pose = write(d, "nan.txt", "0.pcd 1 0 0 nan 0 1 0 0 0 0 1 0\n");
+  const std::string nan_pose = write_file(d, "nan.txt", "0.pcd 1 0 0 nan 0 1 0 0 0 0 1 0\n");
   expect_input_error([&] { read_dataset(nan_pose); }, {nan_pose, "line 1", "'nan'"});
-  const std::string missing = write(d, "missing.txt", "9.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n");
+  const std::string missing = write_file(d, "missing.txt", "9.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n");
   expect_input_error([&] { read_dataset(missing); }, {missing, "line 1", "9.pcd"});
 }

@@ -16,13 +16,7 @@
 namespace potmap {
 namespace {
 
-LabelledPoints all_samples(const Scan& scan, std::int64_t index) {
-  LabelOptions o;
-  o.holdout_fraction = 0;
-  LabelledSplit s;
-  label_scan(scan, index, o, s);
-  return s.train;
-}
+using test::training_samples;
 
 struct Fixture {
   std::vector<Scan> scans;
@@ -39,7 +33,7 @@ const Fixture& fixture() {
     LabelledPoints all;
     all.dim = 2;
     for (std::size_t i = 0; i < x.scans.size(); ++i) {
-      const LabelledPoints s = all_samples(x.scans[i], std::int64_t(i));
+      const LabelledPoints s = training_samples(x.scans[i], std::int64_t(i));
       all.position.insert(all.position.end(), s.position.begin(), s.position.end());
       all.label.insert(all.label.end(), s.label.begin(), s.label.end());
       all.scan.insert(all.scan.end(), s.scan.begin(), s.scan.end());
@@ -106,7 +100,7 @@ TEST(PotPlacement, ClearanceKeepsFreeSpaceOffTheWallsAndVarianceGrowsWithTheMove
   const Fixture& f = fixture();
   const Dictionary dict = atoms_at_samples({f.scans[0], f.scans[2]}, f.map);
   const Scan& target = f.scans[1];
-  const LabelledPoints train = all_samples(target, 1);
+  const LabelledPoints train = training_samples(target, 1);
   PotOptions po;
   po.rotations = {0.0};
   po.wall_clearance = 0.5;

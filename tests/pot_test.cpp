@@ -19,6 +19,8 @@
 namespace potmap {
 namespace {
 
+using test::training_samples;
+
 constexpr double kPi = 3.14159265358979323846;
 
 // Kernels every `step` metres around a point, each weight mean tagging its index.
@@ -31,15 +33,6 @@ KernelMap tagged_grid(const std::array<double, 3>& c, double half, double step) 
       map.push_back(p, 2.0, static_cast<double>(map.size()), 0.5);
     }
   return map;
-}
-
-LabelledPoints all_samples(const Scan& scan, std::int64_t index, double free_per_metre = 1) {
-  LabelOptions o;
-  o.holdout_fraction = 0;
-  o.free_per_metre = free_per_metre;
-  LabelledSplit s;
-  label_scan(scan, index, o, s);
-  return s.train;
 }
 
 // Small problems so that the CPU reference stays quick.
@@ -76,7 +69,7 @@ TEST_P(PotSelf, ScanOntoItselfPutsKernelsBack) {
   o.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
   o.transport_free = GetParam() > 0;
   o.transport_free_points = GetParam() == 1 ? 5000 : 30;
-  const LabelledPoints train = all_samples(scan, 0, dopt.labels.free_per_metre);
+  const LabelledPoints train = training_samples(scan, 0, dopt.labels.free_per_metre);
   const ScanTransfer t =
       transfer_scan(&test::context(), dict, train, scan.origin(), scan_heading(scan), 0, o);
   ASSERT_EQ(t.sectors.size(), dict.size());
@@ -122,7 +115,7 @@ TEST(Pot, PreselectionRanksOnlyKAtomsAndKeepsTheOwnAtom) {
   PotOptions o = small_options();
   o.rotations = {0, kPi};
   o.candidates = 2;
-  const LabelledPoints train = all_samples(scans[1], 1);
+  const LabelledPoints train = training_samples(scans[1], 1);
   const PreparedTransfer pt =
       prepare_transfer(dict, train, scans[1].origin(), scan_heading(scans[1]), 1, o);
   ASSERT_EQ(pt.sectors.size(), 5u);
@@ -162,7 +155,7 @@ TEST(Pot, RotatedAtomIsRankedBestAtItsRotation) {
   // The target: scan 1 turned by 90 degrees about its sensor and moved 500 m away.
   const double angle = kPi / 2;
   const auto o = scan.origin();
-  LabelledPoints target = all_samples(scan, 1);
+  LabelledPoints target = training_samples(scan, 1);
   for (std::size_t i = 0; i < target.size(); ++i) {
     double* p = &target.position[2 * i];
     const double ux = p[0] - o[0], uy = p[1] - o[1];
@@ -192,7 +185,7 @@ TEST(Pot, DeviceChoosesWhatTheReferenceChooses) {
   o.transport_tolerance = 1e-5;
   o.transport_max_iterations = 20000;
   const Scan& scan = sim.scans[3];
-  const LabelledPoints train = all_samples(scan, 3);
+  const LabelledPoints train = training_samples(scan, 3);
   const ScanTransfer dev =
       transfer_scan(&test::context(), dict, train, scan.origin(), scan_heading(scan), 3, o);
   const ScanTransfer ref =

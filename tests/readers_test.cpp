@@ -14,29 +14,14 @@ using namespace potmap;
 
 namespace {
 
+using test::expect_input_error;
+using test::write_file;
+
 void expect_counts(const std::string& rel, std::size_t scans, std::size_t beams) {
   const Dataset ds = read_carmen(test::shared_data(rel));
   ASSERT_EQ(ds.scans.size(), scans) << rel;
   for (const Scan& s : ds.scans) ASSERT_EQ(s.num_beams(), beams) << rel;
   EXPECT_GT(ds.stats.lines_skipped, 0u) << rel;
-}
-
-std::string write(const std::string& dir, const std::string& name, const std::string& body) {
-  const std::string p = dir + "/" + name;
-  std::ofstream(p, std::ios::binary) << body;
-  return p;
-}
-
-// Runs f, expects an InputError whose message contains every needle.
-template <class F>
-void expect_input_error(F f, std::initializer_list<std::string> needles) {
-  try {
-    f();
-    FAIL() << "no InputError";
-  } catch (const InputError& e) {
-    const std::string m = e.what();
-    for (const auto& n : needles) EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
-  }
 }
 
 std::string flaser(int n, const std::string& ranges, const std::string& pose) {
@@ -83,7 +68,7 @@ TEST(Readers, FlaserGeometryAndPlainText) {
   const std::string d = test::temp_dir("readers_geom");
   // Two beams at -90 and 0 degrees (n = 2: one step of 90 degrees), robot at (1, 2) facing +y.
   const std::string p =
-      write(d, "a.log", "ODOM 0 0 0\n" + flaser(2, "3 4", "1 2 1.5707963267948966"));
+      write_file(d, "a.log", "ODOM 0 0 0\n" + flaser(2, "3 4", "1 2 1.5707963267948966"));
   const Dataset ds = read_carmen(p, 10);
   ASSERT_EQ(ds.scans.size(), 1u);
   EXPECT_EQ(ds.stats.lines_skipped, 1u);
@@ -99,7 +84,7 @@ TEST(Readers, FlaserGeometryAndPlainText) {
 TEST(Readers, GzipMatchesPlain) {
   const std::string d = test::temp_dir("readers_gz");
   const std::string body = flaser(3, "1 2 9", "0 0 0") + flaser(3, "1 nan 2", "1 0 0");
-  const std::string plain = write(d, "p.log", body);
+  const std::string plain = write_file(d, "p.log", body);
   gzFile g = gzopen((d + "/z.log.gz").c_str(), "wb");
   gzwrite(g, body.data(), static_cast<unsigned>(body.size()));
   gzclose(g);
@@ -115,9 +100,10 @@ TEST(Readers, GzipMatchesPlain) {
 TEST(Readers, RobotLaser) {
   const std::string d = test::temp_dir("readers_robot");
   // start -pi/2, fov pi, 3 beams, max range 8; laser pose (0, 0, 0).
-  const std::string p = write(d, "r.log",
-                              "ROBOTLASER1 0 -1.5707963267948966 3.141592653589793 1.57 8 0.01 0 "
-                              "3 1 8 2 0 0 0 0 0 0 0 0 0 0 0 0 77.5 host 77.5\n");
+  const std::string p =
+      write_file(d, "r.log",
+                 "ROBOTLASER1 0 -1.5707963267948966 3.141592653589793 1.57 8 0.01 0 "
+                 "3 1 8 2 0 0 0 0 0 0 0 0 0 0 0 0 77.5 host 77.5\n");
   const Dataset ds = read_carmen(p);
   ASSERT_EQ(ds.scans.size(), 1u);
   EXPECT_EQ(ds.scans[0].num_hits(), 2u);
@@ -129,60 +115,60 @@ TEST(Readers, RobotLaser) {
 
 TEST(ReadersMalformed, TruncatedLine) {
   const std::string d = test::temp_dir("mal_trunc");
-  const std::string p = write(d, "t.log", flaser(3, "1 2 3", "0 0 0") + "FLASER 180 1.0 2.0");
+  const std::string p = write_file(d, "t.log", flaser(3, "1 2 3", "0 0 0") + "FLASER 180 1.0 2.0");
   expect_input_error([&] { read_carmen(p); }, {p, "line 2", "2.0"});
 }
 
 TEST(ReadersMalformed, WrongFieldCountBeamCount) {
   const std::string d = test::temp_dir("mal_count");
-  const std::string p = write(d, "c.log", "FLASER 2.5 1 2 0 0 0 0 0 0 1 h 1\n");
+  const std::string p = write_file(d, "c.log", "FLASER 2.5 1 2 0 0 0 0 0 0 1 h 1\n");
   expect_input_error([&] { read_carmen(p); }, {p, "line 1", "2.5"});
 }
 
 TEST(ReadersMalformed, NonNumericRange) {
   const std::string d = test::temp_dir("mal_nonnum");
-  const std::string p = write(d, "n.log", flaser(2, "1 abc", "0 0 0"));
+  const std::string p = write_file(d, "n.log", flaser(2, "1 abc", "0 0 0"));
   expect_input_error([&] { read_carmen(p); }, {p, "line 1", "abc"});
 }
 
 TEST(ReadersMalformed, NanPose) {
   const std::string d = test::temp_dir("mal_nanpose");
-  const std::string p = write(d, "p.log", "PARAM x\n" + flaser(2, "1 2", "0 nan 0"));
+  const std::string p = write_file(d, "p.log", "PARAM x\n" + flaser(2, "1 2", "0 nan 0"));
   expect_input_error([&] { read_carmen(p); }, {p, "line 2", "nan"});
 }
 
 TEST(ReadersMalformed, NegativeRange) {
   const std::string d = test::temp_dir("mal_neg");
-  const std::string p = write(d, "g.log", flaser(2, "1 -0.5", "0 0 0"));
+  const std::string p = write_file(d, "g.log", flaser(2, "1 -0.5", "0 0 0"));
   expect_input_error([&] { read_carmen(p); }, {p, "line 1", "-0.5"});
 }
 
 TEST(ReadersMalformed, BinSizeNotMultipleOf16) {
   const std::string d = test::temp_dir("mal_bin");
-  const std::string p = write(d, "k.bin", std::string(16 * 3 + 5, '\0'));
+  const std::string p = write_file(d, "k.bin", std::string(16 * 3 + 5, '\0'));
   expect_input_error([&] { read_kitti_bin(p); }, {p, "byte 48", "53"});
 }
 
 TEST(ReadersMalformed, CorruptGzip) {
   const std::string d = test::temp_dir("mal_gz");
-  const std::string p = write(d, "x.log.gz", std::string("\x1f\x8b\x08\x00garbage", 11));
+  const std::string p = write_file(d, "x.log.gz", std::string("\x1f\x8b\x08\x00garbage", 11));
   expect_input_error([&] { read_carmen(p); }, {p, "byte"});
 }
 
 TEST(ReadersMalformed, KittiPoseLine) {
   const std::string d = test::temp_dir("mal_pose");
   const std::string calib =
-      write(d, "calib.txt", "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nTr: 1 0 0 0 0 1 0 0 0 0 1 0\n");
+      write_file(d, "calib.txt", "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nTr: 1 0 0 0 0 1 0 0 0 0 1 0\n");
   const std::string poses =
-      write(d, "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 inf 0 0 1 0\n");
+      write_file(d, "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 inf 0 0 1 0\n");
   expect_input_error([&] { read_kitti_poses(poses, calib); }, {poses, "line 2", "inf"});
 }
 
 TEST(Readers, KittiPosesComposeWithCalib) {
   const std::string d = test::temp_dir("kitti_pose");
   // Tr swaps axes as KITTI's does (velo x forward -> cam z forward); the camera moves 2 m along z.
-  const std::string calib = write(d, "calib.txt", "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 0\n");
-  const std::string poses = write(d, "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 2\n");
+  const std::string calib = write_file(d, "calib.txt", "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 0\n");
+  const std::string poses = write_file(d, "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 2\n");
   const auto T = read_kitti_poses(poses, calib);
   ASSERT_EQ(T.size(), 1u);
   // In velodyne axes that is 2 m forward (x).
@@ -212,7 +198,7 @@ TEST(Readers, ScansFromLabelledGroupsByT) {
 TEST(Readers, FlaserFieldOfViewWhenTold) {
   const std::string d = test::temp_dir("readers_fov");
   // Three beams over 90 degrees: -45, 0, +45 around a heading of 0.
-  const std::string p = write(d, "f.log", flaser(3, "2 2 2", "0 0 0"));
+  const std::string p = write_file(d, "f.log", flaser(3, "2 2 2", "0 0 0"));
   const Dataset ds = read_carmen(p, 10, M_PI / 2);
   ASSERT_EQ(ds.scans[0].num_hits(), 3u);
   EXPECT_NEAR(ds.scans[0].hits[0], std::sqrt(2.0), 1e-9);

@@ -56,6 +56,21 @@ std::string quoted(const std::string& s) {
   return "'" + s + "'";
 }
 
+std::string write_file(const std::string& dir, const std::string& name, const std::string& body) {
+  const std::string p = dir + "/" + name;
+  std::ofstream(p, std::ios::binary) << body;
+  return p;
+}
+
+LabelledPoints training_samples(const Scan& scan, std::int64_t index, double free_per_metre) {
+  LabelOptions o;
+  o.holdout_fraction = 0;
+  o.free_per_metre = free_per_metre;
+  LabelledSplit s;
+  label_scan(scan, index, o, s);
+  return s.train;
+}
+
 std::string file_bytes(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
@@ -112,7 +127,6 @@ Context& context() {
   static std::unique_ptr<Context> ctx = std::make_unique<Context>();
   return *ctx;
 }
-
 
 Sector rotated_sector(const Sector& s, double angle) {
   Sector r = s;

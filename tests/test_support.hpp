@@ -1,9 +1,14 @@
 #pragma once
 // Shared helpers for the test suite.
 
+#include <gtest/gtest.h>
+
 #include <array>
+#include <initializer_list>
 #include <string>
 
+#include "potmap/data/labelling.hpp"
+#include "potmap/error.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/mapper.hpp"
 #include "potmap/runtime/context.hpp"
@@ -16,6 +21,26 @@ std::string source_dir();
 std::string shared_data(const std::string& rel);
 /// A fresh empty folder under the build tree for one test's files.
 std::string temp_dir(const std::string& name);
+/// Writes `body` to dir/name (bytes as given) and returns the path.
+std::string write_file(const std::string& dir, const std::string& name, const std::string& body);
+
+/// Runs f, expects a potmap::InputError whose message contains every needle.
+template <class F>
+void expect_input_error(F f, std::initializer_list<std::string> needles) {
+  try {
+    f();
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    for (const auto& n : needles) EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
+  }
+}
+
+/// Every beam's samples of `scan` (scan index `index`) as training samples, none held out,
+/// `free_per_metre` free samples per metre of beam (default: LabelOptions').
+LabelledPoints training_samples(const Scan& scan, std::int64_t index,
+                                double free_per_metre = LabelOptions{}.free_per_metre);
+
 /// Exit status and captured stdout of one run of the potmap command.
 struct CliResult {
   int status = -1;
