@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets with clang and runs each for SECONDS (default 20) from a seed
-# corpus taken from ../shared/data where present. Exits non-zero on the first crash.
+# corpus taken from ../shared/data where present, one per core at a time (POTMAP_FUZZ_JOBS).
+# Exits non-zero when any crashed.
 # Usage: fuzz/run_fuzzers.sh [SECONDS] [BUILD_DIR]
 set -euo pipefail
 secs=${1:-20}
@@ -69,9 +70,36 @@ cp "$corpus/npz/seed.npz" "$corpus/map_npz/seed.npz" 2>/dev/null || true
 # A tuning file for the fuzzer's fixed device (fuzz_tuning_file.cpp), this source's version.
 version=$(sed -n 's/^project(potmap VERSION \([0-9.]*\).*/\1/p' "$root/CMakeLists.txt")
 printf 'potmap-tuning 1\npotmap_version %s\nplatform P\nplatform_version V\ndevice D\ndriver 1\ntuning raster.rows_per_item=16,sinkhorn.work_group=2\n' "$version" > "$corpus/tuning_file/seed"
+# One fuzzer per core at a time (each is single-threaded), each with its own log, printed in
+# order once all are done; the first crash fails the run.
+jobs=${POTMAP_FUZZ_JOBS:-$(nproc)}
+logs=$build/fuzz-logs
+mkdir -p "$logs"
+fuzz_one() {
+  "$build/fuzz/fuzz_$1" -seed=1 -artifact_prefix="$build/" -max_total_time="$secs" -max_len=65536 \
+    -rss_limit_mb=2048 "$corpus/$1" >"$logs/$1.log" 2>&1
+}
+declare -A pid_of
+failed=()
+running=0
 for t in $targets; do
-  echo "fuzz_$t: ${secs} s"
-  "$build/fuzz/fuzz_$t" -seed=1 -artifact_prefix="$build/" -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 \
-    "$corpus/$t" 2>&1 | tail -3
+  if ((running >= jobs)); then
+    wait -n || true
+    running=$((running - 1))
+  fi
+  fuzz_one "$t" &
+  pid_of[$t]=$!
+  running=$((running + 1))
 done
+for t in $targets; do
+  status=0
+  wait "${pid_of[$t]}" || status=$?
+  echo "fuzz_$t: ${secs} s"
+  tail -3 "$logs/$t.log"
+  ((status == 0)) || failed+=("fuzz_$t (exit $status, log $logs/$t.log)")
+done
+if ((${#failed[@]})); then
+  echo "fuzzing found crashes: ${failed[*]}" >&2
+  exit 1
+fi
 echo "no crashes"

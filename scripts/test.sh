@@ -4,9 +4,9 @@
 # POTMAP_SUITE_TIMEOUT: limit for the whole run in seconds (default 3600).
 # POTMAP_FUZZ_SECONDS: after the tests, every reader's libFuzzer target runs this long with a
 #   fixed seed (default 10; 0 skips; skipped too when clang is missing).
-# POTMAP_SANITIZE: 1 (default) runs the test suite under ASan + UBSan + LSan after that
-#   (scripts/sanitize_suite.sh, sharing the fuzz build; the tests under 2 s in the Release run,
-#   POTMAP_SANITIZE_SUITE=full for all); 0 skips; skipped without clang.
+# POTMAP_SANITIZE: 1 (default) runs the whole test suite under ASan + UBSan + LSan after that
+#   (scripts/sanitize_suite.sh, sharing the fuzz build; the slow tests with small inputs,
+#   POTMAP_SANITIZE_SUITE=full for full sizes); 0 skips; skipped without clang.
 # POTMAP_SANITIZE_THREADS: 1 (default) then runs the threaded tests under ThreadSanitizer
 #   (scripts/sanitize_threads.sh, its own build of the library and three test files); 0 skips.
 set -euo pipefail
@@ -36,7 +36,7 @@ fi
 san_status=0
 if ((status == 0 && fuzz_status == 0)) && [[ "${POTMAP_SANITIZE:-1}" != 0 ]]; then
   if command -v clang++ >/dev/null; then
-    echo "test.sh: the test suite under AddressSanitizer + UBSan + LSan (scripts/sanitize_suite.sh)"
+    echo "test.sh: the whole test suite under AddressSanitizer + UBSan + LSan (scripts/sanitize_suite.sh)"
     ./scripts/sanitize_suite.sh || san_status=$?
     if ((san_status == 0)) && [[ "${POTMAP_SANITIZE_THREADS:-1}" != 0 ]]; then
       echo "test.sh: threaded tests under ThreadSanitizer (scripts/sanitize_threads.sh)"

@@ -29,9 +29,11 @@ TEST(JointBhmStream, Freiburg079MemoryFollowsTheAreaNotTheScans) {
   const Dataset ds = read_dataset(test::shared_data("radish/freiburg-079-corrected.log.gz"));
   const std::size_t n = ds.scans.size();
   ASSERT_GE(n, 4000u);  // 4,791 scans in the corrected log
-  // Every `stride`-th scan (1: all of them).
-  const std::size_t stride = 1;
-  const std::size_t last_tested = 100;
+  // Every `stride`-th scan (1: all of them; small inputs, under the sanitizers: every 16th, the
+  // same drive over the same building, so the same memory bounds hold; measured there: 33.6 MB
+  // once covered, 43.0 MB at the end, held-out AUC 0.944 from a sixteenth of the beams).
+  const std::size_t stride = test::sized<std::size_t>(1, 16);
+  const std::size_t last_tested = test::sized<std::size_t>(100, 40);
 
   JointBhm map(2);
   LabelOptions lo;  // 20 % of beams held out, 1 free sample per metre
@@ -89,7 +91,7 @@ TEST(JointBhmStream, Freiburg079MemoryFollowsTheAreaNotTheScans) {
   EXPECT_LT(double(at_end), 1.5 * double(at_cover));
   // And it never grew with the scans: the second half of the log adds (almost) nothing.
   EXPECT_LT(double(at_end), 1.1 * double(memory[n / 2 / stride * stride]));
-  EXPECT_GT(sc.auc, 0.95);
+  EXPECT_GT(sc.auc, test::sized(0.95, 0.93));
 }
 
 }  // namespace

@@ -5,10 +5,7 @@
 // grows with scans instead of with area fails CI.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,19 +13,13 @@
 #include "potmap/data/scan.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/pot/mapper.hpp"
+#include "process_memory.hpp"
 #include "test_support.hpp"
 
 namespace {
 
 using namespace potmap;
 namespace ex = potmap::experiment;
-
-std::size_t resident_bytes() {
-  std::ifstream f("/proc/self/statm");
-  std::size_t total = 0, resident = 0;
-  f >> total >> resident;
-  return resident * static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
-}
 
 struct Loops {
   std::vector<std::size_t> kernels, map_bytes, rss;
@@ -53,7 +44,7 @@ Loops drive(bool refine, int loops) {
     for (std::size_t i = 10; i < scans.size(); ++i) mapper.add_scan(scans[i]);
     out.kernels.push_back(mapper.overall_kernels());
     out.map_bytes.push_back(mapper.overall_memory_bytes());
-    out.rss.push_back(resident_bytes());
+    out.rss.push_back(test::memory_in_use());
   }
   return out;
 }
@@ -64,7 +55,7 @@ std::string passes(const Loops& m) {
   std::string s;
   for (std::size_t i = 0; i < m.kernels.size(); ++i)
     s += std::to_string(m.kernels[i]) + " kernels / " + std::to_string(m.rss[i] / 1048576) +
-         " MB resident; ";
+         " MB in use; ";
   return s;
 }
 
@@ -72,7 +63,7 @@ std::string passes(const Loops& m) {
 // what keeping each pass's scans, maps or device buffers would cost (tens of MB a pass).
 void expect_resident_flat(const Loops& m) {
   const double grown = (double(m.rss[kPasses - 1]) - double(m.rss[1])) / 1048576;
-  EXPECT_LT(grown, 8.0) << "resident memory grew " << grown
+  EXPECT_LT(grown, 8.0) << test::memory_in_use_name() << " grew " << grown
                         << " MB after the second pass: " << passes(m);
 }
 

@@ -5,6 +5,7 @@
 #include <array>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -46,6 +47,11 @@ CliResult run_cli(const std::string& args, const std::string& redirect) {
   const int st = pclose(p);
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
   return r;
+}
+
+bool small_inputs() {
+  const char* v = std::getenv("POTMAP_TEST_INPUTS");
+  return v && std::string(v) == "small";
 }
 
 bool cli_built() {

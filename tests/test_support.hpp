@@ -82,6 +82,17 @@ class FileSizeLimit {
   void (*old_handler_)(int) = nullptr;
 };
 
+/// Whether this run asks for small inputs: POTMAP_TEST_INPUTS=small, which the sanitizer runs
+/// set (scripts/sanitize_suite.sh). Instrumented, the library runs 3 to 30 times slower, so the
+/// tests that map whole logs or thousands of atoms take fewer scans, atoms or points there;
+/// their bars at that size are measured too (each test says its numbers at both sizes).
+bool small_inputs();
+/// `full` in a normal run, `small` when small_inputs().
+template <class T>
+T sized(T full, T small) {
+  return small_inputs() ? small : full;
+}
+
 /// The Context every device test uses (POTMAP_DEVICE picks it; PoCL in CI).
 Context& context();
 

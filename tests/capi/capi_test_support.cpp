@@ -218,13 +218,4 @@ ScanList::ScanList(const std::vector<RoomScan>& room) {
   for (const potmap_scan& s : scans) ptrs.push_back(&s);
 }
 
-std::size_t resident_bytes() {
-  std::size_t pages_total = 0, pages_resident = 0;
-  if (FILE* f = std::fopen("/proc/self/statm", "r")) {
-    if (std::fscanf(f, "%zu %zu", &pages_total, &pages_resident) != 2) pages_resident = 0;
-    std::fclose(f);
-  }
-  return pages_resident * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
-}
-
 }  // namespace capi_test

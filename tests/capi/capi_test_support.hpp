@@ -98,7 +98,4 @@ struct ScanList {
   std::size_t size() const { return ptrs.size(); }
 };
 
-/// Resident set size of this process, bytes (/proc/self/statm).
-std::size_t resident_bytes();
-
 }  // namespace capi_test
