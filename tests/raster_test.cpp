@@ -151,6 +151,26 @@ TEST(Npy, HeaderIsAlignedAndNamesTheShape) {
   }
 }
 
+TEST(Npy, WriterOfSeveralWritebackStepsKeepsEveryByte) {
+  // 2500 rows of 1000 floats: 10 MB, past AtomicFile's 8 MiB writeback step, in rows that do
+  // not divide it; every value distinct, so a lost, repeated or reordered byte shows.
+  const std::string path = test::temp_dir("npy-writeback") + "/a.npy";
+  const std::size_t rows = 2500, cols = 1000;
+  std::vector<float> row(cols);
+  {
+    detail::NpyWriter w(path, rows, cols);
+    for (std::size_t r = 0; r < rows; ++r) {
+      for (std::size_t c = 0; c < cols; ++c) row[c] = float(r * cols + c) * 0.5f;
+      w.write_row(row.data());
+    }
+    w.finish();
+  }
+  const Npy a = read_npy(path);
+  ASSERT_EQ(a.rows, rows);
+  ASSERT_EQ(a.cols, cols);
+  for (std::size_t i = 0; i < rows * cols; ++i) ASSERT_EQ(a.data[i], float(i) * 0.5f) << i;
+}
+
 TEST(Raster, OneKernelMatchesTheExactReference) {
   const KernelMap map = one_kernel_2d();
   const RasterSpec spec = small_window();
