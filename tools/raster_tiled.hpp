@@ -1,5 +1,6 @@
 #pragma once
 // potmap raster with a .tif output: the tiled, resumable job, on one process or MPI ranks.
+#include <chrono>
 #include <string>
 
 #include "potmap/map/raster.hpp"
@@ -12,6 +13,21 @@ struct TiledRunArgs {
   RasterSpec spec;
   TiledRasterOptions options;
   bool json = false;
+};
+
+/// Seconds between laps (the phases the --json summary reports: reading the map, opening the
+/// device).
+class PhaseClock {
+ public:
+  double lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return s;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
 /// Runs the job and prints its summary (rank 0); returns the exit status.
