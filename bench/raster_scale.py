@@ -77,14 +77,15 @@ def wall(cmd, env):
 
 
 def best(cmd, env, repeat, cleanup):
-    times = []
-    out = ""
+    """Median wall time of `repeat` runs, all the times, and the median run's stdout (so that
+    the phases its --json reports belong to the run whose time is shown)."""
+    runs = []
     for _ in range(repeat):
         cleanup()
-        dt, out = wall(cmd, env)
-        times.append(dt)
-    times.sort()
-    return times[len(times) // 2], times, out
+        runs.append(wall(cmd, env))
+    runs.sort(key=lambda r: r[0])
+    dt, out = runs[len(runs) // 2]
+    return dt, [r[0] for r in runs], out
 
 
 def main():
