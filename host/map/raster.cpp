@@ -35,10 +35,21 @@ std::string num(double v) {
 struct MinMax {
   float lo = std::numeric_limits<float>::infinity();
   float hi = -std::numeric_limits<float>::infinity();
-  void add(float v) {
-    if (!std::isfinite(v)) return;
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
+  // The finite values of v[0..n). Written without branches (selects the compiler turns into
+  // vector min/max): this runs over every cell of the window.
+  void add(const float* v, std::size_t n) {
+    constexpr float inf = std::numeric_limits<float>::infinity();
+    float l = lo, h = hi;
+#pragma omp simd reduction(min : l) reduction(max : h)
+    for (std::size_t i = 0; i < n; ++i) {
+      const float x = v[i];
+      const bool finite = std::fabs(x) <= std::numeric_limits<float>::max();  // not NaN or inf
+      const float xl = finite ? x : inf, xh = finite ? x : -inf;
+      l = xl < l ? xl : l;
+      h = xh > h ? xh : h;
+    }
+    lo = l;
+    hi = h;
   }
   float min() const { return lo <= hi ? lo : 0.0f; }
   float max() const { return lo <= hi ? hi : 0.0f; }
@@ -56,16 +67,21 @@ std::vector<Rgb> palette(Colormap cm) {
   return p;
 }
 
-// round(254 t) for t clamped to [0, 1]; NaN to the grey entry.
-inline std::uint8_t palette_index(float t) {
-  if (std::isnan(t)) return kNanIndex;
-  const float c = t < 0.0f ? 0.0f : t > 1.0f ? 1.0f : t;
-  return static_cast<std::uint8_t>(c * float(kLevels) + 0.5f);
-}
-
-// s2 / (1 + s2): see raster.hpp. Negative variances cannot occur (w_var >= 0); +inf maps to 1.
-inline float variance_scale(float s2) {
-  return std::isinf(s2) ? 1.0f : s2 / (1.0f + s2);
+// Palette indices of n values: round(254 t) for t clamped to [0, 1], NaN to the grey entry;
+// for variance t = s2 / (1 + s2) first (raster.hpp; negative variances cannot occur, +inf maps
+// to 1). Branch-free, like MinMax::add, so that it vectorises.
+template <bool Variance>
+void palette_indices(const float* v, std::size_t n, std::uint8_t* idx) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+#pragma omp simd
+  for (std::size_t i = 0; i < n; ++i) {
+    const float x = v[i];
+    const float t = Variance ? (x == inf ? 1.0f : x / (1.0f + x)) : x;
+    float c = t > 0.0f ? t : 0.0f;  // NaN -> 0 here; replaced below
+    c = c < 1.0f ? c : 1.0f;
+    const int k = static_cast<int>(c * float(kLevels) + 0.5f);
+    idx[i] = static_cast<std::uint8_t>(t == t ? k : kNanIndex);
+  }
 }
 
 }  // namespace
@@ -136,13 +152,13 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
     idx.resize(W);
     for (std::size_t j = rows; j-- > 0;) {
       const float* v = band + j * W;
-      for (std::size_t c = 0; c < W; ++c) stat.add(v[c]);
+      stat.add(v, W);
       if (npy) npy->write_row(v);
       if (!png) continue;
       if (variance)
-        for (std::size_t c = 0; c < W; ++c) idx[c] = palette_index(variance_scale(v[c]));
+        palette_indices<true>(v, W, idx.data());
       else
-        for (std::size_t c = 0; c < W; ++c) idx[c] = palette_index(v[c]);
+        palette_indices<false>(v, W, idx.data());
       png->write_row(idx.data());
     }
   };
