@@ -1,10 +1,10 @@
 #pragma once
 // potmap raster with a .tif output: the tiled, resumable job, on one process or MPI ranks.
-#include <chrono>
 #include <string>
 
 #include "potmap/map/raster.hpp"
 #include "potmap/map/raster_tiles.hpp"
+#include "potmap/runtime/context.hpp"
 
 namespace potmap::cli {
 
@@ -15,20 +15,16 @@ struct TiledRunArgs {
   bool json = false;
 };
 
-/// Seconds between laps (the phases the --json summary reports: reading the map, opening the
-/// device).
-class PhaseClock {
- public:
-  double lap() {
-    const auto now = std::chrono::steady_clock::now();
-    const double s = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
-    return s;
-  }
-
- private:
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+/// The map and the device of a raster job, opened at once: reading the map is one core's work
+/// and opening the device is mostly the OpenCL driver loading its libraries, so on two threads
+/// they overlap. Seconds from the start until each was ready, and until both were.
+struct RasterSetup {
+  KernelMap map;
+  Context ctx;
+  double read_seconds = 0, device_seconds = 0, setup_seconds = 0;
 };
+/// Throws the map's error if reading it fails (whatever the device does), else the device's.
+RasterSetup open_map_and_device(const std::string& map, const std::string& device, bool quiet);
 
 /// Runs the job and prints its summary (rank 0); returns the exit status.
 int run_tiled_raster(const TiledRunArgs& args);
