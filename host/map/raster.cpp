@@ -51,8 +51,12 @@ struct MinMax {
     lo = l;
     hi = h;
   }
-  float min() const { return lo <= hi ? lo : 0.0f; }
-  float max() const { return lo <= hi ? hi : 0.0f; }
+  float min() const {
+    return lo <= hi ? lo : 0.0f;
+  }
+  float max() const {
+    return lo <= hi ? hi : 0.0f;
+  }
 };
 
 // The pictures' palette and quantisation (raster.hpp): entries 0..254 are the colour map at
