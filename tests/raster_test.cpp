@@ -14,6 +14,7 @@
 #include "potmap/error.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/raster.hpp"
+#include "render/png_writer.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -169,6 +170,40 @@ TEST(Npy, WriterOfSeveralWritebackStepsKeepsEveryByte) {
   ASSERT_EQ(a.rows, rows);
   ASSERT_EQ(a.cols, cols);
   for (std::size_t i = 0; i < rows * cols; ++i) ASSERT_EQ(a.data[i], float(i) * 0.5f) << i;
+}
+
+TEST(PngWriter, IndexedPictureDecodesToItsPaletteColours) {
+  const std::string dir = test::temp_dir("png-indexed");
+  const std::vector<Rgb> palette = {{0, 0, 0}, {255, 128, 1}, {17, 34, 51}};
+  const std::uint8_t rows[2][3] = {{0, 1, 2}, {2, 2, 1}};
+  {
+    detail::PngWriter w(dir + "/a.png", 3, 2, palette);
+    w.write_row(rows[0]);
+    w.write_row(rows[1]);
+    w.finish();
+  }
+  const Png png = read_png(dir + "/a.png");
+  ASSERT_EQ(png.width, 3u);
+  ASSERT_EQ(png.height, 2u);
+  EXPECT_NE(png.format & PNG_FORMAT_FLAG_COLORMAP, 0u);
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 3; ++c) {
+      const Rgb want = palette[rows[r][c]];
+      const std::uint8_t* px = &png.rgb[3 * (r * 3 + c)];
+      EXPECT_EQ(px[0], want.r) << r << "," << c;
+      EXPECT_EQ(px[1], want.g) << r << "," << c;
+      EXPECT_EQ(px[2], want.b) << r << "," << c;
+    }
+  // More than 256 colours is no PNG palette: the error names the file, which is not created.
+  try {
+    detail::PngWriter w(dir + "/b.png", 3, 2, std::vector<Rgb>(257));
+    ADD_FAILURE() << "a palette of 257 colours was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("b.png"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir + "/b.png"));
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename(), "a.png");  // no temporary left behind
 }
 
 TEST(Raster, OneKernelMatchesTheExactReference) {
