@@ -282,6 +282,24 @@ bool geotiff_available() {
   return true;
 }
 
+#ifdef POTMAP_GDAL_MODULE
+// The module's entry points, found by name by geotiff_module.cpp (libpotmap's loader). C++
+// objects by pointer: both sides are this build; potmap::Error comes from libpotmap.
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_write_cog(
+    const std::string* path, const GeoTiffSpec* spec, const BlockFill* fill,
+    const std::function<void(double)>* progress) {
+  write_cog(*path, *spec, *fill, *progress);
+}
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_read_geotiff_band(
+    const std::string* path, int band, GeoTiffImage* out) {
+  *out = read_geotiff_band(*path, band);
+}
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_check_crs(
+    const std::string* crs, const std::string* path) {
+  check_crs(*crs, *path);
+}
+#endif
+
 #else  // no GDAL in this build
 
 void write_cog(const std::string& path, const GeoTiffSpec&, const BlockFill&,
