@@ -26,14 +26,16 @@ GridSpec whole_town(const KernelMap& map, double res) {
   return GridSpec::covering(2, lo, hi, res);
 }
 
-void BM_Town1GridOpenCL(benchmark::State& state) {
+// The kernel alone on the whole town's grid at `res` metres: the reference of the raster job's
+// end-to-end time (bench/raster_scale.py).
+void town1_grid(benchmark::State& state, double res) {
   if (!std::filesystem::exists(kTown1)) {
     state.SkipWithError("../shared/data/carla not found");
     return;
   }
   const KernelMap map = read_map(kTown1);
   MapEvaluator ev(town1_context(), map);
-  const GridSpec g = whole_town(map, 0.25);
+  const GridSpec g = whole_town(map, res);
   std::vector<float> mean(g.cells()), var(g.cells()), prob(g.cells());
   ev.evaluate_grid(g, mean.data(), var.data(), prob.data());  // warm-up: program build
   double pairs = 0;
@@ -47,7 +49,17 @@ void BM_Town1GridOpenCL(benchmark::State& state) {
   state.counters["cells"] = double(g.cells());
   state.SetLabel(town1_context().info().name);
 }
+
+void BM_Town1GridOpenCL(benchmark::State& state) {
+  town1_grid(state, 0.25);
+}
 BENCHMARK(BM_Town1GridOpenCL)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// 0.05 m: 8692 x 7384 = 64 M cells (25x the cells; 770 MB of outputs).
+void BM_Town1GridOpenCLFine(benchmark::State& state) {
+  town1_grid(state, 0.05);
+}
+BENCHMARK(BM_Town1GridOpenCLFine)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 void BM_Town1PointsOpenCL(benchmark::State& state) {
   if (!std::filesystem::exists(kTown1)) {

@@ -170,7 +170,34 @@ TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
   bool stale = false;
   EXPECT_FALSE(job.complete(t, &stale));
   EXPECT_TRUE(stale);
-  EXPECT_THROW(job.assemble(), InputError);
+  // The stale tile is found while the GeoTIFF is being written: the error names the tile, the
+  // previous GeoTIFF stays, and no partial file is left beside it.
+  try {
+    job.assemble();
+    ADD_FAILURE() << "assemble() accepted a corrupt tile";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(bytes_of(out), first);
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_TRUE(e.path() == out || e.path() == o.work_dir ||
+                e.path().filename() == "map.tif.manifest.json")
+        << e.path();
+  // A missing tile fails before anything is written.
+  const RasterTile& t2 = job.tiles()[3];
+  const std::string path2 =
+      o.work_dir + "/tile_" + std::to_string(t2.row) + "_" + std::to_string(t2.col) + ".bin";
+  const std::string saved = bytes_of(path2);
+  fs::remove(path2);
+  try {
+    job.assemble();
+    ADD_FAILURE() << "assemble() accepted a missing tile";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path2), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(bytes_of(out), first);
+  std::ofstream(path2, std::ios::binary) << saved;
 
   const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
   EXPECT_EQ(s.stale, 1u);

@@ -141,15 +141,24 @@ void register_raster(CLI::App& app, Runner& runner) {
       opt.prob_colormap = parse_colormap(a->prob_cmap);
       opt.var_colormap = parse_colormap(a->var_cmap);
       opt.progress = terminal_progress("raster");
-      const KernelMap map = read_map(a->map);
-      Context ctx = make_context(*device, a->json);
+      RasterSetup setup = open_map_and_device(a->map, *device, a->json);
+      const KernelMap& map = setup.map;
+      Context& ctx = setup.ctx;
       const RasterSummary s = rasterize(ctx, map, spec, a->out, opt);
       if (a->json) {
-        nlohmann::json j = {{"width", s.width},       {"height", s.height},
-                            {"cells", s.cells},       {"bands", s.bands},
-                            {"seconds", s.seconds},   {"prob_min", s.prob_min},
-                            {"prob_max", s.prob_max}, {"var_min", s.var_min},
-                            {"var_max", s.var_max},   {"files", s.files}};
+        nlohmann::json j = {{"width", s.width},
+                            {"height", s.height},
+                            {"cells", s.cells},
+                            {"bands", s.bands},
+                            {"seconds", s.seconds},
+                            {"read_seconds", setup.read_seconds},
+                            {"device_seconds", setup.device_seconds},
+                            {"setup_seconds", setup.setup_seconds},
+                            {"prob_min", s.prob_min},
+                            {"prob_max", s.prob_max},
+                            {"var_min", s.var_min},
+                            {"var_max", s.var_max},
+                            {"files", s.files}};
         std::cout << j.dump(2) << "\n";
       } else {
         std::cout << s.width << " x " << s.height << " cells in " << s.bands << " band"

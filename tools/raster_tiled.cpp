@@ -2,9 +2,13 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <exception>
 #include <functional>
+#include <future>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include "commands.hpp"
@@ -26,12 +30,24 @@ std::string rank_device(const TiledRunArgs& a, const RasterRanks& ranks) {
   return devices[std::size_t(ranks.local_rank()) % devices.size()].name;
 }
 
-void print_summary(const TiledRasterSummary& s, int ranks, std::size_t busy, bool json) {
+// `setup`: this rank's seconds reading the map and opening the device.
+void print_summary(const TiledRasterSummary& s, int ranks, std::size_t busy, bool json,
+                   const RasterSetup& setup) {
   if (json) {
-    nlohmann::json j = {{"width", s.width},         {"height", s.height},    {"tiles", s.tiles},
-                        {"computed", s.computed},   {"reused", s.reused},    {"stale", s.stale},
-                        {"ranks", ranks},           {"seconds", s.seconds},  {"output", s.output},
-                        {"ranks_with_tiles", busy}, {"manifest", s.manifest}};
+    nlohmann::json j = {{"width", s.width},
+                        {"height", s.height},
+                        {"tiles", s.tiles},
+                        {"computed", s.computed},
+                        {"reused", s.reused},
+                        {"stale", s.stale},
+                        {"ranks", ranks},
+                        {"seconds", s.seconds},
+                        {"read_seconds", setup.read_seconds},
+                        {"device_seconds", setup.device_seconds},
+                        {"setup_seconds", setup.setup_seconds},
+                        {"output", s.output},
+                        {"ranks_with_tiles", busy},
+                        {"manifest", s.manifest}};
     std::cout << j.dump(2) << "\n";
     return;
   }
@@ -44,6 +60,28 @@ void print_summary(const TiledRasterSummary& s, int ranks, std::size_t busy, boo
 
 }  // namespace
 
+RasterSetup open_map_and_device(const std::string& map, const std::string& device, bool quiet) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto since = [t0] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  auto reading = std::async(std::launch::async, [&map, &since] {
+    KernelMap m = read_map(map);
+    return std::make_pair(std::move(m), since());
+  });
+  std::optional<Context> ctx;
+  std::exception_ptr device_error;
+  try {
+    ctx.emplace(make_context(device, quiet));
+  } catch (...) {
+    device_error = std::current_exception();
+  }
+  const double device_s = since();
+  auto [m, read_s] = reading.get();  // the map's error first: it names the user's file
+  if (device_error) std::rethrow_exception(device_error);
+  return RasterSetup{std::move(m), std::move(*ctx), read_s, device_s, since()};
+}
+
 int run_tiled_raster(const TiledRunArgs& a) {
   if (!geotiff_supported())
     throw Error(a.out +
@@ -51,12 +89,14 @@ int run_tiled_raster(const TiledRunArgs& a) {
                 "(install libgdal-dev, configure again), or give an output prefix for PNG/.npy");
   RasterRanks ranks;
   try {
-    const KernelMap map = read_map(a.map);
-    Context ctx = make_context(rank_device(a, ranks), a.json || ranks.rank() > 0);
+    RasterSetup setup =
+        open_map_and_device(a.map, rank_device(a, ranks), a.json || ranks.rank() > 0);
+    const KernelMap& map = setup.map;
+    Context& ctx = setup.ctx;
     if (ranks.size() == 1) {
       print_summary(
           rasterize_tiled(ctx, map, a.spec, a.out, a.options, terminal_progress("raster")), 1, 1,
-          a.json);
+          a.json, setup);
       return 0;
     }
     const auto t0 = std::chrono::steady_clock::now();
@@ -89,7 +129,7 @@ int run_tiled_raster(const TiledRunArgs& a) {
       s.reused = reused;
       s.stale = stale;
       s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      print_summary(s, ranks.size(), busy, a.json);
+      print_summary(s, ranks.size(), busy, a.json, setup);
     }
     return ranks.all_ok(true) ? 0 : 1;
   } catch (const std::exception& e) {

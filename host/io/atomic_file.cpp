@@ -50,6 +50,19 @@ void AtomicFile::write(const void* data, std::size_t n) {
   if (!file_) throw Error("cannot write " + path_ + ": already committed or discarded");
   if (std::fwrite(data, 1, n, file_) != n)
     throw Error("cannot write " + path_ + ": " + errno_text());
+  written_ += n;
+  if (written_ - handed_over_ >= kWritebackBytes) start_writeback();
+}
+
+void AtomicFile::start_writeback() {
+  if (std::fflush(file_) != 0) throw Error("cannot write " + path_ + ": " + errno_text());
+#ifdef __linux__
+  // Starts writing the pages out and returns: a hint, so its failure is not one (sync() reports
+  // any write error).
+  ::sync_file_range(::fileno(file_), static_cast<off64_t>(handed_over_),
+                    static_cast<off64_t>(written_ - handed_over_), SYNC_FILE_RANGE_WRITE);
+#endif
+  handed_over_ = written_;
 }
 
 void AtomicFile::sync() {

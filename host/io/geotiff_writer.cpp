@@ -130,7 +130,10 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
   GDALDriverH cog = GDALGetDriverByName("COG");
   if (!gtiff || !cog) fail(path, "GDAL lacks the GTiff or COG driver");
 
-  // Stage: a tiled GTiff written block by block (fast compression: it is read once).
+  // Stage: a tiled GTiff written block by block, uncompressed: it is read once, right away
+  // (from the page cache, as a rule), and float32 maps barely compress, so DEFLATE here would
+  // cost a whole pass of compression for little disk. It takes 4 bytes a cell and band on disk
+  // until the COG is written.
   const std::string staging = temp_name(path, "staging");
   RemoveOnExit remove_staging{staging};
   {
@@ -138,8 +141,7 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
     o.set("TILED", "YES")
         .set("BLOCKXSIZE", std::to_string(spec.block))
         .set("BLOCKYSIZE", std::to_string(spec.block))
-        .set("COMPRESS", "DEFLATE")
-        .set("ZLEVEL", "1")
+        .set("COMPRESS", "NONE")
         .set("INTERLEAVE", "BAND")
         .set("BIGTIFF", "IF_SAFER");
     Dataset ds(GDALCreate(gtiff, staging.c_str(), static_cast<int>(spec.width),
@@ -171,15 +173,42 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
                            int(h), ptr[b], int(w), int(h), GDT_Float32, 0, 0) != CE_None)
             fail(path, "writing block at pixel (" + std::to_string(x0) + ", " + std::to_string(y0) +
                            ") of " + staging);
-        if (progress) progress(0.8 * double(r * bx + c + 1) / double(bx * by));
+        if (progress) progress(0.6 * double(r * bx + c + 1) / double(bx * by));
       }
+    // The overviews, here in the uncompressed staging file, where the COG driver takes them
+    // as they are (OVERVIEWS=AUTO); left to it, it would compute them into a compressed
+    // temporary file of its own and compress them again into the COG. Levels as the COG driver
+    // picks them: halve until both sides fit in one block.
+    std::vector<int> factors;
+    for (int f = 2; spec.overviews; f *= 2) {
+      factors.push_back(f);
+      if ((spec.width + f - 1) / f <= spec.block && (spec.height + f - 1) / f <= spec.block) break;
+    }
+    if (spec.width <= spec.block && spec.height <= spec.block) factors.clear();
+    if (!factors.empty()) {
+      struct Ctx {
+        const std::function<void(double)>* progress;
+      } pctx{&progress};
+      GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
+        auto* c = static_cast<Ctx*>(arg);
+        if (*c->progress) (*c->progress)(0.6 + 0.1 * f);
+        return TRUE;
+      };
+      if (GDALBuildOverviews(ds.get(), "AVERAGE", static_cast<int>(factors.size()), factors.data(),
+                             0, nullptr, pf, &pctx) != CE_None)
+        fail(path, "computing the overviews in " + staging);
+    }
     GDALFlushCache(ds.get());
     ds.reset();  // closing writes the last blocks: its failure must show below too
     if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
   }
 
-  // The COG layout: overviews and blocks in the order readers expect; deterministic for the
-  // same input (single-threaded compression, no time stamp).
+  // The COG layout: overviews and blocks in the order readers expect. DEFLATE (every TIFF
+  // reader has it) at level 1 with the floating-point predictor: float32 maps are mostly
+  // mantissa noise to a compressor, so higher levels buy a few per cent of size for several
+  // times the time (docs/raster-scale.md). Blocks are compressed on every core; GDAL writes
+  // them in order, so the file is the same for the same input whatever the thread count (no
+  // time stamp either).
   const std::string final_temp = temp_name(path, "partial");
   RemoveOnExit remove_partial{final_temp};
   {
@@ -188,7 +217,9 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
     Options o;
     o.set("BLOCKSIZE", std::to_string(spec.block))
         .set("COMPRESS", "DEFLATE")
+        .set("LEVEL", "1")
         .set("PREDICTOR", "YES")
+        .set("NUM_THREADS", "ALL_CPUS")
         .set("OVERVIEWS", spec.overviews ? "AUTO" : "NONE")
         .set("RESAMPLING", "AVERAGE")
         .set("BIGTIFF", "IF_SAFER");
@@ -197,7 +228,7 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
     } pctx{&progress};
     GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
       auto* c = static_cast<Ctx*>(arg);
-      if (*c->progress) (*c->progress)(0.8 + 0.2 * f);
+      if (*c->progress) (*c->progress)(0.7 + 0.3 * f);
       return TRUE;
     };
     CPLErrorReset();
@@ -250,6 +281,24 @@ void check_crs(const std::string& crs, const std::string& path) {
 bool geotiff_available() {
   return true;
 }
+
+#ifdef POTMAP_GDAL_MODULE
+// The module's entry points, found by name by geotiff_module.cpp (libpotmap's loader). C++
+// objects by pointer: both sides are this build; potmap::Error comes from libpotmap.
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_write_cog(
+    const std::string* path, const GeoTiffSpec* spec, const BlockFill* fill,
+    const std::function<void(double)>* progress) {
+  write_cog(*path, *spec, *fill, *progress);
+}
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_read_geotiff_band(
+    const std::string* path, int band, GeoTiffImage* out) {
+  *out = read_geotiff_band(*path, band);
+}
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_check_crs(
+    const std::string* crs, const std::string* path) {
+  check_crs(*crs, *path);
+}
+#endif
 
 #else  // no GDAL in this build
 

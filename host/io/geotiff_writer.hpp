@@ -3,6 +3,10 @@
 // tiled staging file, then copied by GDAL's COG driver into the final layout (internal tiles,
 // overviews, DEFLATE with the floating-point predictor). Memory stays bounded by a block and
 // GDAL's own cache, whatever the image size.
+//
+// In a shared build geotiff_writer.cpp is a module of its own, libpotmap_gdal.so beside
+// libpotmap, which geotiff_module.cpp loads on the first call: processes that write no GeoTIFF
+// do not load GDAL. The functions below are the same either way.
 
 #include <cstddef>
 #include <functional>

@@ -19,6 +19,8 @@ namespace potmap {
 namespace {
 
 constexpr std::size_t kTileX = 64, kTileY = 64;
+// Launches of fewer tiles build their kernel lists on the calling thread (tile_kernel_lists).
+constexpr long long kParallelListTiles = 256;
 
 // The grid's shape as the raster path cuts it: 2D row blocks are kTileY consecutive y rows; 3D
 // ones 8 y by 8 z, so tiles stay compact.
@@ -119,7 +121,10 @@ std::vector<std::vector<std::uint32_t>> tile_kernel_lists(const GridSpec& grid, 
   const std::size_t ntiles = rows.box.size() * g.ntx;
   std::vector<std::vector<std::uint32_t>> lists(ntiles);
   const long long nt = static_cast<long long>(ntiles);
-#pragma omp parallel for schedule(dynamic, 4)
+  // In parallel only for launches of many tiles: after a parallel region OpenMP's workers spin
+  // for milliseconds (OMP_WAIT_POLICY unset), taking a core from the device's threads (PoCL's
+  // CPU device) while the kernel runs; a raster job of small tiles would pay that every tile.
+#pragma omp parallel for schedule(dynamic, 4) if (nt >= kParallelListTiles)
   for (long long t = 0; t < nt; ++t) {
     const std::size_t bi = t / g.ntx, tx = t % g.ntx;
     const double lo[3] = {std::max(xlo, grid.origin[0] + (tx * kTileX + 0.5) * res),

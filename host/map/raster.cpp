@@ -35,14 +35,58 @@ std::string num(double v) {
 struct MinMax {
   float lo = std::numeric_limits<float>::infinity();
   float hi = -std::numeric_limits<float>::infinity();
-  void add(float v) {
-    if (!std::isfinite(v)) return;
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
+  // The finite values of v[0..n). Written without branches (selects the compiler turns into
+  // vector min/max): this runs over every cell of the window.
+  void add(const float* v, std::size_t n) {
+    constexpr float inf = std::numeric_limits<float>::infinity();
+    float l = lo, h = hi;
+#pragma omp simd reduction(min : l) reduction(max : h)
+    for (std::size_t i = 0; i < n; ++i) {
+      const float x = v[i];
+      const bool finite = std::fabs(x) <= std::numeric_limits<float>::max();  // not NaN or inf
+      const float xl = finite ? x : inf, xh = finite ? x : -inf;
+      l = xl < l ? xl : l;
+      h = xh > h ? xh : h;
+    }
+    lo = l;
+    hi = h;
   }
-  float min() const { return lo <= hi ? lo : 0.0f; }
-  float max() const { return lo <= hi ? hi : 0.0f; }
+  float min() const {
+    return lo <= hi ? lo : 0.0f;
+  }
+  float max() const {
+    return lo <= hi ? hi : 0.0f;
+  }
 };
+
+// The pictures' palette and quantisation (raster.hpp): entries 0..254 are the colour map at
+// k / 254, entry 255 the NaN grey.
+constexpr int kLevels = 254;
+constexpr std::uint8_t kNanIndex = 255;
+
+std::vector<Rgb> palette(Colormap cm) {
+  std::vector<Rgb> p(256);
+  for (int k = 0; k <= kLevels; ++k) p[k] = colormap(cm, double(k) / kLevels);
+  p[kNanIndex] = colormap(cm, std::nan(""));
+  return p;
+}
+
+// Palette indices of n values: round(254 t) for t clamped to [0, 1], NaN to the grey entry;
+// for variance t = s2 / (1 + s2) first (raster.hpp; negative variances cannot occur, +inf maps
+// to 1). Branch-free, like MinMax::add, so that it vectorises.
+template <bool Variance>
+void palette_indices(const float* v, std::size_t n, std::uint8_t* idx) {
+  constexpr float inf = std::numeric_limits<float>::infinity();
+#pragma omp simd
+  for (std::size_t i = 0; i < n; ++i) {
+    const float x = v[i];
+    const float t = Variance ? (x == inf ? 1.0f : x / (1.0f + x)) : x;
+    float c = t > 0.0f ? t : 0.0f;  // NaN -> 0 here; replaced below
+    c = c < 1.0f ? c : 1.0f;
+    const int k = static_cast<int>(c * float(kLevels) + 0.5f);
+    idx[i] = static_cast<std::uint8_t>(t == t ? k : kNanIndex);
+  }
+}
 
 }  // namespace
 
@@ -91,8 +135,10 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   std::unique_ptr<detail::PngWriter> prob_png, var_png;
   std::unique_ptr<detail::NpyWriter> prob_npy, var_npy;
   if (options.write_png) {
-    prob_png = std::make_unique<detail::PngWriter>(out_prefix + "_prob.png", W, H);
-    var_png = std::make_unique<detail::PngWriter>(out_prefix + "_var.png", W, H);
+    prob_png = std::make_unique<detail::PngWriter>(out_prefix + "_prob.png", W, H,
+                                                   palette(options.prob_colormap));
+    var_png = std::make_unique<detail::PngWriter>(out_prefix + "_var.png", W, H,
+                                                  palette(options.var_colormap));
   }
   if (options.write_npy) {
     prob_npy = std::make_unique<detail::NpyWriter>(out_prefix + "_prob.npy", H, W);
@@ -102,27 +148,22 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   const std::size_t band_rows = std::max<std::size_t>(1, options.max_band_cells / W);
   MinMax pstat, vstat;
 
-  // One band's rows, top row first, to one quantity's writers; each quantity has its own RGB
+  // One band's rows, top row first, to one quantity's writers; each quantity has its own index
   // row so that probability and variance encode at once.
   auto write_rows = [W](const float* band, std::size_t rows, detail::NpyWriter* npy,
-                        detail::PngWriter* png, Colormap cm, bool variance, MinMax& stat,
-                        std::vector<std::uint8_t>& rgb) {
-    rgb.resize(W * 3);
+                        detail::PngWriter* png, bool variance, MinMax& stat,
+                        std::vector<std::uint8_t>& idx) {
+    idx.resize(W);
     for (std::size_t j = rows; j-- > 0;) {
       const float* v = band + j * W;
-      for (std::size_t c = 0; c < W; ++c) stat.add(v[c]);
+      stat.add(v, W);
       if (npy) npy->write_row(v);
       if (!png) continue;
-      for (std::size_t c = 0; c < W; ++c) {
-        double t = v[c];
-        // s2 / (1 + s2): see raster.hpp. Negative variances cannot occur (w_var >= 0).
-        if (variance && !std::isnan(t)) t = std::isinf(t) ? 1.0 : t / (1.0 + t);
-        const Rgb px = colormap(cm, t);
-        rgb[3 * c] = px.r;
-        rgb[3 * c + 1] = px.g;
-        rgb[3 * c + 2] = px.b;
-      }
-      png->write_row(rgb.data());
+      if (variance)
+        palette_indices<true>(v, W, idx.data());
+      else
+        palette_indices<false>(v, W, idx.data());
+      png->write_row(idx.data());
     }
   };
 
@@ -134,7 +175,7 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   constexpr std::size_t kTileRows = 64;
   const std::size_t band = std::max<std::size_t>(kTileRows, band_rows / kTileRows * kTileRows);
   std::vector<float> var[2], prob[2];
-  std::vector<std::uint8_t> rgb_p, rgb_v;
+  std::vector<std::uint8_t> idx_p, idx_v;
   std::future<void> writing_p, writing_v;
   auto wait_writers = [&] {
     // Both are waited for before either error propagates, so no thread outlives its buffers.
@@ -169,12 +210,10 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
       ev.evaluate_grid(g, nullptr, var[slot].data(), prob[slot].data());
       wait_writers();
       writing_p = std::async(std::launch::async, [&, rows, pr = prob[slot].data()] {
-        write_rows(pr, rows, prob_npy.get(), prob_png.get(), options.prob_colormap, false, pstat,
-                   rgb_p);
+        write_rows(pr, rows, prob_npy.get(), prob_png.get(), false, pstat, idx_p);
       });
       writing_v = std::async(std::launch::async, [&, rows, vr = var[slot].data()] {
-        write_rows(vr, rows, var_npy.get(), var_png.get(), options.var_colormap, true, vstat,
-                   rgb_v);
+        write_rows(vr, rows, var_npy.get(), var_png.get(), true, vstat, idx_v);
       });
       slot ^= 1;
       ++sum.bands;

@@ -23,6 +23,13 @@ namespace {
 
 using detail::hex64;
 
+bool host_is_little_endian() {
+  const std::uint32_t one = 1;
+  unsigned char b;
+  std::memcpy(&b, &one, 1);
+  return b == 1;
+}
+
 // A finished tile: the job's fingerprint and the tile's place, then probability and variance
 // in image order (row 0 = top), float32.
 constexpr std::size_t kTileHeader = 48;
@@ -84,8 +91,10 @@ struct TiledRaster::Impl {
         .string();
   }
 
-  // The tile's file, checked: its job, its place and size, its checksum.
-  void read(const RasterTile& t, std::vector<float>* prob, std::vector<float>* var) const {
+  // The tile's file, checked: its job, its place and size, its checksum (put in `crc` unless
+  // null).
+  void read(const RasterTile& t, std::vector<float>* prob, std::vector<float>* var,
+            std::uint32_t* crc = nullptr) const {
     const std::string path = tile_path(t);
     detail::ContainerReader r(path, kTileLayout);
     const std::size_t n = t.width * t.height;
@@ -101,17 +110,18 @@ struct TiledRaster::Impl {
       if (r.u32(32 + 4 * i) != want[i])
         r.fail(32 + 4 * i, std::string(names[i]) + " " + std::to_string(r.u32(32 + 4 * i)) +
                                ", expected " + std::to_string(want[i]));
+    if (crc) *crc = r.u32(r.payload_end());
     if (prob && var) {
       prob->resize(n);
       var->resize(n);
-      for (std::size_t i = 0; i < n; ++i) (*prob)[i] = r.f32(kTileHeader + 4 * i);
-      for (std::size_t i = 0; i < n; ++i) (*var)[i] = r.f32(kTileHeader + 4 * (n + i));
+      if (host_is_little_endian()) {
+        std::memcpy(prob->data(), r.data() + kTileHeader, 4 * n);
+        std::memcpy(var->data(), r.data() + kTileHeader + 4 * n, 4 * n);
+      } else {
+        for (std::size_t i = 0; i < n; ++i) (*prob)[i] = r.f32(kTileHeader + 4 * i);
+        for (std::size_t i = 0; i < n; ++i) (*var)[i] = r.f32(kTileHeader + 4 * (n + i));
+      }
     }
-  }
-
-  std::uint32_t crc_of(const RasterTile& t) const {
-    detail::ContainerReader r(tile_path(t), kTileLayout);
-    return r.u32(r.payload_end());
   }
 };
 
@@ -238,14 +248,16 @@ void TiledRaster::load(const RasterTile& t, std::vector<float>& prob,
 TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   Impl& im = *impl_;
+  // A missing tile fails before any output is started. Each tile is checked in full (job,
+  // place, checksum) as it is read for the GeoTIFF, once: a stale one fails there, naming the
+  // file, offset and value, and the partial GeoTIFF is removed.
   for (const RasterTile& t : im.tiles) {
-    bool stale = false;
-    if (!complete(t, &stale)) {
-      if (stale) im.read(t, nullptr, nullptr);  // throws, naming the file, offset and value
+    std::error_code ec;
+    if (!fs::exists(im.tile_path(t), ec))
       throw Error(im.tile_path(t) + ": tile (" + std::to_string(t.row) + ", " +
                   std::to_string(t.col) + ") of the raster job is missing");
-    }
   }
+  std::vector<std::uint32_t> crcs(im.tiles.size(), 0);
   detail::GeoTiffSpec g;
   g.width = im.width;
   g.height = im.height;
@@ -267,7 +279,7 @@ TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& prog
         if (t.x0 != x0 || t.y0 != y0 || t.width != w || t.height != h)
           throw Error(im.output + ": internal: block (" + std::to_string(x0) + ", " +
                       std::to_string(y0) + ") is not a tile");
-        im.read(t, &prob, &var);
+        im.read(t, &prob, &var, &crcs[t.index]);
         std::memcpy(b[0], prob.data(), prob.size() * sizeof(float));
         std::memcpy(b[1], var.data(), var.size() * sizeof(float));
       },
@@ -285,7 +297,7 @@ TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& prog
     const RasterTile& t = im.tiles[i];
     m << (i ? "," : "") << "\n    {\"row\": " << t.row << ", \"col\": " << t.col
       << ", \"x0\": " << t.x0 << ", \"y0\": " << t.y0 << ", \"width\": " << t.width
-      << ", \"height\": " << t.height << ", \"crc32\": \"" << std::hex << im.crc_of(t) << std::dec
+      << ", \"height\": " << t.height << ", \"crc32\": \"" << std::hex << crcs[i] << std::dec
       << "\"}";
   }
   m << "\n  ]\n}\n";

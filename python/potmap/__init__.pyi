@@ -1520,8 +1520,9 @@ def probit_probability(mean: float, var: float) -> float:
     ...
 
 def rasterize(ctx: Context, map: KernelMap, bounds: List[float], res: float, out_prefix: str, z: float = 0.0, png: bool = True, npy: bool = True, band_cells: int = 4194304) -> dict:
-    """Writes PREFIX_prob.png, PREFIX_var.png (8-bit RGB: viridis, magma on s2 / (1 + s2)) and
-    PREFIX_prob.npy, PREFIX_var.npy (float32, row 0 the top), as `potmap raster`, streamed
+    """Writes PREFIX_prob.png, PREFIX_var.png (8-bit indexed colour: viridis, magma on
+    s2 / (1 + s2)) and PREFIX_prob.npy, PREFIX_var.npy (float32, row 0 the top), as
+    `potmap raster`, streamed
     in bands of at most band_cells cells (default 4 Mi, about 80 MB). Files appear only when
     all are complete. Returns a dict: width, height, cells, bands, seconds, prob_min/max,
     var_min/max, files."""

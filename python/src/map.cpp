@@ -307,8 +307,9 @@ void bind_map(py::module_& m) {
       },
       "ctx"_a, "map"_a, "bounds"_a, "res"_a, "out_prefix"_a, "z"_a = 0.0, "png"_a = true,
       "npy"_a = true, "band_cells"_a = std::size_t(1) << 22,
-      "Writes PREFIX_prob.png, PREFIX_var.png (8-bit RGB: viridis, magma on s2 / (1 + s2)) and\n"
-      "PREFIX_prob.npy, PREFIX_var.npy (float32, row 0 the top), as `potmap raster`, streamed\n"
+      "Writes PREFIX_prob.png, PREFIX_var.png (8-bit indexed colour: viridis, magma on\n"
+      "s2 / (1 + s2)) and PREFIX_prob.npy, PREFIX_var.npy (float32, row 0 the top), as\n"
+      "`potmap raster`, streamed\n"
       "in bands of at most band_cells cells (default 4 Mi, about 80 MB). Files appear only when\n"
       "all are complete. Returns a dict: width, height, cells, bands, seconds, prob_min/max,\n"
       "var_min/max, files.");

@@ -2,6 +2,8 @@
 # libpotmap.so, and SOURCE_DIR):
 #   - its SONAME is libpotmap.so.<major>;
 #   - it does not need OctoMap (only the experiments library, potmap::experiments, does);
+#   - with GDAL_MODULE (the path of libpotmap_gdal.so) it does not need GDAL, which that module,
+#     next to it, holds, with its entry points exported;
 #   - every function potmap.h declares is exported;
 #   - nothing of host/'s namespaces (potmap::detail, ::npy, ::npz, ::data) is;
 #   - every strong symbol it defines is potmap's (C API or namespace potmap);
@@ -17,6 +19,22 @@ if(NOT rc EQUAL 0 OR NOT dyn MATCHES "SONAME\\)[^\n]*\\[libpotmap\\.so\\.[0-9]+\
 endif()
 if(dyn MATCHES "NEEDED\\)[^\n]*\\[lib(octomap|octomath)")
   message(FATAL_ERROR "${LIBRARY} needs OctoMap (only the experiments should):\n${dyn}")
+endif()
+if(GDAL_MODULE)
+  if(dyn MATCHES "NEEDED\\)[^\n]*\\[libgdal")
+    message(FATAL_ERROR "${LIBRARY} needs GDAL (its module ${GDAL_MODULE} should hold it):\n${dyn}")
+  endif()
+  get_filename_component(lib_dir "${LIBRARY}" DIRECTORY)
+  get_filename_component(module_dir "${GDAL_MODULE}" DIRECTORY)
+  if(NOT lib_dir STREQUAL module_dir)
+    message(FATAL_ERROR "${GDAL_MODULE} is not beside ${LIBRARY}: the loader looks there")
+  endif()
+  execute_process(COMMAND ${NM} -D --defined-only "${GDAL_MODULE}" OUTPUT_VARIABLE msyms)
+  foreach(fn potmap_gdal_write_cog potmap_gdal_read_geotiff_band potmap_gdal_check_crs)
+    if(NOT msyms MATCHES "T ${fn}\n")
+      message(FATAL_ERROR "${GDAL_MODULE} does not export ${fn}")
+    endif()
+  endforeach()
 endif()
 
 execute_process(COMMAND ${NM} -D -C --defined-only "${LIBRARY}" OUTPUT_VARIABLE syms RESULT_VARIABLE rc)

@@ -1,7 +1,7 @@
 #pragma once
 // Rasterising a kernel map: probability and variance on a regular window, written as pictures
-// (8-bit RGB PNG) and as data (NumPy .npy float32), streamed in bands of rows so that a window
-// larger than memory works.
+// (8-bit indexed-colour PNG) and as data (NumPy .npy float32), streamed in bands of rows so
+// that a window larger than memory works.
 //
 // Orientation: image row 0 is the top of the picture = the highest y; column 0 = the lowest x.
 // The .npy arrays use the same order (row 0 = highest y), so they display the right way up with
@@ -19,6 +19,10 @@
 //     window, so pictures are comparable. s2 = 1 sits mid-scale: that is where the variance
 //     starts to pull p towards 0.5 (p = sigmoid(mu / sqrt(1 + pi s2 / 8))); s2 = 9 gives 0.9.
 //   * NaN (non-finite input) is drawn mid-grey (128, 128, 128).
+//   * The pictures are indexed colour (a palette of 256 entries, a third of the bytes of RGB):
+//     the mapped value t in [0, 1] is quantised to k = round(254 t), drawn as colormap(k / 254);
+//     entry 255 is the NaN grey. The colours are those of the continuous map to within one
+//     step of 1/254 (at most 2 units of 255 a channel for viridis and magma).
 
 #include <cstddef>
 #include <cstdint>
