@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "potmap/data/simulator.hpp"
@@ -17,7 +18,9 @@
 #include "potmap/map/raster.hpp"
 #include "potmap/map/raster_tiles.hpp"
 #include "potmap/map/synthetic.hpp"
+#include "potmap/pot/atoms.hpp"
 #include "potmap/pot/dictionary_io.hpp"
+#include "potmap/pot/mapper.hpp"
 #include "potmap/runtime/tuning_file.hpp"
 #include "test_support.hpp"
 
@@ -190,5 +193,24 @@ TEST(WriteFaults, SimulatedLog) {
     SimOptions o;
     o.scans = v ? 20 : 2;
     write_simulation(simulate(Town::builtin("town1"), o), o, dir);
+  });
+}
+
+// A mapper's checkpoint (`potmap map --checkpoint` stores this same file with its run record as
+// the extra bytes): RePOT after one scan, then after four (its persistent map and caches grow).
+TEST(WriteFaults, MapperCheckpoint) {
+  SimOptions so;
+  so.scans = 6;
+  so.spacing = 3;
+  const Simulation sim = simulate(Town::builtin("town1"), so);
+  auto dict = std::make_shared<Dictionary>();
+  build_dictionary({sim.scans[0], sim.scans[1]}, test::grid_around(sim.scans[0].origin(), 30), {},
+                   *dict);
+  const MapperOptions o = test::small_mapper_options(true);
+  Mapper early(&test::context(), dict, o), later(&test::context(), dict, o);
+  early.add_scan(sim.scans[2]);
+  for (std::size_t i = 2; i < 6; ++i) later.add_scan(sim.scans[i]);
+  expect_full_disk_keeps_previous("checkpoint", "run.ckpt", [&](const std::string& dir, int v) {
+    (v ? later : early).save_state(dir + "/run.ckpt", "run record");
   });
 }
