@@ -30,6 +30,16 @@ sanitizer_configure "$root" "$build"
 cmake --build "$build" -j"$(nproc)" --target potmap_tests potmap_capi_tests potmap_cli >/dev/null
 
 exclude='^(python_|install_consumer$|abi_exports$|raster_mpi_ranks$)'
+# The built-in default dictionary (the MappingCli tests' fixture, default_dictionary_cache) from
+# the Release build's cache when that has it: the same bytes (its build uses no device and is
+# deterministic), and building it here would cost 200 s of one core instrumented, for code
+# (the towns' simulation, experiment::build_atoms) that the ExperimentCli and DemoCli runs
+# exercise here anyway. The fixture then reads the cached file under ASan.
+release_dicts=$root/build/user-cache/potmap/dictionaries
+if [[ -d "$release_dicts" && ! -d "$build/user-cache/potmap/dictionaries" ]]; then
+  mkdir -p "$build/user-cache/potmap"
+  cp -r "$release_dicts" "$build/user-cache/potmap/"
+fi
 if [[ "${POTMAP_SANITIZE_SUITE:-}" != full ]]; then
   export POTMAP_TEST_INPUTS=small
 fi
