@@ -6,6 +6,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <utility>
 
 #include "potmap/runtime/tuning_file.hpp"
 #include "test_support.hpp"
@@ -68,6 +70,54 @@ TEST(BenchCli, EachRoutineStartsFromTheContextsTuning) {
   // Not the last point of the map_eval sweep: the raster's default is the untuned library's.
   for (const auto& routine : j["routines"]) EXPECT_EQ(routine["start"], j["tuning_before"]);
   EXPECT_EQ(j["tuning_source"], "built-in defaults");
+}
+
+// POT's scans in flight (MapperOptions::pipeline off: 1, on: 2) by sinkhorn.work_group, on the
+// built-in simulated drive: scans per second, the default (work-group 4, pipeline on) marked and
+// the best named, every point in the JSON.
+TEST(BenchCli, SweepsPotScansInFlight) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-pot");
+  const test::CliResult r = test::run_cli("bench --quick --repeats 1 --routines pot --out " +
+                                          test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("* sinkhorn.work_group=4,pipeline=on"), std::string::npos) << r.out;
+  const std::size_t at = r.out.find("best: sinkhorn.work_group=");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  ASSERT_EQ(j["routines"].size(), 1u);
+  const auto& pot = j["routines"][0];
+  EXPECT_EQ(pot["name"], "pot");
+  EXPECT_EQ(pot["unit"], "scans/s");
+  EXPECT_EQ(pot["default"], "sinkhorn.work_group=4,pipeline=on");
+  EXPECT_EQ(r.out.substr(at + 6, pot["best"].get<std::string>().size()), pot["best"]);
+  const auto& points = pot["points"];
+  ASSERT_EQ(points.size(), 6u);  // work-groups 2, 4, 8 x pipeline off, on
+  std::set<std::pair<long long, long long>> seen;
+  int defaults = 0;
+  bool best_found = false;
+  for (const auto& p : points) {
+    const long long x = p["x"], series = p["series"];
+    EXPECT_TRUE(x == 1 || x == 2) << x;
+    const std::string setting = p["setting"];
+    EXPECT_EQ(setting, "sinkhorn.work_group=" + std::to_string(series) +
+                           ",pipeline=" + (x == 2 ? "on" : "off"));
+    seen.insert({x, series});
+    defaults += p["default"].get<bool>();
+    ASSERT_EQ(p["seconds"].size(), 1u);
+    EXPECT_GT(p["throughput"].get<double>(), 0);
+    // Throughput is scans per second of the whole drive: the same number of scans each time.
+    EXPECT_NEAR(p["throughput"].get<double>() * p["median_s"].get<double>(),
+                points[0]["throughput"].get<double>() * points[0]["median_s"].get<double>(), 1e-6);
+    if (setting == pot["best"]) {
+      best_found = true;
+      for (const auto& q : points)
+        EXPECT_LE(q["throughput"].get<double>(), p["throughput"].get<double>());
+    }
+  }
+  EXPECT_EQ(seen.size(), 6u);
+  EXPECT_EQ(defaults, 1);
+  EXPECT_TRUE(best_found);
 }
 
 TEST(BenchCli, UnknownRoutineIsNamed) {

@@ -9,11 +9,16 @@
 #include <iostream>
 #include <random>
 
+#include "potmap/data/labelling.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/synthetic.hpp"
 #include "potmap/ot/sinkhorn.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/mapper.hpp"
 
 namespace potmap::cli {
 
@@ -249,6 +254,80 @@ RoutineSweep sweep_sinkhorn(Context& ctx, int side, const SweepOptions& o, int r
   return r;
 }
 
+// POT on a fixed simulated drive, as `potmap demo` builds it: a dictionary from 6 scans of the
+// built-in town1 (BHM source map, kernels every metre), then 8 (quick) or 16 scans of town2,
+// 3 m apart, mapped with the default PotOptions (exhaustive ranking, 8 rotations). The axis is
+// the number of scans in flight: 1 with MapperOptions::pipeline off (prepare, then solve, one
+// scan at a time), 2 with it on (the next scan prepared on a second thread while this one is
+// solved; map_scans has no deeper pipeline). The lines are sinkhorn.work_group, which every
+// ranking and transport solve of POT reads.
+RoutineSweep sweep_pot(Context& ctx, const SweepOptions& o, int reps) {
+  const Tuning base = ctx.tuning();
+  SimOptions so;
+  so.scans = 6;
+  so.spacing = 3;
+  so.seed = 1;
+  const Simulation source = simulate(Town::builtin("town1"), so);
+  LabelOptions lo;
+  lo.holdout_fraction = 0;
+  const LabelledSplit split = label_scans(source.scans, lo);
+  double lo3[3] = {HUGE_VAL, HUGE_VAL, 0}, hi3[3] = {-HUGE_VAL, -HUGE_VAL, 0};
+  for (std::size_t i = 0; i < split.train.size(); ++i)
+    for (int d = 0; d < 2; ++d) {
+      lo3[d] = std::min(lo3[d], split.train.position[2 * i + d]);
+      hi3[d] = std::max(hi3[d], split.train.position[2 * i + d]);
+    }
+  KernelMap source_map = bhm_grid_prior(2, lo3, hi3, 1.0, 4.0);
+  bhm_update_sequential(&ctx, source_map, split.train);
+  Dictionary dict;
+  build_dictionary(source.scans, source_map, {}, dict);
+  if (dict.empty()) throw Error("bench: the simulated source scans gave no atoms");
+  SimOptions to;
+  to.scans = o.quick ? 8 : 16;
+  to.spacing = 3;
+  to.seed = 7;
+  const std::vector<Scan> scans = simulate(Town::builtin("town2"), to).scans;
+
+  RoutineSweep r;
+  r.start = to_string(base);
+  r.name = "pot";
+  r.unit = "scans/s";
+  r.x_label = "scans in flight (1: pipeline off, 2: on)";
+  r.series_label = "sinkhorn.work_group";
+  r.input = "simulated: " + std::to_string(dict.size()) + " atoms from 6 scans of town1, " +
+            std::to_string(scans.size()) + " scans of town2 3 m apart, default PotOptions";
+  const MapperOptions defaults;
+  const std::vector<int> groups =
+      o.quick ? std::vector<int>{2, 4, 8} : std::vector<int>{1, 2, 4, 8, 16};
+  for (int wg : groups)
+    for (const bool pipeline : {false, true}) {
+      Tuning t = base;
+      t.sinkhorn.work_group = wg;
+      ctx.set_tuning(t);
+      MapperOptions mo;
+      mo.pipeline = pipeline;
+      std::size_t mapped = 0;
+      SweepPoint p =
+          time_point([&] { map_scans(&ctx, dict, scans, mo, [&](MappedScan&&) { ++mapped; }); },
+                     reps, double(scans.size()));
+      if (mapped != scans.size() * static_cast<std::size_t>(reps + 1))
+        throw Error("bench: pot mapped " + std::to_string(mapped) + " scans, expected " +
+                    std::to_string(scans.size() * static_cast<std::size_t>(reps + 1)));
+      p.x = pipeline ? 2 : 1;
+      p.series = wg;
+      p.setting =
+          "sinkhorn.work_group=" + std::to_string(wg) + ",pipeline=" + (pipeline ? "on" : "off");
+      p.is_default = wg == base.sinkhorn.work_group && pipeline == defaults.pipeline;
+      progress(r, p);
+      r.points.push_back(std::move(p));
+    }
+  finish(r);
+  r.best_tuning = base;
+  r.best_tuning.sinkhorn.work_group = static_cast<int>(r.points[r.best].series);
+  r.best_pipeline = r.points[r.best].x == 2;
+  return r;
+}
+
 bool wanted(const SweepOptions& o, const std::string& name) {
   return o.routines.empty() ||
          std::find(o.routines.begin(), o.routines.end(), name) != o.routines.end();
@@ -258,9 +337,9 @@ bool wanted(const SweepOptions& o, const std::string& name) {
 
 std::vector<RoutineSweep> run_sweeps(Context& ctx, const SweepOptions& o) {
   for (const std::string& name : o.routines)
-    if (name != "map_eval" && name != "raster" && name != "sinkhorn")
+    if (name != "map_eval" && name != "raster" && name != "sinkhorn" && name != "pot")
       throw ArgumentError("bench: no routine named '" + name +
-                          "' (routines: map_eval, raster, sinkhorn)");
+                          "' (routines: map_eval, raster, sinkhorn, pot)");
   const int reps = o.repeats > 0 ? o.repeats : (o.quick ? 3 : 5);
   const Tuning saved = ctx.tuning();
   std::vector<RoutineSweep> out;
@@ -278,7 +357,9 @@ std::vector<RoutineSweep> run_sweeps(Context& ctx, const SweepOptions& o) {
       out.push_back(sweep_sinkhorn(ctx, 32, o, reps));
       ctx.set_tuning(saved);
       if (!o.quick) out.push_back(sweep_sinkhorn(ctx, 96, o, reps));
+      ctx.set_tuning(saved);
     }
+    if (wanted(o, "pot")) out.push_back(sweep_pot(ctx, o, reps));
   } catch (...) {
     ctx.set_tuning(saved);
     throw;
