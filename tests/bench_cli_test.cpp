@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <utility>
 
@@ -118,6 +119,48 @@ TEST(BenchCli, SweepsPotScansInFlight) {
   EXPECT_EQ(seen.size(), 6u);
   EXPECT_EQ(defaults, 1);
   EXPECT_TRUE(best_found);
+}
+
+// The one-field sweeps: each routine's points are its field's values, one of them the default,
+// the best named in the table and the JSON with the highest throughput.
+TEST(BenchCli, SweepsTheRemainingTuningFields) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-fields");
+  const test::CliResult r = test::run_cli(
+      "bench --quick --repeats 1 --routines "
+      "map_eval_query,map_eval_device,sinkhorn_groups,bhm,abhm --map " +
+      test::quoted(small_map(dir)) + " --out " + test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  const std::map<std::string, std::pair<std::string, std::string>> want = {
+      {"map_eval_query", {"map_eval.chunks_per_query", "16"}},
+      {"map_eval_device", {"map_eval.cells_work_group", "16"}},
+      {"sinkhorn_groups", {"sinkhorn.groups_per_compute_unit", "4"}},
+      {"bhm", {"learn.bhm_work_group", "64"}},
+      {"abhm", {"learn.abhm_work_group", "64"}}};
+  ASSERT_EQ(j["routines"].size(), want.size());
+  for (const auto& routine : j["routines"]) {
+    const std::string name = routine["name"];
+    SCOPED_TRACE(name);
+    ASSERT_EQ(want.count(name), 1u);
+    const auto& [field, def] = want.at(name);
+    EXPECT_EQ(routine["series"], field);
+    EXPECT_EQ(routine["default"], field + "=" + def);
+    EXPECT_NE(r.out.find("best: " + routine["best"].get<std::string>() + " ("), std::string::npos)
+        << r.out;
+    ASSERT_EQ(routine["points"].size(), 3u);
+    double best = 0;
+    int defaults = 0;
+    for (const auto& p : routine["points"]) {
+      EXPECT_EQ(p["setting"], field + "=" + std::to_string(p["x"].get<long long>()));
+      defaults += p["default"].get<bool>();
+      EXPECT_GT(p["throughput"].get<double>(), 0);
+      best = std::max(best, p["throughput"].get<double>());
+    }
+    EXPECT_EQ(defaults, 1);
+    for (const auto& p : routine["points"])
+      if (p["setting"] == routine["best"]) EXPECT_EQ(p["throughput"].get<double>(), best);
+  }
 }
 
 TEST(BenchCli, UnknownRoutineIsNamed) {
