@@ -121,6 +121,38 @@ TEST(BenchCli, SweepsPotScansInFlight) {
   EXPECT_TRUE(best_found);
 }
 
+// raster.tile (16, 32, 64) by raster.rows_per_item (8, 16 with --quick) at the default band.
+TEST(BenchCli, SweepsTheRasterTile) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-tile");
+  const test::CliResult r = test::run_cli(
+      "bench --quick --repeats 1 --routines raster_tile --map " + test::quoted(small_map(dir)) +
+      " --out " + test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("* raster.rows_per_item=8,raster.tile=64"), std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  ASSERT_EQ(j["routines"].size(), 1u);
+  const auto& routine = j["routines"][0];
+  EXPECT_EQ(routine["name"], "raster_tile");
+  EXPECT_EQ(routine["default"], "raster.rows_per_item=8,raster.tile=64");
+  EXPECT_NE(r.out.find("best: " + routine["best"].get<std::string>() + " ("), std::string::npos)
+      << r.out;
+  std::set<std::pair<long long, long long>> seen;
+  double best = 0;
+  for (const auto& p : routine["points"]) {
+    const long long tile = p["x"], rows = p["series"];
+    EXPECT_TRUE(tile == 16 || tile == 32 || tile == 64) << tile;
+    EXPECT_EQ(p["setting"], "raster.rows_per_item=" + std::to_string(rows) +
+                                ",raster.tile=" + std::to_string(tile));
+    seen.insert({tile, rows});
+    best = std::max(best, p["throughput"].get<double>());
+  }
+  EXPECT_EQ(seen.size(), 6u);
+  EXPECT_EQ(routine["points"].size(), 6u);
+  for (const auto& p : routine["points"])
+    if (p["setting"] == routine["best"]) EXPECT_EQ(p["throughput"].get<double>(), best);
+}
+
 // The one-field sweeps: each routine's points are its field's values, one of them the default,
 // the best named in the table and the JSON with the highest throughput.
 TEST(BenchCli, SweepsTheRemainingTuningFields) {

@@ -22,7 +22,7 @@ namespace {
 // Every field moved off the CPU defaults, to values the kernels accept.
 const char* kOtherTuning =
     "map_eval.vector_width=4, map_eval.work_group=16, map_eval.cells_work_group=64,"
-    "map_eval.chunks_per_query=3 raster.rows_per_item=16 sinkhorn.work_group=16,"
+    "map_eval.chunks_per_query=3 raster.rows_per_item=16 raster.tile=32 sinkhorn.work_group=16,"
     "sinkhorn.groups_per_compute_unit=2,sinkhorn.chunk_slots=200,"
     "learn.bhm_work_group=16,learn.abhm_work_group=32";
 
@@ -112,6 +112,10 @@ TEST(Tuning, BadPairsAreNamed) {
   EXPECT_NE(error_of("sinkhorn.work_group").find("routine.field=value"), std::string::npos);
   EXPECT_NE(error_of("raster.rows_per_item=-4").find("'-4'"), std::string::npos);
   EXPECT_EQ(error_of("raster.rows_per_item=4"), "");
+  EXPECT_NE(error_of("raster.tile=128").find("raster.tile=128: must be 16, 32 or 64"),
+            std::string::npos)
+      << error_of("raster.tile=128");
+  EXPECT_EQ(error_of("raster.tile=16"), "");
   ContextOptions o;
   o.device = test::context().info().name;
   o.tuning = "learn.bhm_work_group=0";

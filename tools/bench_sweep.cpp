@@ -28,15 +28,16 @@ namespace potmap::cli {
 
 namespace {
 
-const std::array<const char*, 9> kRoutines = {"map_eval",
-                                              "map_eval_query",
-                                              "map_eval_device",
-                                              "raster",
-                                              "sinkhorn",
-                                              "sinkhorn_groups",
-                                              "pot",
-                                              "bhm",
-                                              "abhm"};
+const std::array<const char*, 10> kRoutines = {"map_eval",
+                                               "map_eval_query",
+                                               "map_eval_device",
+                                               "raster",
+                                               "raster_tile",
+                                               "sinkhorn",
+                                               "sinkhorn_groups",
+                                               "pot",
+                                               "bhm",
+                                               "abhm"};
 
 constexpr const char* kTown1 = "../shared/data/carla/town1_abhm_map.csv";
 
@@ -196,6 +197,49 @@ RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& 
   r.best_tuning = base;
   r.best_tuning.raster.rows_per_item = static_cast<int>(r.points[r.best].series);
   r.best_band = r.points[r.best].x;
+  return r;
+}
+
+// raster.tile by raster.rows_per_item, on the raster sweep's grid at the default band.
+RoutineSweep sweep_raster_tile(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
+  const Tuning base = ctx.tuning();
+  double lo[3], hi[3];
+  in.map.bounds(lo, hi);
+  const double cells = o.quick ? double(1 << 20) : double(1 << 22);
+  const double res = std::sqrt((hi[0] - lo[0]) * (hi[1] - lo[1]) / cells);
+  const GridSpec grid = GridSpec::covering(2, lo, hi, res);
+  RoutineSweep r;
+  r.start = to_string(base);
+  r.name = "raster_tile";
+  r.unit = "cells/s";
+  r.x_label = "tile edge, cells (raster.tile)";
+  r.series_label = "raster.rows_per_item";
+  r.input = in.label + ", grid " + std::to_string(grid.count[0]) + " x " +
+            std::to_string(grid.count[1]) + " cells";
+  std::vector<float> mean(grid.cells()), var(grid.cells()), prob(grid.cells());
+  const std::vector<int> rows = o.quick ? std::vector<int>{8, 16} : std::vector<int>{4, 8, 16};
+  for (int rpi : rows)
+    for (int tile : {16, 32, 64}) {
+      Tuning t = base;
+      t.raster.rows_per_item = rpi;
+      t.raster.tile = tile;
+      ctx.set_tuning(t);
+      MapEvaluator ev(ctx, in.map);
+      SweepPoint p =
+          time_point([&] { ev.evaluate_grid(grid, mean.data(), var.data(), prob.data()); }, reps,
+                     double(grid.cells()));
+      p.x = tile;
+      p.series = rpi;
+      p.setting =
+          "raster.rows_per_item=" + std::to_string(rpi) + ",raster.tile=" + std::to_string(tile);
+      p.is_default = rpi == base.raster.rows_per_item && tile == base.raster.tile;
+      progress(r, p);
+      r.points.push_back(std::move(p));
+    }
+  finish(r);
+  r.best_tuning = base;
+  r.best_tuning.raster.rows_per_item = static_cast<int>(r.points[r.best].series);
+  r.best_tuning.raster.tile = static_cast<int>(r.points[r.best].x);
   return r;
 }
 
@@ -537,12 +581,13 @@ std::vector<RoutineSweep> run_sweeps(Context& ctx, const SweepOptions& o) {
   };
   try {
     if (wanted(o, "map_eval") || wanted(o, "map_eval_query") || wanted(o, "map_eval_device") ||
-        wanted(o, "raster")) {
+        wanted(o, "raster") || wanted(o, "raster_tile")) {
       const MapInput in = load_map(o);
       if (wanted(o, "map_eval")) add(sweep_map_eval(ctx, in, o, reps));
       if (wanted(o, "map_eval_query")) add(sweep_map_query(ctx, in, o, reps));
       if (wanted(o, "map_eval_device")) add(sweep_map_device(ctx, in, o, reps));
       if (wanted(o, "raster")) add(sweep_raster(ctx, in, o, reps));
+      if (wanted(o, "raster_tile")) add(sweep_raster_tile(ctx, in, o, reps));
     }
     if (wanted(o, "sinkhorn")) {
       add(sweep_sinkhorn(ctx, 32, o, reps));

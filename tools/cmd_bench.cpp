@@ -94,6 +94,8 @@ int run_tune(const BenchArgs& a_in, const std::string& dir_in, double min_gain) 
     if (r.name == "map_eval_query") t.map_eval.chunks_per_query = b.map_eval.chunks_per_query;
     if (r.name == "map_eval_device") t.map_eval.cells_work_group = b.map_eval.cells_work_group;
     if (r.name == "raster") t.raster.rows_per_item = b.raster.rows_per_item;
+    // After raster: its rows are measured with the tile they were measured at.
+    if (r.name == "raster_tile") t.raster = b.raster;
     // The last sinkhorn_N sweep has the most points a side, nearest POT's problems.
     if (r.name.rfind("sinkhorn_", 0) == 0 && r.name != "sinkhorn_groups") {
       t.sinkhorn.work_group = b.sinkhorn.work_group;
