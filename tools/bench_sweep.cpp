@@ -428,7 +428,7 @@ RoutineSweep sweep_field(Context& ctx, const OneField& f, int reps,
     const std::function<void()> run = make();
     SweepPoint p = time_point(run, reps, f.work);
     p.x = v;
-    p.series = v;
+    p.series = 0;  // one line: the field is on the axis
     p.setting = f.field + "=" + std::to_string(v);
     p.is_default = v == def;
     progress(r, p);

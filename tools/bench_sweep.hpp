@@ -25,8 +25,10 @@ struct SweepOptions {
 
 /// One setting of one routine, timed.
 struct SweepPoint {
-  long long x = 0;              ///< the batch size on the plot's axis (routine's x_label)
-  long long series = 0;         ///< the second setting (routine's series_label): one line per value
+  long long x = 0;  ///< the batch size on the plot's axis (routine's x_label)
+  /// The second setting (routine's series_label): one line per value; 0 for a one-field sweep
+  /// (its field on the axis, one line).
+  long long series = 0;
   std::string setting;          ///< the full setting, `routine.field=value` pairs (and band=...)
   std::vector<double> seconds;  ///< every timed repetition
   double median_s = 0, min_s = 0, max_s = 0;
