@@ -149,6 +149,20 @@ TEST(Tuning, MapEvaluatorAgreesUnderTwoTunings) {
   grid.count[1] = 150;
   expect_close(a.evaluate_grid(grid), b.evaluate_grid(grid));
 
+  // A 3D grid: tiles of 8 y rows by tile / 8 z rows (raster.tile=32 in the other tuning).
+  const KernelMap map3 = random_map(3, 1500, 40, 9);
+  GridSpec g3;
+  g3.dim = 3;
+  g3.origin[0] = -1;
+  g3.origin[1] = -1;
+  g3.origin[2] = -1;
+  g3.resolution = 0.5;
+  g3.count[0] = 90;
+  g3.count[1] = 70;
+  g3.count[2] = 30;
+  MapEvaluator a3(test::context(), map3), b3(tuned_context(), map3);
+  expect_close(a3.evaluate_grid(g3), b3.evaluate_grid(g3));
+
   // The device-buffer path (map_eval.cells_work_group): the same points, already on the device.
   const std::size_t n = pts.size() / 2;
   const double origin[2] = {30, 30};
