@@ -6,6 +6,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
+#include <utility>
 
 #include "potmap/runtime/tuning_file.hpp"
 #include "test_support.hpp"
@@ -68,6 +71,128 @@ TEST(BenchCli, EachRoutineStartsFromTheContextsTuning) {
   // Not the last point of the map_eval sweep: the raster's default is the untuned library's.
   for (const auto& routine : j["routines"]) EXPECT_EQ(routine["start"], j["tuning_before"]);
   EXPECT_EQ(j["tuning_source"], "built-in defaults");
+}
+
+// POT's scans in flight (MapperOptions::pipeline off: 1, on: 2) by sinkhorn.work_group, on the
+// built-in simulated drive: scans per second, the default (work-group 4, pipeline on) marked and
+// the best named, every point in the JSON.
+TEST(BenchCli, SweepsPotScansInFlight) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-pot");
+  const test::CliResult r = test::run_cli("bench --quick --repeats 1 --routines pot --out " +
+                                          test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("* sinkhorn.work_group=4,pipeline=on"), std::string::npos) << r.out;
+  const std::size_t at = r.out.find("best: sinkhorn.work_group=");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  ASSERT_EQ(j["routines"].size(), 1u);
+  const auto& pot = j["routines"][0];
+  EXPECT_EQ(pot["name"], "pot");
+  EXPECT_EQ(pot["unit"], "scans/s");
+  EXPECT_EQ(pot["default"], "sinkhorn.work_group=4,pipeline=on");
+  EXPECT_EQ(r.out.substr(at + 6, pot["best"].get<std::string>().size()), pot["best"]);
+  const auto& points = pot["points"];
+  ASSERT_EQ(points.size(), 6u);  // work-groups 2, 4, 8 x pipeline off, on
+  std::set<std::pair<long long, long long>> seen;
+  int defaults = 0;
+  bool best_found = false;
+  for (const auto& p : points) {
+    const long long x = p["x"], series = p["series"];
+    EXPECT_TRUE(x == 1 || x == 2) << x;
+    const std::string setting = p["setting"];
+    EXPECT_EQ(setting, "sinkhorn.work_group=" + std::to_string(series) +
+                           ",pipeline=" + (x == 2 ? "on" : "off"));
+    seen.insert({x, series});
+    defaults += p["default"].get<bool>();
+    ASSERT_EQ(p["seconds"].size(), 1u);
+    EXPECT_GT(p["throughput"].get<double>(), 0);
+    // Throughput is scans per second of the whole drive: the same number of scans each time.
+    EXPECT_NEAR(p["throughput"].get<double>() * p["median_s"].get<double>(),
+                points[0]["throughput"].get<double>() * points[0]["median_s"].get<double>(), 1e-6);
+    if (setting == pot["best"]) {
+      best_found = true;
+      for (const auto& q : points)
+        EXPECT_LE(q["throughput"].get<double>(), p["throughput"].get<double>());
+    }
+  }
+  EXPECT_EQ(seen.size(), 6u);
+  EXPECT_EQ(defaults, 1);
+  EXPECT_TRUE(best_found);
+}
+
+// raster.tile (16, 32, 64) by raster.rows_per_item (8, 16 with --quick) at the default band.
+TEST(BenchCli, SweepsTheRasterTile) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-tile");
+  const test::CliResult r = test::run_cli(
+      "bench --quick --repeats 1 --routines raster_tile --map " + test::quoted(small_map(dir)) +
+      " --out " + test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("* raster.rows_per_item=8,raster.tile=64"), std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  ASSERT_EQ(j["routines"].size(), 1u);
+  const auto& routine = j["routines"][0];
+  EXPECT_EQ(routine["name"], "raster_tile");
+  EXPECT_EQ(routine["default"], "raster.rows_per_item=8,raster.tile=64");
+  EXPECT_NE(r.out.find("best: " + routine["best"].get<std::string>() + " ("), std::string::npos)
+      << r.out;
+  std::set<std::pair<long long, long long>> seen;
+  double best = 0;
+  for (const auto& p : routine["points"]) {
+    const long long tile = p["x"], rows = p["series"];
+    EXPECT_TRUE(tile == 16 || tile == 32 || tile == 64) << tile;
+    EXPECT_EQ(p["setting"], "raster.rows_per_item=" + std::to_string(rows) +
+                                ",raster.tile=" + std::to_string(tile));
+    seen.insert({tile, rows});
+    best = std::max(best, p["throughput"].get<double>());
+  }
+  EXPECT_EQ(seen.size(), 6u);
+  EXPECT_EQ(routine["points"].size(), 6u);
+  for (const auto& p : routine["points"])
+    if (p["setting"] == routine["best"]) EXPECT_EQ(p["throughput"].get<double>(), best);
+}
+
+// The one-field sweeps: each routine's points are its field's values, one of them the default,
+// the best named in the table and the JSON with the highest throughput.
+TEST(BenchCli, SweepsTheRemainingTuningFields) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = test::temp_dir("bench-cli-fields");
+  const test::CliResult r = test::run_cli(
+      "bench --quick --repeats 1 --routines "
+      "map_eval_query,map_eval_device,sinkhorn_groups,bhm,abhm --map " +
+      test::quoted(small_map(dir)) + " --out " + test::quoted(dir + "/b") + device_args());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
+  const std::map<std::string, std::pair<std::string, std::string>> want = {
+      {"map_eval_query", {"map_eval.chunks_per_query", "16"}},
+      {"map_eval_device", {"map_eval.cells_work_group", "16"}},
+      {"sinkhorn_groups", {"sinkhorn.groups_per_compute_unit", "4"}},
+      {"bhm", {"learn.bhm_work_group", "64"}},
+      {"abhm", {"learn.abhm_work_group", "64"}}};
+  ASSERT_EQ(j["routines"].size(), want.size());
+  for (const auto& routine : j["routines"]) {
+    const std::string name = routine["name"];
+    SCOPED_TRACE(name);
+    ASSERT_EQ(want.count(name), 1u);
+    const auto& [field, def] = want.at(name);
+    EXPECT_EQ(routine["series"], field);
+    EXPECT_EQ(routine["default"], field + "=" + def);
+    EXPECT_NE(r.out.find("best: " + routine["best"].get<std::string>() + " ("), std::string::npos)
+        << r.out;
+    ASSERT_EQ(routine["points"].size(), 3u);
+    double best = 0;
+    int defaults = 0;
+    for (const auto& p : routine["points"]) {
+      EXPECT_EQ(p["setting"], field + "=" + std::to_string(p["x"].get<long long>()));
+      defaults += p["default"].get<bool>();
+      EXPECT_GT(p["throughput"].get<double>(), 0);
+      best = std::max(best, p["throughput"].get<double>());
+    }
+    EXPECT_EQ(defaults, 1);
+    for (const auto& p : routine["points"])
+      if (p["setting"] == routine["best"]) EXPECT_EQ(p["throughput"].get<double>(), best);
+  }
 }
 
 TEST(BenchCli, UnknownRoutineIsNamed) {

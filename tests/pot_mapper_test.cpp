@@ -88,6 +88,60 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
   }
 }
 
+// `potmap bench`'s pot sweep moves the number of scans in flight (MapperOptions::pipeline) and
+// sinkhorn.work_group: neither may change the maps. The pipeline changes only which thread
+// prepares a scan (the warm candidates are those of scan i - 2 either way): bit for bit. The
+// work-group changes the order of the solver's sums: the same atoms and rotations win, and the
+// kernels land within 1e-4 m and 1e-3 in weight.
+TEST(PotMapper, MapsDoNotDependOnScansInFlightOrSinkhornWorkGroup) {
+  const Scene s;
+  const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
+  const auto run = [&](Context& ctx, bool pipeline) {
+    MapperOptions o = test::small_mapper_options(false);
+    o.pipeline = pipeline;
+    std::vector<MappedScan> out;
+    map_scans(&ctx, *s.dict, targets, o, [&](MappedScan&& m) { out.push_back(std::move(m)); });
+    return out;
+  };
+  const std::vector<MappedScan> on = run(test::context(), true);
+  const std::vector<MappedScan> off = run(test::context(), false);
+  ASSERT_EQ(on.size(), targets.size());
+  ASSERT_EQ(off.size(), targets.size());
+  std::size_t kernels = 0;
+  for (std::size_t i = 0; i < on.size(); ++i) {
+    expect_same(on[i].transfer.map, off[i].transfer.map);
+    kernels += on[i].transfer.map.size();
+  }
+  EXPECT_GT(kernels, 0u);
+
+  for (const int wg : {2, 8}) {
+    SCOPED_TRACE("sinkhorn.work_group=" + std::to_string(wg));
+    ContextOptions co;
+    co.device = test::context().info().name;
+    co.tuning_file = false;
+    co.tuning = "sinkhorn.work_group=" + std::to_string(wg);
+    Context ctx(co);
+    ASSERT_EQ(ctx.tuning().sinkhorn.work_group, wg);
+    const std::vector<MappedScan> other = run(ctx, true);
+    ASSERT_EQ(other.size(), on.size());
+    for (std::size_t i = 0; i < on.size(); ++i) {
+      const ScanTransfer &a = on[i].transfer, &b = other[i].transfer;
+      ASSERT_EQ(a.sectors.size(), b.sectors.size());
+      for (std::size_t k = 0; k < a.sectors.size(); ++k) {
+        EXPECT_EQ(a.sectors[k].atom, b.sectors[k].atom) << "scan " << i << " sector " << k;
+        EXPECT_EQ(a.sectors[k].rotation, b.sectors[k].rotation) << "scan " << i << " sector " << k;
+      }
+      ASSERT_EQ(a.map.size(), b.map.size()) << "scan " << i;
+      for (std::size_t j = 0; j < a.map.position.size(); ++j)
+        ASSERT_NEAR(a.map.position[j], b.map.position[j], 1e-4) << "scan " << i;
+      for (std::size_t j = 0; j < a.map.size(); ++j) {
+        ASSERT_NEAR(a.map.w_mean[j], b.map.w_mean[j], 1e-3) << "scan " << i;
+        ASSERT_NEAR(a.map.w_var[j], b.map.w_var[j], 1e-3) << "scan " << i;
+      }
+    }
+  }
+}
+
 // RePOT's two overall maps: per-scan refinement merged (persistent_refine false, the old
 // design: refined instantaneous maps) and the persistent joint BHM (transported instantaneous
 // maps, POT's). Driving over the same scans again leaves the persistent map's memory about as it

@@ -268,32 +268,42 @@ TEST(Raster, OneKernelMatchesTheExactReference) {
 }
 
 TEST(Raster, BandsGiveTheSameFilesBitForBit) {
-  // A window of 201 rows, so that bands of 64 rows (the tile lattice) cut it several ways, with
-  // several kernels of different reach.
+  // A window of 201 rows, so that bands of 64 rows (the band lattice) cut it several ways, with
+  // several kernels of different reach. Under every raster.tile (16, 32, 64: divisors of the
+  // lattice) the bands change nothing.
   KernelMap map = one_kernel_2d();
   const double p2[2] = {-1.0, 6.0}, p3[2] = {1.5, 12.0};
   map.push_back(p2, 0.05, -2.0, 3.0);
   map.push_back(p3, 1.0, 4.0, 0.2);
   RasterSpec spec = small_window();
   spec.ymax = spec.ymin + 20.05;  // 201 rows
-  const std::string dir = test::temp_dir("raster-bands");
-  rasterize(test::context(), map, spec, dir + "/one");
-  for (std::size_t band : {std::size_t(1), std::size_t(40 * 130), std::size_t(40 * 333)}) {
-    SCOPED_TRACE(band);
-    RasterOptions o;
-    o.max_band_cells = band;
-    std::vector<double> fractions;
-    o.progress = [&](double f) { fractions.push_back(f); };
-    const std::string prefix = dir + "/band" + std::to_string(band);
-    const RasterSummary s = rasterize(test::context(), map, spec, prefix, o);
-    // Bands are whole multiples of 64 rows (at least one), counted from the bottom.
-    const std::size_t rows = std::max<std::size_t>(64, band / 40 / 64 * 64);
-    EXPECT_EQ(s.bands, (201 + rows - 1) / rows);
-    ASSERT_EQ(fractions.size(), s.bands);
-    EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
-    EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
-    for (const char* suffix : {"_prob.npy", "_var.npy", "_prob.png", "_var.png"})
-      EXPECT_TRUE(slurp(dir + "/one" + suffix) == slurp(prefix + suffix)) << suffix;
+  for (const int tile : {64, 32, 16}) {
+    SCOPED_TRACE("raster.tile=" + std::to_string(tile));
+    ContextOptions co;
+    co.device = test::context().info().name;
+    co.tuning_file = false;
+    co.tuning = "raster.tile=" + std::to_string(tile);
+    Context ctx(co);
+    ASSERT_EQ(ctx.tuning().raster.tile, tile);
+    const std::string dir = test::temp_dir("raster-bands-" + std::to_string(tile));
+    rasterize(ctx, map, spec, dir + "/one");
+    for (std::size_t band : {std::size_t(1), std::size_t(40 * 130), std::size_t(40 * 333)}) {
+      SCOPED_TRACE(band);
+      RasterOptions o;
+      o.max_band_cells = band;
+      std::vector<double> fractions;
+      o.progress = [&](double f) { fractions.push_back(f); };
+      const std::string prefix = dir + "/band" + std::to_string(band);
+      const RasterSummary s = rasterize(ctx, map, spec, prefix, o);
+      // Bands are whole multiples of 64 rows (at least one), counted from the bottom.
+      const std::size_t rows = std::max<std::size_t>(64, band / 40 / 64 * 64);
+      EXPECT_EQ(s.bands, (201 + rows - 1) / rows);
+      ASSERT_EQ(fractions.size(), s.bands);
+      EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
+      EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+      for (const char* suffix : {"_prob.npy", "_var.npy", "_prob.png", "_var.png"})
+        EXPECT_TRUE(slurp(dir + "/one" + suffix) == slurp(prefix + suffix)) << suffix;
+    }
   }
 }
 

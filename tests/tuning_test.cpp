@@ -8,6 +8,8 @@
 #include <random>
 
 #include "potmap/error.hpp"
+#include "potmap/learn/abhm.hpp"
+#include "potmap/learn/bhm.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/ot/sinkhorn.hpp"
 #include "potmap/runtime/tuning.hpp"
@@ -20,8 +22,9 @@ namespace {
 // Every field moved off the CPU defaults, to values the kernels accept.
 const char* kOtherTuning =
     "map_eval.vector_width=4, map_eval.work_group=16, map_eval.cells_work_group=64,"
-    "map_eval.chunks_per_query=3 raster.rows_per_item=16 sinkhorn.work_group=16,"
-    "sinkhorn.groups_per_compute_unit=2,sinkhorn.chunk_slots=200";
+    "map_eval.chunks_per_query=3 raster.rows_per_item=16 raster.tile=32 sinkhorn.work_group=16,"
+    "sinkhorn.groups_per_compute_unit=2,sinkhorn.chunk_slots=200,"
+    "learn.bhm_work_group=16,learn.abhm_work_group=32";
 
 Context& tuned_context() {
   static Context ctx = [] {
@@ -109,6 +112,10 @@ TEST(Tuning, BadPairsAreNamed) {
   EXPECT_NE(error_of("sinkhorn.work_group").find("routine.field=value"), std::string::npos);
   EXPECT_NE(error_of("raster.rows_per_item=-4").find("'-4'"), std::string::npos);
   EXPECT_EQ(error_of("raster.rows_per_item=4"), "");
+  EXPECT_NE(error_of("raster.tile=128").find("raster.tile=128: must be 16, 32 or 64"),
+            std::string::npos)
+      << error_of("raster.tile=128");
+  EXPECT_EQ(error_of("raster.tile=16"), "");
   ContextOptions o;
   o.device = test::context().info().name;
   o.tuning = "learn.bhm_work_group=0";
@@ -141,6 +148,86 @@ TEST(Tuning, MapEvaluatorAgreesUnderTwoTunings) {
   grid.count[0] = 190;
   grid.count[1] = 150;
   expect_close(a.evaluate_grid(grid), b.evaluate_grid(grid));
+
+  // A 3D grid: tiles of 8 y rows by tile / 8 z rows (raster.tile=32 in the other tuning).
+  const KernelMap map3 = random_map(3, 1500, 40, 9);
+  GridSpec g3;
+  g3.dim = 3;
+  g3.origin[0] = -1;
+  g3.origin[1] = -1;
+  g3.origin[2] = -1;
+  g3.resolution = 0.5;
+  g3.count[0] = 90;
+  g3.count[1] = 70;
+  g3.count[2] = 30;
+  MapEvaluator a3(test::context(), map3), b3(tuned_context(), map3);
+  expect_close(a3.evaluate_grid(g3), b3.evaluate_grid(g3));
+
+  // The device-buffer path (map_eval.cells_work_group): the same points, already on the device.
+  const std::size_t n = pts.size() / 2;
+  const double origin[2] = {30, 30};
+  std::vector<float> rel(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) rel[i] = static_cast<float>(pts[i] - origin[i % 2]);
+  const auto on_device = [&](Context& ctx, MapEvaluator& ev) {
+    namespace bc = boost::compute;
+    bc::buffer d_pts(ctx.context(), rel.size() * 4), d_m(ctx.context(), n * 4),
+        d_v(ctx.context(), n * 4), d_p(ctx.context(), n * 4);
+    ctx.queue().enqueue_write_buffer(d_pts, 0, rel.size() * 4, rel.data());
+    ev.evaluate_device(d_pts, n, origin, &d_m, &d_v, &d_p).wait();
+    MapValues v;
+    v.mean.resize(n);
+    v.var.resize(n);
+    v.prob.resize(n);
+    ctx.queue().enqueue_read_buffer(d_m, 0, n * 4, v.mean.data());
+    ctx.queue().enqueue_read_buffer(d_v, 0, n * 4, v.var.data());
+    ctx.queue().enqueue_read_buffer(d_p, 0, n * 4, v.prob.data());
+    return v;
+  };
+  ASSERT_NE(test::context().tuning().map_eval.cells_work_group,
+            tuned_context().tuning().map_eval.cells_work_group);
+  expect_close(on_device(test::context(), a), on_device(tuned_context(), b));
+}
+
+// The learners' kernels give each work-item one kernel or one sample, summing its own pairs in
+// a fixed order: their work-groups (learn.bhm_work_group, learn.abhm_work_group) change nothing,
+// bit for bit.
+TEST(Tuning, LearnersAgreeBitForBitUnderTwoTunings) {
+  ASSERT_NE(test::context().tuning().learn.bhm_work_group,
+            tuned_context().tuning().learn.bhm_work_group);
+  ASSERT_NE(test::context().tuning().learn.abhm_work_group,
+            tuned_context().tuning().learn.abhm_work_group);
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(0, 20);
+  LabelledPoints s;
+  for (int i = 0; i < 3000; ++i) {
+    const double x = u(rng), y = u(rng);
+    s.position.insert(s.position.end(), {x, y});
+    s.label.push_back(std::hypot(x - 10, y - 10) < 4 ? 1 : 0);
+    s.scan.push_back(0);
+  }
+  const double lo[3] = {0, 0, 0}, hi[3] = {20, 20, 0};
+  const KernelMap prior = bhm_grid_prior(2, lo, hi, 1.0, 4.0);
+  KernelMap a = prior, b = prior;
+  bhm_update(test::context(), a, s);
+  bhm_update(tuned_context(), b, s);
+  EXPECT_EQ(a.w_mean, b.w_mean);
+  EXPECT_EQ(a.w_var, b.w_var);
+  EXPECT_NE(a.w_mean, prior.w_mean);  // the update did something
+
+  const AbhmParams p = abhm_init_grid(2, lo, hi, 1.0, 4.0);
+  AbhmNoise noise;
+  std::normal_distribution<double> z;
+  noise.w.resize(p.size());
+  noise.g.resize(p.size());
+  noise.h.resize(p.h_loc.size());
+  for (auto* v : {&noise.w, &noise.g, &noise.h})
+    for (double& x : *v) x = z(rng);
+  std::vector<double> ga, gb;
+  const double la = abhm_loss_device(test::context(), p, AbhmPrior{}, s, 1.0, noise, &ga);
+  const double lb = abhm_loss_device(tuned_context(), p, AbhmPrior{}, s, 1.0, noise, &gb);
+  EXPECT_EQ(la, lb);
+  EXPECT_EQ(ga, gb);
+  ASSERT_FALSE(ga.empty());
 }
 
 TEST(Tuning, SinkhornAgreesUnderTwoTunings) {

@@ -176,8 +176,10 @@ experiment::Picture panel(const RoutineSweep& r) {
   const long ns = long(series.size());
   for (long long sv : series) {
     const Rgb col = colormap(Colormap::Viridis, ns > 1 ? 0.85 * s++ / double(ns - 1) : 0.4);
-    draw_text(c.pic, legend_x, 20, std::to_string(sv), col);
-    legend_x += text_advance(2) * long(std::to_string(sv).size() + 1);
+    if (ns > 1) {  // one line: the label alone
+      draw_text(c.pic, legend_x, 20, std::to_string(sv), col);
+      legend_x += text_advance(2) * long(std::to_string(sv).size() + 1);
+    }
     const SweepPoint* prev = nullptr;
     for (const SweepPoint& p : r.points) {
       if (p.series != sv) continue;
@@ -209,9 +211,19 @@ void write_sweep_plot(const std::vector<RoutineSweep>& sweeps, const std::string
   for (const RoutineSweep& r : sweeps)
     if (!r.points.empty()) panels.push_back(panel(r));
   if (panels.empty()) throw ArgumentError("bench: nothing to plot");
-  std::vector<const experiment::Picture*> ptrs;
-  for (const auto& p : panels) ptrs.push_back(&p);
-  experiment::write_side_by_side(ptrs, path, 8);
+  // Four panels a row (every panel has the same size), 8 white pixels between them, so that a
+  // sweep of every routine stays readable on a page.
+  const std::size_t per_row = std::min<std::size_t>(4, panels.size()), gap = 8;
+  const std::size_t pw = panels[0].width, ph = panels[0].height;
+  const std::size_t rows = (panels.size() + per_row - 1) / per_row;
+  Canvas all(per_row * pw + (per_row - 1) * gap, rows * ph + (rows - 1) * gap);
+  for (std::size_t i = 0; i < panels.size(); ++i) {
+    const std::size_t x0 = (i % per_row) * (pw + gap), y0 = (i / per_row) * (ph + gap);
+    for (std::size_t y = 0; y < ph; ++y)
+      std::copy_n(&panels[i].rgb[y * pw * 3], pw * 3,
+                  &all.pic.rgb[((y0 + y) * all.pic.width + x0) * 3]);
+  }
+  experiment::write_side_by_side({&all.pic}, path, gap);
 }
 
 }  // namespace potmap::cli

@@ -19,13 +19,16 @@ struct SweepOptions {
   /// Kernel map for the map routines; empty: Town 1 (../shared/data/carla) when present, else
   /// the built-in synthetic scene.
   std::string map_path;
-  std::vector<std::string> routines;  ///< routines to run (map_eval, raster, sinkhorn); empty: all
+  /// Routines to run (map_eval, raster, sinkhorn, pot); empty: all.
+  std::vector<std::string> routines;
 };
 
 /// One setting of one routine, timed.
 struct SweepPoint {
-  long long x = 0;              ///< the batch size on the plot's axis (routine's x_label)
-  long long series = 0;         ///< the second setting (routine's series_label): one line per value
+  long long x = 0;  ///< the batch size on the plot's axis (routine's x_label)
+  /// The second setting (routine's series_label): one line per value; 0 for a one-field sweep
+  /// (its field on the axis, one line).
+  long long series = 0;
   std::string setting;          ///< the full setting, `routine.field=value` pairs (and band=...)
   std::vector<double> seconds;  ///< every timed repetition
   double median_s = 0, min_s = 0, max_s = 0;
@@ -35,17 +38,18 @@ struct SweepPoint {
 
 /// Every point of one routine and its input.
 struct RoutineSweep {
-  std::string name;          ///< map_eval, raster, sinkhorn
+  std::string name;          ///< map_eval, raster, sinkhorn_32, sinkhorn_96, pot
   std::string unit;          ///< of throughput, e.g. "points/s"
   std::string x_label;       ///< e.g. "points per chunk (vector_width x work_group)"
   std::string series_label;  ///< e.g. "vector_width"
   std::string input;         ///< what was run, e.g. "Town 1 map, 92372 kernels, 262144 points"
   std::string start;         ///< the tuning the sweep started from (to_string), for the record
   std::vector<SweepPoint> points;
-  std::size_t best = 0;      ///< index of the highest median throughput
-  std::size_t baseline = 0;  ///< index of the default point
-  Tuning best_tuning;        ///< the context's tuning with the best point's fields
-  long long best_band = 0;   ///< raster: cells per launch of the best point (else 0)
+  std::size_t best = 0;       ///< index of the highest median throughput
+  std::size_t baseline = 0;   ///< index of the default point
+  Tuning best_tuning;         ///< the context's tuning with the best point's fields
+  long long best_band = 0;    ///< raster: cells per launch of the best point (else 0)
+  bool best_pipeline = true;  ///< pot: MapperOptions::pipeline of the best point
 };
 
 /// Runs the sweeps on `ctx` (its tuning is restored afterwards). Progress goes to stderr.

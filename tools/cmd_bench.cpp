@@ -29,8 +29,10 @@ void add_sweep_options(CLI::App* cmd, BenchArgs& a) {
   cmd->add_option("--repeats", a.sweep.repeats,
                   "timed runs per setting after one warm-up (default 3 with --quick, else 5)")
       ->check(CLI::Range(1, 1000));
-  cmd->add_option("--routines", a.routines,
-                  "comma-separated routines to sweep: map_eval, raster, sinkhorn (default all)");
+  cmd->add_option(
+      "--routines", a.routines,
+      "comma-separated routines to sweep: map_eval, map_eval_query, map_eval_device, raster, "
+      "sinkhorn, sinkhorn_groups, pot, bhm, abhm (default all)");
   cmd->add_option("--map", a.sweep.map_path,
                   "kernel map for map_eval and raster (default: ../shared/data/carla/"
                   "town1_abhm_map.csv when present, else the built-in synthetic scene)");
@@ -73,11 +75,36 @@ int run_tune(const BenchArgs& a_in, const std::string& dir_in, double min_gain) 
     const bool take = gain > 1 + min_gain;
     std::cout << r.name << ": best " << r.points[r.best].setting << ", " << gain
               << " x the default: " << (take ? "taken" : "default kept") << "\n";
+    if (r.name == "pot") {
+      // Its lines are sinkhorn.work_group on POT's own problems, but the file's Sinkhorn fields
+      // come from the sinkhorn sweeps (one source per field); scans in flight is not a tuning.
+      std::cout << "  (not written: scans in flight is MapperOptions::pipeline, "
+                << (r.best_pipeline ? "on" : "off")
+                << " at the best point; set it in code. The file's sinkhorn fields come from "
+                   "the sinkhorn sweeps)\n";
+      continue;
+    }
     if (!take) continue;
-    if (r.name == "map_eval") t.map_eval = r.best_tuning.map_eval;
-    if (r.name == "raster") t.raster = r.best_tuning.raster;
-    // The last Sinkhorn sweep has the most points a side, nearest POT's problems.
-    if (r.name.rfind("sinkhorn", 0) == 0) t.sinkhorn = r.best_tuning.sinkhorn;
+    // Each routine writes only the fields it swept.
+    const Tuning& b = r.best_tuning;
+    if (r.name == "map_eval") {
+      t.map_eval.vector_width = b.map_eval.vector_width;
+      t.map_eval.work_group = b.map_eval.work_group;
+    }
+    if (r.name == "map_eval_query") t.map_eval.chunks_per_query = b.map_eval.chunks_per_query;
+    if (r.name == "map_eval_device") t.map_eval.cells_work_group = b.map_eval.cells_work_group;
+    if (r.name == "raster") t.raster.rows_per_item = b.raster.rows_per_item;
+    // After raster: its rows are measured with the tile they were measured at.
+    if (r.name == "raster_tile") t.raster = b.raster;
+    // The last sinkhorn_N sweep has the most points a side, nearest POT's problems.
+    if (r.name.rfind("sinkhorn_", 0) == 0 && r.name != "sinkhorn_groups") {
+      t.sinkhorn.work_group = b.sinkhorn.work_group;
+      t.sinkhorn.chunk_slots = b.sinkhorn.chunk_slots;
+    }
+    if (r.name == "sinkhorn_groups")
+      t.sinkhorn.groups_per_compute_unit = b.sinkhorn.groups_per_compute_unit;
+    if (r.name == "bhm") t.learn.bhm_work_group = b.learn.bhm_work_group;
+    if (r.name == "abhm") t.learn.abhm_work_group = b.learn.abhm_work_group;
     if (r.name == "raster")
       std::cout << "  (the band, " << r.best_band
                 << " cells, is EvalOptions::cells_per_launch, not a tuning: set it in code)\n";

@@ -234,7 +234,8 @@ MapEvaluator::Impl::Impl(Context& c, const KernelMap& m, const EvalOptions& o)
       map(m),
       opt(o),
       tuning(c.tuning().map_eval),
-      raster_rows(c.tuning().raster.rows_per_item) {
+      raster_rows(c.tuning().raster.rows_per_item),
+      raster_tile(c.tuning().raster.tile) {
   map.validate();
   if (!(opt.tau > 0) || !std::isfinite(opt.tau))
     throw ArgumentError("EvalOptions::tau must be positive, got " + std::to_string(opt.tau));

@@ -1,6 +1,6 @@
-// MapEvaluator's grid path (kernels/map/raster.cl): the grid is cut into tiles of kTileX columns
-// by kTileY row slots, each with one kernel list; a work-item owns 16 columns by
-// RasterTuning::rows_per_item rows. Launches hold whole blocks of rows, as many as
+// MapEvaluator's grid path (kernels/map/raster.cl): the grid is cut into tiles of
+// RasterTuning::tile columns by as many row slots, each with one kernel list; a work-item owns 16
+// columns by RasterTuning::rows_per_item rows. Launches hold whole blocks of rows, as many as
 // EvalOptions::cells_per_launch allows.
 
 #include <algorithm>
@@ -18,29 +18,30 @@ namespace potmap {
 
 namespace {
 
-constexpr std::size_t kTileX = 64, kTileY = 64;
 // Launches of fewer tiles build their kernel lists on the calling thread (tile_kernel_lists).
 constexpr long long kParallelListTiles = 256;
 
-// The grid's shape as the raster path cuts it: 2D row blocks are kTileY consecutive y rows; 3D
-// ones 8 y by 8 z, so tiles stay compact.
+// The grid's shape as the raster path cuts it into tiles of `tile` columns by `tile` row slots:
+// 2D row blocks are `tile` consecutive y rows; 3D ones 8 y by tile / 8 z, so tiles stay compact.
 struct GridBlocks {
   int dim = 2;
+  std::size_t tile = 64;
   std::size_t nx = 0, ny = 0, nz = 1;
   std::size_t ntx = 0;         // column tiles
   std::size_t by = 0, bz = 0;  // rows of a block along y and z
   std::size_t nby = 0, nblocks = 0;
 };
 
-GridBlocks cut_grid(const GridSpec& grid) {
+GridBlocks cut_grid(const GridSpec& grid, std::size_t tile) {
   GridBlocks g;
   g.dim = grid.dim;
+  g.tile = tile;
   g.nx = grid.count[0];
   g.ny = grid.count[1];
   g.nz = g.dim == 3 ? grid.count[2] : 1;
-  g.ntx = (g.nx + kTileX - 1) / kTileX;
-  g.by = g.dim == 3 ? 8 : kTileY;
-  g.bz = g.dim == 3 ? kTileY / 8 : 1;
+  g.ntx = (g.nx + tile - 1) / tile;
+  g.by = g.dim == 3 ? 8 : tile;
+  g.bz = g.dim == 3 ? tile / 8 : 1;
   g.nby = (g.ny + g.by - 1) / g.by;
   g.nblocks = g.nby * ((g.nz + g.bz - 1) / g.bz);
   return g;
@@ -58,8 +59,8 @@ void check_grid(const GridSpec& grid, int dim) {
 // Column coordinates relative to the anchor, padded to whole tiles by repeating the last one.
 void column_coordinates(const GridSpec& grid, const GridBlocks& g, const double* anchor,
                         std::vector<float>& hi, std::vector<float>& lo) {
-  hi.resize(g.ntx * kTileX);
-  lo.resize(g.ntx * kTileX);
+  hi.resize(g.ntx * g.tile);
+  lo.resize(g.ntx * g.tile);
   for (std::size_t i = 0; i < hi.size(); ++i)
     detail::split(grid.origin[0] + (std::min(i, g.nx - 1) + 0.5) * grid.resolution - anchor[0],
                   hi[i], lo[i]);
@@ -80,7 +81,7 @@ RowSlots row_slots(const GridSpec& grid, const GridBlocks& g, const double* anch
                    std::size_t nb) {
   const double res = grid.resolution;
   RowSlots r;
-  r.count = nb * kTileY;
+  r.count = nb * g.tile;
   const std::size_t nslots = r.count;
   r.hi.resize(nslots * (g.dim - 1));
   r.lo.resize(nslots * (g.dim - 1));
@@ -89,10 +90,10 @@ RowSlots row_slots(const GridSpec& grid, const GridBlocks& g, const double* anch
   r.box.resize(nb);
   for (std::size_t bi = 0; bi < nb; ++bi) {
     const std::size_t blk = b0 + bi, bjy = blk % g.nby, bkz = blk / g.nby;
-    for (std::size_t s_in = 0; s_in < kTileY; ++s_in) {
+    for (std::size_t s_in = 0; s_in < g.tile; ++s_in) {
       std::size_t j = bjy * g.by + s_in % g.by, k = bkz * g.bz + s_in / g.by;
       const bool real = j < g.ny && k < g.nz;
-      const std::size_t s = bi * kTileY + s_in;
+      const std::size_t s = bi * g.tile + s_in;
       j = std::min(j, g.ny - 1);
       k = std::min(k, g.nz - 1);
       detail::split(grid.origin[1] + (j + 0.5) * res - anchor[1], r.hi[s], r.lo[s]);
@@ -127,9 +128,9 @@ std::vector<std::vector<std::uint32_t>> tile_kernel_lists(const GridSpec& grid, 
 #pragma omp parallel for schedule(dynamic, 4) if (nt >= kParallelListTiles)
   for (long long t = 0; t < nt; ++t) {
     const std::size_t bi = t / g.ntx, tx = t % g.ntx;
-    const double lo[3] = {std::max(xlo, grid.origin[0] + (tx * kTileX + 0.5) * res),
+    const double lo[3] = {std::max(xlo, grid.origin[0] + (tx * g.tile + 0.5) * res),
                           rows.box[bi][0], rows.box[bi][2]};
-    const double hi[3] = {std::min(xhi, grid.origin[0] + ((tx + 1) * kTileX - 0.5) * res),
+    const double hi[3] = {std::min(xhi, grid.origin[0] + ((tx + 1) * g.tile - 0.5) * res),
                           rows.box[bi][1], rows.box[bi][3]};
     index.query_box(lo, hi, lists[t]);
   }
@@ -141,11 +142,12 @@ std::vector<std::vector<std::uint32_t>> tile_kernel_lists(const GridSpec& grid, 
 void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out_v, float* out_p) {
   last_pairs = 0;
   check_grid(grid, map.dim);
-  const GridBlocks g = cut_grid(grid);
+  const std::size_t tile = static_cast<std::size_t>(raster_tile);
+  const GridBlocks g = cut_grid(grid, tile);
   if (g.nx == 0 || g.ny == 0 || g.nz == 0) return;
   const std::size_t rows_per_item = static_cast<std::size_t>(raster_rows);
   const std::size_t blocks_per_launch =
-      std::max<std::size_t>(1, opt.cells_per_launch / (kTileY * g.ntx * kTileX));
+      std::max<std::size_t>(1, opt.cells_per_launch / (tile * g.ntx * tile));
 
   auto& cx = ctx->context();
   auto& q = ctx->queue();
@@ -156,7 +158,7 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
   char defs[200];
   std::snprintf(defs, sizeof defs,
                 "-DDIM=%d -DROWS=%zu -DTILE_X=%zu -DTILE_Y=%zu -DTAU=%#.9gf -cl-denorms-are-zero",
-                g.dim, rows_per_item, kTileX, kTileY, opt.tau);
+                g.dim, rows_per_item, tile, tile, opt.tau);
   bc::kernel kern = ctx->kernel("map/raster", "map_raster", defs);
 
   std::vector<float> host;
@@ -164,7 +166,7 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
     const std::size_t b1 = std::min(g.nblocks, b0 + blocks_per_launch);
     const RowSlots rows = row_slots(grid, g, anchor, b0, b1 - b0);
     const detail::KernelLists lists = detail::flatten(tile_kernel_lists(grid, g, index, rows));
-    last_pairs += static_cast<std::size_t>(lists.start.back()) * kTileX * kTileY;
+    last_pairs += static_cast<std::size_t>(lists.start.back()) * tile * tile;
 
     const std::size_t cells = rows.count * g.nx;
     bc::buffer& b_rhi = g_row_hi.put(cx, q, rows.hi);
@@ -179,11 +181,11 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
                             static_cast<cl_uint>(g.nx), b_rhi, b_rlo,
                             static_cast<cl_uint>(rows.count), b_rout, b_start, b_list, bias_mean,
                             bias_var, b_m, b_v, b_p);
-    const std::size_t global[2] = {g.ntx * (kTileX / 16), (b1 - b0) * (kTileY / rows_per_item)};
-    const std::size_t local[2] = {kTileX / 16, kTileY / rows_per_item};
+    const std::size_t global[2] = {g.ntx * (tile / 16), (b1 - b0) * (tile / rows_per_item)};
+    const std::size_t local[2] = {tile / 16, tile / rows_per_item};
     detail::enqueue_2d(q, kern, "map_raster", global, local);
     // 2D launches cover consecutive whole rows: read straight into the caller's array.
-    const std::size_t first_row = b0 * kTileY, real_rows = std::min(g.ny, b1 * kTileY) - first_row;
+    const std::size_t first_row = b0 * tile, real_rows = std::min(g.ny, b1 * tile) - first_row;
     auto fetch = [&](bc::buffer& b, float* dst) {
       if (!dst) return;
       if (g.dim == 2) {

@@ -19,6 +19,7 @@ struct MapEvaluator::Impl {
   EvalOptions opt;
   MapEvalTuning tuning;
   int raster_rows;  // RasterTuning::rows_per_item
+  int raster_tile;  // RasterTuning::tile
   detail::KernelIndex index;
   // Kernel positions are sent relative to this whole-metre anchor near the map's centre, split
   // into float hi + lo parts, so that float arithmetic on the device keeps micrometres.

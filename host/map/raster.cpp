@@ -167,11 +167,11 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
     }
   };
 
-  // Bands run top to bottom (image order) but are cut on a lattice of whole 64-row tiles counted
-  // from the window's bottom, so every band is evaluated by exactly the tiles a single pass
-  // would use: the values do not depend on the band size. Encoding and writing band k (two
-  // threads: probability and variance) overlap the evaluation of band k + 1; two sets of
-  // buffers take turns.
+  // Bands run top to bottom (image order) but are cut on a lattice of whole 64-row blocks counted
+  // from the window's bottom; the evaluator's tiles (RasterTuning::tile: 16, 32 or 64) divide 64,
+  // so every band is evaluated by exactly the tiles a single pass would use: the values do not
+  // depend on the band size. Encoding and writing band k (two threads: probability and variance)
+  // overlap the evaluation of band k + 1; two sets of buffers take turns.
   constexpr std::size_t kTileRows = 64;
   const std::size_t band = std::max<std::size_t>(kTileRows, band_rows / kTileRows * kTileRows);
   std::vector<float> var[2], prob[2];

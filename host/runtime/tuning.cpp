@@ -38,6 +38,7 @@ const std::vector<Field>& fields() {
       small_field("map_eval.chunks_per_query",
                   [](Tuning& t) { return &t.map_eval.chunks_per_query; }),
       small_field("raster.rows_per_item", [](Tuning& t) { return &t.raster.rows_per_item; }),
+      small_field("raster.tile", [](Tuning& t) { return &t.raster.tile; }),
       small_field("sinkhorn.work_group", [](Tuning& t) { return &t.sinkhorn.work_group; }),
       small_field("sinkhorn.groups_per_compute_unit",
                   [](Tuning& t) { return &t.sinkhorn.groups_per_compute_unit; }),
@@ -82,6 +83,8 @@ void validate_tuning(const Tuning& t) {
           t.map_eval.chunks_per_query, "must be at least 1");
   require(width(t.raster.rows_per_item), "raster.rows_per_item", t.raster.rows_per_item,
           "must be 4, 8 or 16");
+  require(t.raster.tile == 16 || t.raster.tile == 32 || t.raster.tile == 64, "raster.tile",
+          t.raster.tile, "must be 16, 32 or 64");
   require(power_of_two(t.sinkhorn.work_group), "sinkhorn.work_group", t.sinkhorn.work_group,
           "must be a power of two");
   require(t.sinkhorn.groups_per_compute_unit >= 1, "sinkhorn.groups_per_compute_unit",

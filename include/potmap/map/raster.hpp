@@ -56,7 +56,7 @@ struct RasterSpec {
 struct RasterOptions {
   /// Most cells evaluated at once. Host memory is about 8 bytes per cell of a band (variance
   /// and probability in float) plus the device's buffers (12 bytes a cell); default 4 Mi cells
-  /// (~80 MB in all). A band is a whole number of 64-row tiles, at least one.
+  /// (~80 MB in all). A band is a whole number of 64-row blocks, at least one.
   std::size_t max_band_cells = std::size_t(1) << 22;
   bool write_png = true;  ///< write PREFIX_prob.png and PREFIX_var.png; default true
   bool write_npy = true;  ///< write PREFIX_prob.npy and PREFIX_var.npy; default true
@@ -83,8 +83,9 @@ struct RasterSummary {
 /// Evaluates `map` on the window and writes PREFIX_prob.png, PREFIX_var.png, PREFIX_prob.npy and
 /// PREFIX_var.npy (as enabled). Every file is written to a temporary name and renamed only when
 /// all of them are complete; on any error no new file is left behind. The result does not
-/// depend on max_band_cells (bands are whole multiples of the evaluator's 64-row tiles, counted
-/// from the window's bottom, so every cell is computed by the same tile either way).
+/// depend on max_band_cells (bands are whole multiples of 64 rows, counted from the window's
+/// bottom, and the evaluator's tiles, RasterTuning::tile, divide 64, so every cell is computed by
+/// the same tile either way).
 /// Throws ArgumentError for a bad spec, potmap::Error naming the file on a write failure.
 RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& spec,
                         const std::string& out_prefix, const RasterOptions& options = {});

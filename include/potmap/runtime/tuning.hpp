@@ -41,6 +41,13 @@ struct RasterTuning {
   /// Grid rows a work-item owns (4, 8 or 16; default 8 on every device): rows share the
   /// kernel loads of their 16 columns, more rows hold more accumulators in registers.
   int rows_per_item = 8;
+  /// Tile edge, cells (16, 32 or 64; default 64 on every device): a work-group covers one tile
+  /// of `tile` columns by `tile` rows (3D: 8 y rows by tile / 8 z rows) and every tile has its
+  /// own list of the kernels that reach it. Smaller tiles list fewer far kernels per cell but
+  /// build and walk more lists. At most 64 and a divisor of it, because rasterize() cuts its
+  /// bands and TiledRasterOptions::tile_cells its tiles on multiples of 64 rows: with any of
+  /// these tiles every cell is still computed by the same tile whatever the band.
+  int tile = 64;
 };
 
 /// The batched Sinkhorn solver (kernels/ot/sinkhorn*.cl).
