@@ -153,15 +153,19 @@ RoutineSweep sweep_map_eval(Context& ctx, const MapInput& in, const SweepOptions
   return r;
 }
 
-RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
-  const Tuning base = ctx.tuning();
+// The raster routines' grid over the map's extent: about 2^20 cells (quick) or 2^22 whatever
+// the extent, so that the time per point stays bounded on any map.
+GridSpec raster_grid(const MapInput& in, const SweepOptions& o) {
   double lo[3], hi[3];
   in.map.bounds(lo, hi);
-  // About 2^20 cells (quick) or 2^22 whatever the map's extent, so that the time per point
-  // stays bounded on any map.
   const double cells = o.quick ? double(1 << 20) : double(1 << 22);
   const double res = std::sqrt((hi[0] - lo[0]) * (hi[1] - lo[1]) / cells);
-  const GridSpec grid = GridSpec::covering(2, lo, hi, res);
+  return GridSpec::covering(2, lo, hi, res);
+}
+
+RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
+  const Tuning base = ctx.tuning();
+  const GridSpec grid = raster_grid(in, o);
   RoutineSweep r;
   r.start = to_string(base);
   r.name = "raster";
@@ -203,11 +207,7 @@ RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& 
 // raster.tile by raster.rows_per_item, on the raster sweep's grid at the default band.
 RoutineSweep sweep_raster_tile(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
   const Tuning base = ctx.tuning();
-  double lo[3], hi[3];
-  in.map.bounds(lo, hi);
-  const double cells = o.quick ? double(1 << 20) : double(1 << 22);
-  const double res = std::sqrt((hi[0] - lo[0]) * (hi[1] - lo[1]) / cells);
-  const GridSpec grid = GridSpec::covering(2, lo, hi, res);
+  const GridSpec grid = raster_grid(in, o);
   RoutineSweep r;
   r.start = to_string(base);
   r.name = "raster_tile";
