@@ -12,6 +12,7 @@
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/mapper.hpp"
 #include "test_support.hpp"
+#include "tuned_context.hpp"
 
 namespace potmap {
 namespace {
@@ -116,11 +117,8 @@ TEST(PotMapper, MapsDoNotDependOnScansInFlightOrSinkhornWorkGroup) {
 
   for (const int wg : {2, 8}) {
     SCOPED_TRACE("sinkhorn.work_group=" + std::to_string(wg));
-    ContextOptions co;
-    co.device = test::context().info().name;
-    co.tuning_file = false;
-    co.tuning = "sinkhorn.work_group=" + std::to_string(wg);
-    Context ctx(co);
+    const auto tuned = test::tuned_context("sinkhorn.work_group=" + std::to_string(wg));
+    Context& ctx = *tuned;
     ASSERT_EQ(ctx.tuning().sinkhorn.work_group, wg);
     const std::vector<MappedScan> other = run(ctx, true);
     ASSERT_EQ(other.size(), on.size());

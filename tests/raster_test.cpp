@@ -16,6 +16,7 @@
 #include "potmap/map/raster.hpp"
 #include "render/png_writer.hpp"
 #include "test_support.hpp"
+#include "tuned_context.hpp"
 
 namespace fs = std::filesystem;
 using namespace potmap;
@@ -279,11 +280,8 @@ TEST(Raster, BandsGiveTheSameFilesBitForBit) {
   spec.ymax = spec.ymin + 20.05;  // 201 rows
   for (const int tile : {64, 32, 16}) {
     SCOPED_TRACE("raster.tile=" + std::to_string(tile));
-    ContextOptions co;
-    co.device = test::context().info().name;
-    co.tuning_file = false;
-    co.tuning = "raster.tile=" + std::to_string(tile);
-    Context ctx(co);
+    const auto tuned = test::tuned_context("raster.tile=" + std::to_string(tile));
+    Context& ctx = *tuned;
     ASSERT_EQ(ctx.tuning().raster.tile, tile);
     const std::string dir = test::temp_dir("raster-bands-" + std::to_string(tile));
     rasterize(ctx, map, spec, dir + "/one");
