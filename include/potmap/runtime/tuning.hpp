@@ -92,11 +92,14 @@ bool is_pocl_cpu(const DeviceInfo& device);
 /// its work-items, one loop per stretch between barriers, so a group's work-items add no
 /// parallelism there, only loop overhead and the work-group reductions' log2(work_group)
 /// barrier steps; the cores are kept busy by the many problems of a launch instead. POT's
-/// problems are small (a few vectors of points a side), so with 2 work-items a reduction takes
-/// one step and fewer work-items idle in the strided loops. The values were measured with PoCL
-/// only: another CPU driver (Intel's vectorises across the work-items of a group) compiles a
-/// work-group differently, so it keeps the generic CPU values until it is measured (`potmap
-/// tune` writes a tuning file for it).
+/// problems are small (by default at most 200 hits and 50 free samples a side: a dozen vectors
+/// or fewer), so with 2 work-items a reduction takes one step and fewer work-items idle in the
+/// strided loops. The log-domain scheme (SinkhornOptions::stabilised = false) keeps 4 there:
+/// PoCL 3.1's compiler cannot build its kernel with 1 or 2 work-items (host/ot/sinkhorn.cpp).
+/// Only PoCL was measured: another CPU driver (Intel's vectorises across the work-items of a
+/// group) compiles a work-group differently, so it keeps the generic CPU values until it is
+/// measured (`potmap tune` writes a tuning file for it). The raster's tile stays 64 on PoCL
+/// too: smaller tiles won the raster kernel alone, not a whole raster job (docs/tuning.md).
 ///
 /// A device's tuning file (tuning_file.hpp), POTMAP_TUNING and ContextOptions::tuning apply
 /// after these, as for every other device.
