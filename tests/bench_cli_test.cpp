@@ -10,6 +10,7 @@
 #include <set>
 #include <utility>
 
+#include "potmap/runtime/tuning.hpp"
 #include "potmap/runtime/tuning_file.hpp"
 #include "test_support.hpp"
 
@@ -30,6 +31,12 @@ std::string small_map(const std::string& dir) {
 
 std::string device_args() {
   return " --device " + test::quoted(test::context().info().name);
+}
+
+// The test device's built-in tuning, where every sweep starts (PoCL's CPU device has its own).
+const Tuning& device_defaults() {
+  static const Tuning t = default_tuning(test::context().info());
+  return t;
 }
 
 }  // namespace
@@ -74,15 +81,18 @@ TEST(BenchCli, EachRoutineStartsFromTheContextsTuning) {
 }
 
 // POT's scans in flight (MapperOptions::pipeline off: 1, on: 2) by sinkhorn.work_group, on the
-// built-in simulated drive: scans per second, the default (work-group 4, pipeline on) marked and
-// the best named, every point in the JSON.
+// built-in simulated drive: scans per second, the default (the device's built-in work-group,
+// pipeline on) marked and the best named, every point in the JSON.
 TEST(BenchCli, SweepsPotScansInFlight) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string dir = test::temp_dir("bench-cli-pot");
   const test::CliResult r = test::run_cli("bench --quick --repeats 1 --routines pot --out " +
                                           test::quoted(dir + "/b") + device_args());
   ASSERT_EQ(r.status, 0) << r.out;
-  EXPECT_NE(r.out.find("* sinkhorn.work_group=4,pipeline=on"), std::string::npos) << r.out;
+  const std::string def =
+      "sinkhorn.work_group=" + std::to_string(device_defaults().sinkhorn.work_group) +
+      ",pipeline=on";
+  EXPECT_NE(r.out.find("* " + def), std::string::npos) << r.out;
   const std::size_t at = r.out.find("best: sinkhorn.work_group=");
   ASSERT_NE(at, std::string::npos) << r.out;
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(dir + "/b.json"));
@@ -90,7 +100,7 @@ TEST(BenchCli, SweepsPotScansInFlight) {
   const auto& pot = j["routines"][0];
   EXPECT_EQ(pot["name"], "pot");
   EXPECT_EQ(pot["unit"], "scans/s");
-  EXPECT_EQ(pot["default"], "sinkhorn.work_group=4,pipeline=on");
+  EXPECT_EQ(pot["default"], def);
   EXPECT_EQ(r.out.substr(at + 6, pot["best"].get<std::string>().size()), pot["best"]);
   const auto& points = pot["points"];
   ASSERT_EQ(points.size(), 6u);  // work-groups 2, 4, 8 x pipeline off, on

@@ -54,7 +54,7 @@ struct RasterTuning {
 struct SinkhornTuning {
   /// Work-items per problem (a power of two); SinkhornOptions::work_group > 0 overrides it.
   /// CPU 4: a work-group is a loop on PoCL, and small groups keep every core busy with whole
-  /// problems; GPU 64.
+  /// problems; 2 on PoCL's CPU device (see default_tuning); GPU 64.
   int work_group = 4;
   /// Resident work-groups per compute unit in the stabilised scheme, each with its own kernel
   /// matrix (default 4): enough to hide a group's barriers, few enough to bound the scratch.
@@ -78,7 +78,31 @@ struct Tuning {
   LearnTuning learn;
 };
 
-/// Today's choices for `device` (the defaults above, GPU values where it is not a CPU).
+/// The platform name PoCL reports (CL_PLATFORM_NAME), which keys its CPU device's tuning.
+inline constexpr const char* kPoclPlatform = "Portable Computing Language";
+
+/// True for PoCL's CPU device: platform kPoclPlatform and a CPU device type. PoCL's other
+/// devices (its CUDA or remote drivers) are not, nor is any other platform's CPU device.
+bool is_pocl_cpu(const DeviceInfo& device);
+
+/// The built-in choices for `device`: the defaults above on a CPU, GPU values where it is not a
+/// CPU, and on PoCL's CPU device (is_pocl_cpu) the CPU values with the fields below changed.
+///
+/// PoCL's CPU device (sinkhorn.work_group 2): PoCL runs a work-group on one core as loops over
+/// its work-items, one loop per stretch between barriers, so a group's work-items add no
+/// parallelism there, only loop overhead and the work-group reductions' log2(work_group)
+/// barrier steps; the cores are kept busy by the many problems of a launch instead. POT's
+/// problems are small (by default at most 200 hits and 50 free samples a side: a dozen vectors
+/// or fewer), so with 2 work-items a reduction takes one step and fewer work-items idle in the
+/// strided loops. The log-domain scheme (SinkhornOptions::stabilised = false) keeps 4 there:
+/// PoCL 3.1's compiler cannot build its kernel with 1 or 2 work-items (host/ot/sinkhorn.cpp).
+/// Only PoCL was measured: another CPU driver (Intel's vectorises across the work-items of a
+/// group) compiles a work-group differently, so it keeps the generic CPU values until it is
+/// measured (`potmap tune` writes a tuning file for it). The raster's tile stays 64 on PoCL
+/// too: smaller tiles won the raster kernel alone, not a whole raster job (docs/tuning.md).
+///
+/// A device's tuning file (tuning_file.hpp), POTMAP_TUNING and ContextOptions::tuning apply
+/// after these, as for every other device.
 Tuning default_tuning(const DeviceInfo& device);
 
 /// `base` with the fields named in `spec` replaced: `routine.field=value` pairs separated by
