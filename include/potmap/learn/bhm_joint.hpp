@@ -182,6 +182,9 @@ class JointBhm {
     std::vector<std::int64_t> lin;
     std::vector<Feature> feature;
     std::vector<std::uint8_t> bits, bits_tmp;  // dilate_rows()
+    // solve(): the rows' packed half stencils, in a box of cells (pack()).
+    std::vector<double> packed, pbox, qbox;
+    std::vector<std::int64_t> box_at, box_off;
     std::size_t bytes() const;
   };
   void init(int dim, const JointBhmOptions& o);
@@ -205,6 +208,11 @@ class JointBhm {
   // y = P x on the rows `rows` (sorted storage indices); the bias row when with bias.
   void multiply(const std::vector<double>& x, double xb, const std::vector<std::uint32_t>& rows,
                 std::vector<double>& y, double& yb, std::vector<double>& ghost) const;
+  bool pack(const std::vector<std::uint32_t>& rows, Scratch& sc) const;
+  // multiply() for x zero outside the rows, on what pack() packed.
+  void multiply_packed(const std::vector<double>& x, double xb,
+                       const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
+                       Scratch& sc) const;
   double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
                double tol, int max_it, std::size_t* its, Scratch& s) const;
   bool near_data(const std::int64_t g[3], std::int64_t hint) const;
@@ -231,6 +239,12 @@ class JointBhm {
     std::int64_t goff;       // the first slot's index difference in the halo block
   };
   std::vector<Run> runs_;  // the slots that can be non-zero, in runs along x
+  struct HalfRun {
+    std::int32_t slot, len;
+    std::int32_t d[3];  // the first slot's cell offset
+  };
+  std::vector<HalfRun> half_;    // runs_ after the centre slot in raster order
+  std::int64_t half_slots_ = 1;  // the centre and half_'s slots
   std::vector<Tile> tiles_;
   std::unordered_map<std::uint64_t, std::uint32_t> tile_index_;
   std::vector<double> prec_;                      // storage x stencil
