@@ -286,6 +286,15 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
     b[d] = static_cast<std::int64_t>(std::min(ub, lim_hi));
     if (a[d] > b[d]) return;
   }
+  // phi is separable, exp(-gamma d^2) = prod_d exp(-gamma s_d^2): one exp per cell and axis
+  // instead of one per kernel (the cut-off test below stays on d^2).
+  constexpr std::int64_t kSpan = 72;  // > 2 rcut / spacing + 1, as pad < 64
+  double ex[3][kSpan];
+  for (int d = 0; d < 3; ++d)
+    for (std::int64_t c = 0; c < (d < dim_ ? b[d] - a[d] + 1 : 1); ++c) {
+      const double sd = d < dim_ ? x[d] - (lo_[d] + double(a[d] + c) * o_.spacing) : 0.0;
+      ex[d][c] = std::exp(-gamma_ * (sd * sd));
+    }
   std::int64_t ta[3] = {0, 0, 0}, tb[3] = {0, 0, 0};
   for (int d = 0; d < dim_; ++d) {
     ta[d] = floor_div(a[d], tile_);
@@ -328,7 +337,7 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
                 }
               }
               f.kernel = id < 0 ? kNone : static_cast<std::uint32_t>(id * tile_cells_ + local);
-              f.phi = std::exp(-gamma_ * d2);
+              f.phi = ex[0][i - a[0]] * ex[1][j - a[1]] * ex[2][k - a[2]];
               out.push_back(f);
             }
       }
