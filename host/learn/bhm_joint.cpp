@@ -66,16 +66,44 @@ void JointBhm::init(int dim, const JointBhmOptions& o) {
     slots_ *= box_;
   }
   ghost_ = tile_ + 2 * pad_;
-  goff_.resize(static_cast<std::size_t>(slots_));
-  for (std::int64_t s = 0; s < slots_; ++s) {
-    std::int64_t rest = s, off = 0, stride = 1;
-    for (int d = 0; d < dim; ++d) {
-      off += (rest % box_ - pad_) * stride;
-      rest /= box_;
-      stride *= ghost_;
+  // The stencil's slots that can hold a coupling: two kernels couple only through a sample
+  // within rcut of both, so at most 2 rcut apart (a relative margin for the rounding of the
+  // features' cut-off; a slot inside the margin that stays zero costs one product). Per stencil
+  // row (dy, dz) they form one run of dx, contiguous both in a row of prec_ and in the halo
+  // block, so multiply() streams them and skips the slots that are zero by construction (a
+  // third of the box in 2D, more in 3D).
+  runs_.clear();
+  half_.clear();
+  const double reach2 = 4 * rcut_ * rcut_ / (o.spacing * o.spacing) * (1 + 1e-6);
+  const std::int64_t rz = dim == 3 ? pad_ : 0;
+  for (std::int64_t dz = -rz; dz <= rz; ++dz)
+    for (std::int64_t dy = -pad_; dy <= pad_; ++dy) {
+      std::int64_t m = -1;
+      for (std::int64_t dx = 0; dx <= pad_; ++dx)
+        if (double(dx * dx + dy * dy + dz * dz) <= reach2) m = dx;
+      if (m < 0) continue;
+      Run r;
+      const std::int64_t slot0 = ((dz + (dim == 3 ? pad_ : 0)) * box_ + (dy + pad_)) * box_ + pad_;
+      r.slot = static_cast<std::int32_t>(slot0 - m);
+      r.goff = (dz * ghost_ + dy) * ghost_ - m;
+      r.len = static_cast<std::int32_t>(2 * m + 1);
+      runs_.push_back(r);
+      // The half after the centre in raster order (the rest mirrors it: P is symmetric).
+      const bool after = dz > 0 || (dz == 0 && dy > 0);
+      if (!after && !(dz == 0 && dy == 0 && m > 0)) continue;
+      HalfRun h;
+      const std::int64_t first = after ? -m : 1;
+      h.slot = static_cast<std::int32_t>(slot0 + first);
+      h.len = static_cast<std::int32_t>(m - first + 1);
+      h.d[0] = static_cast<std::int32_t>(first);
+      h.d[1] = static_cast<std::int32_t>(dy);
+      h.d[2] = static_cast<std::int32_t>(dz);
+      half_.push_back(h);
     }
-    goff_[static_cast<std::size_t>(s)] = off;
-  }
+  half_slots_ = 1;
+  for (const HalfRun& h : half_) half_slots_ += h.len;
+  centre_lin_ = 0;
+  for (int d = 0; d < dim; ++d) centre_lin_ = centre_lin_ * box_ + pad_;
   grid_sum_ = grid_sum2_ = sum_phi2_ = 0;
   const std::int64_t hz = dim == 3 ? hb_ : 0;
   for (std::int64_t dk = -hz; dk <= hz; ++dk)
@@ -121,14 +149,20 @@ std::size_t JointBhm::size() const {
 
 std::size_t JointBhm::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  std::size_t b = sizeof(*this) + bytes(goff_) + bytes(tiles_) + bytes(prec_) + bytes(eta_) +
+  std::size_t b = sizeof(*this) + bytes(runs_) + bytes(tiles_) + bytes(prec_) + bytes(eta_) +
                   bytes(mean_) + bytes(bcoup_) + bytes(touched_) + bytes(seeded_) + bytes(mark_) +
-                  bytes(lin_) + bytes(var_) + bytes(tile_dirty_) + bytes(scratch_.r) +
-                  bytes(scratch_.z) + bytes(scratch_.p) + bytes(scratch_.q) + bytes(scratch_.ghost);
+                  bytes(var_) + bytes(tile_dirty_) + scratch_.bytes();
   // The hash map: its buckets and one node per tile (key, value, next pointer, hash).
   b += tile_index_.bucket_count() * sizeof(void*) +
        tile_index_.size() * (sizeof(std::uint64_t) + sizeof(std::uint32_t) + 2 * sizeof(void*));
   return b;
+}
+
+std::size_t JointBhm::Scratch::bytes() const {
+  auto b = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return b(r) + b(z) + b(p) + b(q) + b(ghost) + b(kernel) + b(start) + b(runs) + b(run_start) +
+         b(reached) + b(rows) + b(phi) + b(yc) + b(lambda) + b(next) + b(lin) + b(feature) +
+         b(bits) + b(bits_tmp) + b(packed) + b(pbox) + b(qbox) + b(box_at) + b(box_off);
 }
 
 std::uint64_t JointBhm::tile_key(const std::int64_t t[3]) {
@@ -252,6 +286,15 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
     b[d] = static_cast<std::int64_t>(std::min(ub, lim_hi));
     if (a[d] > b[d]) return;
   }
+  // phi is separable, exp(-gamma d^2) = prod_d exp(-gamma s_d^2): one exp per cell and axis
+  // instead of one per kernel (the cut-off test below stays on d^2).
+  constexpr std::int64_t kSpan = 72;  // > 2 rcut / spacing + 1, as pad < 64
+  double ex[3][kSpan];
+  for (int d = 0; d < 3; ++d)
+    for (std::int64_t c = 0; c < (d < dim_ ? b[d] - a[d] + 1 : 1); ++c) {
+      const double sd = d < dim_ ? x[d] - (lo_[d] + double(a[d] + c) * o_.spacing) : 0.0;
+      ex[d][c] = std::exp(-gamma_ * (sd * sd));
+    }
   std::int64_t ta[3] = {0, 0, 0}, tb[3] = {0, 0, 0};
   for (int d = 0; d < dim_; ++d) {
     ta[d] = floor_div(a[d], tile_);
@@ -294,7 +337,7 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
                 }
               }
               f.kernel = id < 0 ? kNone : static_cast<std::uint32_t>(id * tile_cells_ + local);
-              f.phi = std::exp(-gamma_ * d2);
+              f.phi = ex[0][i - a[0]] * ex[1][j - a[1]] * ex[2][k - a[2]];
               out.push_back(f);
             }
       }
@@ -304,26 +347,123 @@ void JointBhm::features(const double* x, std::vector<Feature>& out) const {
   const_cast<JointBhm*>(this)->features(x, out, false);  // creates nothing
 }
 
-void JointBhm::add_outer(const std::vector<Feature>& f, double c) {
-  // slot(b - a) = lin(b) - lin(a) + lin(pad, pad, pad), lin(g) = sum_d g_d box^d.
-  lin_.resize(f.size());
-  std::int64_t centre_lin = 0;
-  for (int d = dim_ - 1; d >= 0; --d) centre_lin = centre_lin * box_ + pad_;
-  for (std::size_t u = 0; u < f.size(); ++u) {
-    std::int64_t l = 0;
-    for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + f[u].cell[d];
-    lin_[u] = l;
-  }
-  const std::size_t m = f.size();
-  for (std::size_t u = 0; u < m; ++u) {
-    const Feature& fa = f[u];
-    double* row = &prec_[std::size_t(fa.kernel) * slots_];
-    const std::int64_t base = centre_lin - lin_[u];
-    const double ca = c * fa.phi;
-    for (std::size_t v = 0; v < m; ++v) row[base + lin_[v]] += ca * f[v].phi;
-    bcoup_[fa.kernel] += ca;
+void JointBhm::add_outer(const Scratch& f, std::size_t i, double c) {
+  // slot(b - a) = lin(b) - lin(a) + lin(pad, pad, pad): a run of features with consecutive
+  // lin lands on consecutive slots of every row it is added to.
+  const std::uint32_t f0 = f.start[i], f1 = f.start[i + 1];
+  const std::uint32_t r0 = f.run_start[i], r1 = f.run_start[i + 1];
+  const double* phi = f.phi.data();
+  const std::int64_t* lin = f.lin.data();
+  const std::uint32_t* run = f.runs.data();
+  for (std::uint32_t u = f0; u < f1; ++u) {
+    const std::uint32_t ku = f.kernel[u];
+    double* row = &prec_[std::size_t(ku) * slots_] + (centre_lin_ - lin[u]);
+    const double ca = c * phi[u];
+    for (std::uint32_t r = r0; r < r1; ++r) {
+      const std::uint32_t v0 = run[2 * r], len = run[2 * r + 1];
+      double* dst = row + lin[v0];
+      const double* src = phi + v0;
+      for (std::uint32_t k = 0; k < len; ++k) dst[k] += ca * src[k];
+    }
+    bcoup_[ku] += ca;
   }
   pbb_ += c;
+}
+
+void JointBhm::dilate_rows(std::vector<std::uint32_t>& rows,
+                           const std::vector<std::uint32_t>& reached, std::int64_t mg,
+                           std::int64_t mz, Scratch& sc) {
+  // The stored kernels within mg cells (mz in z) of a reached one, along every axis at once
+  // (the box around each): on a bitmap of the reached kernels' bounding box, dilated one axis
+  // at a time, when the box is small beside the kernels' own boxes; otherwise kernel by
+  // kernel. The same set either way.
+  const std::int64_t r[3] = {mg, mg, mz};
+  std::int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = std::numeric_limits<std::int64_t>::max();
+    hi[d] = std::numeric_limits<std::int64_t>::min();
+  }
+  for (std::uint32_t a : reached) {
+    std::int64_t c[3];
+    cell_of(a, c);
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], c[d]);
+      hi[d] = std::max(hi[d], c[d]);
+    }
+  }
+  std::int64_t n[3] = {1, 1, 1}, volume = 1, per = 1;
+  for (int d = 0; d < dim_; ++d) {
+    const std::int64_t glo = bounded_ ? 0 : 1 - kCellLimit;
+    const std::int64_t ghi = bounded_ ? n_[d] - 1 : kCellLimit - 1;
+    lo[d] = std::max(lo[d] - r[d], glo);
+    hi[d] = std::min(hi[d] + r[d], ghi);
+    n[d] = hi[d] - lo[d] + 1;
+    volume *= n[d];
+    per *= 2 * r[d] + 1;
+  }
+  if (volume > 4 * per * std::int64_t(reached.size()) + 65536) {
+    for (std::uint32_t a : reached) {
+      std::int64_t c[3];
+      cell_of(a, c);
+      const std::int64_t home = a / tile_cells_;
+      for (std::int64_t dk = -r[2]; dk <= r[2]; ++dk)
+        for (std::int64_t dj = -r[1]; dj <= r[1]; ++dj)
+          for (std::int64_t di = -r[0]; di <= r[0]; ++di) {
+            const std::int64_t g[3] = {c[0] + di, c[1] + dj, c[2] + dk};
+            if (!in_grid(g)) continue;
+            const std::int64_t s = find_cell(g, home);
+            if (s < 0 || mark_[std::size_t(s)] == 2) continue;
+            mark_[std::size_t(s)] = 2;
+            rows.push_back(static_cast<std::uint32_t>(s));
+          }
+    }
+    for (std::uint32_t a : rows) mark_[a] = 0;
+    std::sort(rows.begin(), rows.end());
+    return;
+  }
+  std::vector<std::uint8_t>&bits = sc.bits, &tmp = sc.bits_tmp;
+  bits.assign(std::size_t(volume), 0);
+  for (std::uint32_t a : reached) {
+    std::int64_t c[3];
+    cell_of(a, c);
+    bits[std::size_t(((c[2] - lo[2]) * n[1] + (c[1] - lo[1])) * n[0] + (c[0] - lo[0]))] = 1;
+  }
+  const std::int64_t stride[3] = {1, n[0], n[0] * n[1]};
+  for (int axis = 0; axis < dim_; ++axis) {
+    const std::int64_t w = r[axis], len = n[axis], st = stride[axis];
+    if (w == 0) continue;
+    tmp.assign(bits.size(), 0);
+    // Lines along `axis`: every cell whose coordinate on it is 0.
+    const int p = axis == 0 ? 1 : 0, q = axis == 2 ? 1 : 2;
+    for (std::int64_t cq = 0; cq < n[q]; ++cq)
+      for (std::int64_t cp = 0; cp < n[p]; ++cp) {
+        const std::int64_t start = cp * stride[p] + cq * stride[q];
+        const std::uint8_t* in = bits.data() + start;
+        std::uint8_t* out = tmp.data() + start;
+        std::int64_t count = 0;  // set cells in [i - w, i + w]
+        for (std::int64_t k = 0; k < std::min(w, len); ++k) count += in[k * st];
+        for (std::int64_t i = 0; i < len; ++i) {
+          if (i + w < len) count += in[(i + w) * st];
+          if (i - w - 1 >= 0) count -= in[(i - w - 1) * st];
+          out[i * st] = count > 0;
+        }
+      }
+    bits.swap(tmp);
+  }
+  std::int64_t hint = -1;
+  for (std::int64_t k = 0; k < n[2]; ++k)
+    for (std::int64_t j = 0; j < n[1]; ++j) {
+      const std::uint8_t* line = bits.data() + (k * n[1] + j) * n[0];
+      for (std::int64_t i = 0; i < n[0]; ++i) {
+        if (!line[i]) continue;
+        const std::int64_t g[3] = {lo[0] + i, lo[1] + j, lo[2] + k};
+        const std::int64_t s = find_cell(g, hint);
+        if (s < 0) continue;
+        hint = s / tile_cells_;
+        rows.push_back(static_cast<std::uint32_t>(s));
+      }
+    }
+  std::sort(rows.begin(), rows.end());
 }
 
 void JointBhm::mark_dirty(std::uint32_t s) {
@@ -387,9 +527,10 @@ void JointBhm::multiply(const std::vector<double>& x, double xb,
                         const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
                         std::vector<double>& ghost) const {
   yb = o_.bias ? pbb_ * xb : 0.0;
-  const std::int64_t* off = goff_.data();
   const std::int64_t pz = dim_ == 3 ? pad_ : 0;
   const auto tc = static_cast<std::uint32_t>(tile_cells_);
+  const Run* runs = runs_.data();
+  const std::size_t nruns = runs_.size();
   std::size_t i = 0;
   while (i < rows.size()) {
     const std::uint32_t tile = rows[i] / tc;
@@ -405,12 +546,17 @@ void JointBhm::multiply(const std::vector<double>& x, double xb,
       const double* xa = gh + ((lz + pz) * ghost_ + (ly + pad_)) * ghost_ + (lx + pad_);
       const double* row = &prec_[std::size_t(a) * slots_];
       double s0 = 0, s1 = 0;
-      std::int64_t s = 0;
-      for (; s + 1 < slots_; s += 2) {
-        s0 += row[s] * xa[off[s]];
-        s1 += row[s + 1] * xa[off[s + 1]];
+      for (std::size_t k = 0; k < nruns; ++k) {
+        const double* pr = row + runs[k].slot;
+        const double* px = xa + runs[k].goff;
+        const std::int32_t n = runs[k].len;
+        std::int32_t j = 0;
+        for (; j + 1 < n; j += 2) {
+          s0 += pr[j] * px[j];
+          s1 += pr[j + 1] * px[j + 1];
+        }
+        if (j < n) s0 += pr[j] * px[j];
       }
-      if (s < slots_) s0 += row[s] * xa[off[s]];
       double v = s0 + s1;
       if (o_.bias) {
         v += bcoup_[a] * xb;
@@ -419,6 +565,107 @@ void JointBhm::multiply(const std::vector<double>& x, double xb,
       y[a] = v;
     }
   }
+}
+
+bool JointBhm::pack(const std::vector<std::uint32_t>& rows, Scratch& sc) const {
+  // The rows' couplings among themselves, the diagonal and the half of the stencil after it
+  // (about 0.3 of the stored box in 2D), packed row after row, with the rows placed in a dense
+  // box of cells around them: the conjugate-gradient iterations multiply only vectors that are
+  // zero outside the rows, and streaming the packed half reads a third of the bytes the stencils
+  // hold (the solve is bound by those reads). False (not packed) when the box would be much
+  // larger than the rows.
+  std::int64_t lo[3], hi[3];
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = std::numeric_limits<std::int64_t>::max();
+    hi[d] = std::numeric_limits<std::int64_t>::min();
+  }
+  for (std::uint32_t a : rows) {
+    std::int64_t c[3];
+    cell_of(a, c);
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], c[d]);
+      hi[d] = std::max(hi[d], c[d]);
+    }
+  }
+  std::int64_t n[3] = {1, 1, 1}, volume = 1;
+  for (int d = 0; d < dim_; ++d) {
+    lo[d] -= pad_;
+    hi[d] += pad_;
+    n[d] = hi[d] - lo[d] + 1;
+    volume *= n[d];
+  }
+  if (rows.empty() || volume > 64 * std::int64_t(rows.size()) + 65536) return false;
+  sc.box_at.resize(rows.size());
+  for (std::size_t u = 0; u < rows.size(); ++u) {
+    std::int64_t c[3];
+    cell_of(rows[u], c);
+    sc.box_at[u] = ((c[2] - lo[2]) * n[1] + (c[1] - lo[1])) * n[0] + (c[0] - lo[0]);
+  }
+  sc.box_off.resize(half_.size());
+  for (std::size_t h = 0; h < half_.size(); ++h)
+    sc.box_off[h] = (std::int64_t(half_[h].d[2]) * n[1] + half_[h].d[1]) * n[0] + half_[h].d[0];
+  sc.pbox.assign(std::size_t(volume), 0.0);
+  sc.qbox.assign(std::size_t(volume), 0.0);
+  const auto k = static_cast<std::size_t>(half_slots_);
+  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
+  sc.packed.resize(rows.size() * k);
+  for (std::size_t u = 0; u < rows.size(); ++u) {
+    const double* row = &prec_[std::size_t(rows[u]) * slots_];
+    double* out = &sc.packed[u * k];
+    *out++ = row[centre];
+    for (const HalfRun& h : half_) {
+      std::memcpy(out, row + h.slot, sizeof(double) * std::size_t(h.len));
+      out += h.len;
+    }
+  }
+  return true;
+}
+
+void JointBhm::multiply_packed(const std::vector<double>& x, double xb,
+                               const std::vector<std::uint32_t>& rows, std::vector<double>& y,
+                               double& yb, Scratch& sc) const {
+  // y = P x on the rows, for x zero outside them (see pack()): each row's half gives its own
+  // products and, mirrored, those of the kernels after it.
+  double* xbx = sc.pbox.data();
+  double* ybx = sc.qbox.data();
+  const std::size_t m = rows.size();
+  for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = x[rows[u]];
+  // Entries of y outside the rows receive mirrored products too; they are cleared after.
+  const std::size_t nh = half_.size();
+  const auto k = static_cast<std::size_t>(half_slots_);
+  for (std::size_t u = 0; u < m; ++u) {
+    const double* v = &sc.packed[u * k];
+    const std::int64_t at = sc.box_at[u];
+    const double xa = xbx[at];
+    double s0 = v[0] * xa, s1 = 0;
+    ++v;
+    for (std::size_t h = 0; h < nh; ++h) {
+      const std::int64_t o = at + sc.box_off[h];
+      const double* __restrict px = xbx + o;
+      double* __restrict py = ybx + o;
+      const std::int32_t len = half_[h].len;
+      for (std::int32_t j = 0; j < len; ++j) {
+        s1 += v[j] * px[j];
+        py[j] += v[j] * xa;
+      }
+      v += len;
+    }
+    ybx[at] += s0 + s1;
+  }
+  yb = o_.bias ? pbb_ * xb : 0.0;
+  for (std::size_t u = 0; u < m; ++u) {
+    const std::uint32_t a = rows[u];
+    double v = ybx[sc.box_at[u]];
+    if (o_.bias) {
+      v += bcoup_[a] * xb;
+      yb += bcoup_[a] * x[a];
+    }
+    y[a] = v;
+  }
+  // Leave both boxes zero for the next product (y's box is small: clearing it whole is cheaper
+  // than finding the cells the halves reached).
+  for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = 0;
+  std::fill(sc.qbox.begin(), sc.qbox.end(), 0.0);
 }
 
 double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
@@ -446,6 +693,7 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
     ee += eta_[a] * eta_[a];
   }
   const double stop = tol * tol * std::max(ee, 1e-300);
+  const bool packed = rr > stop && pack(rows, sc);
   auto precondition = [&] {
     double rz = 0;
     for (std::uint32_t a : rows) {
@@ -463,7 +711,10 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   pb = zb;
   int it = 0;
   for (; it < max_it && rr > stop; ++it) {
-    multiply(p, pb, rows, q, qb, sc.ghost);
+    if (packed)
+      multiply_packed(p, pb, rows, q, qb, sc);
+    else
+      multiply(p, pb, rows, q, qb, sc.ghost);
     double pq = pb * qb;
     for (std::uint32_t a : rows) pq += p[a] * q[a];
     if (!(pq > 0)) break;
@@ -499,10 +750,17 @@ void JointBhm::update(const LabelledPoints& samples) {
   stats_ = {};
   if (samples.empty()) return;
   const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
-  std::vector<std::vector<Feature>> feats;
-  std::vector<double> yc;
-  feats.reserve(samples.size());
-  std::vector<Feature> f;
+  // The scan's features, flat: each sample's kernels, phi and stencil-linear cells, and its
+  // runs of consecutive cells (add_outer()). Computed once for every EM iteration.
+  Scratch& sc = scratch_;
+  sc.kernel.clear();
+  sc.phi.clear();
+  sc.lin.clear();
+  sc.runs.clear();
+  sc.start.assign(1, 0);
+  sc.run_start.assign(1, 0);
+  sc.yc.clear();
+  std::vector<Feature>& f = sc.feature;
   // Tiles are allocated here, before any change to the posterior: a new tile holds the prior,
   // so a throw (too many kernels) leaves the model as it was.
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -512,77 +770,80 @@ void JointBhm::update(const LabelledPoints& samples) {
     if (!finite) continue;
     features(x, f, true);
     if (f.empty()) continue;
-    feats.push_back(f);
-    yc.push_back(samples.label[i] ? 0.5 : -0.5);
+    for (std::size_t u = 0; u < f.size(); ++u) {
+      std::int64_t l = 0;
+      for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + f[u].cell[d];
+      const auto at = static_cast<std::uint32_t>(sc.kernel.size());
+      if (u > 0 && l == sc.lin.back() + 1)
+        ++sc.runs.back();
+      else
+        sc.runs.insert(sc.runs.end(), {at, 1u});
+      sc.kernel.push_back(f[u].kernel);
+      sc.phi.push_back(f[u].phi);
+      sc.lin.push_back(l);
+    }
+    sc.start.push_back(static_cast<std::uint32_t>(sc.kernel.size()));
+    sc.run_start.push_back(static_cast<std::uint32_t>(sc.runs.size() / 2));
+    sc.yc.push_back(samples.label[i] ? 0.5 : -0.5);
   }
-  const std::size_t n = feats.size();
+  const std::size_t n = sc.yc.size();
   stats_.samples = n;
   if (n == 0) return;
 
   // Rows to solve: the kernels the scan reaches, grown by the margin (stored kernels only: an
   // unstored one couples to nothing and stays at its prior mean 0).
-  std::vector<std::uint32_t> reached;
-  for (const auto& fs : feats)
-    for (const Feature& x : fs)
-      if (!mark_[x.kernel]) {
-        mark_[x.kernel] = 1;
-        if (seeded_[x.kernel] && !touched_[x.kernel] && o_.seeds_yield) {
-          // No sample has reached this kernel before, so its natural parameters are the seed's
-          // alone (no coupling, no data in eta): the prior it had before the seed, exactly. Its
-          // mean stays as the starting point of this scan's xi (and of the solve).
-          prec_[std::size_t(x.kernel) * slots_ + centre] = 1.0 / o_.prior_var;
-          eta_[x.kernel] = 0;
-        }
-        touched_[x.kernel] = 1;
-        reached.push_back(x.kernel);
+  std::vector<std::uint32_t>& reached = sc.reached;
+  reached.clear();
+  for (std::uint32_t k : sc.kernel)
+    if (!mark_[k]) {
+      mark_[k] = 1;
+      if (seeded_[k] && !touched_[k] && o_.seeds_yield) {
+        // No sample has reached this kernel before, so its natural parameters are the seed's
+        // alone (no coupling, no data in eta): the prior it had before the seed, exactly. Its
+        // mean stays as the starting point of this scan's xi (and of the solve).
+        prec_[std::size_t(k) * slots_ + centre] = 1.0 / o_.prior_var;
+        eta_[k] = 0;
       }
-  std::vector<std::uint32_t> rows;
-  const std::int64_t mg = o_.solve_margin;
-  const std::int64_t mz = dim_ == 3 ? mg : 0;
+      touched_[k] = 1;
+      reached.push_back(k);
+    }
   for (std::uint32_t a : reached) {
+    mark_[a] = 0;
     mark_dirty(a);
-    std::int64_t c[3];
-    cell_of(a, c);
-    const std::int64_t home = a / tile_cells_;
-    for (std::int64_t dk = -mz; dk <= mz; ++dk)
-      for (std::int64_t dj = -mg; dj <= mg; ++dj)
-        for (std::int64_t di = -mg; di <= mg; ++di) {
-          const std::int64_t g[3] = {c[0] + di, c[1] + dj, c[2] + dk};
-          if (!in_grid(g)) continue;
-          const std::int64_t s = find_cell(g, home);
-          if (s < 0 || mark_[std::size_t(s)] == 2) continue;
-          mark_[std::size_t(s)] = 2;
-          rows.push_back(static_cast<std::uint32_t>(s));
-        }
   }
-  for (std::uint32_t a : rows) mark_[a] = 0;
-  std::sort(rows.begin(), rows.end());
+  std::vector<std::uint32_t>& rows = sc.rows;
+  rows.clear();
+  dilate_rows(rows, reached, o_.solve_margin, dim_ == 3 ? o_.solve_margin : 0, sc);
   stats_.active = rows.size();
 
   for (std::size_t i = 0; i < n; ++i) {
-    for (const Feature& x : feats[i]) eta_[x.kernel] += yc[i] * x.phi;
-    if (o_.bias) etab_ += yc[i];
+    for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)
+      eta_[sc.kernel[u]] += sc.yc[i] * sc.phi[u];
+    if (o_.bias) etab_ += sc.yc[i];
   }
   // xi from the posterior before this scan; variances by the diagonal of the precision (a lower
   // bound of the marginal ones, cheap, and enough for the bound's curvature).
-  auto xi_of = [&](const std::vector<Feature>& fs) {
+  auto xi_of = [&](std::size_t i) {
     double mu = o_.bias ? meanb_ : 0.0, s2 = o_.bias ? 1.0 / pbb_ : 0.0;
-    for (const Feature& x : fs) {
-      mu += mean_[x.kernel] * x.phi;
-      s2 += x.phi * x.phi / prec_[std::size_t(x.kernel) * slots_ + centre];
+    for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u) {
+      const double phi = sc.phi[u];
+      mu += mean_[sc.kernel[u]] * phi;
+      s2 += phi * phi / prec_[std::size_t(sc.kernel[u]) * slots_ + centre];
     }
     return std::sqrt(mu * mu + s2);
   };
-  std::vector<double> lambda(n, 0.0), next(n);
+  std::vector<double>&lambda = sc.lambda, &next = sc.next;
+  lambda.assign(n, 0.0);
+  next.resize(n);
   for (int it = 0; it < o_.em_iterations; ++it) {
     // Every xi from the same posterior, then the precision.
-    for (std::size_t i = 0; i < n; ++i) next[i] = detail::jj_lambda(xi_of(feats[i]));
+    for (std::size_t i = 0; i < n; ++i) next[i] = detail::jj_lambda(xi_of(i));
     for (std::size_t i = 0; i < n; ++i) {
-      add_outer(feats[i], 2.0 * (next[i] - lambda[i]));
+      add_outer(sc, i, 2.0 * (next[i] - lambda[i]));
       lambda[i] = next[i];
     }
     stats_.residual = solve(rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
-                            &stats_.cg_iterations, scratch_);
+                            &stats_.cg_iterations, sc);
   }
 }
 

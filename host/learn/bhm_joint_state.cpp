@@ -133,7 +133,6 @@ void JointBhmState::read(ContainerCursor& c, JointBhm& m) {
   m.tile_index_ = std::move(index);
   // Scratch: update() leaves mark_ zero and the solver's p zero outside its rows.
   m.mark_.assign(cells, 0);
-  m.lin_.clear();
   m.scratch_ = JointBhm::Scratch();
 }
 

@@ -172,8 +172,20 @@ class JointBhm {
     std::int32_t coord[3];  // tile coordinates: cells coord * tile_ .. coord * tile_ + tile_-1
     std::int32_t nb[27];    // neighbour tiles (dx+1) + 3 (dy+1) + 9 (dz+1); -1: not stored
   };
+  // Buffers kept across scans (no state: a copy or a restore may start them empty).
   struct Scratch {
     std::vector<double> r, z, p, q, ghost;
+    // update(): the scan's features, flat (per feature; per sample its first feature and its
+    // first run of features with consecutive cells, (first feature, length) pairs).
+    std::vector<std::uint32_t> kernel, start, runs, run_start, reached, rows;
+    std::vector<double> phi, yc, lambda, next;
+    std::vector<std::int64_t> lin;
+    std::vector<Feature> feature;
+    std::vector<std::uint8_t> bits, bits_tmp;  // dilate_rows()
+    // solve(): the rows' packed half stencils, in a box of cells (pack()).
+    std::vector<double> packed, pbox, qbox;
+    std::vector<std::int64_t> box_at, box_off;
+    std::size_t bytes() const;
   };
   void init(int dim, const JointBhmOptions& o);
   static std::uint64_t tile_key(const std::int64_t t[3]);
@@ -186,12 +198,21 @@ class JointBhm {
   bool in_grid(const std::int64_t g[3]) const;
   void features(const double* x, std::vector<Feature>& out, bool create);
   void features(const double* x, std::vector<Feature>& out) const;
-  void add_outer(const std::vector<Feature>& f, double c);
+  // P += c phi phi^T for sample i of the scan's features in `f`.
+  void add_outer(const Scratch& f, std::size_t i, double c);
+  // rows += the stored kernels within mg cells (mz in z) of a reached one, sorted.
+  void dilate_rows(std::vector<std::uint32_t>& rows, const std::vector<std::uint32_t>& reached,
+                   std::int64_t mg, std::int64_t mz, Scratch& sc);
   void mark_dirty(std::uint32_t s);
   void gather(std::uint32_t tile, const double* x, std::vector<double>& ghost) const;
   // y = P x on the rows `rows` (sorted storage indices); the bias row when with bias.
   void multiply(const std::vector<double>& x, double xb, const std::vector<std::uint32_t>& rows,
                 std::vector<double>& y, double& yb, std::vector<double>& ghost) const;
+  bool pack(const std::vector<std::uint32_t>& rows, Scratch& sc) const;
+  // multiply() for x zero outside the rows, on what pack() packed.
+  void multiply_packed(const std::vector<double>& x, double xb,
+                       const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
+                       Scratch& sc) const;
   double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
                double tol, int max_it, std::size_t* its, Scratch& s) const;
   bool near_data(const std::int64_t g[3], std::int64_t hint) const;
@@ -203,16 +224,27 @@ class JointBhm {
   int dim_ = 2;
   double gamma_ = 0, rcut_ = 0;
   bool bounded_ = false;
-  double lo_[3] = {0, 0, 0};        // position of grid cell (0, 0, 0)
-  std::int64_t n_[3] = {1, 1, 1};   // bounded: kernels per axis, cells 0 .. n-1
-  std::int64_t pad_ = 0;            // stencil half-width, in cells
-  std::int64_t box_ = 0;            // 2 * pad + 1
-  std::int64_t slots_ = 0;          // box^dim
-  std::int64_t hb_ = 0;             // half-width of the exported variance's block
-  std::int64_t tile_ = 32;          // cells per tile axis
-  std::int64_t tile_cells_ = 1;     // tile^dim
-  std::int64_t ghost_ = 0;          // tile + 2 pad: cells per axis of a tile with its halo
-  std::vector<std::int64_t> goff_;  // stencil slot -> index difference in the halo block
+  double lo_[3] = {0, 0, 0};       // position of grid cell (0, 0, 0)
+  std::int64_t n_[3] = {1, 1, 1};  // bounded: kernels per axis, cells 0 .. n-1
+  std::int64_t pad_ = 0;           // stencil half-width, in cells
+  std::int64_t box_ = 0;           // 2 * pad + 1
+  std::int64_t slots_ = 0;         // box^dim
+  std::int64_t hb_ = 0;            // half-width of the exported variance's block
+  std::int64_t tile_ = 32;         // cells per tile axis
+  std::int64_t tile_cells_ = 1;    // tile^dim
+  std::int64_t centre_lin_ = 0;    // sum_d pad box^d: the stencil's centre slot
+  std::int64_t ghost_ = 0;         // tile + 2 pad: cells per axis of a tile with its halo
+  struct Run {
+    std::int32_t slot, len;  // first slot of the run in a stencil, and its length
+    std::int64_t goff;       // the first slot's index difference in the halo block
+  };
+  std::vector<Run> runs_;  // the slots that can be non-zero, in runs along x
+  struct HalfRun {
+    std::int32_t slot, len;
+    std::int32_t d[3];  // the first slot's cell offset
+  };
+  std::vector<HalfRun> half_;    // runs_ after the centre slot in raster order
+  std::int64_t half_slots_ = 1;  // the centre and half_'s slots
   std::vector<Tile> tiles_;
   std::unordered_map<std::uint64_t, std::uint32_t> tile_index_;
   std::vector<double> prec_;                      // storage x stencil
@@ -222,7 +254,6 @@ class JointBhm {
   std::vector<std::uint8_t> touched_;             // storage: a sample reached it
   std::vector<std::uint8_t> seeded_;              // storage: its prior came from seed_unreached()
   std::vector<std::uint8_t> mark_;                // storage: update()'s scratch, zero between calls
-  std::vector<std::int64_t> lin_;                 // add_outer()'s scratch
   mutable std::vector<double> var_;               // storage: exported variance cache
   mutable std::vector<std::uint8_t> tile_dirty_;  // per tile: var_ out of date
   double grid_sum_ = 1, grid_sum2_ = 1;  // sum of phi, phi^2 of the grid at an interior kernel
