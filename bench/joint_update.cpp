@@ -134,22 +134,8 @@ int main(int argc, char** argv) {
   setup.on_scan = [&seeds](std::size_t i, const ScanTransfer& t) { seeds[i] = t.map; };
   ex::pot_method(setup, "POT").fit(&ctx, task);
 
-  const ex::BhmSetup b;
-  JointBhmOptions bhm;
-  bhm.spacing = b.spacing;
-  bhm.gamma = b.gamma;
-  if (b.prior_var > 0) bhm.prior_var = b.prior_var;
-  bhm.bias = b.bias;
-  bhm.em_iterations = b.options.em_iterations;
-  bhm.tau = b.options.tau;
-  JointBhmOptions repot = bhm;
-  const ex::BhmSetup& tb = setup.target_bhm;
-  repot.spacing = tb.spacing;
-  repot.gamma = tb.gamma;
-  if (tb.prior_var > 0) repot.prior_var = tb.prior_var;
-  repot.bias = tb.bias;
-  repot.em_iterations = tb.options.em_iterations;
-  repot.tau = tb.options.tau;
+  JointBhmOptions bhm = ex::joint_bhm_options(ex::BhmSetup{});
+  JointBhmOptions repot = ex::joint_bhm_options(setup.target_bhm);
   repot.seeds_yield = setup.seeds_yield;
   if (cg_tol > 0) bhm.cg_tolerance = repot.cg_tolerance = cg_tol;
 

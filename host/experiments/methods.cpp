@@ -70,6 +70,17 @@ Method ogm_method(double resolution) {
   return m;
 }
 
+JointBhmOptions joint_bhm_options(const BhmSetup& setup) {
+  JointBhmOptions o;
+  o.spacing = setup.spacing;
+  o.gamma = setup.gamma;
+  if (setup.prior_var > 0) o.prior_var = setup.prior_var;
+  o.bias = setup.bias;
+  o.em_iterations = setup.options.em_iterations;
+  o.tau = setup.options.tau;
+  return o;
+}
+
 KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
                     const double hi[3], const LabelledPoints& samples, double* spacing_out,
                     double* gamma_out) {
@@ -81,13 +92,8 @@ KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double l
   }
   if (spacing_out) *spacing_out = spacing;
   if (setup.joint) {
-    JointBhmOptions o;
+    JointBhmOptions o = joint_bhm_options(setup);
     o.spacing = spacing;
-    o.gamma = setup.gamma;
-    if (setup.prior_var > 0) o.prior_var = setup.prior_var;
-    o.bias = setup.bias;
-    o.em_iterations = setup.options.em_iterations;
-    o.tau = setup.options.tau;
     JointBhm learner(dim, lo, hi, o);
     learner.update_by_scan(samples);
     if (gamma_out) *gamma_out = learner.gamma();

@@ -157,14 +157,7 @@ Method pot_method(const PotSetup& setup, const std::string& name,
     std::unique_ptr<JointBhm> learner;
     if (persistent) {
       po.refine = false;  // the persistent map does the refinement
-      const BhmSetup& b = setup.target_bhm;
-      JointBhmOptions jo;
-      jo.spacing = b.spacing;
-      jo.gamma = b.gamma;
-      if (b.prior_var > 0) jo.prior_var = b.prior_var;
-      jo.bias = b.bias;
-      jo.em_iterations = b.options.em_iterations;
-      jo.tau = b.options.tau;
+      JointBhmOptions jo = joint_bhm_options(setup.target_bhm);
       jo.seeds_yield = setup.seeds_yield;
       learner = std::make_unique<JointBhm>(task.dim, task.lo, task.hi, jo);
     }

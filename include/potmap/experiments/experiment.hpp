@@ -23,6 +23,7 @@
 #include "potmap/experiments/ogm.hpp"
 #include "potmap/learn/abhm.hpp"
 #include "potmap/learn/bhm.hpp"
+#include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/pot/atoms.hpp"
@@ -110,6 +111,10 @@ struct BhmSetup {
   /// (without it the gaps between narrow kernels sit at p = 0.5 exactly).
   bool bias = true;
 };
+
+/// The joint learner's options of `setup` (spacing, width, prior variance when set, bias, EM
+/// iterations, cut-off); `setup.count` is ignored (learn_bhm derives the spacing from it).
+JointBhmOptions joint_bhm_options(const BhmSetup& setup);
 
 /// Learns the BHM of `setup` on a grid over [lo, hi] from `samples`, scan by scan (the
 /// posterior after one scan is the prior of the next). The diagonal model runs on `ctx` when
