@@ -295,16 +295,26 @@ TEST(Tuning, LearnersAgreeBitForBitUnderTwoTunings) {
   ASSERT_FALSE(ga.empty());
 }
 
+namespace {
+
+// A problem between uniform points in [-1, 1]^2 (source drawn first), epsilon 0.05, tolerance 1e-5.
+SinkhornProblem random_problem(std::mt19937& rng, int n_source, int n_target) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  SinkhornProblem q;
+  q.source = Eigen::MatrixXd::NullaryExpr(n_source, 2, [&] { return u(rng); });
+  q.target = Eigen::MatrixXd::NullaryExpr(n_target, 2, [&] { return u(rng); });
+  q.epsilon = 0.05;
+  q.tolerance = 1e-5;
+  return q;
+}
+
+}  // namespace
+
 TEST(Tuning, SinkhornAgreesUnderTwoTunings) {
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1, 1);
   SinkhornBatch batch;
   for (int p = 0; p < 12; ++p) {
-    SinkhornProblem q;
-    q.source = Eigen::MatrixXd::NullaryExpr(24 + p % 9, 2, [&] { return u(rng); });
-    q.target = Eigen::MatrixXd::NullaryExpr(20 + p % 5, 2, [&] { return u(rng); });
-    q.epsilon = 0.05;
-    q.tolerance = 1e-5;
+    SinkhornProblem q = random_problem(rng, 24 + p % 9, 20 + p % 5);
     q.max_iterations = 2000;
     batch.add(q);
   }
@@ -325,16 +335,8 @@ TEST(Tuning, SinkhornAgreesUnderTwoTunings) {
 // quirk in host/ot/sinkhorn.cpp) and gives the result it gives under 4.
 TEST(Tuning, BothSinkhornSchemesRunUnderSmallTunedWorkGroups) {
   std::mt19937 rng(12);
-  std::uniform_real_distribution<double> u(-1, 1);
   SinkhornBatch batch;
-  for (int p = 0; p < 3; ++p) {
-    SinkhornProblem q;
-    q.source = Eigen::MatrixXd::NullaryExpr(20 + p, 2, [&] { return u(rng); });
-    q.target = Eigen::MatrixXd::NullaryExpr(17 + p, 2, [&] { return u(rng); });
-    q.epsilon = 0.05;
-    q.tolerance = 1e-5;
-    batch.add(q);
-  }
+  for (int p = 0; p < 3; ++p) batch.add(random_problem(rng, 20 + p, 17 + p));
   const auto four = test::tuned_context("sinkhorn.work_group=4");
   for (const bool stabilised : {true, false})
     for (const int wg : {1, 2}) {

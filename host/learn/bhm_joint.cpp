@@ -241,6 +241,22 @@ void JointBhm::cell_of(std::uint32_t s, std::int64_t g[3]) const {
   }
 }
 
+void JointBhm::cell_bounds(const std::vector<std::uint32_t>& kernels, std::int64_t lo[3],
+                           std::int64_t hi[3]) const {
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = std::numeric_limits<std::int64_t>::max();
+    hi[d] = std::numeric_limits<std::int64_t>::min();
+  }
+  for (std::uint32_t a : kernels) {
+    std::int64_t c[3];
+    cell_of(a, c);
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], c[d]);
+      hi[d] = std::max(hi[d], c[d]);
+    }
+  }
+}
+
 bool JointBhm::in_grid(const std::int64_t g[3]) const {
   for (int d = 0; d < dim_; ++d) {
     if (bounded_ ? (g[d] < 0 || g[d] >= n_[d]) : (g[d] <= -kCellLimit || g[d] >= kCellLimit))
@@ -378,19 +394,8 @@ void JointBhm::dilate_rows(std::vector<std::uint32_t>& rows,
   // at a time, when the box is small beside the kernels' own boxes; otherwise kernel by
   // kernel. The same set either way.
   const std::int64_t r[3] = {mg, mg, mz};
-  std::int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-  for (int d = 0; d < 3; ++d) {
-    lo[d] = std::numeric_limits<std::int64_t>::max();
-    hi[d] = std::numeric_limits<std::int64_t>::min();
-  }
-  for (std::uint32_t a : reached) {
-    std::int64_t c[3];
-    cell_of(a, c);
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], c[d]);
-      hi[d] = std::max(hi[d], c[d]);
-    }
-  }
+  std::int64_t lo[3], hi[3];
+  cell_bounds(reached, lo, hi);
   std::int64_t n[3] = {1, 1, 1}, volume = 1, per = 1;
   for (int d = 0; d < dim_; ++d) {
     const std::int64_t glo = bounded_ ? 0 : 1 - kCellLimit;
@@ -575,18 +580,7 @@ bool JointBhm::pack(const std::vector<std::uint32_t>& rows, Scratch& sc) const {
   // hold (the solve is bound by those reads). False (not packed) when the box would be much
   // larger than the rows.
   std::int64_t lo[3], hi[3];
-  for (int d = 0; d < 3; ++d) {
-    lo[d] = std::numeric_limits<std::int64_t>::max();
-    hi[d] = std::numeric_limits<std::int64_t>::min();
-  }
-  for (std::uint32_t a : rows) {
-    std::int64_t c[3];
-    cell_of(a, c);
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], c[d]);
-      hi[d] = std::max(hi[d], c[d]);
-    }
-  }
+  cell_bounds(rows, lo, hi);
   std::int64_t n[3] = {1, 1, 1}, volume = 1;
   for (int d = 0; d < dim_; ++d) {
     lo[d] -= pad_;

@@ -195,6 +195,9 @@ class JointBhm {
   // of g's (faster: no hashing), or -1.
   std::int64_t find_cell(const std::int64_t g[3], std::int64_t hint = -1) const;
   void cell_of(std::uint32_t s, std::int64_t g[3]) const;
+  // The smallest box of cells holding every one of `kernels` (lo > hi when there are none).
+  void cell_bounds(const std::vector<std::uint32_t>& kernels, std::int64_t lo[3],
+                   std::int64_t hi[3]) const;
   bool in_grid(const std::int64_t g[3]) const;
   void features(const double* x, std::vector<Feature>& out, bool create);
   void features(const double* x, std::vector<Feature>& out) const;
