@@ -182,11 +182,37 @@ def main():
         lines.append(f"- JSON: `{os.path.join(res_dir, d['_file'])}`")
         st = d.get("settings", {})
         if "pot_atom_map" in st and any(r["group"] in ("POT", "RePOT") for r in d["runs"]):
+            combine = st.get("pot_combine", "sum")
             lines.append(f"- POT/RePOT: atoms from a {st['pot_atom_map'].upper()} source map, "
                          f"{st['pot_atom_scans']} source scans per place cut into "
-                         f"{st['pot_sectors']} sectors, {st['pot_rotations']} rotations, merge radius "
-                         f"{st['pot_merge_radius']}; scans cut at {st.get('max_range', 0):g} m")
-            if "pot_kernels_at_samples" in st:
+                         f"{st['pot_sectors']} sectors, {st['pot_rotations']} rotations; scans cut "
+                         f"at {st.get('max_range', 0):g} m")
+            if "pot_placement" in st:
+                place = ("kernels on the target's samples thinned to "
+                         f"{st['pot_anchor_spacing']:g} m, each carrying the atom's logit pulled "
+                         "back through the plan"
+                         if st["pot_placement"] == "target_samples" else
+                         "kernels at the barycentric images of the atoms' kernels")
+                overall = (f"overall map the support-weighted average of the scans' maps on a "
+                           f"{st['pot_average_spacing']:g} m grid (ridge "
+                           f"{st['pot_average_ridge']:g}, support at least "
+                           f"{st['pot_average_min_support']:g})"
+                           if combine == "average" else
+                           f"overall map of summed kernels, merge radius {st['pot_merge_radius']}")
+                lines.append(f"- POT: atom kernels at the atoms' samples thinned to "
+                             f"{st['pot_kernels_at_samples']:g} m; {place}; wall clearance "
+                             f"{st['pot_wall_clearance']:g} m, displacement variance "
+                             f"{st['pot_displacement_variance']:g} per m^2; {overall}")
+                lines.append(
+                    "- RePOT: "
+                    + ("one persistent joint BHM seeded by the transported kernels ("
+                       f"{st['repot_seed_placement']}, displacement variance "
+                       f"{st['repot_seed_displacement_variance']:g} per m^2, seed variance at "
+                       f"least {st['repot_seed_min_variance']:g}"
+                       + ("; a seed yields when a sample reaches its kernel)"
+                          if st.get("repot_seeds_yield") else ")")
+                       if st.get("repot_persistent") else "per-scan refinement, merged"))
+            elif "pot_kernels_at_samples" in st:
                 lines.append(
                     f"- POT: atom kernels at the atoms' samples thinned to "
                     f"{st['pot_kernels_at_samples']:g} m, wall clearance "

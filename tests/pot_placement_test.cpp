@@ -3,6 +3,7 @@
 // (PotOptions), on a simulated town scan transferred onto itself and onto another scan.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "potmap/data/labelling.hpp"
@@ -145,6 +146,56 @@ TEST(PotPlacement, ClearanceKeepsFreeSpaceOffTheWallsAndVarianceGrowsWithTheMove
     grown = std::max(grown, b.map.w_var[k] - a.map.w_var[k]);
   }
   EXPECT_GT(grown, 0.0);  // some kernel was moved by the plan
+}
+
+// PotPlacement::target_samples: every kernel sits on one of the target's own training samples
+// (thinned to the anchor spacing), wall kernels on hits and positive, free-space kernels on free
+// samples and clear of the sector's hits; the plan's spread gives each weight a variance.
+TEST(PotPlacement, TargetSamplesPutKernelsOnTheScansOwnSamples) {
+  const Fixture& f = fixture();
+  const Dictionary dict = atoms_at_samples({f.scans[0], f.scans[2]}, f.map);
+  const Scan& target = f.scans[1];
+  const LabelledPoints train = training_samples(target, 1);
+  PotOptions po;
+  po.rotations = {0.0};
+  po.wall_clearance = 0.5;
+  po.placement = PotPlacement::target_samples;
+  const ScanTransfer t =
+      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, po);
+  ASSERT_GT(t.map.size(), 20u);
+  std::size_t on_hit = 0, on_free = 0, positive_on_hit = 0, free_near_hit = 0;
+  double var_sum = 0;
+  for (std::size_t k = 0; k < t.map.size(); ++k) {
+    const double x = t.map.position[2 * k], y = t.map.position[2 * k + 1];
+    long at = -1;
+    double nearest_hit = HUGE_VAL;
+    for (std::size_t i = 0; i < train.size(); ++i) {
+      const double d = std::hypot(x - train.position[2 * i], y - train.position[2 * i + 1]);
+      if (d < 1e-6) at = long(i);
+      if (train.label[i]) nearest_hit = std::min(nearest_hit, d);
+    }
+    ASSERT_GE(at, 0) << "kernel " << k << " is not on a training sample";
+    if (train.label[std::size_t(at)]) {
+      ++on_hit;
+      positive_on_hit += t.map.w_mean[k] > 0;
+    } else {
+      ++on_free;
+      free_near_hit += nearest_hit < 0.5;  // a hit of the next sector may be nearer
+    }
+    var_sum += t.map.w_var[k];
+  }
+  ASSERT_GT(on_hit, 10u);
+  ASSERT_GT(on_free, 10u);
+  EXPECT_GT(double(positive_on_hit) / double(on_hit), 0.9);
+  EXPECT_LT(double(free_near_hit), 0.05 * double(on_free));
+  EXPECT_GT(var_sum, 0.0);
+  // No denser than one kernel per 0.5 m cell of each class.
+  EXPECT_LE(t.map.size(), train.size());
+  PotOptions coarse = po;
+  coarse.anchor_spacing = 1.0;
+  const ScanTransfer c = transfer_scan(&test::context(), dict, train, target.origin(),
+                                       scan_heading(target), 1, coarse);
+  EXPECT_LT(c.map.size(), t.map.size());
 }
 
 // RePOT's persistent map: seeding sets the prior of unreached kernels from the transported

@@ -79,6 +79,32 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "POT/RePOT: drop free-space kernels landing this close to the target's hits "
                   "and wall kernels landing farther, metres (0: off)")
       ->capture_default_str();
+  cmd->add_option_function<std::string>(
+         "--pot-placement",
+         [&s](const std::string& v) {
+           s.pot.pot.placement =
+               v == "barycentric" ? PotPlacement::barycentric : PotPlacement::target_samples;
+         },
+         "POT: kernels on the target's own samples, carrying the atom's logit pulled back "
+         "through the plan (target_samples, default), or at the barycentric images of the "
+         "atom's kernels (barycentric, the authors' rule)")
+      ->check(CLI::IsMember({"target_samples", "barycentric"}));
+  cmd->add_option("--pot-anchor-spacing", s.pot.pot.anchor_spacing,
+                  "POT with --pot-placement target_samples: one kernel per cell of this edge of "
+                  "the target's hits and free samples, metres")
+      ->capture_default_str();
+  cmd->add_option_function<std::string>(
+         "--pot-combine",
+         [&s](const std::string& v) {
+           s.pot.combine = v == "sum" ? experiment::PotSetup::Combine::sum
+                                      : experiment::PotSetup::Combine::average;
+         },
+         "POT: overall map as the support-weighted average of the instantaneous maps "
+         "(average, default) or their kernels summed with merging (sum, the authors' rule)")
+      ->check(CLI::IsMember({"average", "sum"}));
+  cmd->add_option("--pot-average-spacing", s.pot.averaged.spacing,
+                  "POT with --pot-combine average: anchor grid of the averaged map, metres")
+      ->capture_default_str();
   cmd->add_option("--pot-displacement-var", s.pot.pot.displacement_variance,
                   "POT/RePOT: weight variance added per m^2 a kernel was moved beyond the "
                   "candidate's rotation")

@@ -157,6 +157,8 @@ Method pot_method(const PotSetup& setup, const std::string& name,
     std::unique_ptr<JointBhm> learner;
     if (persistent) {
       po.refine = false;  // the persistent map does the refinement
+      po.placement = setup.seed_placement;
+      po.displacement_variance = setup.seed_displacement_variance;
       JointBhmOptions jo = joint_bhm_options(setup.target_bhm);
       jo.seeds_yield = setup.seeds_yield;
       learner = std::make_unique<JointBhm>(task.dim, task.lo, task.hi, jo);
@@ -173,12 +175,15 @@ Method pot_method(const PotSetup& setup, const std::string& name,
 
     const auto t0 = std::chrono::steady_clock::now();
     OverallMap overall(task.dim, setup.overall);
+    AveragedMap averaged(task.dim, setup.averaged);
+    const bool average = setup.combine == PotSetup::Combine::average;
     const auto launch = setup.pipeline ? std::launch::async : std::launch::deferred;
     const std::size_t n = task.train_scans.size();
     std::vector<long> warm;
     std::future<PreparedTransfer> next = std::async(launch, prepare, std::size_t{0}, warm);
     PotTiming timing;
     std::size_t sectors = 0, inst_kernels = 0;
+    double combine_ms = 0;
     for (std::size_t i = 0; i < n; ++i) {
       PreparedTransfer cur = next.get();
       if (i + 1 < n) next = std::async(launch, prepare, i + 1, warm);
@@ -191,7 +196,12 @@ Method pot_method(const PotSetup& setup, const std::string& name,
         learner->update(samples_of(task, off[i], off[i + 1], {0, 0, 0}, 0));
         t.timing.refine_ms += 1e3 * seconds_since(r0);
       } else if (!t.map.empty()) {
-        overall.add(t.map);
+        const auto c0 = std::chrono::steady_clock::now();
+        if (average)
+          averaged.add(t.map);
+        else
+          overall.add(t.map);
+        combine_ms += 1e3 * seconds_since(c0);
       }
       timing.prepare_ms += t.timing.prepare_ms;
       timing.ranking_ms += t.timing.ranking_ms;
@@ -202,7 +212,9 @@ Method pot_method(const PotSetup& setup, const std::string& name,
       inst_kernels += t.map.size();
     }
     const double secs = seconds_since(t0);
-    auto map = std::make_shared<KernelMap>(learner ? learner->map() : overall.map());
+    auto map = std::make_shared<KernelMap>(learner   ? learner->map()
+                                           : average ? averaged.map()
+                                                     : overall.map());
     FittedMap f = kernel_fitted_map(ctx, map);
     f.fit_seconds = secs;
     const double dn = double(std::max<std::size_t>(n, 1));
@@ -216,6 +228,7 @@ Method pot_method(const PotSetup& setup, const std::string& name,
     f.info["transport_ms"] = timing.transport_ms / dn;
     f.info["placement_ms"] = timing.placement_ms / dn;
     f.info["refine_ms"] = timing.refine_ms / dn;
+    f.info["combine_ms"] = combine_ms / dn;
     f.info["range_m"] = range;
     f.info["atom_map_abhm"] = setup.atom_map == "abhm" ? 1.0 : 0.0;
     return f;

@@ -74,7 +74,9 @@ void anchored_kernels(const KernelMap& map, const detail::KernelIndex& index, co
     const detail::LocalSums ls = detail::local_sums(map, index, x, near);
     // Nothing learned reaches the sample (or only prior-like kernels): it carries no shape.
     if (ls.empty() || !(ls.s2 / ls.sum2 <= o.max_weight_variance)) continue;
-    const double m = ls.mu, v = ls.s2, g = ls.nearest_gamma;
+    // The map's bias is part of its logit there; atoms carry no bias, so their kernels take it.
+    const double m = ls.mu + (map.has_bias ? map.bias_mean : 0.0);
+    const double v = ls.s2 + (map.has_bias ? map.bias_var : 0.0), g = ls.nearest_gamma;
     mu.push_back(m);
     s2.push_back(v);
     gamma.push_back(g);

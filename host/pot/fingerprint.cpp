@@ -111,6 +111,8 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
   f.i64(p.transport_free);
   f.f64(p.wall_clearance);
   f.f64(p.displacement_variance);
+  f.i64(static_cast<int>(p.placement));
+  f.f64(p.anchor_spacing);
   f.i64(static_cast<int>(p.ranking));
   f.u64(p.candidates);
   f.u64(p.index_neighbours);

@@ -11,6 +11,7 @@
 #include <numeric>
 #include <string>
 
+#include "placement_at_samples.hpp"
 #include "point_proximity.hpp"
 #include "potmap/error.hpp"
 #include "potmap/ot/sinkhorn.hpp"
@@ -237,15 +238,40 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   out.timing.prepare_ms += ms_since(t0);
   t0 = Clock::now();
   SinkhornOptions topt;
-  topt.want_barycentric = true;
+  const bool at_samples = o.placement == PotPlacement::target_samples;
+  topt.want_barycentric = !at_samples;
+  topt.want_coupling = at_samples;
   const std::vector<SinkhornResult> moved = detail::solve(ctx, transport.batch, topt);
   out.timing.transport_ms = ms_since(t0);
 
   t0 = Clock::now();
-  for (std::size_t s = 0; s < sectors.size(); ++s)
-    if (transport.of[s][0] >= 0 || transport.of[s][1] >= 0)
-      place_sector(dict, sectors[s], transport, transport.of[s], moved, pt, o, out.sectors[s],
-                   out.map);
+  std::vector<detail::Anchor> anchors;
+  for (std::size_t s = 0; s < sectors.size(); ++s) {
+    const auto& of = transport.of[s];
+    if (of[0] < 0 && of[1] < 0) continue;
+    SectorTransfer& st = out.sectors[s];
+    if (!at_samples) {
+      place_sector(dict, sectors[s], transport, of, moved, pt, o, st, out.map);
+      continue;
+    }
+    detail::SectorPlans plans;
+    st.transport_converged = true;
+    for (int q = 0; q < 2; ++q) {
+      if (of[q] < 0) continue;
+      const SinkhornProblem& p = transport.batch.problem(of[q]);
+      plans.source[q] = &p.source;
+      plans.target[q] = &p.target;
+      plans.coupling[q] = &moved[of[q]].coupling;
+      plans.angle = p.angle;
+      st.transport_converged = st.transport_converged && moved[of[q]].converged;
+      st.transport_iterations = std::max(st.transport_iterations, moved[of[q]].iterations);
+    }
+    const std::size_t before = anchors.size();
+    st.kernels_dropped +=
+        detail::anchors_at_samples(dict.atoms[st.atom], sectors[s], plans, o, anchors);
+    st.kernels_placed += anchors.size() - before;
+  }
+  if (at_samples) detail::anchors_to_map(anchors, dict.dim, out.map);
   out.timing.placement_ms = ms_since(t0);
 
   if (o.refine && !out.map.empty() && !pt.train.empty()) {

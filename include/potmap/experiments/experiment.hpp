@@ -27,6 +27,7 @@
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/pot/atoms.hpp"
+#include "potmap/pot/averaged_map.hpp"
 #include "potmap/pot/overall_map.hpp"
 #include "potmap/pot/transfer.hpp"
 #include "potmap/runtime/context.hpp"
@@ -139,30 +140,38 @@ Method abhm_method(const AbhmSetup& setup, const std::string& name = "ABHM");
 /// from the task's source (a map learned on each source place, atoms cut from some of its
 /// scans), then the target's scans are transferred one by one in order, each from its own
 /// training samples only (the task's, never a held-out beam), and the instantaneous maps are
-/// accumulated into an overall map with merging (OverallMap). The fitted map is the overall map
-/// (for a one-scan task: that scan's instantaneous map). fit_seconds is the transfer of the
-/// target scans (the host preparation of scan i+1 overlaps the solve of scan i, as map_scans
-/// does); building the dictionary is offline work and reported in info["atoms_s"].
+/// accumulated into an overall map (AveragedMap by default, OverallMap's merging on request). The
+/// fitted map is the overall map (for a one-scan task: that scan's instantaneous map). fit_seconds
+/// is the transfer of the target scans (the host preparation of scan i+1 overlaps the solve of scan
+/// i, as map_scans does); building the dictionary is offline work and reported in info["atoms_s"].
 struct PotSetup {
   /// Transfer settings; pot.refine switches RePOT on; pot.seed is task.seed. Default: the
-  /// library's, with a wall clearance of 0.5 m (about one kernel spacing of the BHM atoms) and
-  /// a displacement variance of 0.25 per m^2 (a kernel moved 2 m gains variance 1).
+  /// library's, with kernels placed on the target's own samples (PotPlacement::target_samples:
+  /// on the four Radish logs AUC +0.012 to +0.042 and NLL -0.017 to -0.040 over the barycentric
+  /// placement with the averaged overall map, docs/pot-measurements.md) and a wall clearance of
+  /// 0.5 m (about one kernel spacing of the BHM atoms). No displacement variance: with anchors
+  /// on the target's samples the plan's spread of source logits already widens poor matches,
+  /// and the move's variance made NLL worse (CSAIL 0.295 -> 0.312 at 0.25 per m^2).
   PotOptions pot = [] {
     PotOptions p;
     p.wall_clearance = 0.5;
-    p.displacement_variance = 0.25;
+    p.placement = PotPlacement::target_samples;
     return p;
   }();
+  /// RePOT's seeds: placement and displacement variance of the transported kernels that seed
+  /// the persistent map (defaults barycentric and 0.25 per m^2, a kernel moved 2 m gains
+  /// variance 1). Seeds matter only where no sample reaches a kernel, which kernels on the
+  /// target's samples never are; barycentric images reach past the scan's samples.
+  PotPlacement seed_placement = PotPlacement::barycentric;
+  double seed_displacement_variance = 0.25;
   /// Map the atoms' kernels come from: "bhm" (default; online BHM on a grid, fast) or "abhm"
   /// (the paper's choice: varied widths, much slower to learn).
   std::string atom_map = "bhm";
-  /// The source map of "bhm" atoms: the experiments' BHM without its bias (atoms carry none:
-  /// a sector's kernels must say everything about it).
-  BhmSetup atom_bhm = [] {
-    BhmSetup b;
-    b.bias = false;
-    return b;
-  }();
+  /// The source map of "bhm" atoms: the experiments' BHM, bias included (default). Atoms
+  /// carry no bias: kernels at samples take the map's whole logit there, bias and all, so that
+  /// a wall reads what the source map reads at its walls (a bias-free source BHM reads about
+  /// +0.7 there, one with its bias about +1.3; CSAIL NLL 0.320 -> 0.298).
+  BhmSetup atom_bhm;
   AbhmSetup atom_abhm = [] {
     AbhmSetup a;
     a.count = 3000;
@@ -197,8 +206,15 @@ struct PotSetup {
     d.kernels_at_samples = 0.5;
     return d;
   }();
-  /// Merging of POT's overall map. Default merge radius 0.5 (d^2 gamma; 0.27 m for the joint
-  /// BHM's kernels): kernels at samples of successive scans land closer than the BHM grid.
+  /// How POT combines its instantaneous maps (default average: AveragedMap, each scan's logit
+  /// weighted by its support; sum: OverallMap, kernels summed with merging, the authors' rule,
+  /// which lets one scan's free space erase another's walls: docs/pot-measurements.md).
+  enum class Combine { average, sum };
+  Combine combine = Combine::average;
+  AveragedMapOptions averaged;  ///< the averaged overall map (combine average)
+  /// Merging of POT's overall map (combine sum). Default merge radius 0.5 (d^2 gamma; 0.27 m for
+  /// the joint BHM's kernels): kernels at samples of successive scans land closer than the BHM
+  /// grid.
   OverallMapOptions overall = [] {
     OverallMapOptions o;
     o.merge_radius = 0.5;

@@ -40,6 +40,16 @@ enum class PotRanking {
   indexed,
 };
 
+/// Where a scan's transported kernels are placed (PotOptions::placement).
+enum class PotPlacement {
+  /// Each atom kernel moves to its sample's barycentric image (SPEC step 5, the authors' rule).
+  barycentric,
+  /// Kernels on the target's own samples, thinned to PotOptions::anchor_spacing; each reads the
+  /// plan backwards: the atom's logit at the source samples coupled with it, averaged by the plan
+  /// (host/pot/placement_at_samples.cpp).
+  target_samples,
+};
+
 /// The authors' settings (SPEC section 4) are the defaults.
 struct PotOptions {
   /// Target cut: sectors per scan (default 5) and max_range, metres (0, the default: the
@@ -102,6 +112,15 @@ struct PotOptions {
   /// by its sample's barycentric image; in an atom that matches the place, samples barely move,
   /// while a poor match has to drag them far. The transported weight then says so.
   double displacement_variance = 0;
+  /// Where kernels are placed (default: barycentric, the authors' rule). target_samples: on the
+  /// target's thinned samples, which keeps walls on the target's walls where a barycentric image
+  /// would land between two walls the plan split a sample across (docs/pot-measurements.md).
+  /// The wall clearance then drops free-sample anchors near the sector's hits, and the
+  /// displacement variance grows with the plan's mean squared move into each anchor.
+  PotPlacement placement = PotPlacement::barycentric;
+  /// target_samples: one anchor per cell of this edge, hits and free samples apart (metres;
+  /// default 0.5, the source BHM's kernel spacing: kernels no denser than the maps they carry).
+  double anchor_spacing = 0.5;
 
   /// How candidates are ranked (default: exhaustive, the paper's eq. 6).
   PotRanking ranking = PotRanking::exhaustive;

@@ -1,0 +1,183 @@
+// Placement at the target's samples. The barycentric placement moves each atom kernel to the
+// plan-weighted mean of the target samples its sample is coupled with; where a sample's mass
+// splits between two walls, the kernel lands between them, and the atom's spacing, not the
+// target's, decides where the map has kernels. Here the target's own (thinned) samples are the
+// kernels' places and the plan is read the other way: each anchor takes the plan-weighted mean
+// of the atom's logit at the source samples coupled with it, and a variance that grows with how
+// much those samples disagree and how far the plan had to move them.
+#include "placement_at_samples.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_set>
+
+#include "point_proximity.hpp"
+
+namespace potmap::detail {
+
+namespace {
+
+// One point per cell of edge `cell` (the first in input order), as indices.
+std::vector<std::size_t> thin_indices(const std::vector<double>& pts, int dim, double cell) {
+  std::unordered_set<std::uint64_t> seen;
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i * dim < pts.size(); ++i) {
+    std::uint64_t key = 0;
+    for (int d = 0; d < dim; ++d)
+      key = key * 2097152u +
+            (static_cast<std::uint64_t>(std::floor(pts[i * dim + d] / cell) + 1048576) & 0x1FFFFF);
+    if (seen.insert(key).second) out.push_back(i);
+  }
+  return out;
+}
+
+double dist2(const double* a, const double* b, int dim) {
+  double s = 0;
+  for (int d = 0; d < dim; ++d) s += (a[d] - b[d]) * (a[d] - b[d]);
+  return s;
+}
+
+}  // namespace
+
+std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const SectorPlans& plans,
+                               const PotOptions& o, std::vector<Anchor>& out) {
+  const int dim = sec.dim;
+  const KernelMap& k = atom.kernels;
+  const double s = sec.scale;
+  // Each atom kernel's class is its nearest atom sample's: kernels at samples sit on one, and a
+  // map kernel is wall evidence where it lies nearer the walls than the free space.
+  std::vector<int> cls(k.size(), 0);
+  double gsum[2] = {0, 0}, gcnt[2] = {0, 0};
+  for (std::size_t e = 0; e < k.size(); ++e) {
+    const double* h = &k.position[e * dim];
+    double dh = HUGE_VAL, df = HUGE_VAL;
+    for (std::size_t i = 0; i < atom.sector.num_hits(); ++i)
+      dh = std::min(dh, dist2(h, &atom.sector.hits[i * dim], dim));
+    for (std::size_t i = 0; i < atom.sector.num_free(); ++i)
+      df = std::min(df, dist2(h, &atom.sector.free[i * dim], dim));
+    cls[e] = dh <= df ? 0 : 1;
+    gsum[cls[e]] += k.gamma[e];
+    gcnt[cls[e]] += 1;
+  }
+  std::unique_ptr<PointProximity> on_wall;
+  if (o.wall_clearance > 0 && sec.num_hits() > 0)
+    on_wall = std::make_unique<PointProximity>(sec.hits, dim, o.wall_clearance * s);
+  const double c = std::cos(plans.angle), sn = std::sin(plans.angle);
+  std::size_t dropped = 0;
+  for (int q = 0; q < 2; ++q) {
+    if (!plans.coupling[q] || plans.coupling[q]->size() == 0) continue;
+    const Eigen::MatrixXd& X = *plans.source[q];
+    const Eigen::MatrixXd& Y = *plans.target[q];
+    const Eigen::MatrixXd& P = *plans.coupling[q];
+    const double gamma = gcnt[q] > 0 ? gsum[q] / gcnt[q] : gsum[1 - q] / std::max(1.0, gcnt[1 - q]);
+    if (!(gamma > 0)) continue;
+    // The atom's map at its coupled samples, from its kernels of the same class (each class
+    // alone reproduces the source map at its own samples).
+    Eigen::VectorXd L = Eigen::VectorXd::Zero(X.rows()), V = Eigen::VectorXd::Zero(X.rows());
+    for (Eigen::Index i = 0; i < X.rows(); ++i) {
+      double m = 0, v = 0;
+      for (std::size_t e = 0; e < k.size(); ++e) {
+        if (cls[e] != q) continue;
+        double d2 = 0;
+        for (int d = 0; d < dim; ++d) {
+          const double t = (X(i, d) - k.position[e * dim + d]) / s;
+          d2 += t * t;
+        }
+        const double g = k.gamma[e] * d2;
+        if (g > 16) continue;
+        const double phi = std::exp(-g);
+        m += k.w_mean[e] * phi;
+        v += k.w_var[e] * phi * phi;
+      }
+      L(i) = m;
+      V(i) = v;
+    }
+    const std::vector<double>& pts = q == 0 ? sec.hits : sec.free;
+    const std::vector<std::size_t> keep = thin_indices(pts, dim, o.anchor_spacing * s);
+    for (std::size_t a : keep) {
+      const double* y = &pts[a * dim];
+      if (q == 1 && on_wall && on_wall->near(y)) {
+        ++dropped;
+        continue;
+      }
+      // The target point of the plan nearest the anchor; its column says which source samples
+      // the anchor's place was matched with.
+      Eigen::Index best = 0;
+      double bd = HUGE_VAL;
+      for (Eigen::Index j = 0; j < Y.rows(); ++j) {
+        double d2 = 0;
+        for (int d = 0; d < dim; ++d) d2 += (Y(j, d) - y[d]) * (Y(j, d) - y[d]);
+        if (d2 < bd) {
+          bd = d2;
+          best = j;
+        }
+      }
+      const Eigen::VectorXd col = P.col(best);
+      const double mass = col.sum();
+      if (!(mass > 0)) continue;
+      const double mean = col.dot(L) / mass;
+      double spread = 0, moved = 0;
+      for (Eigen::Index i = 0; i < X.rows(); ++i) {
+        spread += col(i) * (L(i) - mean) * (L(i) - mean);
+        const double rx = c * X(i, 0) - sn * X(i, 1), ry = sn * X(i, 0) + c * X(i, 1);
+        double m2 = (rx - Y(best, 0)) * (rx - Y(best, 0)) + (ry - Y(best, 1)) * (ry - Y(best, 1));
+        if (dim == 3) m2 += (X(i, 2) - Y(best, 2)) * (X(i, 2) - Y(best, 2));
+        moved += col(i) * m2;
+      }
+      Anchor an;
+      for (int d = 0; d < dim; ++d) an.position[d] = y[d] / s + sec.centre[d];
+      an.gamma = gamma;
+      an.value = mean;
+      an.variance =
+          col.dot(V) / mass + spread / mass + o.displacement_variance * (moved / mass) / (s * s);
+      an.hit = q == 0;
+      out.push_back(an);
+    }
+  }
+  return dropped;
+}
+
+void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map) {
+  const std::size_t n = anchors.size();
+  // A hash grid over the anchors so the partition visits only those within reach.
+  double gmin = HUGE_VAL;
+  for (const Anchor& a : anchors) gmin = std::min(gmin, a.gamma);
+  if (n == 0) return;
+  const double reach = std::sqrt(16.0 / gmin);
+  std::vector<double> pts(n * dim);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < dim; ++d) pts[i * dim + d] = anchors[i].position[d];
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+  auto cell = [&](const double* p, int d) { return std::int64_t(std::floor(p[d] / reach)); };
+  auto pack = [](std::int64_t x, std::int64_t y, std::int64_t z) {
+    const auto u = [](std::int64_t v) { return std::uint64_t(v + (1 << 20)) & 0x1FFFFF; };
+    return u(x) | (u(y) << 21) | (u(z) << 42);
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* p = &pts[i * dim];
+    grid[pack(cell(p, 0), cell(p, 1), dim == 3 ? cell(p, 2) : 0)].push_back(std::uint32_t(i));
+  }
+  const int dz = dim == 3 ? 1 : 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* p = &pts[i * dim];
+    const std::int64_t cx = cell(p, 0), cy = cell(p, 1), cz = dim == 3 ? cell(p, 2) : 0;
+    double sum = 0, sum2 = 0;
+    for (int kz = -dz; kz <= dz; ++kz)
+      for (int ky = -1; ky <= 1; ++ky)
+        for (int kx = -1; kx <= 1; ++kx) {
+          const auto it = grid.find(pack(cx + kx, cy + ky, cz + kz));
+          if (it == grid.end()) continue;
+          for (std::uint32_t j : it->second) {
+            if (anchors[j].hit != anchors[i].hit) continue;
+            const double g = anchors[j].gamma * dist2(p, &pts[j * dim], dim);
+            if (g > 16) continue;
+            const double phi = std::exp(-g);
+            sum += phi;
+            sum2 += phi * phi;
+          }
+        }
+    map.push_back(p, anchors[i].gamma, anchors[i].value / sum, anchors[i].variance / sum2);
+  }
+}
+
+}  // namespace potmap::detail

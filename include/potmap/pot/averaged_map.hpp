@@ -1,0 +1,76 @@
+#pragma once
+// An overall map that averages the instantaneous maps instead of summing their kernels
+// (AveragedMapOptions; measured in docs/pot-measurements.md).
+//
+// Summing the kernels of every scan (OverallMap) adds one scan's free-space kernels to another
+// scan's wall kernels wherever the two pass near each other, and the wall reads 0.5. Here the
+// overall logit at a place is the average of the instantaneous maps' logits there, each weighted
+// by how much that scan's kernels cover the place (its support, sum of phi):
+//     v(x) = sum_t s_t(x) mu_t(x) / sum_t s_t(x),   s_t(x) = sum_{k in scan t} phi_k(x),
+// and the same average of the variances. The average is kept at anchors on a regular grid
+// (AveragedMapOptions::spacing) as running sums, so adding a scan costs only its footprint. The
+// map handed out is an ordinary kernel map with one kernel per anchor whose weights are solved
+// (projected Gauss-Seidel sweeps of (Phi + ridge I) w = v over the scan's footprint, each weight
+// kept to its average's sign, warm-started) so that it reproduces the anchors' averages; its
+// variances are the averaged variances spread by the anchors' partition (the Nadaraya-Watson
+// rule of atoms' kernels at samples). Memory grows with the area seen at the grid spacing, not
+// with the number of scans. The solve takes each anchor's own width for its neighbours' (exact
+// when the instantaneous maps share one width, as BHM atoms' kernels do).
+
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "potmap/export.h"
+#include "potmap/map/kernel_map.hpp"
+
+POTMAP_CXX_API_BEGIN
+namespace potmap {
+
+struct AveragedMapOptions {
+  /// Anchor grid edge, metres (default 0.25: half the kernel spacing of the BHM atoms; at their
+  /// spacing, 0.5 m, the solved map smooths walls away; measured in docs/pot-measurements.md).
+  double spacing = 0.25;
+  /// A scan counts at an anchor when its support there is at least this (sum of phi; default
+  /// 1: about one of its kernels' worth. Lower floors let a scan's decaying tails become
+  /// anchors whose small averages the solve turns into rings around what was seen).
+  double min_support = 1.0;
+  /// Ridge of the weights' solve (default 0.1: anchors 0.25 m apart have a poorly conditioned
+  /// Gram matrix; the ridge keeps the weights from chasing each other, and the solve keeps each
+  /// weight to its average's sign so that no weight exists only to cancel its neighbours).
+  double ridge = 0.1;
+  /// Gauss-Seidel sweeps over a scan's footprint per add (default 5; the sweeps of later scans
+  /// continue them, and 30 changed no score in the third digit).
+  int sweeps = 5;
+};
+
+class AveragedMap {
+ public:
+  /// `dim` 2 or 3; throws ArgumentError for bad options.
+  explicit AveragedMap(int dim = 2, const AveragedMapOptions& options = {});
+
+  /// Adds one instantaneous map (world frame; its bias is ignored). Throws ArgumentError when
+  /// its dimension differs or it fails KernelMap::validate.
+  void add(const KernelMap& instantaneous);
+
+  /// The solved kernel map (no bias), one kernel per anchor. Valid until the next add().
+  const KernelMap& map() const { return map_; }
+  std::size_t size() const { return map_.size(); }
+  std::size_t memory_bytes() const;
+  const AveragedMapOptions& options() const { return opt_; }
+
+ private:
+  std::int64_t cell(double x) const;
+  std::uint64_t key(const std::int64_t c[3]) const;
+
+  int dim_;
+  AveragedMapOptions opt_;
+  KernelMap map_;                        // anchor k = kernel k
+  std::vector<double> sum_sm_, sum_s_;   // running sums of s * mu and s
+  std::vector<double> sum_sv_, sum_sg_;  // of s * variance and s * gamma
+  std::unordered_map<std::uint64_t, std::uint32_t> index_;
+};
+
+}  // namespace potmap
+POTMAP_CXX_API_END

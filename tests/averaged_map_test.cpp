@@ -1,0 +1,154 @@
+// The averaged overall map (include/potmap/pot/averaged_map.hpp): what a place reads is the
+// support-weighted average of the scans that saw it, never their sum.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "potmap/error.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/pot/averaged_map.hpp"
+
+namespace potmap {
+namespace {
+
+constexpr double kGamma = 6.64;  // the experiments' BHM atoms' width at 0.5 m spacing
+
+// A scan's instantaneous map as POT builds it: a wall of kernels along y = 0 (logit `wall`)
+// and free space below it (logit `free`), kernels 0.5 m apart, weights normalised so that
+// each class reproduces its logit (the partition of kernels at samples).
+KernelMap room(double wall, double free, double x0 = 0, double x1 = 6) {
+  KernelMap m;
+  const double sum = 1.383;  // sum of phi of a 0.5 m line of kernels at one of them
+  for (double x = x0; x <= x1 + 1e-9; x += 0.5) {
+    const double p[2] = {x, 0};
+    m.push_back(p, kGamma, wall / sum, 0.5);
+    for (double y = -0.75; y >= -4; y -= 0.5) {
+      const double q[2] = {x, y};
+      m.push_back(q, kGamma, free / 1.91, 0.2);  // 1.91: a 0.5 m grid's sum of phi
+    }
+  }
+  return m;
+}
+
+double logit_at(const KernelMap& m, double x, double y) {
+  const double p[2] = {x, y};
+  return evaluate_exact(m, p, 1).mean[0];
+}
+
+TEST(AveragedMap, ReproducesOneScanWhereItSawThePlace) {
+  const KernelMap inst = room(2.0, -4.0);
+  AveragedMap avg(2);
+  avg.add(inst);
+  ASSERT_GT(avg.size(), 100u);
+  // Inside the room (away from its edges) the solved map reads what the scan reads.
+  for (double x = 1.5; x <= 4.5; x += 0.25) {
+    EXPECT_NEAR(logit_at(avg.map(), x, 0.0), logit_at(inst, x, 0.0), 0.5) << x;
+    EXPECT_NEAR(logit_at(avg.map(), x, -2.5), logit_at(inst, x, -2.5), 0.5) << x;
+  }
+  // Far from every kernel it says nothing.
+  EXPECT_NEAR(logit_at(avg.map(), 3.0, 8.0), 0.0, 1e-6);
+}
+
+TEST(AveragedMap, ThePlaceSeenTwiceReadsTheSameNotDouble) {
+  const KernelMap inst = room(2.0, -4.0);
+  AveragedMap once(2), twice(2);
+  once.add(inst);
+  twice.add(inst);
+  twice.add(inst);
+  EXPECT_EQ(twice.size(), once.size());  // memory follows the area seen, not the scans
+  for (double x = 1.5; x <= 4.5; x += 0.5) {
+    // The second add only continues the weights' solve (about a tenth closer to the average
+    // here); the average itself is unchanged.
+    for (double y : {0.0, -2.5}) {
+      const double a = logit_at(once.map(), x, y), b = logit_at(twice.map(), x, y);
+      EXPECT_NEAR(b, a, 0.15 * std::abs(a)) << x << " " << y;
+    }
+  }
+  // Kernels summed would double the wall.
+  KernelMap summed = inst;
+  for (std::size_t k = 0; k < summed.size(); ++k) summed.w_mean[k] *= 2;
+  EXPECT_GT(logit_at(summed, 3.0, 0.0), 1.6 * logit_at(twice.map(), 3.0, 0.0));
+  for (int i = 0; i < 20; ++i) twice.add(inst);
+  EXPECT_EQ(twice.size(), once.size());
+}
+
+// Two scans that disagree about a place: it reads their support-weighted mean (here equal
+// supports: the plain mean), where kernels summed would read their sum.
+TEST(AveragedMap, DisagreeingScansReadTheirMean) {
+  auto field = [](double logit, double offset) {
+    KernelMap m;
+    for (double x = offset; x <= 5 + 1e-9; x += 0.5)
+      for (double y = offset; y <= 5 + 1e-9; y += 0.5) {
+        const double q[2] = {x, y};
+        m.push_back(q, kGamma, logit / 1.91, 0.2);
+      }
+    return m;
+  };
+  const KernelMap a = field(3.0, 0.0), b = field(-1.0, 0.25);
+  AveragedMap avg(2);
+  avg.add(a);
+  avg.add(b);
+  for (double x = 1.5; x <= 3.5; x += 0.25) {
+    const double va = logit_at(a, x, 2.5), vb = logit_at(b, x, 2.5);
+    EXPECT_NEAR(va, 3.0, 0.1);
+    EXPECT_NEAR(vb, -1.0, 0.1);
+    EXPECT_NEAR(logit_at(avg.map(), x, 2.5), 0.5 * (va + vb), 0.15) << x;
+  }
+}
+
+TEST(AveragedMap, FreeSpaceAloneGivesNoOccupiedRing) {
+  // Weights keep their average's sign: around free space seen alone nothing reads occupied.
+  KernelMap m;
+  for (double x = 0; x <= 4 + 1e-9; x += 0.5)
+    for (double y = 0; y <= 4 + 1e-9; y += 0.5) {
+      const double q[2] = {x, y};
+      m.push_back(q, kGamma, -6.0 / 1.91, 0.2);
+    }
+  AveragedMap avg(2);
+  avg.add(m);
+  for (std::size_t k = 0; k < avg.size(); ++k) EXPECT_LE(avg.map().w_mean[k], 0.0) << k;
+  for (double x = -2; x <= 6; x += 0.1)
+    for (double y = -2; y <= 6; y += 0.5) EXPECT_LE(logit_at(avg.map(), x, y), 1e-12);
+}
+
+TEST(AveragedMap, RejectsBadOptionsAndOtherDimensions) {
+  AveragedMapOptions o;
+  o.spacing = 0;
+  EXPECT_THROW(AveragedMap(2, o), ArgumentError);
+  o = {};
+  o.min_support = 0;
+  EXPECT_THROW(AveragedMap(2, o), ArgumentError);
+  o = {};
+  o.ridge = -1;
+  EXPECT_THROW(AveragedMap(2, o), ArgumentError);
+  EXPECT_THROW(AveragedMap(4), ArgumentError);
+  AveragedMap avg(3);
+  EXPECT_THROW(avg.add(room(1, -1)), ArgumentError);
+  KernelMap bad = room(1, -1);
+  bad.gamma[0] = -1;
+  AveragedMap two(2);
+  EXPECT_THROW(two.add(bad), ArgumentError);
+  two.add(KernelMap{});  // an empty scan changes nothing
+  EXPECT_EQ(two.size(), 0u);
+}
+
+TEST(AveragedMap, ThreeDimensionsToo) {
+  KernelMap m;
+  m.dim = 3;
+  for (double x = 0; x <= 3 + 1e-9; x += 0.5)
+    for (double y = 0; y <= 3 + 1e-9; y += 0.5) {
+      const double q[3] = {x, y, 0.0};
+      m.push_back(q, kGamma, x < 1.6 ? -0.5 : 0.5, 0.2);
+    }
+  AveragedMap avg(3);
+  avg.add(m);
+  ASSERT_GT(avg.size(), 50u);
+  const double lo[3] = {0.5, 1.5, 0}, hi[3] = {2.5, 1.5, 0};
+  const auto v = evaluate_exact(avg.map(), lo, 1).mean[0];
+  const auto w = evaluate_exact(avg.map(), hi, 1).mean[0];
+  EXPECT_LT(v, -0.3);
+  EXPECT_GT(w, 0.3);
+}
+
+}  // namespace
+}  // namespace potmap
