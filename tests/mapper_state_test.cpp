@@ -35,8 +35,8 @@ struct Scene {
     so.scans = 8;
     so.spacing = 3;
     sim = simulate(Town::builtin("town1"), so);
-    build_dictionary({sim.scans[0], sim.scans[1]},
-                     test::grid_around(sim.scans[0].origin(), 30), {}, *dict);
+    build_dictionary({sim.scans[0], sim.scans[1]}, test::grid_around(sim.scans[0].origin(), 30), {},
+                     *dict);
     targets.assign(sim.scans.begin() + 2, sim.scans.end());
   }
 };
@@ -90,6 +90,37 @@ TEST(MapperState, RestoredMapperContinuesBitForBit) {
     EXPECT_EQ(resumed.overall_kernels(), whole.overall_kernels());
     if (!refine) EXPECT_GT(whole.overall().size(), 0u);
   }
+}
+
+// The averaged overall map with kernels on the targets' samples (what the experiments run):
+// its anchors' running sums come back too, and a state of the summed map is refused.
+TEST(MapperState, AveragedOverallMapContinuesBitForBit) {
+  const Scene& s = scene();
+  const std::string dir = test::temp_dir("mapper-state-averaged");
+  MapperOptions o = small_options(false);
+  o.pot.placement = PotPlacement::target_samples;
+  o.average_overall = true;
+  Mapper whole(&test::context(), s.dict, o);
+  for (const Scan& scan : s.targets) whole.add_scan(scan);
+  ASSERT_GT(whole.overall_kernels(), 100u);
+  EXPECT_EQ(whole.overall().size(), 0u);  // the summed map stays empty
+
+  const std::size_t k = 3;
+  Mapper first(&test::context(), s.dict, o);
+  for (std::size_t i = 0; i < k; ++i) first.add_scan(s.targets[i]);
+  const std::string path = dir + "/averaged.state";
+  first.save_state(path);
+  Mapper resumed(&test::context(), s.dict, o);
+  resumed.load_state(path);
+  expect_bitwise(resumed.overall_map(), first.overall_map());
+  for (std::size_t i = k; i < s.targets.size(); ++i) resumed.add_scan(s.targets[i]);
+  expect_bitwise(resumed.overall_map(), whole.overall_map());
+  EXPECT_GT(resumed.overall_memory_bytes(), 0u);
+
+  MapperOptions summed = o;
+  summed.average_overall = false;
+  Mapper other(&test::context(), s.dict, summed);
+  EXPECT_THROW(other.load_state(path), Error);
 }
 
 // What `potmap map --resume` does: map_scans (pipelined) from the restored mapper's

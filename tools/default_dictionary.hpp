@@ -11,7 +11,7 @@ namespace potmap::cli {
 
 /// Version of the recipe below; the cached file is named after it, so a new recipe never reads
 /// an old file. Bump it whenever the towns, the drives or the atom settings change.
-constexpr int kDefaultDictionaryVersion = 1;
+constexpr int kDefaultDictionaryVersion = 2;  // 2: atoms take the source map's bias (PotSetup)
 
 /// What the default dictionary is made of, in words (stored as every atom's source).
 std::string default_dictionary_recipe();

@@ -111,8 +111,10 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
   f.i64(p.transport_free);
   f.f64(p.wall_clearance);
   f.f64(p.displacement_variance);
-  f.i64(static_cast<int>(p.placement));
-  f.f64(p.anchor_spacing);
+  if (p.placement != PotPlacement::barycentric) {  // earlier fingerprints stay valid
+    f.i64(static_cast<int>(p.placement));
+    f.f64(p.anchor_spacing);
+  }
   f.i64(static_cast<int>(p.ranking));
   f.u64(p.candidates);
   f.u64(p.index_neighbours);
@@ -154,6 +156,14 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
   f.f64(overall.gamma_ratio);
   f.u64(overall.max_kernels);
   f.f64(overall.retire_to);
+  // Appended only when on, so that states saved before the averaged map keep their fingerprint.
+  if (o.average_overall) {
+    f.i64(1);
+    f.f64(o.averaged.spacing);
+    f.f64(o.averaged.min_support);
+    f.f64(o.averaged.ridge);
+    f.i64(o.averaged.sweeps);
+  }
   return f.value();
 }
 

@@ -163,7 +163,10 @@ Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const Mappe
   if (!dict_) throw ArgumentError("Mapper: the dictionary is null");
   if (dict_->empty()) throw ArgumentError("Mapper: the dictionary has no atoms");
   options_ = with_preselector(*dict_, options_);
-  if (persistent_refine(options_)) repot_.emplace(dict_->dim, options_);
+  if (persistent_refine(options_))
+    repot_.emplace(dict_->dim, options_);
+  else if (options_.average_overall)
+    averaged_.emplace(dict_->dim, options_.averaged);
   last_.transfer.map.dim = last_.test.dim = last_.train.dim = dict_->dim;
 }
 
@@ -187,7 +190,10 @@ const MapperMerge& Mapper::add_mapped(MappedScan&& m) {
     merge.seeded = repot_->add(m.transfer.map, m.train);
     m.transfer.timing.refine_ms += ms_since(t1);
   } else {
-    if (!m.transfer.map.empty()) merge.stats = overall_.add(m.transfer.map);
+    if (averaged_)
+      averaged_->add(m.transfer.map);
+    else if (!m.transfer.map.empty())
+      merge.stats = overall_.add(m.transfer.map);
     merge.merge_ms = ms_since(t1);
   }
   warm_[0] = std::move(warm_[1]);
@@ -207,20 +213,23 @@ MapScansStart Mapper::continuation() const {
 }
 
 const KernelMap& Mapper::overall_map() const {
-  return repot_ ? repot_->map() : overall_.map();
+  return repot_ ? repot_->map() : averaged_ ? averaged_->map() : overall_.map();
 }
 
 std::size_t Mapper::overall_kernels() const {
-  return repot_ ? repot_->size() : overall_.size();
+  return repot_ ? repot_->size() : averaged_ ? averaged_->size() : overall_.size();
 }
 
 std::size_t Mapper::overall_memory_bytes() const {
-  return repot_ ? repot_->memory_bytes() : overall_.memory_bytes();
+  return repot_      ? repot_->memory_bytes()
+         : averaged_ ? averaged_->memory_bytes()
+                     : overall_.memory_bytes();
 }
 
 void Mapper::reset() {
   overall_ = OverallMap(dict_->dim, overall_.options());
   if (repot_) repot_.emplace(dict_->dim, options_);
+  if (averaged_) averaged_.emplace(dict_->dim, options_.averaged);
   last_ = MappedScan();
   last_.transfer.map.dim = last_.test.dim = last_.train.dim = dict_->dim;
   merge_ = MapperMerge();

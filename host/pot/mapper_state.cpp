@@ -5,12 +5,15 @@
 // then, read in order (io/container_cursor.hpp): the caller's extra bytes (first, so that a
 // caller can check its own identity before the mapper's), the dictionary's and the options'
 // fingerprints (u64 each), the scan count, the chosen atoms of the two last scans, the last
-// merge's counters, POT's overall map (pot/overall_map_state.hpp), and a byte saying whether
-// the persistent RePOT learner follows (learn/bhm_joint_state.hpp).
+// merge's counters, POT's overall map (pot/overall_map_state.hpp), a byte saying whether
+// the persistent RePOT learner follows (learn/bhm_joint_state.hpp), and, only when
+// MapperOptions::average_overall is on, the averaged overall map (pot/averaged_map_state.hpp;
+// states without it read as before).
 #include <string>
 
 #include "io/container_cursor.hpp"
 #include "learn/bhm_joint_state.hpp"
+#include "pot/averaged_map_state.hpp"
 #include "pot/overall_map_state.hpp"
 #include "potmap/error.hpp"
 #include "potmap/pot/fingerprint.hpp"
@@ -58,6 +61,7 @@ struct MapperState {
     OverallMapState::write(w, m.overall_);
     put_u8(w, m.repot_ ? 1 : 0);
     if (m.repot_) JointBhmState::write(w, m.repot_->learner_);
+    if (m.averaged_) AveragedMapState::write(w, *m.averaged_);
     w.finish(path);
   }
 
@@ -107,10 +111,16 @@ struct MapperState {
       repot.emplace(m.dict_->dim, m.options_);
       JointBhmState::read(c, repot->learner_);
     }
+    std::optional<AveragedMap> averaged;
+    if (m.averaged_) {
+      averaged.emplace(m.dict_->dim, m.options_.averaged);
+      AveragedMapState::read(c, *averaged);
+    }
     c.finish();
     // Everything read: now the mapper changes, all at once.
     m.overall_ = std::move(overall);
     m.repot_ = std::move(repot);
+    m.averaged_ = std::move(averaged);
     m.scans_ = static_cast<std::size_t>(scans);
     m.warm_[0] = std::move(warm0);
     m.warm_[1] = std::move(warm1);

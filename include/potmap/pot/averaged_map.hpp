@@ -25,6 +25,12 @@
 #include "potmap/export.h"
 #include "potmap/map/kernel_map.hpp"
 
+// Internal (host/), declared outside the exported region so that it stays hidden: saves and
+// restores the private state (Mapper::save_state).
+namespace potmap::detail {
+struct AveragedMapState;
+}
+
 POTMAP_CXX_API_BEGIN
 namespace potmap {
 
@@ -61,6 +67,7 @@ class AveragedMap {
   const AveragedMapOptions& options() const { return opt_; }
 
  private:
+  friend struct detail::AveragedMapState;
   std::int64_t cell(double x) const;
   std::uint64_t key(const std::int64_t c[3]) const;
 
