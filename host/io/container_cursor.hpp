@@ -5,6 +5,7 @@
 // "<path>: byte offset <n>: ..." naming the count, never a read past the end.
 
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,16 @@ class ContainerCursor {
   const ContainerReader& r_;
   std::size_t at_;
 };
+
+/// Reads an f64 that must equal `have` bit for bit (an option a saved state was made with);
+/// fails naming `who`, `what`, the value found and the one expected.
+inline void expect_same_f64(ContainerCursor& c, const char* who, const char* what, double have) {
+  const std::size_t at = c.at();
+  const double found = c.f64();
+  if (std::memcmp(&found, &have, sizeof found) != 0)
+    c.reader().fail(at, std::string(who) + ": " + what + " " + std::to_string(found) +
+                            ", the map it is restored into has " + std::to_string(have));
+}
 
 /// Writes what ContainerCursor reads: a u64 count, then the values.
 inline void put_f64s(ContainerWriter& w, const std::vector<double>& v) {

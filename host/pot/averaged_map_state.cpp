@@ -1,22 +1,9 @@
 #include "pot/averaged_map_state.hpp"
 
 #include <cmath>
-#include <cstring>
 #include <string>
 
 namespace potmap::detail {
-
-namespace {
-
-void expect_same(ContainerCursor& c, const char* what, double have) {
-  const std::size_t at = c.at();
-  const double found = c.f64();
-  if (std::memcmp(&found, &have, sizeof found) != 0)
-    c.reader().fail(at, std::string("averaged map state: ") + what + " " + std::to_string(found) +
-                            ", the map it is restored into has " + std::to_string(have));
-}
-
-}  // namespace
 
 void AveragedMapState::write(ContainerWriter& w, const AveragedMap& m) {
   w.u32(static_cast<std::uint32_t>(m.dim_));
@@ -35,10 +22,10 @@ void AveragedMapState::read(ContainerCursor& c, AveragedMap& m) {
   if (dim != static_cast<std::uint32_t>(m.dim_))
     c.reader().fail(at, "averaged map state: dimension " + std::to_string(dim) +
                             ", the map it is restored into is " + std::to_string(m.dim_) + "D");
-  expect_same(c, "spacing", m.opt_.spacing);
-  expect_same(c, "min support", m.opt_.min_support);
-  expect_same(c, "ridge", m.opt_.ridge);
-  expect_same(c, "sweeps", double(m.opt_.sweeps));
+  expect_same_f64(c, "averaged map state", "spacing", m.opt_.spacing);
+  expect_same_f64(c, "averaged map state", "min support", m.opt_.min_support);
+  expect_same_f64(c, "averaged map state", "ridge", m.opt_.ridge);
+  expect_same_f64(c, "averaged map state", "sweeps", double(m.opt_.sweeps));
   KernelMap k;
   k.dim = m.dim_;
   at = c.at();

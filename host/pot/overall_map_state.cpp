@@ -1,21 +1,8 @@
 #include "pot/overall_map_state.hpp"
 
-#include <cstring>
 #include <string>
 
 namespace potmap::detail {
-
-namespace {
-
-void expect_same(ContainerCursor& c, const char* what, double have) {
-  const std::size_t at = c.at();
-  const double found = c.f64();
-  if (std::memcmp(&found, &have, sizeof found) != 0)
-    c.reader().fail(at, std::string("overall map state: ") + what + " " + std::to_string(found) +
-                            ", the map it is restored into has " + std::to_string(have));
-}
-
-}  // namespace
 
 void OverallMapState::write(ContainerWriter& w, const OverallMap& m) {
   w.u32(static_cast<std::uint32_t>(m.dim_));
@@ -40,10 +27,10 @@ void OverallMapState::read(ContainerCursor& c, OverallMap& m) {
   if (dim != static_cast<std::uint32_t>(m.dim_))
     c.reader().fail(at, "overall map state: dimension " + std::to_string(dim) +
                             ", the map it is restored into is " + std::to_string(m.dim_) + "D");
-  expect_same(c, "merge radius", m.opt_.merge_radius);
-  expect_same(c, "gamma ratio", m.opt_.gamma_ratio);
-  expect_same(c, "max kernels", double(m.opt_.max_kernels));
-  expect_same(c, "retire_to", m.opt_.retire_to);
+  expect_same_f64(c, "overall map state", "merge radius", m.opt_.merge_radius);
+  expect_same_f64(c, "overall map state", "gamma ratio", m.opt_.gamma_ratio);
+  expect_same_f64(c, "overall map state", "max kernels", double(m.opt_.max_kernels));
+  expect_same_f64(c, "overall map state", "retire_to", m.opt_.retire_to);
   KernelMap k;
   k.dim = m.dim_;
   at = c.at();
