@@ -76,6 +76,12 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
   for (int i = 0; i < a.rotations; ++i)
     job.mapper.pot.rotations.push_back(2 * kPi * i / a.rotations);
   job.mapper.persistent_refine = setup.persistent_refine;
+  job.mapper.average_overall = setup.combine == experiment::PotSetup::Combine::average;
+  job.mapper.averaged = setup.averaged;
+  if (persistent_refine(job.mapper)) {  // RePOT's seeds, as the experiments place them
+    job.mapper.pot.placement = setup.seed_placement;
+    job.mapper.pot.displacement_variance = setup.seed_displacement_variance;
+  }
   job.mapper.seed_min_variance = setup.seed_min_variance;
   job.mapper.labels.seed = a.seed;
   job.mapper.pipeline = setup.pipeline;

@@ -45,7 +45,9 @@ nlohmann::json MapJobResult::to_json() const {
   return {{"scans", scans},
           {"overall_kernels", overall_kernels()},
           {"overall_memory_bytes", overall_memory_bytes()},
-          {"overall_kind", persistent() ? "persistent joint BHM" : "merged kernels"},
+          {"overall_kind", persistent()                        ? "persistent joint BHM"
+                           : mapper->options().average_overall ? "averaged maps"
+                                                               : "merged kernels"},
           {"kernels_per_scan", kernels_per_scan},
           {"instantaneous", scores_json(instantaneous)},
           {"overall", scores_json(overall_scores)},
