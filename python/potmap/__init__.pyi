@@ -667,9 +667,9 @@ class Mapper:
         """ctx: the device (None: the CPU reference, slow); dictionary: a Dictionary;
         refine: RePOT (default False: POT; same as options.pot.refine = True); options:
         MapperOptions (default: the library's: 20 % of beams held out, 5 sectors, 8
-        rotations, ...; the README's real-log settings are wall_clearance=0.5,
-        displacement_variance=0.25 in options.pot); overall: OverallMapOptions of POT's
-        merged map (default merge_radius 0.25)."""
+        rotations, ...; `potmap map`'s, which map real logs, are placement=
+        'target_samples' and wall_clearance=0.5 in options.pot and average_overall=True);
+        overall: OverallMapOptions of POT's summed map (default merge_radius 0.25)."""
         ...
     def add_scan(self, scan: Scan) -> MappedScan:
         """Maps one Scan (labelled with its index = scans added so far) and adds it to the
@@ -754,6 +754,18 @@ class MapperOptions:
         ...
     @seed_min_variance.setter
     def seed_min_variance(self, value: Any) -> None: ...
+    @property
+    def average_overall(self) -> bool:
+        """POT's overall map the support-weighted average of the scans' maps (False: summed kernels; True maps real logs)"""
+        ...
+    @average_overall.setter
+    def average_overall(self, value: Any) -> None: ...
+    @property
+    def average_spacing(self) -> float:
+        """averaged overall map's grid, metres (0.25)"""
+        ...
+    @average_spacing.setter
+    def average_spacing(self, value: Any) -> None: ...
 
 class OverallMap:
     """POT's overall map: instantaneous maps merged."""
@@ -931,6 +943,18 @@ class PotOptions:
         ...
     @displacement_variance.setter
     def displacement_variance(self, value: Any) -> None: ...
+    @property
+    def placement(self) -> str:
+        """'barycentric' (the authors') or 'target_samples' (kernels on the scan's samples; what maps real logs)"""
+        ...
+    @placement.setter
+    def placement(self, value: Any) -> None: ...
+    @property
+    def anchor_spacing(self) -> float:
+        """target_samples: metres between kernels (0.5)"""
+        ...
+    @anchor_spacing.setter
+    def anchor_spacing(self, value: Any) -> None: ...
     @property
     def candidates(self) -> int:
         """atoms pre-selected per sector (0: all)"""

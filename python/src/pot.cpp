@@ -181,6 +181,22 @@ void bind_pot(py::module_& m) {
                      "metres (0: off; 0.5 maps real logs)")
       .def_readwrite("displacement_variance", &PotOptions::displacement_variance,
                      "weight variance per m^2 moved (0; 0.25 maps real logs)")
+      .def_property(
+          "placement",
+          [](const PotOptions& o) {
+            return o.placement == PotPlacement::target_samples ? "target_samples" : "barycentric";
+          },
+          [](PotOptions& o, const std::string& v) {
+            if (v != "barycentric" && v != "target_samples")
+              throw ArgumentError("placement must be 'barycentric' or 'target_samples', not '" +
+                                  v + "'");
+            o.placement =
+                v == "target_samples" ? PotPlacement::target_samples : PotPlacement::barycentric;
+          },
+          "'barycentric' (the authors') or 'target_samples' (kernels on the scan's samples; "
+          "what maps real logs)")
+      .def_readwrite("anchor_spacing", &PotOptions::anchor_spacing,
+                     "target_samples: metres between kernels (0.5)")
       .def_readwrite("candidates", &PotOptions::candidates,
                      "atoms pre-selected per sector (0: all)")
       .def_readwrite("refine", &PotOptions::refine, "RePOT (default False: POT)")
@@ -221,7 +237,14 @@ void bind_pot(py::module_& m) {
       .def_readwrite("persistent_refine", &MapperOptions::persistent_refine,
                      "RePOT keeps one persistent joint BHM (True)")
       .def_readwrite("refine_map", &MapperOptions::refine_map, "JointBhmOptions of that map")
-      .def_readwrite("seed_min_variance", &MapperOptions::seed_min_variance, "(10)");
+      .def_readwrite("seed_min_variance", &MapperOptions::seed_min_variance, "(10)")
+      .def_readwrite("average_overall", &MapperOptions::average_overall,
+                     "POT's overall map the support-weighted average of the scans' maps "
+                     "(False: summed kernels; True maps real logs)")
+      .def_property(
+          "average_spacing", [](const MapperOptions& o) { return o.averaged.spacing; },
+          [](MapperOptions& o, double v) { o.averaged.spacing = v; },
+          "averaged overall map's grid, metres (0.25)");
   add_fields_repr(mopt);
 
   py::class_<SectorTransfer>(m, "SectorTransfer", "What happened to one target sector.")
@@ -325,9 +348,9 @@ void bind_pot(py::module_& m) {
            "ctx: the device (None: the CPU reference, slow); dictionary: a Dictionary;\n"
            "refine: RePOT (default False: POT; same as options.pot.refine = True); options:\n"
            "MapperOptions (default: the library's: 20 % of beams held out, 5 sectors, 8\n"
-           "rotations, ...; the README's real-log settings are wall_clearance=0.5,\n"
-           "displacement_variance=0.25 in options.pot); overall: OverallMapOptions of POT's\n"
-           "merged map (default merge_radius 0.25).")
+           "rotations, ...; `potmap map`'s, which map real logs, are placement=\n"
+           "'target_samples' and wall_clearance=0.5 in options.pot and average_overall=True);\n"
+           "overall: OverallMapOptions of POT's summed map (default merge_radius 0.25).")
       .def(
           "add_scan",
           [](LockedMapper& lm, const Scan& scan) {

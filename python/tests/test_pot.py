@@ -52,7 +52,13 @@ def test_mapper_equals_potmap_map(source, cli, ctx, tmp_path, refine):
         "-o", out, "-q", *(["--refine"] if refine else []))
     theirs = potmap.read_map(str(out))
     d = potmap.Dictionary.load(str(source / "town1.potdict"))
-    mapper = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
+    # `potmap map`'s defaults: kernels on the scans' samples for POT (RePOT's seeds keep the
+    # barycentric placement), the averaged overall map, a wall clearance of 0.5 m.
+    o = mapper_options()
+    o.pot.wall_clearance = 0.5
+    o.pot.placement = "barycentric" if refine else "target_samples"
+    o.average_overall = True
+    mapper = potmap.Mapper(ctx, d, refine=refine, options=o)
     del d  # the mapper keeps the dictionary
     stats = [mapper.add_scan(s) for s in potmap.read_dataset(str(source / "dst" / "scans.log"))]
     assert mapper.scans == 3 and [s.index for s in stats] == [0, 1, 2]
