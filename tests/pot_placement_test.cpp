@@ -61,6 +61,37 @@ Dictionary atoms_at_samples(const std::vector<Scan>& scans, const KernelMap& map
   return dict;
 }
 
+// Scan 1 of the drive transferred from atoms of scans 0 and 2, one rotation, clearance 0.5 m
+// unless `po` says otherwise.
+struct OtherScan {
+  Dictionary dict;
+  const Scan* target = nullptr;
+  LabelledPoints train;
+  ScanTransfer transfer(const PotOptions& po) const {
+    return transfer_scan(&test::context(), dict, train, target->origin(), scan_heading(*target), 1,
+                         po);
+  }
+};
+
+const OtherScan& other_scan() {
+  static const OtherScan o = [] {
+    const Fixture& f = fixture();
+    OtherScan x;
+    x.dict = atoms_at_samples({f.scans[0], f.scans[2]}, f.map);
+    x.target = &f.scans[1];
+    x.train = training_samples(f.scans[1], 1);
+    return x;
+  }();
+  return o;
+}
+
+PotOptions one_rotation() {
+  PotOptions po;
+  po.rotations = {0.0};
+  po.wall_clearance = 0.5;
+  return po;
+}
+
 TEST(PotPlacement, AtomKernelsSitOnTheirSamplesAndReproduceTheMap) {
   const Fixture& f = fixture();
   const Dictionary dict = atoms_at_samples({f.scans[0]}, f.map);
@@ -98,15 +129,10 @@ TEST(PotPlacement, AtomKernelsSitOnTheirSamplesAndReproduceTheMap) {
 // kernel near a sector's edge may sit by a hit of the next sector, so a few are allowed); the
 // displacement variance only adds.
 TEST(PotPlacement, ClearanceKeepsFreeSpaceOffTheWallsAndVarianceGrowsWithTheMove) {
-  const Fixture& f = fixture();
-  const Dictionary dict = atoms_at_samples({f.scans[0], f.scans[2]}, f.map);
-  const Scan& target = f.scans[1];
-  const LabelledPoints train = training_samples(target, 1);
-  PotOptions po;
-  po.rotations = {0.0};
-  po.wall_clearance = 0.5;
-  const ScanTransfer a =
-      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, po);
+  const OtherScan& os = other_scan();
+  const LabelledPoints& train = os.train;
+  const PotOptions po = one_rotation();
+  const ScanTransfer a = os.transfer(po);
   ASSERT_GT(a.map.size(), 20u);
   std::size_t neg = 0, pos = 0, neg_on_wall = 0, pos_off_wall = 0;
   for (std::size_t k = 0; k < a.map.size(); ++k) {
@@ -130,14 +156,12 @@ TEST(PotPlacement, ClearanceKeepsFreeSpaceOffTheWallsAndVarianceGrowsWithTheMove
   EXPECT_EQ(pos_off_wall, 0u);  // the nearest hit is at most as far as the sector's nearest
   PotOptions off = po;
   off.wall_clearance = 0;
-  const ScanTransfer c =
-      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, off);
+  const ScanTransfer c = os.transfer(off);
   EXPECT_GT(c.map.size(), a.map.size());  // without it, kernels land on the wrong side
 
   PotOptions pv = po;
   pv.displacement_variance = 0.25;
-  const ScanTransfer b =
-      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, pv);
+  const ScanTransfer b = os.transfer(pv);
   ASSERT_EQ(b.map.size(), a.map.size());
   double grown = 0;
   for (std::size_t k = 0; k < a.map.size(); ++k) {
@@ -152,16 +176,11 @@ TEST(PotPlacement, ClearanceKeepsFreeSpaceOffTheWallsAndVarianceGrowsWithTheMove
 // (thinned to the anchor spacing), wall kernels on hits and positive, free-space kernels on free
 // samples and clear of the sector's hits; the plan's spread gives each weight a variance.
 TEST(PotPlacement, TargetSamplesPutKernelsOnTheScansOwnSamples) {
-  const Fixture& f = fixture();
-  const Dictionary dict = atoms_at_samples({f.scans[0], f.scans[2]}, f.map);
-  const Scan& target = f.scans[1];
-  const LabelledPoints train = training_samples(target, 1);
-  PotOptions po;
-  po.rotations = {0.0};
-  po.wall_clearance = 0.5;
+  const OtherScan& os = other_scan();
+  const LabelledPoints& train = os.train;
+  PotOptions po = one_rotation();
   po.placement = PotPlacement::target_samples;
-  const ScanTransfer t =
-      transfer_scan(&test::context(), dict, train, target.origin(), scan_heading(target), 1, po);
+  const ScanTransfer t = os.transfer(po);
   ASSERT_GT(t.map.size(), 20u);
   std::size_t on_hit = 0, on_free = 0, positive_on_hit = 0, free_near_hit = 0;
   double var_sum = 0;
@@ -193,8 +212,7 @@ TEST(PotPlacement, TargetSamplesPutKernelsOnTheScansOwnSamples) {
   EXPECT_LE(t.map.size(), train.size());
   PotOptions coarse = po;
   coarse.anchor_spacing = 1.0;
-  const ScanTransfer c = transfer_scan(&test::context(), dict, train, target.origin(),
-                                       scan_heading(target), 1, coarse);
+  const ScanTransfer c = os.transfer(coarse);
   EXPECT_LT(c.map.size(), t.map.size());
 }
 
