@@ -9,6 +9,7 @@
 #include "map/kernel_index.hpp"
 #include "point_proximity.hpp"
 #include "potmap/error.hpp"
+#include "thinning.hpp"
 
 namespace potmap {
 
@@ -42,15 +43,9 @@ void check_options(const SectorOptions& o, double max_range, const char* who) {
 
 // One point per occupied cell of edge `cell` (the first in input order), dim per point.
 std::vector<double> thin_to_cells(const std::vector<double>& pts, int dim, double cell) {
-  std::unordered_set<std::uint64_t> seen;
   std::vector<double> out;
-  for (std::size_t i = 0; i * dim < pts.size(); ++i) {
-    std::uint64_t key = 0;
-    for (int d = 0; d < dim; ++d)
-      key = key * 2097152u +
-            (static_cast<std::uint64_t>(std::floor(pts[i * dim + d] / cell) + 1048576) & 0x1FFFFF);
-    if (seen.insert(key).second) out.insert(out.end(), &pts[i * dim], &pts[i * dim] + dim);
-  }
+  for (std::size_t i : detail::thin_to_cells(pts, dim, cell))
+    out.insert(out.end(), &pts[i * dim], &pts[i * dim] + dim);
   return out;
 }
 

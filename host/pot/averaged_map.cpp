@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 
+#include "cell_key.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -37,9 +38,7 @@ std::int64_t AveragedMap::cell(double x) const {
 }
 
 std::uint64_t AveragedMap::key(const std::int64_t c[3]) const {
-  // 21 bits an axis: +-1e6 cells, 262 km at 0.25 m.
-  const auto u = [](std::int64_t v) { return std::uint64_t(v + (1 << 20)) & 0x1FFFFF; };
-  return u(c[0]) | (u(c[1]) << 21) | (u(c[2]) << 42);
+  return detail::pack_cell(c);
 }
 
 void AveragedMap::add(const KernelMap& inst) {

@@ -9,27 +9,15 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_set>
+#include <unordered_map>
 
+#include "cell_key.hpp"
 #include "point_proximity.hpp"
+#include "thinning.hpp"
 
 namespace potmap::detail {
 
 namespace {
-
-// One point per cell of edge `cell` (the first in input order), as indices.
-std::vector<std::size_t> thin_indices(const std::vector<double>& pts, int dim, double cell) {
-  std::unordered_set<std::uint64_t> seen;
-  std::vector<std::size_t> out;
-  for (std::size_t i = 0; i * dim < pts.size(); ++i) {
-    std::uint64_t key = 0;
-    for (int d = 0; d < dim; ++d)
-      key = key * 2097152u +
-            (static_cast<std::uint64_t>(std::floor(pts[i * dim + d] / cell) + 1048576) & 0x1FFFFF);
-    if (seen.insert(key).second) out.push_back(i);
-  }
-  return out;
-}
 
 double dist2(const double* a, const double* b, int dim) {
   double s = 0;
@@ -93,7 +81,7 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
       V(i) = v;
     }
     const std::vector<double>& pts = q == 0 ? sec.hits : sec.free;
-    const std::vector<std::size_t> keep = thin_indices(pts, dim, o.anchor_spacing * s);
+    const std::vector<std::size_t> keep = thin_to_cells(pts, dim, o.anchor_spacing * s);
     for (std::size_t a : keep) {
       const double* y = &pts[a * dim];
       if (q == 1 && on_wall && on_wall->near(y)) {
@@ -150,8 +138,8 @@ void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map)
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
   auto cell = [&](const double* p, int d) { return std::int64_t(std::floor(p[d] / reach)); };
   auto pack = [](std::int64_t x, std::int64_t y, std::int64_t z) {
-    const auto u = [](std::int64_t v) { return std::uint64_t(v + (1 << 20)) & 0x1FFFFF; };
-    return u(x) | (u(y) << 21) | (u(z) << 42);
+    const std::int64_t c[3] = {x, y, z};
+    return pack_cell(c);
   };
   for (std::size_t i = 0; i < n; ++i) {
     const double* p = &pts[i * dim];

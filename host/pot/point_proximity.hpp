@@ -6,6 +6,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "cell_key.hpp"
+
 namespace potmap::detail {
 
 class PointProximity {
@@ -40,11 +42,7 @@ class PointProximity {
   }
 
  private:
-  static std::uint64_t pack(const std::int64_t c[3]) {
-    // 21 bits an axis: +-1e6 cells.
-    const auto u = [](std::int64_t v) { return std::uint64_t(v + (1 << 20)) & 0x1FFFFF; };
-    return u(c[0]) | (u(c[1]) << 21) | (u(c[2]) << 42);
-  }
+  static std::uint64_t pack(const std::int64_t c[3]) { return pack_cell(c); }
   std::uint64_t key(const double* p) const {
     std::int64_t c[3] = {0, 0, 0};
     for (int d = 0; d < dim_; ++d) c[d] = static_cast<std::int64_t>(std::floor(p[d] / r_));

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <numeric>
 
+#include <unordered_set>
+
+#include "cell_key.hpp"
 #include "data/sim_rng.hpp"
 
 namespace potmap::detail {
@@ -13,6 +16,18 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b, std::uint64_t c) {
   data::SimRng r{a * 0x9e3779b97f4a7c15ULL ^ (b + 0x632be59bd9b4e019ULL) * 0xbf58476d1ce4e5b9ULL ^
                  c * 0x94d049bb133111ebULL};
   return r.next();
+}
+
+std::vector<std::size_t> thin_to_cells(const std::vector<double>& pts, int dim, double cell) {
+  std::unordered_set<std::uint64_t> seen;
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i * dim < pts.size(); ++i) {
+    std::int64_t c[3] = {0, 0, 0};
+    for (int d = 0; d < dim; ++d)
+      c[d] = static_cast<std::int64_t>(std::floor(pts[i * dim + d] / cell));
+    if (seen.insert(pack_cell(c)).second) out.push_back(i);
+  }
+  return out;
 }
 
 Eigen::MatrixXd subsample(const std::vector<double>& pts, int dim, std::size_t cap,

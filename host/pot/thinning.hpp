@@ -18,6 +18,10 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b, std::uint64_t c);
 Eigen::MatrixXd subsample(const std::vector<double>& pts, int dim, std::size_t cap,
                           std::uint64_t seed);
 
+/// Indices of one point per occupied cell of edge `cell` (the first in input order), dim
+/// coordinates per point.
+std::vector<std::size_t> thin_to_cells(const std::vector<double>& pts, int dim, double cell);
+
 /// At most `cap` points spread evenly over the cloud: one point (the first in input order) per
 /// cell of the finest square (cubic) grid that has at most `cap` occupied cells. A random
 /// subsample keeps the cloud's density, so two random subsamples of matching places differ
