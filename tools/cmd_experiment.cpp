@@ -61,6 +61,17 @@ void add_common(CLI::App* cmd, Settings& s) {
          "POT/RePOT: exhaustive (every atom at every rotation) or indexed (nearest atoms at "
          "estimated rotations, coarse to fine; default exhaustive)")
       ->check(CLI::IsMember({"exhaustive", "indexed"}));
+  cmd->add_option("--pot-pipeline", s.pot.pipeline,
+                  "POT/RePOT: prepare the next scan, and run RePOT's update, beside the current "
+                  "scan's transfer on other threads (false: one scan at a time; same maps)")
+      ->capture_default_str();
+  cmd->add_option("--index-neighbours", s.pot.pot.index_neighbours,
+                  "POT/RePOT with --ranking indexed: atoms taken from the index per sector")
+      ->capture_default_str();
+  cmd->add_option("--fine-candidates", s.pot.pot.fine_candidates,
+                  "POT/RePOT with --ranking indexed: best coarse candidates per sector solved "
+                  "again at the ranking's caps (0: the coarse stage decides)")
+      ->capture_default_str();
   cmd->add_option("--atom-scans", s.pot.atom_scans,
                   "POT/RePOT: source scans per place cut into atoms, evenly spaced (0: all)")
       ->capture_default_str();

@@ -297,7 +297,8 @@ void register_map(CLI::App& app, Runner& runner) {
   cmd->add_option("--json", a->json, "Write the summary as JSON to this path ('-': stdout)");
   cmd->add_flag("--cpu", a->cpu, "Use the CPU reference, one problem at a time (slow)");
   cmd->add_flag("--no-pipeline", a->no_pipeline,
-                "Prepare each scan only after the previous one (no second thread)");
+                "One scan at a time: no preparing the next scan, and no merging or RePOT update of "
+                "the last one, beside the current scan's transfer (same maps)");
   cmd->add_flag("-q,--quiet", a->quiet, "No line per scan (a progress bar on a terminal)");
   cmd->add_option("--checkpoint", a->checkpoint,
                   "Checkpoint file: the overall map and everything needed to continue the run, "

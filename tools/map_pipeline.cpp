@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 
 #include "map_checkpoint.hpp"
 #include "potmap/error.hpp"
@@ -88,67 +89,79 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   auto last_checkpoint = t0;
   if (!job.instantaneous_dir.empty()) std::filesystem::create_directories(job.instantaneous_dir);
   auto progress = job.verbose ? std::function<void(double)>() : terminal_progress("map");
+  // Everything after a scan's transfer (its scores, the overall map's merge or RePOT's update,
+  // the checkpoint) runs on a worker beside the next scan's transfer, which reads none of it;
+  // the scans still reach the mapper one at a time and in order, so the maps are a serial
+  // run's.
+  auto merge_scan = [&](MappedScan&& m) {
+    // The instantaneous map on its own scan's held-out samples (exact sum: a few thousand
+    // points).
+    if (!m.test.empty()) {
+      const MapValuesExact v =
+          evaluate_exact(m.transfer.map, m.test.position.data(), m.test.size());
+      for (std::size_t j = 0; j < m.test.size(); ++j) {
+        t.inst_prob.push_back(static_cast<float>(v.prob[j]));
+        t.labels.push_back(m.test.label[j]);
+      }
+      LabelledPoints& test = t.test;
+      test.position.insert(test.position.end(), m.test.position.begin(), m.test.position.end());
+      test.label.insert(test.label.end(), m.test.label.begin(), m.test.label.end());
+      test.scan.insert(test.scan.end(), m.test.scan.begin(), m.test.scan.end());
+    }
+    mapper.add_mapped(std::move(m));
+    const MappedScan& done = mapper.last();
+    const ScanTransfer& tr = done.transfer;
+    if (!job.instantaneous_dir.empty()) {
+      char name[64];
+      std::snprintf(name, sizeof name, "scan_%06zu.potmap", done.index);
+      write_map(tr.map, (std::filesystem::path(job.instantaneous_dir) / name).string());
+    }
+    t.timing.prepare_ms += tr.timing.prepare_ms;
+    t.timing.ranking_ms += tr.timing.ranking_ms;
+    t.timing.transport_ms += tr.timing.transport_ms;
+    t.timing.placement_ms += tr.timing.placement_ms;
+    t.timing.refine_ms += tr.timing.refine_ms;
+    t.wall_ms += done.wall_ms;
+    t.max_wall_ms = std::max(t.max_wall_ms, done.wall_ms);
+    t.kernels += tr.map.size();
+    ++t.scans;
+    if (job.verbose) {
+      std::fprintf(stderr,
+                   "potmap map: scan %zu/%zu: %zu sectors, %zu kernels, %.1f ms (ranking "
+                   "%.1f, transport %.1f, placement %.1f, refine %.1f); overall %zu "
+                   "kernels\n",
+                   done.index + 1, scans.size(), tr.sectors.size(), tr.map.size(), done.wall_ms,
+                   tr.timing.ranking_ms, tr.timing.transport_ms, tr.timing.placement_ms,
+                   tr.timing.refine_ms, mapper.overall_kernels());
+    } else if (progress) {
+      progress(double(done.index + 1) / double(scans.size()));
+    }
+    // A checkpoint after the last scan would only be removed again.
+    if (ck.path.empty() || t.scans == scans.size()) return;
+    const auto now = std::chrono::steady_clock::now();
+    const bool by_count = ck.every > 0 && t.scans % ck.every == 0;
+    const bool by_time =
+        ck.every_seconds > 0 &&
+        std::chrono::duration<double>(now - last_checkpoint).count() >= ck.every_seconds;
+    if (!by_count && !by_time) return;
+    const double seconds = t.seconds + std::chrono::duration<double>(now - t0).count();
+    mapper.save_state(ck.path, encode_checkpoint(ck.run, t, seconds));
+    last_checkpoint = std::chrono::steady_clock::now();
+    ++r.checkpoints;
+    r.checkpoint_seconds += std::chrono::duration<double>(last_checkpoint - now).count();
+  };
+  const auto launch = mapper.options().pipeline ? std::launch::async : std::launch::deferred;
+  std::future<void> merging;
   // The mapper's options carry the ranking's preselector or index, built once.
   map_scans(
       ctx, dict, scans, mapper.options(),
       [&](MappedScan&& m) {
-        // The instantaneous map on its own scan's held-out samples (exact sum: a few thousand
-        // points).
-        if (!m.test.empty()) {
-          const MapValuesExact v =
-              evaluate_exact(m.transfer.map, m.test.position.data(), m.test.size());
-          for (std::size_t j = 0; j < m.test.size(); ++j) {
-            t.inst_prob.push_back(static_cast<float>(v.prob[j]));
-            t.labels.push_back(m.test.label[j]);
-          }
-          LabelledPoints& test = t.test;
-          test.position.insert(test.position.end(), m.test.position.begin(), m.test.position.end());
-          test.label.insert(test.label.end(), m.test.label.begin(), m.test.label.end());
-          test.scan.insert(test.scan.end(), m.test.scan.begin(), m.test.scan.end());
-        }
-        mapper.add_mapped(std::move(m));
-        const MappedScan& done = mapper.last();
-        const ScanTransfer& tr = done.transfer;
-        if (!job.instantaneous_dir.empty()) {
-          char name[64];
-          std::snprintf(name, sizeof name, "scan_%06zu.potmap", done.index);
-          write_map(tr.map, (std::filesystem::path(job.instantaneous_dir) / name).string());
-        }
-        t.timing.prepare_ms += tr.timing.prepare_ms;
-        t.timing.ranking_ms += tr.timing.ranking_ms;
-        t.timing.transport_ms += tr.timing.transport_ms;
-        t.timing.placement_ms += tr.timing.placement_ms;
-        t.timing.refine_ms += tr.timing.refine_ms;
-        t.wall_ms += done.wall_ms;
-        t.max_wall_ms = std::max(t.max_wall_ms, done.wall_ms);
-        t.kernels += tr.map.size();
-        ++t.scans;
-        if (job.verbose) {
-          std::fprintf(stderr,
-                       "potmap map: scan %zu/%zu: %zu sectors, %zu kernels, %.1f ms (ranking "
-                       "%.1f, transport %.1f, placement %.1f, refine %.1f); overall %zu "
-                       "kernels\n",
-                       done.index + 1, scans.size(), tr.sectors.size(), tr.map.size(), done.wall_ms,
-                       tr.timing.ranking_ms, tr.timing.transport_ms, tr.timing.placement_ms,
-                       tr.timing.refine_ms, mapper.overall_kernels());
-        } else if (progress) {
-          progress(double(done.index + 1) / double(scans.size()));
-        }
-        // A checkpoint after the last scan would only be removed again.
-        if (ck.path.empty() || t.scans == scans.size()) return;
-        const auto now = std::chrono::steady_clock::now();
-        const bool by_count = ck.every > 0 && t.scans % ck.every == 0;
-        const bool by_time =
-            ck.every_seconds > 0 &&
-            std::chrono::duration<double>(now - last_checkpoint).count() >= ck.every_seconds;
-        if (!by_count && !by_time) return;
-        const double seconds = t.seconds + std::chrono::duration<double>(now - t0).count();
-        mapper.save_state(ck.path, encode_checkpoint(ck.run, t, seconds));
-        last_checkpoint = std::chrono::steady_clock::now();
-        ++r.checkpoints;
-        r.checkpoint_seconds += std::chrono::duration<double>(last_checkpoint - now).count();
+        if (merging.valid()) merging.get();
+        merging = std::async(
+            launch, [&merge_scan, m = std::move(m)]() mutable { merge_scan(std::move(m)); });
       },
       mapper.continuation());
+  if (merging.valid()) merging.get();
   r.scans = t.scans;
   if (r.scans > 0) {
     const double n = double(r.scans);

@@ -220,7 +220,9 @@ struct PotSetup {
     o.merge_radius = 0.5;
     return o;
   }();
-  bool pipeline = true;  ///< prepare the next scan on a second thread
+  /// Prepare the next scan on a second thread, and run RePOT's update of a scan beside the next
+  /// scan's transfer on a third (default true; false: one scan at a time, the same maps).
+  bool pipeline = true;
   /// Called with every target scan's transfer, in order (benchmarks read the chosen atoms);
   /// may be empty.
   std::function<void(std::size_t scan, const ScanTransfer& transfer)> on_scan;
