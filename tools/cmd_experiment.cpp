@@ -59,7 +59,7 @@ void add_common(CLI::App* cmd, Settings& s) {
            s.pot.pot.ranking = v == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
          },
          "POT/RePOT: exhaustive (every atom at every rotation) or indexed (nearest atoms at "
-         "estimated rotations, coarse to fine; default exhaustive)")
+         "estimated rotations, coarse to fine; default indexed)")
       ->check(CLI::IsMember({"exhaustive", "indexed"}));
   cmd->add_option("--pot-pipeline", s.pot.pipeline,
                   "POT/RePOT: prepare the next scan, and run RePOT's update, beside the current "

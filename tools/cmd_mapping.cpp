@@ -28,7 +28,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 struct MappingArgs {
-  std::string log, out, dict, method = "repot", json, ranking = "exhaustive";
+  std::string log, out, dict, method = "repot", json, ranking = "indexed";
   double range_cut = 20, ros_res = 0.05;
   std::size_t first = 0, max_scans = 0, picture_pixels = 1200;
   int rotations = 8;

@@ -667,8 +667,9 @@ class Mapper:
         """ctx: the device (None: the CPU reference, slow); dictionary: a Dictionary;
         refine: RePOT (default False: POT; same as options.pot.refine = True); options:
         MapperOptions (default: the library's: 20 % of beams held out, 5 sectors, 8
-        rotations, ...; `potmap map`'s, which map real logs, are placement=
-        'target_samples' and wall_clearance=0.5 in options.pot and average_overall=True);
+        rotations, ...; `potmap map`'s, which map real logs, are ranking='indexed',
+        placement='target_samples' and wall_clearance=0.5 in options.pot and
+        average_overall=True);
         overall: OverallMapOptions of POT's summed map (default merge_radius 0.25)."""
         ...
     def add_scan(self, scan: Scan) -> MappedScan:
@@ -949,6 +950,12 @@ class PotOptions:
         ...
     @placement.setter
     def placement(self, value: Any) -> None: ...
+    @property
+    def ranking(self) -> str:
+        """'exhaustive' (every atom at every rotation, the paper's) or 'indexed' (the index's nearest atoms at estimated rotations, coarse to fine; what `potmap map` runs)"""
+        ...
+    @ranking.setter
+    def ranking(self, value: Any) -> None: ...
     @property
     def anchor_spacing(self) -> float:
         """target_samples: metres between kernels (0.5)"""

@@ -188,13 +188,25 @@ void bind_pot(py::module_& m) {
           },
           [](PotOptions& o, const std::string& v) {
             if (v != "barycentric" && v != "target_samples")
-              throw ArgumentError("placement must be 'barycentric' or 'target_samples', not '" +
-                                  v + "'");
+              throw ArgumentError("placement must be 'barycentric' or 'target_samples', not '" + v +
+                                  "'");
             o.placement =
                 v == "target_samples" ? PotPlacement::target_samples : PotPlacement::barycentric;
           },
           "'barycentric' (the authors') or 'target_samples' (kernels on the scan's samples; "
           "what maps real logs)")
+      .def_property(
+          "ranking",
+          [](const PotOptions& o) {
+            return o.ranking == PotRanking::indexed ? "indexed" : "exhaustive";
+          },
+          [](PotOptions& o, const std::string& v) {
+            if (v != "exhaustive" && v != "indexed")
+              throw ArgumentError("ranking must be 'exhaustive' or 'indexed', not '" + v + "'");
+            o.ranking = v == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
+          },
+          "'exhaustive' (every atom at every rotation, the paper's) or 'indexed' (the index's "
+          "nearest atoms at estimated rotations, coarse to fine; what `potmap map` runs)")
       .def_readwrite("anchor_spacing", &PotOptions::anchor_spacing,
                      "target_samples: metres between kernels (0.5)")
       .def_readwrite("candidates", &PotOptions::candidates,
@@ -348,8 +360,9 @@ void bind_pot(py::module_& m) {
            "ctx: the device (None: the CPU reference, slow); dictionary: a Dictionary;\n"
            "refine: RePOT (default False: POT; same as options.pot.refine = True); options:\n"
            "MapperOptions (default: the library's: 20 % of beams held out, 5 sectors, 8\n"
-           "rotations, ...; `potmap map`'s, which map real logs, are placement=\n"
-           "'target_samples' and wall_clearance=0.5 in options.pot and average_overall=True);\n"
+           "rotations, ...; `potmap map`'s, which map real logs, are ranking='indexed',\n"
+           "placement='target_samples' and wall_clearance=0.5 in options.pot and\n"
+           "average_overall=True);\n"
            "overall: OverallMapOptions of POT's summed map (default merge_radius 0.25).")
       .def(
           "add_scan",

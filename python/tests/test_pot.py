@@ -52,9 +52,11 @@ def test_mapper_equals_potmap_map(source, cli, ctx, tmp_path, refine):
         "-o", out, "-q", *(["--refine"] if refine else []))
     theirs = potmap.read_map(str(out))
     d = potmap.Dictionary.load(str(source / "town1.potdict"))
-    # `potmap map`'s defaults: kernels on the scans' samples for POT (RePOT's seeds keep the
-    # barycentric placement), the averaged overall map, a wall clearance of 0.5 m.
+    # `potmap map`'s defaults: the indexed ranking, kernels on the scans' samples for POT
+    # (RePOT's seeds keep the barycentric placement), the averaged overall map, a wall
+    # clearance of 0.5 m.
     o = mapper_options()
+    o.pot.ranking = "indexed"
     o.pot.wall_clearance = 0.5
     o.pot.placement = "barycentric" if refine else "target_samples"
     o.average_overall = True
