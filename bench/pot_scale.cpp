@@ -165,6 +165,7 @@ Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
              {"transport_ms", f.info.at("transport_ms")},
              {"placement_ms", f.info.at("placement_ms")},
              {"refine_ms", f.info.at("refine_ms")},
+             {"combine_ms", f.info.at("combine_ms")},
              {"acc", sc.acc},
              {"auc", sc.auc},
              {"nll", sc.nll}};

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The full runs whose outputs are committed under docs/results (JSON and figures), then the
-# results page. Run from anywhere after building (scripts/setup.sh); takes about 40 minutes on
+# results page. Run from anywhere after building (scripts/setup.sh); takes about 30 minutes on
 # 2 cores. Extra arguments go to every runner (e.g. --device pocl).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -15,8 +15,8 @@ logs=(../shared/data/radish/intel-corrected.log.gz ../shared/data/radish/aces-co
 common=(--seeds 0 1 2 --figures "$fig" "$@")
 
 "$potmap" experiment intra "${logs[@]}" --scans 110 --json $out/intra.json "${common[@]}"
-# POT ranks every atom at every rotation for every sector (no pre-selection yet): shorter runs
-# and about 50 atoms per source (10 scans; 4 per town for the three towns) keep this under an hour.
+# Shorter runs and about 50 atoms per source (10 scans; 4 per town for the three towns), as the
+# paper's tables; POT's indexed ranking would take thousands of atoms at about the same time.
 "$potmap" experiment inter "${logs[@]}" --scans 60 --json $out/inter.json "${common[@]}"
 "$potmap" experiment sim2real "${logs[@]}" --scans 60 --atom-scans 4 --json $out/sim2real.json "${common[@]}"
 # The baselines' maps of a target are those of the intra-domain figures: keep the repository small

@@ -198,6 +198,27 @@ TEST(Sinkhorn, RaggedBatchEqualsOneByOne) {
   }
 }
 
+// Without duals (what a ranking asks for) the launch reads back the statistics alone: the same
+// costs, iterations and convergence, and no f or g.
+TEST(Sinkhorn, CostsWithoutDualsAreTheSame) {
+  SinkhornBatch batch;
+  unsigned seed = 40;
+  for (int n : {12, 40, 7}) batch.add(problem(n, n + 5, 2, seed++, 0.03));
+  SinkhornOptions lean;
+  lean.want_duals = false;
+  const auto with = batch.run(test::context(), SinkhornOptions{});
+  const auto without = batch.run(test::context(), lean);
+  ASSERT_EQ(with.size(), without.size());
+  for (std::size_t p = 0; p < with.size(); ++p) {
+    EXPECT_EQ(without[p].cost, with[p].cost) << p;
+    EXPECT_EQ(without[p].iterations, with[p].iterations) << p;
+    EXPECT_EQ(without[p].converged, with[p].converged) << p;
+    EXPECT_GT(with[p].f.size(), 0) << p;
+    EXPECT_EQ(without[p].f.size(), 0) << p;
+    EXPECT_EQ(without[p].g.size(), 0) << p;
+  }
+}
+
 // A batch too large for one launch (more than 2^18 padded points) is solved in several; the
 // results must be those of the problems solved in small batches.
 TEST(Sinkhorn, BatchSplitIntoLaunchesEqualsSmallBatches) {

@@ -184,14 +184,24 @@ Method pot_method(const PotSetup& setup, const std::string& name,
     PotTiming timing;
     std::size_t sectors = 0, inst_kernels = 0;
     double combine_ms = 0, refine_ms = 0;
-    // RePOT's update of scan i runs beside scan i + 1's transfer: the transfer never reads the
-    // learner, and the learner takes the scans in order, so the maps are those of a serial run.
-    std::future<void> refining;
-    auto refine = [&](std::size_t i, KernelMap transported) {
-      const auto r0 = std::chrono::steady_clock::now();
-      learner->seed_unreached(transported, setup.seed_min_variance);
-      learner->update(samples_of(task, off[i], off[i + 1], {0, 0, 0}, 0));
-      refine_ms += 1e3 * seconds_since(r0);
+    // What a scan adds to the overall map (RePOT's update, POT's averaged or summed map) runs
+    // beside the next scan's transfer: the transfer never reads the overall map, which takes
+    // the scans in order, so the maps are those of a serial run.
+    std::future<void> merging;
+    auto merge = [&](std::size_t i, KernelMap transported) {
+      const auto c0 = std::chrono::steady_clock::now();
+      if (learner) {
+        learner->seed_unreached(transported, setup.seed_min_variance);
+        learner->update(samples_of(task, off[i], off[i + 1], {0, 0, 0}, 0));
+        refine_ms += 1e3 * seconds_since(c0);
+        return;
+      }
+      if (transported.empty()) return;
+      if (average)
+        averaged.add(transported);
+      else
+        overall.add(transported);
+      combine_ms += 1e3 * seconds_since(c0);
     };
     for (std::size_t i = 0; i < n; ++i) {
       PreparedTransfer cur = next.get();
@@ -201,24 +211,15 @@ Method pot_method(const PotSetup& setup, const std::string& name,
       if (setup.on_scan) setup.on_scan(i, t);
       sectors += t.sectors.size();
       inst_kernels += t.map.size();
-      if (learner) {
-        if (refining.valid()) refining.get();
-        refining = std::async(launch, refine, i, std::move(t.map));
-      } else if (!t.map.empty()) {
-        const auto c0 = std::chrono::steady_clock::now();
-        if (average)
-          averaged.add(t.map);
-        else
-          overall.add(t.map);
-        combine_ms += 1e3 * seconds_since(c0);
-      }
       timing.prepare_ms += t.timing.prepare_ms;
       timing.ranking_ms += t.timing.ranking_ms;
       timing.transport_ms += t.timing.transport_ms;
       timing.placement_ms += t.timing.placement_ms;
       timing.refine_ms += t.timing.refine_ms;
+      if (merging.valid()) merging.get();
+      merging = std::async(launch, merge, i, std::move(t.map));
     }
-    if (refining.valid()) refining.get();
+    if (merging.valid()) merging.get();
     timing.refine_ms += refine_ms;
     const double secs = seconds_since(t0);
     auto map = std::make_shared<KernelMap>(learner   ? learner->map()

@@ -344,17 +344,17 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
   const SinkhornLaunchInts& last = L.ints[np - 1];
   const std::size_t sslots = last.src_slot + last.npad, tslots = last.tgt_slot + last.mpad;
   std::vector<double> fh, gh, la, lb;
-  if (L.dbl) {
+  if (opt.want_duals && L.dbl) {
     fh = read_back<double>(q, L.fh, sslots);
     gh = read_back<double>(q, L.gh, tslots);
-  } else {
+  } else if (opt.want_duals) {
     fh = read_back<float>(q, L.fh, sslots);
     gh = read_back<float>(q, L.gh, tslots);
   }
-  if (L.weights_double) {
+  if (opt.want_duals && L.weights_double) {
     la = read_back<double>(q, L.loga, sslots);
     lb = read_back<double>(q, L.logb, tslots);
-  } else {
+  } else if (opt.want_duals) {
     la = read_back<float>(q, L.loga, sslots);
     lb = read_back<float>(q, L.logb, tslots);
   }
@@ -376,10 +376,12 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
     r.converged = stats[p].converged != 0;
     const int n = scnt[p], m = tcnt[p];
     const int ss = L.ints[p].src_slot, ts = L.ints[p].tgt_slot;
-    r.f.resize(n);
-    r.g.resize(m);
-    for (int i = 0; i < n; ++i) r.f(i) = (fh[ss + i] - la[ss + i]) * pr.epsilon;
-    for (int j = 0; j < m; ++j) r.g(j) = (gh[ts + j] - lb[ts + j]) * pr.epsilon;
+    if (opt.want_duals) {
+      r.f.resize(n);
+      r.g.resize(m);
+      for (int i = 0; i < n; ++i) r.f(i) = (fh[ss + i] - la[ss + i]) * pr.epsilon;
+      for (int j = 0; j < m; ++j) r.g(j) = (gh[ts + j] - lb[ts + j]) * pr.epsilon;
+    }
     if (opt.want_coupling) {
       r.coupling.resize(n, m);
       const long o = L.result.coupling_offset[p];

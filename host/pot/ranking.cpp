@@ -88,6 +88,13 @@ bool add_candidate(std::size_t atom, double angle, const Eigen::MatrixXd& ah,
   return true;
 }
 
+// The ranking compares costs: the duals stay on the device.
+SinkhornOptions costs_only() {
+  SinkhornOptions o;
+  o.want_duals = false;
+  return o;
+}
+
 SinkhornProblem ranking_problem(const PotOptions& o) {
   SinkhornProblem p;
   p.epsilon = o.rank_epsilon;
@@ -234,7 +241,7 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
 
 std::vector<Winner> rank_exhaustive(Context* ctx, const PreparedTransfer& pt, PotTiming& timing) {
   auto t0 = Clock::now();
-  const std::vector<SinkhornResult> ranked = solve(ctx, pt.ranking, SinkhornOptions{});
+  const std::vector<SinkhornResult> ranked = solve(ctx, pt.ranking, costs_only());
   timing.ranking_ms += ms_since(t0);
   std::vector<Winner> out(pt.sectors.size());
   for (std::size_t s = 0; s < pt.sectors.size(); ++s)
@@ -246,7 +253,7 @@ std::vector<Winner> rank_exhaustive(Context* ctx, const PreparedTransfer& pt, Po
 std::vector<Winner> rank_indexed(Context* ctx, const Dictionary& dict, const PreparedTransfer& pt,
                                  const PotOptions& o, PotTiming& timing) {
   auto t0 = Clock::now();
-  const std::vector<SinkhornResult> coarse = solve(ctx, pt.ranking, SinkhornOptions{});
+  const std::vector<SinkhornResult> coarse = solve(ctx, pt.ranking, costs_only());
   timing.ranking_ms += ms_since(t0);
   const std::size_t ns = pt.sectors.size();
   std::vector<Winner> out(ns);
@@ -289,7 +296,7 @@ std::vector<Winner> rank_indexed(Context* ctx, const Dictionary& dict, const Pre
   }
   timing.prepare_ms += ms_since(t0);
   t0 = Clock::now();
-  const std::vector<SinkhornResult> refined = solve(ctx, fine, SinkhornOptions{});
+  const std::vector<SinkhornResult> refined = solve(ctx, fine, costs_only());
   timing.ranking_ms += ms_since(t0);
 
   // The coarse maxima stand for the largest values over the candidates, as the exhaustive

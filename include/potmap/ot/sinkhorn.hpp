@@ -53,8 +53,11 @@ struct SinkhornOptions {
   /// Epsilon scaling: one iteration at each of epsilon_start, epsilon_start * epsilon_decay, ...
   /// down to the problem's epsilon, then iterations at that epsilon until converged or
   /// max_iterations. The result is always the one at the problem's epsilon.
-  double epsilon_start = 0;       ///< first epsilon, cost units; <= epsilon (default 0): none
-  double epsilon_decay = 0.7;     ///< factor per annealing step, in (0, 1)
+  double epsilon_start = 0;    ///< first epsilon, cost units; <= epsilon (default 0): none
+  double epsilon_decay = 0.7;  ///< factor per annealing step, in (0, 1)
+  /// Fill SinkhornResult::f and g (default true). false: cost and statistics only, one read
+  /// from the device a launch instead of five, as a ranking that compares costs needs.
+  bool want_duals = true;
   bool want_coupling = false;     ///< fill SinkhornResult::coupling (n x m dense)
   bool want_barycentric = false;  ///< fill SinkhornResult::barycentric (and extra_mapped)
   bool use_double = false;        ///< solve in double precision (needs cl_khr_fp64)
