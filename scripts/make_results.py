@@ -166,8 +166,9 @@ def main():
         "sample has reached them yet, then updated with each scan's training samples. The",
         "dynamic runner scores each scan's instantaneous map (Table V). Their time per scan is",
         "the transfer (ranking, transport, placement, RePOT's seeding and update, POT's overall map), with",
-        "the next scan's host preparation",
-        "overlapped as `potmap map` does; building the atoms is offline and not included.",
+        "the next scan's host preparation and the last scan's merge into the overall map (RePOT's",
+        "update, POT's average) overlapped as `potmap map` does; building the atoms is offline and",
+        "not included.",
         "Every scan is cut at the settings' max_range (20 m: the towns' range and POT's sector",
         "radius) for every method: returns of the 80 m lasers of the real logs beyond it become",
         "free beams to 20 m.",
@@ -188,6 +189,12 @@ def main():
                          f"{st['pot_atom_scans']} source scans per place cut into "
                          f"{st['pot_sectors']} sectors, {st['pot_rotations']} rotations; scans cut "
                          f"at {st.get('max_range', 0):g} m")
+            if st.get("pot_ranking") == "indexed":
+                lines.append(f"- ranking: indexed ({st['pot_index_neighbours']} nearest atoms of "
+                             "the index and the last scan's at estimated rotations, the best "
+                             f"{st['pot_fine_candidates']} a sector solved again at the caps)")
+            elif "pot_ranking" in st:
+                lines.append("- ranking: exhaustive (every atom at every rotation)")
             if "pot_placement" in st:
                 place = ("kernels on the target's samples thinned to "
                          f"{st['pot_anchor_spacing']:g} m, each carrying the atom's logit pulled "

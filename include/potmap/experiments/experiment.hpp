@@ -153,8 +153,7 @@ struct PotSetup {
   /// on the target's samples the plan's spread of source logits already widens poor matches,
   /// and the move's variance made NLL worse (CSAIL 0.295 -> 0.312 at 0.25 per m^2). The
   /// indexed ranking (PotRanking::indexed): with these kernels it scores as the exhaustive one
-  /// (16 real-log tasks, 3 seeds: AUC and NLL within 0.005 either way, mean AUC +0.001) in a
-  /// fourth to a sixth of the time at 50 atoms, and its time barely grows with the dictionary
+  /// at a fraction of its time, and its time barely grows with the dictionary
   /// (docs/pot-scale.md).
   PotOptions pot = [] {
     PotOptions p;
