@@ -154,6 +154,11 @@ void register_demo(CLI::App& app, Runner& runner) {
   cmd->add_option("--rotations", pot->rotations, "Rotations tried per atom (default 8)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--method", pot->method, "pot, repot or both (default both)");
+  cmd->add_option("--map-defaults", pot->map_defaults,
+                  "POT/RePOT with potmap map's settings (indexed ranking, kernels on the "
+                  "scans' samples, averaged overall map, wall clearance 0.5 m); false: the "
+                  "library's, the paper's rules")
+      ->capture_default_str();
   cmd->add_option("--data", args->data,
                   "with --authors-map: folder holding carla/ (default ../shared/data)");
   cmd->add_option("--out", args->out,

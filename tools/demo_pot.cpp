@@ -127,6 +127,13 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
     const std::string name = refine ? "RePOT" : "POT";
     MapJob job;
     job.mapper.pot.refine = refine;
+    if (a.map_defaults) {
+      // `potmap map`'s defaults, the settings that map the real logs.
+      job.mapper.pot.ranking = PotRanking::indexed;
+      job.mapper.pot.wall_clearance = 0.5;
+      job.mapper.pot.placement = refine ? PotPlacement::barycentric : PotPlacement::target_samples;
+      job.mapper.average_overall = true;
+    }
     job.mapper.pot.rotations.clear();
     for (int i = 0; i < a.rotations; ++i)
       job.mapper.pot.rotations.push_back(2 * kPi * i / a.rotations);

@@ -11,6 +11,7 @@ struct PotDemoArgs {
   double spacing = 2.5;  ///< metres between target scans
   int rotations = 8;
   std::string method = "both";  ///< pot, repot or both
+  bool map_defaults = true;     ///< potmap map's settings (false: the library's, the paper's)
   std::string out;              ///< output prefix (default out/demo/pot)
   std::string json;
   double res = 0;  ///< picture metres per pixel; 0: 1200 pixels along the long side
