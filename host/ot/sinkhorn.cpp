@@ -344,19 +344,14 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
   const SinkhornLaunchInts& last = L.ints[np - 1];
   const std::size_t sslots = last.src_slot + last.npad, tslots = last.tgt_slot + last.mpad;
   std::vector<double> fh, gh, la, lb;
-  if (opt.want_duals && L.dbl) {
-    fh = read_back<double>(q, L.fh, sslots);
-    gh = read_back<double>(q, L.gh, tslots);
-  } else if (opt.want_duals) {
-    fh = read_back<float>(q, L.fh, sslots);
-    gh = read_back<float>(q, L.gh, tslots);
-  }
-  if (opt.want_duals && L.weights_double) {
-    la = read_back<double>(q, L.loga, sslots);
-    lb = read_back<double>(q, L.logb, tslots);
-  } else if (opt.want_duals) {
-    la = read_back<float>(q, L.loga, sslots);
-    lb = read_back<float>(q, L.logb, tslots);
+  if (opt.want_duals) {
+    auto read = [&q](const bc::buffer& b, std::size_t n, bool dbl) {
+      return dbl ? read_back<double>(q, b, n) : read_back<float>(q, b, n);
+    };
+    fh = read(L.fh, sslots, L.dbl);
+    gh = read(L.gh, tslots, L.dbl);
+    la = read(L.loga, sslots, L.weights_double);
+    lb = read(L.logb, tslots, L.weights_double);
   }
   std::vector<double> plan, bary;
   if (opt.want_coupling) {
