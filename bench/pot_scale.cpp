@@ -2,29 +2,26 @@
 // the chosen atoms, exhaustive against indexed ranking, against the number of atoms, beside
 // BHM's time per scan on the same scans in the same run. Prints a table and writes JSON.
 //
-// Target: a Radish log (default intel), scans [first, first + scans) cut at 20 m, 20 % of every
-// scan's beams held out, mapped as `potmap experiment intra` maps it (PotSetup's defaults: the
-// committed experiments' settings). Dictionaries: the first N atoms of a pool whose head is the
-// atoms of the target log's first `first` scans (the intra-domain dictionary) and whose tail
-// is other places, round robin: the other Radish logs and the three simulated towns. The pool
-// is built once and cached as a .potdict in --cache (load time and memory per atom reported).
+// Target: a Radish log (default intel; or a built-in town's 360-beam drive), scans [first, first +
+// scans) cut at 20 m, 20 % of every scan's beams held out, mapped as `potmap experiment intra` maps
+// it (PotSetup's defaults: the committed experiments' settings). Dictionaries: the first N atoms of
+// a pool whose head is the atoms of the target log's first `first` scans (the intra-domain
+// dictionary) and whose tail is other places, round robin: the other Radish logs and the three
+// simulated towns. The pool is built once and cached as a .potdict in --cache (load time and memory
+// per atom reported).
 //
 // The exhaustive ranking costs atoms x rotations per sector: at large N it runs on fewer scans
 // (--exhaustive-scans); the indexed ranking runs on those scans too, for the same-scan
 // comparison, and on every scan.
 //
-// Usage: pot_scale [--data ../shared/data/radish] [--target intel] [--first 10] [--scans 100]
-//                  [--atoms 6,50,200,1000,5000] [--exhaustive-scans 100,100,100,20,5]
-//                  [--repot 1] [--cache pot_scale_cache] [--out pot_scale.json]
-//                  [--neighbours 16] [--rotations-per-atom 2] [--coarse 48,24] [--fine 3]
-//                  [--warm 1] [--snap 1] [--anchors 1]   (the indexed ranking's settings,
-//                  PotOptions' defaults)
+// Usage: pot_scale --help
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -58,8 +55,22 @@ std::vector<std::size_t> numbers(const std::string& s) {
   return v;
 }
 
-std::vector<Scan> read_log(const std::string& path, std::size_t first, std::size_t count) {
-  std::vector<Scan> all = read_dataset(path).scans;
+bool is_town(const std::string& name) {
+  return name.rfind("town", 0) == 0;
+}
+
+// Scans [first, first + count) of a Radish log (`name` under `data`) or of a drive through a
+// built-in town (360-beam scans, 1 m apart, as `potmap data simulate` drives), cut at 20 m.
+std::vector<Scan> read_log(const std::string& data, const std::string& name, std::size_t first,
+                           std::size_t count) {
+  std::vector<Scan> all;
+  if (is_town(name)) {
+    SimOptions so;
+    so.scans = first + count;
+    all = simulate(Town::builtin(name), so).scans;
+  } else {
+    all = read_dataset(data + "/" + name + "-corrected.log.gz").scans;
+  }
   std::vector<Scan> out;
   for (std::size_t i = first; i < all.size() && out.size() < count; ++i)
     out.push_back(ex::limit_range(all[i], 20.0));
@@ -80,8 +91,7 @@ Dictionary place_atoms(Context* ctx, const std::vector<Scan>& scans, std::size_t
 // The pool: the target's first scans' atoms, then the other places round robin.
 Dictionary build_pool(Context* ctx, const std::string& data, const std::string& target,
                       std::size_t first, std::size_t want) {
-  Dictionary head = place_atoms(ctx, read_log(data + "/" + target + "-corrected.log.gz", 0, first),
-                                first, target);
+  Dictionary head = place_atoms(ctx, read_log(data, target, 0, first), first, target);
   std::vector<Dictionary> others;
   const std::size_t per_place = want > head.size() ? (want - head.size()) / 6 + 1 : 0;
   const std::size_t scans_each = per_place / 4 + 8;  // about 4-5 atoms a scan
@@ -89,7 +99,7 @@ Dictionary build_pool(Context* ctx, const std::string& data, const std::string& 
     for (const char* log : {"intel", "aces", "csail", "freiburg-079"}) {
       if (log == target) continue;
       // Every few scans over the log, learned on the same scans.
-      std::vector<Scan> all = read_log(data + "/" + log + "-corrected.log.gz", 0, 100000);
+      std::vector<Scan> all = read_log(data, log, 0, 100000);
       std::vector<Scan> pick;
       const std::size_t step = std::max<std::size_t>(1, all.size() / scans_each);
       for (std::size_t i = 0; i < all.size() && pick.size() < scans_each; i += step)
@@ -97,6 +107,7 @@ Dictionary build_pool(Context* ctx, const std::string& data, const std::string& 
       others.push_back(place_atoms(ctx, pick, 0, log));
     }
     for (const char* town : {"town1", "town2", "town3"}) {
+      if (town == target) continue;
       SimOptions so;
       so.scans = scans_each;
       so.spacing = 3;
@@ -207,16 +218,37 @@ std::pair<double, double> agreement(const Run& a, const Run& b) {
 
 }  // namespace
 
+const char* const kUsage =
+    "Usage: pot_scale [--data ../shared/data/radish] [--target intel|aces|csail|freiburg-079|\n"
+    "                 town1|town2|town3] [--first 10] [--scans 100]\n"
+    "                 [--atoms 6,50,200,1000,5000] [--exhaustive-scans 100,100,100,20,5]\n"
+    "                 [--repot 1] [--cache pot_scale_cache] [--out pot_scale.json]\n"
+    "                 [--pool N (atoms in the cached pool; default: the largest of --atoms)]\n"
+    "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE] [--fine N]\n"
+    "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1]\n"
+    "A Radish log's scans have 180 beams; a town's (simulated, as `potmap data simulate`) 360.\n"
+    "The indexed ranking's settings default to PotOptions'.\n";
+
 struct ScaleArgs {
   std::string data = "../shared/data/radish", target = "intel", cache = "pot_scale_cache",
               out = "pot_scale.json";
   std::size_t first = 10, scans = 100;
+  std::size_t pool = 0;  // atoms in the cached pool (0: the largest of --atoms)
   bool repot = true;
   std::vector<std::size_t> sizes = {6, 50, 200, 1000, 5000}, ex_scans = {100, 100, 100, 20, 5};
 };
 
 // Fills `a` and the indexed ranking's knobs; false (after naming the option) on an unknown one.
 bool parse_args(int argc, char** argv, ScaleArgs& a) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::printf("%s", kUsage);
+      std::exit(0);
+    }
+  if (argc % 2 == 0) {
+    std::fprintf(stderr, "pot_scale: %s has no value\n%s", argv[argc - 1], kUsage);
+    return false;
+  }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--data")
@@ -229,6 +261,8 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
       a.scans = std::stoul(v);
     else if (k == "--atoms")
       a.sizes = numbers(v);
+    else if (k == "--pool")
+      a.pool = std::stoul(v);
     else if (k == "--exhaustive-scans")
       a.ex_scans = numbers(v);
     else if (k == "--repot")
@@ -252,8 +286,7 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
     else if (k == "--out")
       a.out = v;
     else {
-      std::fprintf(stderr, "pot_scale: unknown option %s (see the top of bench/pot_scale.cpp)\n",
-                   k.c_str());
+      std::fprintf(stderr, "pot_scale: unknown option %s\n%s", k.c_str(), kUsage);
       return false;
     }
   }
@@ -268,7 +301,7 @@ int main(int argc, char** argv) {
   const bool repot = args.repot;
   const std::vector<std::size_t>&sizes = args.sizes, &ex_scans = args.ex_scans;
   Context ctx;
-  const std::size_t want = *std::max_element(sizes.begin(), sizes.end());
+  const std::size_t want = std::max(args.pool, *std::max_element(sizes.begin(), sizes.end()));
   std::filesystem::create_directories(cache);
   const std::string pool_file = cache + "/" + target + "_first" + std::to_string(first) + "_" +
                                 std::to_string(want) + ".potdict";
@@ -299,13 +332,12 @@ int main(int argc, char** argv) {
                pool.size(), dj["bytes_per_atom"].get<double>(), pool_index.bytes_per_atom(),
                load_ms);
 
-  const std::vector<Scan> targets =
-      read_log(data + "/" + target + "-corrected.log.gz", first, scans);
+  const std::vector<Scan> targets = read_log(data, target, first, scans);
   const std::int64_t first_index = static_cast<std::int64_t>(first);
   json rows = json::array();
-  std::printf("%-6s %-6s %-10s %5s %8s %8s %9s %9s %8s %6s %6s %6s %7s %7s\n", "atoms", "method",
-              "ranking", "scans", "ms/scan", "ranking", "transport", "prepare", "xBHM", "AUC",
-              "NLL", "ACC", "agree", "agreeR");
+  std::printf("%-6s %-6s %-10s %5s %8s %8s %9s %9s %9s %8s %6s %6s %6s %7s %7s\n", "atoms",
+              "method", "ranking", "scans", "ms/scan", "ranking", "transport", "placement",
+              "prepare", "xBHM", "AUC", "NLL", "ACC", "agree", "agreeR");
   for (std::size_t si = 0; si < sizes.size(); ++si) {
     const std::size_t n = std::min(sizes[si], pool.size());
     auto dict = std::make_shared<Dictionary>(pool);
@@ -323,12 +355,14 @@ int main(int argc, char** argv) {
       row["agreement"] = agree;
       row["agreement_rotation"] = agree_rot;
       std::printf(
-          "%-6zu %-6s %-10s %5zu %8.1f %8.1f %9.1f %9.1f %8.2f %6.3f %6.3f %6.3f %7.3f %7.3f\n", n,
-          row["method"].get<std::string>().c_str(), row["ranking"].get<std::string>().c_str(),
+          "%-6zu %-6s %-10s %5zu %8.1f %8.1f %9.1f %9.1f %9.1f %8.2f %6.3f %6.3f %6.3f %7.3f "
+          "%7.3f\n",
+          n, row["method"].get<std::string>().c_str(), row["ranking"].get<std::string>().c_str(),
           row["scans"].get<std::size_t>(), row["ms_per_scan"].get<double>(),
           row["ranking_ms"].get<double>(), row["transport_ms"].get<double>(),
-          row["prepare_ms"].get<double>(), row["over_bhm"].get<double>(), row["auc"].get<double>(),
-          row["nll"].get<double>(), row["acc"].get<double>(), agree, agree_rot);
+          row["placement_ms"].get<double>(), row["prepare_ms"].get<double>(),
+          row["over_bhm"].get<double>(), row["auc"].get<double>(), row["nll"].get<double>(),
+          row["acc"].get<double>(), agree, agree_rot);
       std::fflush(stdout);
       rows.push_back(row);
     };

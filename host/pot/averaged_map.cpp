@@ -69,43 +69,79 @@ void AveragedMap::add(const KernelMap& inst) {
 
   // The scan's logit, variance and support at every cell centre within reach of its kernels,
   // scattered kernel by kernel (each touches only its own neighbourhood of cells).
-  std::vector<double> m(cells, 0), v(cells, 0), sup(cells, 0), sg(cells, 0);
+  Workspace& work = ws_;
+  work.m.assign(cells, 0);
+  work.v.assign(cells, 0);
+  work.sup.assign(cells, 0);
+  work.sg.assign(cells, 0);
+  std::vector<double>&m = work.m, &v = work.v, &sup = work.sup, &sg = work.sg;
   const std::int64_t zs = d == 3 ? span : 0;
   double x[3] = {0, 0, 0};
+  // On the grid a Gaussian is the product of one factor an axis: 3 (2 span + 1) exponentials a
+  // kernel instead of one a cell. The cut stays on the whole exponent, as one exp would take it.
+  const std::size_t side = std::size_t(2 * span + 1);
+  work.t2.assign(3 * side, 0);
+  work.f.assign(3 * side, 0);
+  std::vector<double>&t2 = work.t2, &f = work.f;
   for (std::size_t k = 0; k < inst.size(); ++k) {
     const double* p = &inst.position[k * d];
+    const double g = inst.gamma[k];
     std::int64_t c0[3] = {0, 0, 0};
-    for (int a = 0; a < d; ++a) c0[a] = cell(p[a]) - lo[a];
-    for (std::int64_t dz = -zs; dz <= zs; ++dz)
-      for (std::int64_t dy = -span; dy <= span; ++dy)
+    for (int a = 0; a < d; ++a) {
+      c0[a] = cell(p[a]) - lo[a];
+      for (std::int64_t o = -span; o <= span; ++o) {
+        const double t = (lo[a] + c0[a] + o + 0.5) * h - p[a];
+        t2[a * side + std::size_t(o + span)] = t * t;
+        f[a * side + std::size_t(o + span)] = std::exp(-g * t * t);
+      }
+    }
+    for (std::int64_t dz = -zs; dz <= zs; ++dz) {
+      const double z2 = d == 3 ? t2[2 * side + std::size_t(dz + span)] : 0.0;
+      const double fz = d == 3 ? f[2 * side + std::size_t(dz + span)] : 1.0;
+      for (std::int64_t dy = -span; dy <= span; ++dy) {
+        const double yz2 = z2 + t2[side + std::size_t(dy + span)];
+        const double fyz = fz * f[side + std::size_t(dy + span)];
+        const std::size_t row = std::size_t(c0[0] + n[0] * (c0[1] + dy + n[1] * (c0[2] + dz)));
         for (std::int64_t dx = -span; dx <= span; ++dx) {
-          const std::int64_t c[3] = {c0[0] + dx, c0[1] + dy, c0[2] + dz};
-          const std::size_t i = std::size_t(c[0] + n[0] * (c[1] + n[1] * c[2]));
-          double d2 = 0;
-          for (int a = 0; a < d; ++a) {
-            const double t = (lo[a] + c[a] + 0.5) * h - p[a];
-            d2 += t * t;
-          }
-          const double e = inst.gamma[k] * d2;
-          if (e > kCut) continue;
-          const double phi = std::exp(-e);
+          if (g * (yz2 + t2[std::size_t(dx + span)]) > kCut) continue;
+          const double phi = fyz * f[std::size_t(dx + span)];
+          const std::size_t i = std::size_t(std::int64_t(row) + dx);
           m[i] += inst.w_mean[k] * phi;
           v[i] += inst.w_var[k] * phi * phi;
           sup[i] += phi;
-          sg[i] += inst.gamma[k] * phi;
+          sg[i] += g * phi;
         }
+      }
+    }
   }
-  std::vector<std::int64_t> slot(cells, -1);  // anchor of each cell, -1: none
-  std::vector<std::size_t> active;            // cells the scan counts at
-  std::vector<double> change;                 // their averages' change (old average first)
+  // Anchor of each cell: -1 none, -2 not looked up yet. Only the footprint and its stencil are
+  // looked up; new anchors are the footprint's own cells, so a later lookup of any other cell
+  // finds what an earlier one would have.
+  work.slot.assign(cells, -2);
+  std::vector<std::int64_t>& slot = work.slot;
+  auto grid_cell = [&](std::size_t i, std::int64_t g[3]) {
+    g[0] = lo[0] + std::int64_t(i % std::size_t(n[0]));
+    g[1] = lo[1] + std::int64_t((i / std::size_t(n[0])) % std::size_t(n[1]));
+    g[2] = d == 3 ? lo[2] + std::int64_t(i / std::size_t(n[0] * n[1])) : 0;
+  };
+  auto slot_of = [&](std::size_t i) {
+    if (slot[i] == -2) {
+      std::int64_t g[3];
+      grid_cell(i, g);
+      const auto it = index_.find(key(g));
+      slot[i] = it != index_.end() ? std::int64_t(it->second) : -1;
+    }
+    return slot[i];
+  };
+  std::vector<std::size_t>& active = work.active;  // cells the scan counts at
+  std::vector<double>& change = work.change;       // their averages' change (old average first)
+  active.clear();
+  change.clear();
   for (std::size_t i = 0; i < cells; ++i) {
-    const std::int64_t c[3] = {std::int64_t(i % n[0]), std::int64_t((i / n[0]) % n[1]),
-                               std::int64_t(i / (n[0] * n[1]))};
-    const std::int64_t g[3] = {lo[0] + c[0], lo[1] + c[1], d == 3 ? lo[2] + c[2] : 0};
-    const auto it = index_.find(key(g));
-    if (it != index_.end()) slot[i] = it->second;
     if (sup[i] < opt_.min_support) continue;
-    if (slot[i] < 0) {
+    std::int64_t g[3];
+    grid_cell(i, g);
+    if (slot_of(i) < 0) {
       for (int a = 0; a < d; ++a) x[a] = (g[a] + 0.5) * h;
       slot[i] = std::int64_t(map_.size());
       index_.emplace(key(g), std::uint32_t(map_.size()));
@@ -140,47 +176,68 @@ void AveragedMap::add(const KernelMap& inst) {
   std::vector<double> table(std::size_t(ws * ws * (d == 3 ? 3 : 2)) + 1);
   double table_gamma = -1;
   auto weights_of = [&](double gamma) {
-    if (gamma == table_gamma) return;
+    // An anchor's width is an average of equal widths, equal to the last up to rounding: a
+    // table rebuilt for every ulp cost more than the sweeps. 1e-9 relative changes a weight by
+    // less than 1e-8 of itself.
+    if (std::abs(gamma - table_gamma) <= 1e-9 * gamma) return;
     for (std::size_t q = 0; q < table.size(); ++q) table[q] = std::exp(-gamma * h * h * double(q));
     table_gamma = gamma;
   };
+  // Each footprint row's neighbours that hold anchors and their Gram entries, gathered once:
+  // the start, the sweeps and the variances then read a short list instead of the stencil.
+  work.nb_start.assign(active.size() + 1, 0);
+  work.part.assign(active.size(), 0);
+  work.s2.assign(active.size(), 0);
+  work.nb.clear();
+  work.nw.clear();
+  std::vector<std::uint32_t>&nb_start = work.nb_start, &nb = work.nb;
+  std::vector<double>&nw = work.nw, &part = work.part, &s2 = work.s2;
+  for (std::size_t t = 0; t < active.size(); ++t) {
+    const std::size_t i = active[t];
+    weights_of(map_.gamma[std::size_t(slot[i])]);
+    double p1 = 0, p2 = 0;
+    for (const auto& st : stencil) {
+      const std::int64_t b = slot_of(std::size_t(std::int64_t(i) + st[0]));
+      if (b < 0) continue;
+      const double w = table[std::size_t(st[1])];
+      p1 += w;
+      p2 += w * w;
+      if (st[1] == 0) continue;
+      nb.push_back(std::uint32_t(b));
+      nw.push_back(w);
+    }
+    part[t] = p1;
+    s2[t] = p2;
+    nb_start[t + 1] = std::uint32_t(nb.size());
+  }
   // Start the sweeps from the weights moved by each average's change over its partition (the
   // Nadaraya-Watson step): Gauss-Seidel alone removes smooth errors slowly, and a scan's change
   // is mostly smooth, so five sweeps from the old weights left broad areas reading short.
   for (std::size_t t = 0; t < active.size(); ++t) {
-    const std::size_t i = active[t], a = std::size_t(slot[i]);
-    weights_of(map_.gamma[a]);
-    double part = 0;
-    for (const auto& st : stencil)
-      if (slot[std::size_t(std::int64_t(i) + st[0])] >= 0) part += table[std::size_t(st[1])];
+    const std::size_t a = std::size_t(slot[active[t]]);
     const double delta = change[t] + sum_sm_[a] / sum_s_[a];
-    map_.w_mean[a] += delta / part;
+    map_.w_mean[a] += delta / part[t];
   }
   for (int sweep = 0; sweep < opt_.sweeps; ++sweep)
-    for (std::size_t i : active) {
-      const std::size_t a = std::size_t(slot[i]);
-      weights_of(map_.gamma[a]);
-      double r = sum_sm_[a] / sum_s_[a];
-      for (const auto& st : stencil) {
-        if (st[1] == 0) continue;
-        const std::int64_t b = slot[std::size_t(std::int64_t(i) + st[0])];
-        if (b >= 0) r -= map_.w_mean[std::size_t(b)] * table[std::size_t(st[1])];
-      }
+    for (std::size_t t = 0; t < active.size(); ++t) {
+      const std::size_t a = std::size_t(slot[active[t]]);
+      const double va = sum_sm_[a] / sum_s_[a];
+      // Four partial sums: one chain of dependent subtractions was most of the sweep's time.
+      double r4[4] = {0, 0, 0, 0};
+      std::uint32_t e = nb_start[t];
+      for (; e + 4 <= nb_start[t + 1]; e += 4)
+        for (int q = 0; q < 4; ++q) r4[q] += map_.w_mean[nb[e + q]] * nw[e + q];
+      for (; e < nb_start[t + 1]; ++e) r4[0] += map_.w_mean[nb[e]] * nw[e];
+      const double r = va - ((r4[0] + r4[1]) + (r4[2] + r4[3]));
       // Projected onto the average's sign: a weight of the other sign would only cancel its
       // neighbours' tails, and past the last anchors it rings into space no scan saw.
-      const double va = sum_sm_[a] / sum_s_[a];
       const double wa = r / (1.0 + opt_.ridge);
       map_.w_mean[a] = va >= 0 ? std::max(wa, 0.0) : std::min(wa, 0.0);
     }
   // Variances: the anchors' averages spread by the partition sum_b phi_b(x_a)^2.
-  for (std::size_t i : active) {
-    const std::size_t a = std::size_t(slot[i]);
-    weights_of(map_.gamma[a]);
-    double s2 = 0;
-    for (const auto& st : stencil)
-      if (slot[std::size_t(std::int64_t(i) + st[0])] >= 0)
-        s2 += table[std::size_t(st[1])] * table[std::size_t(st[1])];
-    map_.w_var[a] = sum_sv_[a] / sum_s_[a] / s2;
+  for (std::size_t t = 0; t < active.size(); ++t) {
+    const std::size_t a = std::size_t(slot[active[t]]);
+    map_.w_var[a] = sum_sv_[a] / sum_s_[a] / s2[t];
   }
 }
 
@@ -189,6 +246,11 @@ std::size_t AveragedMap::memory_bytes() const {
   b += 8 * (map_.position.capacity() + map_.gamma.capacity() + map_.w_mean.capacity() +
             map_.w_var.capacity());
   b += 8 * (sum_sm_.capacity() + sum_s_.capacity() + sum_sv_.capacity() + sum_sg_.capacity());
+  for (const auto* x : {&ws_.m, &ws_.v, &ws_.sup, &ws_.sg, &ws_.t2, &ws_.f, &ws_.nw, &ws_.part,
+                        &ws_.s2, &ws_.change})
+    b += 8 * x->capacity();
+  b += 8 * (ws_.slot.capacity() + ws_.active.capacity()) +
+       4 * (ws_.nb_start.capacity() + ws_.nb.capacity());
   b += index_.bucket_count() * sizeof(void*) +
        index_.size() * (sizeof(std::uint64_t) + 4 + 2 * sizeof(void*));
   return b;

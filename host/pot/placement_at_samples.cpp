@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "cell_key.hpp"
+#include "point_grid.hpp"
 #include "point_proximity.hpp"
 #include "thinning.hpp"
 
@@ -36,16 +37,24 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
   // map kernel is wall evidence where it lies nearer the walls than the free space.
   std::vector<int> cls(k.size(), 0);
   double gsum[2] = {0, 0}, gcnt[2] = {0, 0};
+  const PointGrid atom_hits(atom.sector.hits, dim), atom_free(atom.sector.free, dim);
   for (std::size_t e = 0; e < k.size(); ++e) {
     const double* h = &k.position[e * dim];
     double dh = HUGE_VAL, df = HUGE_VAL;
-    for (std::size_t i = 0; i < atom.sector.num_hits(); ++i)
-      dh = std::min(dh, dist2(h, &atom.sector.hits[i * dim], dim));
-    for (std::size_t i = 0; i < atom.sector.num_free(); ++i)
-      df = std::min(df, dist2(h, &atom.sector.free[i * dim], dim));
+    atom_hits.nearest(h, dh);
+    atom_free.nearest(h, df);
     cls[e] = dh <= df ? 0 : 1;
     gsum[cls[e]] += k.gamma[e];
     gcnt[cls[e]] += 1;
+  }
+  // The kernels by class in a grid whose cells span the widest kernel's reach (gamma d^2 <= 16).
+  double gmin[2] = {HUGE_VAL, HUGE_VAL};
+  std::vector<double> kpos[2];
+  std::vector<std::size_t> kof[2];
+  for (std::size_t e = 0; e < k.size(); ++e) {
+    gmin[cls[e]] = std::min(gmin[cls[e]], k.gamma[e]);
+    kpos[cls[e]].insert(kpos[cls[e]].end(), &k.position[e * dim], &k.position[e * dim] + dim);
+    kof[cls[e]].push_back(e);
   }
   std::unique_ptr<PointProximity> on_wall;
   if (o.wall_clearance > 0 && sec.num_hits() > 0)
@@ -62,62 +71,76 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
     // The atom's map at its coupled samples, from its kernels of the same class (each class
     // alone reproduces the source map at its own samples).
     Eigen::VectorXd L = Eigen::VectorXd::Zero(X.rows()), V = Eigen::VectorXd::Zero(X.rows());
-    for (Eigen::Index i = 0; i < X.rows(); ++i) {
-      double m = 0, v = 0;
-      for (std::size_t e = 0; e < k.size(); ++e) {
-        if (cls[e] != q) continue;
-        double d2 = 0;
-        for (int d = 0; d < dim; ++d) {
-          const double t = (X(i, d) - k.position[e * dim + d]) / s;
-          d2 += t * t;
-        }
-        const double g = k.gamma[e] * d2;
-        if (g > 16) continue;
-        const double phi = std::exp(-g);
-        m += k.w_mean[e] * phi;
-        v += k.w_var[e] * phi * phi;
+    if (!kof[q].empty()) {
+      const double reach = s * std::sqrt(16.0 / gmin[q]);
+      const PointGrid kernels(kpos[q], dim, reach);
+      for (Eigen::Index i = 0; i < X.rows(); ++i) {
+        double x[3] = {0, 0, 0};
+        for (int d = 0; d < dim; ++d) x[d] = X(i, d);
+        double m = 0, v = 0;
+        kernels.for_each_within(x, reach, [&](std::size_t j, double d2) {
+          const std::size_t e = kof[q][j];
+          const double g = k.gamma[e] * d2 / (s * s);
+          if (g > 16) return;
+          const double phi = std::exp(-g);
+          m += k.w_mean[e] * phi;
+          v += k.w_var[e] * phi * phi;
+        });
+        L(i) = m;
+        V(i) = v;
       }
-      L(i) = m;
-      V(i) = v;
     }
     const std::vector<double>& pts = q == 0 ? sec.hits : sec.free;
     const std::vector<std::size_t> keep = thin_to_cells(pts, dim, o.anchor_spacing * s);
+    std::vector<double> ypts(std::size_t(Y.rows()) * dim);
+    for (Eigen::Index j = 0; j < Y.rows(); ++j)
+      for (int d = 0; d < dim; ++d) ypts[std::size_t(j) * dim + d] = Y(j, d);
+    const PointGrid targets(ypts, dim);
+    // What an anchor reads depends only on the plan's column it reads (the target point of the
+    // plan nearest it); several anchors share a column, so each column is read once.
+    struct Column {
+      bool done = false, valid = false;
+      double mean = 0, variance = 0;
+    };
+    std::vector<Column> columns(std::size_t(Y.rows()));
+    auto read_column = [&](Eigen::Index j) -> const Column& {
+      Column& out = columns[std::size_t(j)];
+      if (out.done) return out;
+      out.done = true;
+      const auto col = P.col(j);
+      const double mass = col.sum();
+      if (!(mass > 0)) return out;
+      const double mean = col.dot(L) / mass;
+      double spread = 0, moved = 0;
+      for (Eigen::Index i = 0; i < X.rows(); ++i) {
+        spread += col(i) * (L(i) - mean) * (L(i) - mean);
+        const double rx = c * X(i, 0) - sn * X(i, 1), ry = sn * X(i, 0) + c * X(i, 1);
+        double m2 = (rx - Y(j, 0)) * (rx - Y(j, 0)) + (ry - Y(j, 1)) * (ry - Y(j, 1));
+        if (dim == 3) m2 += (X(i, 2) - Y(j, 2)) * (X(i, 2) - Y(j, 2));
+        moved += col(i) * m2;
+      }
+      out.valid = true;
+      out.mean = mean;
+      out.variance =
+          col.dot(V) / mass + spread / mass + o.displacement_variance * (moved / mass) / (s * s);
+      return out;
+    };
     for (std::size_t a : keep) {
       const double* y = &pts[a * dim];
       if (q == 1 && on_wall && on_wall->near(y)) {
         ++dropped;
         continue;
       }
-      // The target point of the plan nearest the anchor; its column says which source samples
-      // the anchor's place was matched with.
-      Eigen::Index best = 0;
-      double bd = HUGE_VAL;
-      for (Eigen::Index j = 0; j < Y.rows(); ++j) {
-        double d2 = 0;
-        for (int d = 0; d < dim; ++d) d2 += (Y(j, d) - y[d]) * (Y(j, d) - y[d]);
-        if (d2 < bd) {
-          bd = d2;
-          best = j;
-        }
-      }
-      const Eigen::VectorXd col = P.col(best);
-      const double mass = col.sum();
-      if (!(mass > 0)) continue;
-      const double mean = col.dot(L) / mass;
-      double spread = 0, moved = 0;
-      for (Eigen::Index i = 0; i < X.rows(); ++i) {
-        spread += col(i) * (L(i) - mean) * (L(i) - mean);
-        const double rx = c * X(i, 0) - sn * X(i, 1), ry = sn * X(i, 0) + c * X(i, 1);
-        double m2 = (rx - Y(best, 0)) * (rx - Y(best, 0)) + (ry - Y(best, 1)) * (ry - Y(best, 1));
-        if (dim == 3) m2 += (X(i, 2) - Y(best, 2)) * (X(i, 2) - Y(best, 2));
-        moved += col(i) * m2;
-      }
+      double bd = 0;
+      const long best = targets.nearest(y, bd);
+      if (best < 0) continue;
+      const Column& col = read_column(best);
+      if (!col.valid) continue;
       Anchor an;
       for (int d = 0; d < dim; ++d) an.position[d] = y[d] / s + sec.centre[d];
       an.gamma = gamma;
-      an.value = mean;
-      an.variance =
-          col.dot(V) / mass + spread / mass + o.displacement_variance * (moved / mass) / (s * s);
+      an.value = col.mean;
+      an.variance = col.variance;
       an.hit = q == 0;
       out.push_back(an);
     }

@@ -77,6 +77,14 @@ class AveragedMap {
   std::vector<double> sum_sm_, sum_s_;   // running sums of s * mu and s
   std::vector<double> sum_sv_, sum_sg_;  // of s * variance and s * gamma
   std::unordered_map<std::uint64_t, std::uint32_t> index_;
+  // Working memory of add(), kept between scans: a 360-beam scan's footprint needs megabytes,
+  // and fresh pages for every scan cost more than filling them.
+  struct Workspace {
+    std::vector<double> m, v, sup, sg, t2, f, nw, part, s2, change;
+    std::vector<std::int64_t> slot;
+    std::vector<std::size_t> active;
+    std::vector<std::uint32_t> nb_start, nb;
+  } ws_;
 };
 
 }  // namespace potmap
