@@ -72,6 +72,10 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "POT/RePOT with --ranking indexed: best coarse candidates per sector solved "
                   "again at the ranking's caps (0: the coarse stage decides)")
       ->capture_default_str();
+  cmd->add_option("--free-points", s.pot.pot.transport_free_points,
+                  "POT/RePOT: free samples a side in the high-quality transport, thinned evenly")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--atom-scans", s.pot.atom_scans,
                   "POT/RePOT: source scans per place cut into atoms, evenly spaced (0: all)")
       ->capture_default_str();
