@@ -139,9 +139,9 @@ void AveragedMap::add(const KernelMap& inst) {
   change.clear();
   for (std::size_t i = 0; i < cells; ++i) {
     if (sup[i] < opt_.min_support) continue;
-    std::int64_t g[3];
-    grid_cell(i, g);
     if (slot_of(i) < 0) {
+      std::int64_t g[3];
+      grid_cell(i, g);
       for (int a = 0; a < d; ++a) x[a] = (g[a] + 0.5) * h;
       slot[i] = std::int64_t(map_.size());
       index_.emplace(key(g), std::uint32_t(map_.size()));
@@ -222,13 +222,8 @@ void AveragedMap::add(const KernelMap& inst) {
     for (std::size_t t = 0; t < active.size(); ++t) {
       const std::size_t a = std::size_t(slot[active[t]]);
       const double va = sum_sm_[a] / sum_s_[a];
-      // Four partial sums: one chain of dependent subtractions was most of the sweep's time.
-      double r4[4] = {0, 0, 0, 0};
-      std::uint32_t e = nb_start[t];
-      for (; e + 4 <= nb_start[t + 1]; e += 4)
-        for (int q = 0; q < 4; ++q) r4[q] += map_.w_mean[nb[e + q]] * nw[e + q];
-      for (; e < nb_start[t + 1]; ++e) r4[0] += map_.w_mean[nb[e]] * nw[e];
-      const double r = va - ((r4[0] + r4[1]) + (r4[2] + r4[3]));
+      double r = va;
+      for (std::uint32_t e = nb_start[t]; e < nb_start[t + 1]; ++e) r -= map_.w_mean[nb[e]] * nw[e];
       // Projected onto the average's sign: a weight of the other sign would only cancel its
       // neighbours' tails, and past the last anchors it rings into space no scan saw.
       const double wa = r / (1.0 + opt_.ridge);
