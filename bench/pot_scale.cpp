@@ -156,6 +156,7 @@ Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
   setup.pot.index_rotations = g_indexed.index_rotations;
   setup.pot.coarse_hits = g_indexed.coarse_hits;
   setup.pot.coarse_free = g_indexed.coarse_free;
+  setup.pot.coarse_tolerance = g_indexed.coarse_tolerance;
   setup.pot.fine_candidates = g_indexed.fine_candidates;
   setup.pot.warm_candidates = g_indexed.warm_candidates;
   setup.pot.snap_rotations = g_indexed.snap_rotations;
@@ -224,7 +225,8 @@ const char* const kUsage =
     "                 [--atoms 6,50,200,1000,5000] [--exhaustive-scans 100,100,100,20,5]\n"
     "                 [--repot 1] [--cache pot_scale_cache] [--out pot_scale.json]\n"
     "                 [--pool N (atoms in the cached pool; default: the largest of --atoms)]\n"
-    "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE] [--fine N]\n"
+    "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE]\n"
+    "                 [--coarse-tolerance 1e-5] [--fine N]\n"
     "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1]\n"
     "A Radish log's scans have 180 beams; a town's (simulated, as `potmap data simulate`) 360.\n"
     "The indexed ranking's settings default to PotOptions'.\n";
@@ -277,7 +279,9 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
       const auto c = numbers(v);
       g_indexed.coarse_hits = c.at(0);
       g_indexed.coarse_free = c.at(1);
-    } else if (k == "--fine")
+    } else if (k == "--coarse-tolerance")
+      g_indexed.coarse_tolerance = std::stod(v);
+    else if (k == "--fine")
       g_indexed.fine_candidates = std::stoul(v);
     else if (k == "--warm")
       g_indexed.warm_candidates = v != "0";
@@ -392,6 +396,7 @@ int main(int argc, char** argv) {
               {"index_rotations", g_indexed.index_rotations},
               {"coarse_hits", g_indexed.coarse_hits},
               {"coarse_free", g_indexed.coarse_free},
+              {"coarse_tolerance", g_indexed.coarse_tolerance},
               {"fine_candidates", g_indexed.fine_candidates},
               {"warm_candidates", g_indexed.warm_candidates},
               {"snap_rotations", g_indexed.snap_rotations},

@@ -488,3 +488,36 @@ TEST(Sinkhorn, DeviceBufferCallMatchesHostBatch) {
   dev.source_count[1] = 1000;
   EXPECT_THROW(sinkhorn_device(ctx, dev, o), ArgumentError);
 }
+
+TEST(Sinkhorn, SingleSumsReachLooseTolerancesOnly) {
+  // Single-precision sums (double_sums false) at the transport's and the coarse ranking's
+  // tolerance give the double-sum result; at 1e-7 they stall above it, which is why
+  // single_sums_reach() draws the line at 1e-6.
+  std::vector<SinkhornProblem> qs;
+  qs.push_back(problem(67, 50, 2, 500, 0.0005));
+  qs.back().normalise_cost = true;
+  qs.push_back(problem(48, 48, 2, 501, 0.005));
+  qs.back().scale = 1.0 / 50;
+  for (auto& q : qs) q.tolerance = 1e-5;
+  SinkhornOptions dbl = full(), sgl = full();
+  sgl.double_sums = false;
+  EXPECT_TRUE(single_sums_reach(1e-5));
+  EXPECT_TRUE(single_sums_reach(1e-6));
+  EXPECT_FALSE(single_sums_reach(1e-7));
+  for (const auto& q : qs) {
+    const auto a = solve_one(q, dbl), b = solve_one(q, sgl);
+    const auto ref = sinkhorn_reference(q);
+    ASSERT_TRUE(a.converged && b.converged) << a.marginal_error << " " << b.marginal_error;
+    EXPECT_LT(b.marginal_error, 1e-5);
+    EXPECT_NEAR(b.cost, ref.cost, 1e-3 * ref.cost);
+    EXPECT_NEAR(b.cost, a.cost, 1e-4 * a.cost);
+    EXPECT_LT((b.coupling - a.coupling).cwiseAbs().maxCoeff(), 1e-3 / q.source.rows());
+  }
+  if (!test::context().info().has_fp64) return;  // double_sums has nothing to widen
+  auto tight = qs[0];
+  tight.tolerance = 1e-7;
+  tight.max_iterations = 3000;
+  const auto a = solve_one(tight, dbl), b = solve_one(tight, sgl);
+  EXPECT_TRUE(a.converged) << a.marginal_error;
+  EXPECT_GT(b.marginal_error, 1e-7) << "single sums met 1e-7: single_sums_reach() is too strict";
+}

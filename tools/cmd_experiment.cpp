@@ -72,6 +72,11 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "POT/RePOT with --ranking indexed: best coarse candidates per sector solved "
                   "again at the ranking's caps (0: the coarse stage decides)")
       ->capture_default_str();
+  cmd->add_option("--coarse-tolerance", s.pot.pot.coarse_tolerance,
+                  "POT/RePOT with --ranking indexed: the coarse stage's tolerance on the "
+                  "plan's marginal error (from 1e-6 up solved in single-precision sums)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--free-points", s.pot.pot.transport_free_points,
                   "POT/RePOT: free samples a side in the high-quality transport, thinned evenly")
       ->capture_default_str()

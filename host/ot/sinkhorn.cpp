@@ -227,7 +227,8 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   // it: log(1/67) rounded to float moves exp of it by up to 2.4e-7, so sum a and sum b differ
   // by about that much and no plan meets both marginals to the 1e-7 tolerance (measured: the
   // error stalled at 3e-7 on 67 x 50 problems).
-  const bool acc_double = L.dbl || (opt.stabilised && ctx.info().has_fp64);
+  // SinkhornOptions::double_sums false: the caller's tolerances are loose enough for float.
+  const bool acc_double = L.dbl || (opt.stabilised && ctx.info().has_fp64 && opt.double_sums);
   const std::size_t acc = acc_double ? sizeof(double) : sizeof(float);
   L.weights_double = acc_double;
   if (acc_double)

@@ -199,7 +199,8 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
           std::find(warm.begin(), warm.end(), std::size_t(a)) == warm.end())
         warm.push_back(static_cast<std::size_t>(a));
   AtomSamples atoms(dict, o.coarse_hits, o.coarse_free, true, o.seed);
-  const SinkhornProblem proto = ranking_problem(o);
+  SinkhornProblem proto = ranking_problem(o);
+  proto.tolerance = o.coarse_tolerance;
   pt.rank_hits.resize(pt.sectors.size());
   pt.rank_free.resize(pt.sectors.size());
   for (std::size_t s = 0; s < pt.sectors.size(); ++s) {
@@ -253,7 +254,9 @@ std::vector<Winner> rank_exhaustive(Context* ctx, const PreparedTransfer& pt, Po
 std::vector<Winner> rank_indexed(Context* ctx, const Dictionary& dict, const PreparedTransfer& pt,
                                  const PotOptions& o, PotTiming& timing) {
   auto t0 = Clock::now();
-  const std::vector<SinkhornResult> coarse = solve(ctx, pt.ranking, costs_only());
+  SinkhornOptions coarse_options = costs_only();
+  coarse_options.double_sums = !single_sums_reach(o.coarse_tolerance);
+  const std::vector<SinkhornResult> coarse = solve(ctx, pt.ranking, coarse_options);
   timing.ranking_ms += ms_since(t0);
   const std::size_t ns = pt.sectors.size();
   std::vector<Winner> out(ns);

@@ -51,7 +51,8 @@ void check(const Dictionary& dict, const LabelledPoints& train, const PotOptions
   if (!(o.rank_epsilon > 0) || !(o.transport_epsilon > 0)) bad("epsilons must be positive");
   if (o.rank_max_iterations < 1 || o.transport_max_iterations < 1)
     bad("iteration limits must be >= 1");
-  if (!(o.rank_tolerance > 0) || !(o.transport_tolerance > 0)) bad("tolerances must be positive");
+  if (!(o.rank_tolerance > 0) || !(o.transport_tolerance > 0) || !(o.coarse_tolerance > 0))
+    bad("tolerances must be positive");
   if (o.ranking == PotRanking::indexed &&
       (o.index_neighbours < 1 || o.index_rotations < 1 || o.coarse_hits < 1 || o.coarse_free < 1))
     bad("index_neighbours, index_rotations, coarse_hits and coarse_free must be >= 1");
@@ -241,6 +242,7 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   const bool at_samples = o.placement == PotPlacement::target_samples;
   topt.want_barycentric = !at_samples;
   topt.want_coupling = at_samples;
+  topt.double_sums = !single_sums_reach(o.transport_tolerance);
   const std::vector<SinkhornResult> moved = detail::solve(ctx, transport.batch, topt);
   out.timing.transport_ms = ms_since(t0);
 

@@ -71,10 +71,23 @@ struct SinkhornOptions {
   /// an exp per entry per iteration, duals in single precision, so its marginal error stops
   /// far above the stabilised scheme's). The error floors of both are in docs/accuracy.md.
   bool stabilised = true;
+  /// Stabilised scheme: its sums, scalings and log marginals in double where the device has
+  /// cl_khr_fp64 (default true): in single precision the 1-norm marginal error stalls near 2e-7
+  /// to 5e-7, above the default 1e-7 tolerance. false: single precision, for batches whose
+  /// tolerances are 1e-6 or looser, where every product streams twice the lanes a vector
+  /// (POT's coarse ranking and its transport take it; bench/sinkhorn_bench.cpp measures it).
+  /// Ignored by the log-domain scheme, whose sums are in REAL.
+  bool double_sums = true;
   /// Work-items per problem (a power of two); 0 (default): the context's tuning
   /// (SinkhornTuning::work_group, potmap/runtime/tuning.hpp).
   int work_group = 0;
 };
+
+/// Whether single-precision sums (SinkhornOptions::double_sums false) reach `tolerance` on the
+/// 1-norm marginal error: from 1e-6 up, five times their floor.
+inline bool single_sums_reach(double tolerance) {
+  return tolerance >= 1e-6;
+}
 
 /// What one problem came to. Duals f, g are in cost units (f_i/eps + log a_i convention of
 /// SPEC section 4 undone), defined up to a constant shared with opposite signs.

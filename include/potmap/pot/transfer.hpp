@@ -92,7 +92,9 @@ struct PotOptions {
   std::size_t transport_free_points = 200;
   double transport_epsilon = 0.0005;  ///< unitless (normalised cost)
   int transport_max_iterations = 2000;
-  double transport_tolerance = 1e-5;  ///< float32's marginal error floors near 1e-7 at 1500 x 1500
+  /// On ||P 1 - a||_1 (default 1e-5: float32's marginal error floors near 1e-7 at 1500 x 1500).
+  /// From 1e-6 up the transport is solved in single-precision sums (single_sums_reach()).
+  double transport_tolerance = 1e-5;
   /// Transport the free samples too (default true): a second plan between the winner's free
   /// samples and the target's, and every kernel follows the sample nearest to it, hit or free,
   /// through that sample's plan. The SPEC (step 4) transports hits only; the paper (Sec. III-A,
@@ -155,6 +157,11 @@ struct PotOptions {
   /// of a 200 x 200 problem: thinned evenly, small samples of matching places still match).
   std::size_t coarse_hits = 48;
   std::size_t coarse_free = 24;
+  /// Coarse stage's tolerance on ||P 1 - a||_1 (default 1e-5, solved in single-precision sums,
+  /// see single_sums_reach()): it only orders candidates for the fine stage, and a cost
+  /// converged to 1e-5 of the marginals orders them as one converged to rank_tolerance does
+  /// (docs/pot-scale.md). The fine stage keeps rank_tolerance.
+  double coarse_tolerance = 1e-5;
   /// Fine stage: the best this many coarse candidates per sector are ranked again with the
   /// ranking's caps (rank_hits, rank_free) and the best of them wins (default 3; 0: the coarse
   /// winner wins). Their score terms are normalised by the coarse stage's largest values,
