@@ -8,6 +8,15 @@
 
 namespace potmap {
 
+namespace {
+// Kernel evaluations below which evaluate_exact() runs on one thread: after a parallel region
+// OpenMP's workers spin for milliseconds (OMP_WAIT_POLICY unset), taking a core from the
+// device's threads (PoCL's CPU device); `potmap map` scores every scan's map on its held-out
+// samples (about a million evaluations at 360 beams), and the spinning slowed the next scan's
+// transfer by about 1.5 ms. 2^23 evaluations take some 30 ms on one core: worth the spin.
+constexpr double kParallelEvaluations = 8388608;
+}  // namespace
+
 double probit_probability(double mean, double var) {
   const double z = mean / std::sqrt(1.0 + M_PI * var / 8.0);
   return 1.0 / (1.0 + std::exp(-z));
@@ -47,7 +56,8 @@ MapValuesExact evaluate_exact(const KernelMap& map, const double* points, std::s
   const Eigen::Map<const Eigen::VectorXd> wm(map.w_mean.data(), map.size());
   const Eigen::Map<const Eigen::VectorXd> wv(map.w_var.data(), map.size());
   const long long count = static_cast<long long>(n);
-#pragma omp parallel for schedule(dynamic, 64)
+  const bool parallel = double(n) * double(map.size()) >= kParallelEvaluations;
+#pragma omp parallel for schedule(dynamic, 64) if (parallel)
   for (long long i = 0; i < count; ++i) {
     Eigen::Map<const Eigen::RowVectorXd> x(points + i * dim, dim);
     const Eigen::VectorXd d2 = (h.rowwise() - x).rowwise().squaredNorm();

@@ -9,24 +9,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
 
-#include "cell_key.hpp"
 #include "point_grid.hpp"
 #include "point_proximity.hpp"
 #include "thinning.hpp"
 
 namespace potmap::detail {
-
-namespace {
-
-double dist2(const double* a, const double* b, int dim) {
-  double s = 0;
-  for (int d = 0; d < dim; ++d) s += (a[d] - b[d]) * (a[d] - b[d]);
-  return s;
-}
-
-}  // namespace
 
 std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const SectorPlans& plans,
                                const PotOptions& o, std::vector<Anchor>& out) {
@@ -150,43 +138,26 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
 
 void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map) {
   const std::size_t n = anchors.size();
-  // A hash grid over the anchors so the partition visits only those within reach.
+  if (n == 0) return;
   double gmin = HUGE_VAL;
   for (const Anchor& a : anchors) gmin = std::min(gmin, a.gamma);
-  if (n == 0) return;
+  // Every anchor within gamma d^2 <= 16 of another lies within this reach of it.
   const double reach = std::sqrt(16.0 / gmin);
   std::vector<double> pts(n * dim);
   for (std::size_t i = 0; i < n; ++i)
     for (int d = 0; d < dim; ++d) pts[i * dim + d] = anchors[i].position[d];
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
-  auto cell = [&](const double* p, int d) { return std::int64_t(std::floor(p[d] / reach)); };
-  auto pack = [](std::int64_t x, std::int64_t y, std::int64_t z) {
-    const std::int64_t c[3] = {x, y, z};
-    return pack_cell(c);
-  };
+  const PointGrid grid(pts, dim, reach);
   for (std::size_t i = 0; i < n; ++i) {
     const double* p = &pts[i * dim];
-    grid[pack(cell(p, 0), cell(p, 1), dim == 3 ? cell(p, 2) : 0)].push_back(std::uint32_t(i));
-  }
-  const int dz = dim == 3 ? 1 : 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double* p = &pts[i * dim];
-    const std::int64_t cx = cell(p, 0), cy = cell(p, 1), cz = dim == 3 ? cell(p, 2) : 0;
     double sum = 0, sum2 = 0;
-    for (int kz = -dz; kz <= dz; ++kz)
-      for (int ky = -1; ky <= 1; ++ky)
-        for (int kx = -1; kx <= 1; ++kx) {
-          const auto it = grid.find(pack(cx + kx, cy + ky, cz + kz));
-          if (it == grid.end()) continue;
-          for (std::uint32_t j : it->second) {
-            if (anchors[j].hit != anchors[i].hit) continue;
-            const double g = anchors[j].gamma * dist2(p, &pts[j * dim], dim);
-            if (g > 16) continue;
-            const double phi = std::exp(-g);
-            sum += phi;
-            sum2 += phi * phi;
-          }
-        }
+    grid.for_each_within(p, reach, [&](std::size_t j, double d2) {
+      if (anchors[j].hit != anchors[i].hit) return;
+      const double g = anchors[j].gamma * d2;
+      if (g > 16) return;
+      const double phi = std::exp(-g);
+      sum += phi;
+      sum2 += phi * phi;
+    });
     map.push_back(p, anchors[i].gamma, anchors[i].value / sum, anchors[i].variance / sum2);
   }
 }
