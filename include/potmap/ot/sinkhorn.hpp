@@ -75,7 +75,7 @@ struct SinkhornOptions {
   /// cl_khr_fp64 (default true): in single precision the 1-norm marginal error stalls near 2e-7
   /// to 5e-7, above the default 1e-7 tolerance. false: single precision, for batches whose
   /// tolerances are 1e-6 or looser, where every product streams twice the lanes a vector
-  /// (POT's coarse ranking and its transport take it; bench/sinkhorn_bench.cpp measures it).
+  /// (POT's coarse ranking and its transport take it; measured in docs/pot-scale.md).
   /// Ignored by the log-domain scheme, whose sums are in REAL.
   bool double_sums = true;
   /// Work-items per problem (a power of two); 0 (default): the context's tuning
