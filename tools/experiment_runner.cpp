@@ -184,6 +184,8 @@ std::vector<Method> Harness::methods() const {
 experiment::PotSetup Harness::pot_setup(bool refine) const {
   experiment::PotSetup p = s_.pot;
   p.pot.refine = refine;
+  // RePOT refines the BHM it is compared with: its persistent map takes the --bhm-* settings.
+  p.target_bhm = s_.bhm;
   if (s_.rotations < 1) throw ArgumentError("--rotations: at least 1");
   p.pot.rotations.clear();
   for (std::size_t i = 0; i < s_.rotations; ++i)
