@@ -105,7 +105,17 @@ static ACCV col_dot(__global const REAL* K, __global const ACC* u, const int n, 
 }
 
 // One row of K: exp(al + be_j - k d2_ij), the exponent formed in ACC (the duals reach
-// thousands at small epsilon) and rounded once.
+// thousands at small epsilon) and rounded once. Entries below REAL's smallest normal number are
+// stored as 0 (flush to zero, as GPUs do for float): x86 CPUs take a microcode assist of about a
+// hundred cycles for every denormal operand of a product or a conversion, and without a
+// flush-to-zero mode (PoCL sets none) a transport's K full of them ran 8x slower on an Intel
+// Xeon than on an AMD EPYC (docs/pot-scale.md). What they dropped is below 1e-37 of a K entry of
+// 1, far under the plan's float resolution.
+#if USE_DOUBLE
+#define FLUSH_EXP (-708.0)
+#else
+#define FLUSH_EXP (-87.0f)
+#endif
 static void build_row(__global REAL* Ki, const REAL px, const REAL py, const REAL pz,
                       __global const REAL* TX, __global const REAL* tz, const int mpad,
                       __global const ACC* BE, const ACC al, const REAL k) {
@@ -116,7 +126,9 @@ static void build_row(__global REAL* Ki, const REAL px, const REAL py, const REA
 #else
     const ACCV be = vload16(0, BE + j);
 #endif
-    VSTORE(exp(TO_REALV(be + al - TO_ACCV(k * d2))), 0, Ki + j);
+    const REALV x = TO_REALV(be + al - TO_ACCV(k * d2));
+    VSTORE(select(exp(fmax(x, (REALV)(FLUSH_EXP))), (REALV)(0), isless(x, (REALV)(FLUSH_EXP))), 0,
+           Ki + j);
   }
 }
 
