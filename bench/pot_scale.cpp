@@ -157,6 +157,7 @@ Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
   setup.pot.coarse_hits = g_indexed.coarse_hits;
   setup.pot.coarse_free = g_indexed.coarse_free;
   setup.pot.coarse_tolerance = g_indexed.coarse_tolerance;
+  setup.pot.transport_free_tolerance = g_indexed.transport_free_tolerance;
   setup.pot.fine_candidates = g_indexed.fine_candidates;
   setup.pot.warm_candidates = g_indexed.warm_candidates;
   setup.pot.snap_rotations = g_indexed.snap_rotations;
@@ -226,7 +227,7 @@ const char* const kUsage =
     "                 [--repot 1] [--cache pot_scale_cache] [--out pot_scale.json]\n"
     "                 [--pool N (atoms in the cached pool; default: the largest of --atoms)]\n"
     "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE]\n"
-    "                 [--coarse-tolerance 1e-5] [--fine N]\n"
+    "                 [--coarse-tolerance 1e-5] [--free-tolerance 1e-2] [--fine N]\n"
     "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1]\n"
     "A Radish log's scans have 180 beams; a town's (simulated, as `potmap data simulate`) 360.\n"
     "The indexed ranking's settings default to PotOptions'.\n";
@@ -281,6 +282,8 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
       g_indexed.coarse_free = c.at(1);
     } else if (k == "--coarse-tolerance")
       g_indexed.coarse_tolerance = std::stod(v);
+    else if (k == "--free-tolerance")
+      g_indexed.transport_free_tolerance = std::stod(v);
     else if (k == "--fine")
       g_indexed.fine_candidates = std::stoul(v);
     else if (k == "--warm")
@@ -397,6 +400,7 @@ int main(int argc, char** argv) {
               {"coarse_hits", g_indexed.coarse_hits},
               {"coarse_free", g_indexed.coarse_free},
               {"coarse_tolerance", g_indexed.coarse_tolerance},
+              {"free_tolerance", g_indexed.transport_free_tolerance},
               {"fine_candidates", g_indexed.fine_candidates},
               {"warm_candidates", g_indexed.warm_candidates},
               {"snap_rotations", g_indexed.snap_rotations},

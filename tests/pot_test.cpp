@@ -183,6 +183,7 @@ TEST(Pot, DeviceChoosesWhatTheReferenceChooses) {
   o.rotations = {0, kPi};
   // Both converged to the same tolerance, so both plans are the same one up to it.
   o.transport_tolerance = 1e-5;
+  o.transport_free_tolerance = 1e-5;
   o.transport_max_iterations = 20000;
   const Scan& scan = sim.scans[3];
   const LabelledPoints train = training_samples(scan, 3);

@@ -77,6 +77,10 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "plan's marginal error (from 1e-6 up solved in single-precision sums)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--free-tolerance", s.pot.pot.transport_free_tolerance,
+                  "POT/RePOT: the free samples' transport's tolerance on the plan's marginal error")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--free-points", s.pot.pot.transport_free_points,
                   "POT/RePOT: free samples a side in the high-quality transport, thinned evenly")
       ->capture_default_str()

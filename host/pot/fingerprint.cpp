@@ -125,6 +125,8 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
   f.u64(p.coarse_free);
   // The coarse stage solved to rank_tolerance before it had its own: those fingerprints stay.
   if (p.coarse_tolerance != p.rank_tolerance) f.f64(p.coarse_tolerance);
+  // The free plan solved to transport_tolerance before it had its own: those fingerprints stay.
+  if (p.transport_free_tolerance != p.transport_tolerance) f.f64(p.transport_free_tolerance);
   f.u64(p.fine_candidates);
   f.i64(p.warm_candidates);
   f.i64(p.refine);

@@ -51,7 +51,8 @@ void check(const Dictionary& dict, const LabelledPoints& train, const PotOptions
   if (!(o.rank_epsilon > 0) || !(o.transport_epsilon > 0)) bad("epsilons must be positive");
   if (o.rank_max_iterations < 1 || o.transport_max_iterations < 1)
     bad("iteration limits must be >= 1");
-  if (!(o.rank_tolerance > 0) || !(o.transport_tolerance > 0) || !(o.coarse_tolerance > 0))
+  if (!(o.rank_tolerance > 0) || !(o.transport_tolerance > 0) || !(o.coarse_tolerance > 0) ||
+      !(o.transport_free_tolerance > 0))
     bad("tolerances must be positive");
   if (o.ranking == PotRanking::indexed &&
       (o.index_neighbours < 1 || o.index_rotations < 1 || o.coarse_hits < 1 || o.coarse_free < 1))
@@ -85,20 +86,22 @@ Transport assemble_transport(const Dictionary& dict, const std::vector<Sector>& 
     const bool hits = sec.num_hits() > 0 && atom.sector.num_hits() > 0;
     const bool frees = sec.num_free() > 0 && atom.sector.num_free() > 0;
     auto add = [&](const std::vector<double>& src_pts, const std::vector<double>& tgt_pts,
-                   std::size_t cap) {
+                   std::size_t cap, double tolerance) {
       SinkhornProblem p;
       p.source = detail::subsample_even(src_pts, dict.dim, cap);
       p.target = detail::subsample_even(tgt_pts, dict.dim, cap);
       p.angle = winners[s].angle;
       p.epsilon = o.transport_epsilon;
       p.max_iterations = o.transport_max_iterations;
-      p.tolerance = o.transport_tolerance;
+      p.tolerance = tolerance;
       p.normalise_cost = true;
       return static_cast<long>(t.batch.add(std::move(p)));
     };
-    if (hits) t.of[s][0] = add(atom.sector.hits, sec.hits, o.transport_points);
+    if (hits)
+      t.of[s][0] = add(atom.sector.hits, sec.hits, o.transport_points, o.transport_tolerance);
     if (frees && (o.transport_free || !hits))
-      t.of[s][1] = add(atom.sector.free, sec.free, o.transport_free_points);
+      t.of[s][1] =
+          add(atom.sector.free, sec.free, o.transport_free_points, o.transport_free_tolerance);
   }
   return t;
 }
@@ -242,7 +245,8 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   const bool at_samples = o.placement == PotPlacement::target_samples;
   topt.want_barycentric = !at_samples;
   topt.want_coupling = at_samples;
-  topt.double_sums = !single_sums_reach(o.transport_tolerance);
+  topt.double_sums =
+      !single_sums_reach(std::min(o.transport_tolerance, o.transport_free_tolerance));
   const std::vector<SinkhornResult> moved = detail::solve(ctx, transport.batch, topt);
   out.timing.transport_ms = ms_since(t0);
 
