@@ -99,7 +99,9 @@ int main(int argc, char** argv) {
   printf("dictionary: %zu atoms, %zu kernels -> %s\n", atoms, kernels, dict_path);
 
   /* 4. The mapper, fed one scan at a time. */
-  POTMAP_TRY(potmap_mapper_options_init(&options, sizeof options));
+  /* `potmap map`'s settings (indexed ranking, kernels on the scans' samples, averaged overall
+     map); potmap_mapper_options_init gives the paper's rules instead. */
+  POTMAP_TRY(potmap_mapper_options_init_map_defaults(&options, sizeof options));
   options.refine = refine;
   POTMAP_TRY(potmap_mapper_create(ctx, dict, &options, &mapper));
   stats.struct_size = sizeof stats;

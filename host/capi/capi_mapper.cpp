@@ -30,6 +30,24 @@ potmap_mapper_options default_mapper_options() {
   o.gamma_ratio = ov.gamma_ratio;
   o.max_kernels = ov.max_kernels;
   o.persistent_refine = m.persistent_refine ? 1 : 0;
+  o.ranking = m.pot.ranking == potmap::PotRanking::indexed ? POTMAP_RANKING_INDEXED
+                                                           : POTMAP_RANKING_EXHAUSTIVE;
+  o.placement = m.pot.placement == potmap::PotPlacement::target_samples
+                    ? POTMAP_PLACEMENT_TARGET_SAMPLES
+                    : POTMAP_PLACEMENT_BARYCENTRIC;
+  o.anchor_spacing = m.pot.anchor_spacing;
+  o.wall_clearance = m.pot.wall_clearance;
+  o.average_overall = m.average_overall ? 1 : 0;
+  return o;
+}
+
+// tools/cmd_map.cpp's defaults for the fields the C API has.
+potmap_mapper_options map_default_options() {
+  potmap_mapper_options o = default_mapper_options();
+  o.ranking = POTMAP_RANKING_INDEXED;
+  o.placement = POTMAP_PLACEMENT_AUTO;
+  o.wall_clearance = 0.5;
+  o.average_overall = 1;
   return o;
 }
 
@@ -58,6 +76,15 @@ Options to_options(const potmap_mapper_options* in) {
     bad("free_per_metre", o.free_per_metre);
   if (!(o.merge_radius >= 0) || !std::isfinite(o.merge_radius)) bad("merge_radius", o.merge_radius);
   if (!(o.gamma_ratio >= 1) || !std::isfinite(o.gamma_ratio)) bad("gamma_ratio", o.gamma_ratio);
+  if (o.ranking != POTMAP_RANKING_EXHAUSTIVE && o.ranking != POTMAP_RANKING_INDEXED)
+    bad("ranking", o.ranking);
+  if (o.placement < POTMAP_PLACEMENT_BARYCENTRIC || o.placement > POTMAP_PLACEMENT_AUTO)
+    bad("placement", o.placement);
+  if (!(o.anchor_spacing > 0) || !std::isfinite(o.anchor_spacing))
+    bad("anchor_spacing", o.anchor_spacing);
+  if (!(o.wall_clearance >= 0) || !std::isfinite(o.wall_clearance))
+    bad("wall_clearance", o.wall_clearance);
+  if (o.average_overall != 0 && o.average_overall != 1) bad("average_overall", o.average_overall);
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
@@ -65,6 +92,16 @@ Options to_options(const potmap_mapper_options* in) {
   for (int i = 0; i < o.rotations; ++i) p.rotations.push_back(2 * kPi * i / o.rotations);
   p.refine = o.refine == 1;
   r.mapper.persistent_refine = o.persistent_refine == 1;
+  p.ranking = o.ranking == POTMAP_RANKING_INDEXED ? potmap::PotRanking::indexed
+                                                  : potmap::PotRanking::exhaustive;
+  const bool seeds = potmap::persistent_refine(r.mapper);
+  p.placement = o.placement == POTMAP_PLACEMENT_TARGET_SAMPLES ||
+                        (o.placement == POTMAP_PLACEMENT_AUTO && !seeds)
+                    ? potmap::PotPlacement::target_samples
+                    : potmap::PotPlacement::barycentric;
+  p.anchor_spacing = o.anchor_spacing;
+  p.wall_clearance = o.wall_clearance;
+  r.mapper.average_overall = o.average_overall == 1;
   p.max_range = o.max_range;
   p.candidates = o.candidates;
   p.seed = o.seed;
@@ -97,6 +134,17 @@ potmap_status potmap_mapper_options_init(potmap_mapper_options* options, size_t 
     check_struct_size(struct_size, kMapperOptionsV1, "options", POTMAP_ERROR_INVALID_ARGUMENT);
     options->struct_size = struct_size;
     write_struct(options, default_mapper_options(), kMapperOptionsV1, "options",
+                 POTMAP_ERROR_INVALID_ARGUMENT);
+  });
+}
+
+potmap_status potmap_mapper_options_init_map_defaults(potmap_mapper_options* options,
+                                                      size_t struct_size) {
+  return guard("potmap_mapper_options_init_map_defaults", POTMAP_ERROR_INTERNAL, [&] {
+    require(options, "options");
+    check_struct_size(struct_size, kMapperOptionsV1, "options", POTMAP_ERROR_INVALID_ARGUMENT);
+    options->struct_size = struct_size;
+    write_struct(options, map_default_options(), kMapperOptionsV1, "options",
                  POTMAP_ERROR_INVALID_ARGUMENT);
   });
 }

@@ -138,6 +138,27 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.gamma_ratio, 2.0);
   EXPECT_EQ(m.max_kernels, 0u);
   EXPECT_EQ(m.persistent_refine, 1);
+  EXPECT_EQ(m.ranking, POTMAP_RANKING_EXHAUSTIVE);
+  EXPECT_EQ(m.placement, POTMAP_PLACEMENT_BARYCENTRIC);
+  EXPECT_EQ(m.anchor_spacing, 0.5);
+  EXPECT_EQ(m.wall_clearance, 0.0);
+  EXPECT_EQ(m.average_overall, 0);
+  // `potmap map`'s settings: the defaults but for the four it sets.
+  potmap_mapper_options md;
+  POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(&md, sizeof md));
+  EXPECT_EQ(md.ranking, POTMAP_RANKING_INDEXED);
+  EXPECT_EQ(md.placement, POTMAP_PLACEMENT_AUTO);
+  EXPECT_EQ(md.wall_clearance, 0.5);
+  EXPECT_EQ(md.average_overall, 1);
+  md.ranking = m.ranking;
+  md.placement = m.placement;
+  md.wall_clearance = m.wall_clearance;
+  md.average_overall = m.average_overall;
+  EXPECT_EQ(std::memcmp(&md, &m, sizeof m), 0);
+  POTMAP_EXPECT_FAIL(potmap_mapper_options_init_map_defaults(nullptr, sizeof md),
+                     POTMAP_ERROR_NULL_ARGUMENT);
+  POTMAP_EXPECT_FAIL(potmap_mapper_options_init_map_defaults(&md, 4),
+                     POTMAP_ERROR_INVALID_ARGUMENT);
 
   potmap_dictionary_options d;
   POTMAP_ASSERT_OK(potmap_dictionary_options_init(&d, sizeof d));
@@ -388,6 +409,13 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
   bad_option([](potmap_mapper_options& b) { b.sectors = 0; }, "sectors");
   bad_option([](potmap_mapper_options& b) { b.refine = 2; }, "refine");
   bad_option([](potmap_mapper_options& b) { b.persistent_refine = -1; }, "persistent_refine");
+  bad_option([](potmap_mapper_options& b) { b.ranking = 2; }, "ranking");
+  bad_option([](potmap_mapper_options& b) { b.placement = -1; }, "placement");
+  bad_option([](potmap_mapper_options& b) { b.placement = 3; }, "placement");
+  bad_option([](potmap_mapper_options& b) { b.anchor_spacing = 0; }, "anchor_spacing");
+  bad_option([](potmap_mapper_options& b) { b.wall_clearance = -0.1; }, "wall_clearance");
+  bad_option([](potmap_mapper_options& b) { b.wall_clearance = INFINITY; }, "wall_clearance");
+  bad_option([](potmap_mapper_options& b) { b.average_overall = 2; }, "average_overall");
   bad_option([](potmap_mapper_options& b) { b.holdout_fraction = 1; }, "holdout_fraction");
   bad_option([](potmap_mapper_options& b) { b.free_per_metre = 0; }, "free_per_metre");
   bad_option([](potmap_mapper_options& b) { b.gamma_ratio = 0.5; }, "gamma_ratio");
@@ -410,6 +438,19 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
         potmap_mapper_options_init(&init_v1, offsetof(potmap_mapper_options, persistent_refine)));
     EXPECT_EQ(init_v1.persistent_refine, -1);  // not written: beyond the caller's struct
     EXPECT_EQ(init_v1.sectors, 5);
+    // The same for a caller of version 2 (no ranking, placement, ...), with either _init.
+    potmap_mapper_options v2 = fast_options(0);
+    v2.ranking = 9;  // beyond the caller's struct: never read
+    v2.struct_size = offsetof(potmap_mapper_options, ranking);
+    POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &v2, &old_caller));
+    POTMAP_ASSERT_OK(potmap_mapper_destroy(old_caller));
+    potmap_mapper_options init_v2;
+    std::memset(&init_v2, 0xff, sizeof init_v2);
+    POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(
+        &init_v2, offsetof(potmap_mapper_options, ranking)));
+    EXPECT_EQ(init_v2.ranking, -1);
+    EXPECT_EQ(init_v2.average_overall, -1);
+    EXPECT_EQ(init_v2.persistent_refine, 1);
   }
 
   POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &o, &m));
@@ -527,6 +568,64 @@ TEST(CApiMapper, MapperMatchesTheCppMapper) {
       POTMAP_ASSERT_OK(potmap_mapper_reset(m));
     }
     POTMAP_ASSERT_OK(potmap_mapper_destroy(m));
+  }
+}
+
+// potmap_mapper_options_init_map_defaults maps as the C++ Mapper with `potmap map`'s settings
+// (tools/cmd_map.cpp): indexed ranking, kernels on the scans' samples for POT and barycentric
+// seeds for RePOT's persistent map, the 0.5 m wall clearance, the averaged overall map.
+TEST(CApiMapper, MapDefaultsMapAsThePotmapMapCommand) {
+  const Source& src = source();
+  const std::vector<RoomScan> tgt = targets(3);
+  std::vector<potmap::Scan> src_scans;
+  for (const RoomScan& r : src.room) src_scans.push_back(to_cpp(r));
+  auto dict = std::make_shared<potmap::Dictionary>();
+  potmap::build_dictionary(src_scans, read_back(src.map), {}, *dict);
+  for (int refine = 0; refine <= 1; ++refine) {
+    SCOPED_TRACE(refine ? "RePOT" : "POT");
+    potmap_mapper_options o;
+    POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(&o, sizeof o));
+    o.rotations = 4;
+    o.refine = refine;
+    o.seed = 5;
+    potmap_mapper* m = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &m));
+    potmap::MapperOptions mo;
+    mo.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+    mo.pot.refine = refine == 1;
+    mo.pot.seed = mo.labels.seed = 5;
+    mo.pot.ranking = potmap::PotRanking::indexed;
+    mo.pot.placement =
+        refine ? potmap::PotPlacement::barycentric : potmap::PotPlacement::target_samples;
+    mo.pot.wall_clearance = 0.5;
+    mo.average_overall = true;
+    potmap::Mapper cpp(&cpp_context(), dict, mo);
+    potmap::MapperOptions paper = mo;  // the same but for the four settings
+    paper.pot.ranking = potmap::PotRanking::exhaustive;
+    paper.pot.placement = potmap::PotPlacement::barycentric;
+    paper.pot.wall_clearance = 0;
+    paper.average_overall = false;
+    potmap::Mapper by_paper(&cpp_context(), dict, paper);
+    std::size_t differ = 0;
+    for (const RoomScan& r : tgt) {
+      const potmap_scan s = r.scan();
+      POTMAP_ASSERT_OK(potmap_mapper_add_scan(m, &s, nullptr));
+      potmap_map* inst = nullptr;
+      POTMAP_ASSERT_OK(potmap_mapper_instantaneous_map(m, &inst));
+      const potmap::KernelMap got = read_back(inst);
+      POTMAP_ASSERT_OK(potmap_map_destroy(inst));
+      const potmap::Scan cs = to_cpp(r);
+      expect_same(got, cpp.add_scan(cs).transfer.map, "instantaneous map");
+      const potmap::KernelMap other = by_paper.add_scan(cs).transfer.map;
+      differ += other.size() != got.size() || other.w_mean != got.w_mean;
+    }
+    potmap_map* overall = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_overall_map(m, &overall));
+    expect_same(read_back(overall), cpp.overall_map(), "overall map");
+    POTMAP_ASSERT_OK(potmap_map_destroy(overall));
+    POTMAP_ASSERT_OK(potmap_mapper_destroy(m));
+    // The settings do reach the mapper: the paper's rules give other maps.
+    EXPECT_GT(differ, 0u);
   }
 }
 
