@@ -223,7 +223,8 @@ std::pair<double, double> agreement(const Run& a, const Run& b) {
 const char* const kUsage =
     "Usage: pot_scale [--data ../shared/data/radish] [--target intel|aces|csail|freiburg-079|\n"
     "                 town1|town2|town3] [--first 10] [--scans 100]\n"
-    "                 [--atoms 6,50,200,1000,5000] [--exhaustive-scans 100,100,100,20,5]\n"
+    "                 [--atoms 6,50,200,1000,5000] [--exhaustive-scans 100,100,100,20,5 (0: "
+    "none)]\n"
     "                 [--repot 1] [--cache pot_scale_cache] [--out pot_scale.json]\n"
     "                 [--pool N (atoms in the cached pool; default: the largest of --atoms)]\n"
     "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE]\n"
@@ -254,53 +255,58 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
   }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--data")
-      a.data = v;
-    else if (k == "--target")
-      a.target = v;
-    else if (k == "--first")
-      a.first = std::stoul(v);
-    else if (k == "--scans")
-      a.scans = std::stoul(v);
-    else if (k == "--atoms")
-      a.sizes = numbers(v);
-    else if (k == "--pool")
-      a.pool = std::stoul(v);
-    else if (k == "--exhaustive-scans")
-      a.ex_scans = numbers(v);
-    else if (k == "--repot")
-      a.repot = v != "0";
-    else if (k == "--cache")
-      a.cache = v;
-    else if (k == "--neighbours")
-      g_indexed.index_neighbours = std::stoul(v);
-    else if (k == "--rotations-per-atom")
-      g_indexed.index_rotations = std::stoi(v);
-    else if (k == "--coarse") {
-      const auto c = numbers(v);
-      g_indexed.coarse_hits = c.at(0);
-      g_indexed.coarse_free = c.at(1);
-    } else if (k == "--coarse-tolerance")
-      g_indexed.coarse_tolerance = std::stod(v);
-    else if (k == "--free-tolerance")
-      g_indexed.transport_free_tolerance = std::stod(v);
-    else if (k == "--fine")
-      g_indexed.fine_candidates = std::stoul(v);
-    else if (k == "--warm")
-      g_indexed.warm_candidates = v != "0";
-    else if (k == "--snap")
-      g_indexed.snap_rotations = v != "0";
-    else if (k == "--out")
-      a.out = v;
-    else {
-      std::fprintf(stderr, "pot_scale: unknown option %s\n%s", k.c_str(), kUsage);
+    try {
+      if (k == "--data")
+        a.data = v;
+      else if (k == "--target")
+        a.target = v;
+      else if (k == "--first")
+        a.first = std::stoul(v);
+      else if (k == "--scans")
+        a.scans = std::stoul(v);
+      else if (k == "--atoms")
+        a.sizes = numbers(v);
+      else if (k == "--pool")
+        a.pool = std::stoul(v);
+      else if (k == "--exhaustive-scans")
+        a.ex_scans = numbers(v);
+      else if (k == "--repot")
+        a.repot = v != "0";
+      else if (k == "--cache")
+        a.cache = v;
+      else if (k == "--neighbours")
+        g_indexed.index_neighbours = std::stoul(v);
+      else if (k == "--rotations-per-atom")
+        g_indexed.index_rotations = std::stoi(v);
+      else if (k == "--coarse") {
+        const auto c = numbers(v);
+        g_indexed.coarse_hits = c.at(0);
+        g_indexed.coarse_free = c.at(1);
+      } else if (k == "--coarse-tolerance")
+        g_indexed.coarse_tolerance = std::stod(v);
+      else if (k == "--free-tolerance")
+        g_indexed.transport_free_tolerance = std::stod(v);
+      else if (k == "--fine")
+        g_indexed.fine_candidates = std::stoul(v);
+      else if (k == "--warm")
+        g_indexed.warm_candidates = v != "0";
+      else if (k == "--snap")
+        g_indexed.snap_rotations = v != "0";
+      else if (k == "--out")
+        a.out = v;
+      else {
+        std::fprintf(stderr, "pot_scale: unknown option %s\n%s", k.c_str(), kUsage);
+        return false;
+      }
+    } catch (const std::logic_error&) {  // std::stoul and friends, numbers()' .at()
+      std::fprintf(stderr, "pot_scale: %s: not a valid value: '%s'\n", k.c_str(), v.c_str());
       return false;
     }
   }
   return true;
 }
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   ScaleArgs args;
   if (!parse_args(argc, argv, args)) return 2;
   const std::string &data = args.data, &target = args.target, &cache = args.cache, &out = args.out;
@@ -352,7 +358,8 @@ int main(int argc, char** argv) {
     const std::size_t es = si < ex_scans.size() ? ex_scans[si] : ex_scans.back();
     // BHM on the same scans in the same run, for the ratio.
     const json bhm_all = bhm_row(ctx, targets, scans, first_index);
-    const json bhm_es = es < scans ? bhm_row(ctx, targets, es, first_index) : bhm_all;
+    // es 0: no comparison with the exhaustive ranking, the indexed one over every scan only.
+    const json bhm_es = es > 0 && es < scans ? bhm_row(ctx, targets, es, first_index) : bhm_all;
     auto emit = [&](json row, const json& bhm, double agree, double agree_rot) {
       row["atoms"] = n;
       row["bhm_ms_per_scan"] = bhm["ms_per_scan"];
@@ -377,15 +384,17 @@ int main(int argc, char** argv) {
       if (refine && !repot) continue;
       // RePOT's exhaustive run only where it is affordable: the refinement does not depend on
       // the dictionary's size, its ranking is POT's.
-      const bool exhaustive = !refine || es >= scans;
+      const bool exhaustive = es > 0 && (!refine || es >= scans);
       Run exr;
       if (exhaustive) {
         exr = run_method(ctx, dict, targets, es, PotRanking::exhaustive, refine, first_index);
         emit(exr.row, bhm_es, 1.0, 1.0);
       }
-      Run same = run_method(ctx, dict, targets, es, PotRanking::indexed, refine, first_index);
-      const auto ag = exhaustive ? agreement(exr, same) : std::pair<double, double>{-1, -1};
-      emit(same.row, bhm_es, ag.first, ag.second);
+      if (es > 0) {
+        Run same = run_method(ctx, dict, targets, es, PotRanking::indexed, refine, first_index);
+        const auto ag = exhaustive ? agreement(exr, same) : std::pair<double, double>{-1, -1};
+        emit(same.row, bhm_es, ag.first, ag.second);
+      }
       if (es < scans) {
         Run all = run_method(ctx, dict, targets, scans, PotRanking::indexed, refine, first_index);
         emit(all.row, bhm_all, -1, -1);
@@ -412,4 +421,14 @@ int main(int argc, char** argv) {
   std::ofstream(out) << j.dump(2) << "\n";
   std::printf("device: %s; wrote %s\n", ctx.info().summary().c_str(), out.c_str());
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    // Bad numbers in the options, unreadable logs, a full disk: said, not an abort.
+    std::fprintf(stderr, "pot_scale: %s\n", e.what());
+    return 1;
+  }
 }
