@@ -102,11 +102,8 @@ potmap_status potmap_map_learn_bhm(potmap_context* context, const potmap_scan* c
 potmap_status potmap_dictionary_options_init(potmap_dictionary_options* options,
                                              size_t struct_size) {
   return guard("potmap_dictionary_options_init", POTMAP_ERROR_INTERNAL, [&] {
-    require(options, "options");
-    check_struct_size(struct_size, kDictionaryOptionsV1, "options", POTMAP_ERROR_INVALID_ARGUMENT);
-    options->struct_size = struct_size;
-    write_struct(options, default_dictionary_options(), kDictionaryOptionsV1, "options",
-                 POTMAP_ERROR_INVALID_ARGUMENT);
+    init_struct(options, struct_size, default_dictionary_options(), kDictionaryOptionsV1,
+                "options");
   });
 }
 

@@ -130,22 +130,14 @@ extern "C" {
 
 potmap_status potmap_mapper_options_init(potmap_mapper_options* options, size_t struct_size) {
   return guard("potmap_mapper_options_init", POTMAP_ERROR_INTERNAL, [&] {
-    require(options, "options");
-    check_struct_size(struct_size, kMapperOptionsV1, "options", POTMAP_ERROR_INVALID_ARGUMENT);
-    options->struct_size = struct_size;
-    write_struct(options, default_mapper_options(), kMapperOptionsV1, "options",
-                 POTMAP_ERROR_INVALID_ARGUMENT);
+    init_struct(options, struct_size, default_mapper_options(), kMapperOptionsV1, "options");
   });
 }
 
 potmap_status potmap_mapper_options_init_map_defaults(potmap_mapper_options* options,
                                                       size_t struct_size) {
   return guard("potmap_mapper_options_init_map_defaults", POTMAP_ERROR_INTERNAL, [&] {
-    require(options, "options");
-    check_struct_size(struct_size, kMapperOptionsV1, "options", POTMAP_ERROR_INVALID_ARGUMENT);
-    options->struct_size = struct_size;
-    write_struct(options, map_default_options(), kMapperOptionsV1, "options",
-                 POTMAP_ERROR_INVALID_ARGUMENT);
+    init_struct(options, struct_size, map_default_options(), kMapperOptionsV1, "options");
   });
 }
 

@@ -82,12 +82,8 @@ using namespace potmap::capi;
 extern "C" {
 
 potmap_status potmap_scan_init(potmap_scan* scan, size_t struct_size) {
-  return guard("potmap_scan_init", POTMAP_ERROR_INTERNAL, [&] {
-    require(scan, "scan");
-    check_struct_size(struct_size, kScanV1, "scan", POTMAP_ERROR_INVALID_ARGUMENT);
-    scan->struct_size = struct_size;
-    write_struct(scan, default_scan(), kScanV1, "scan", POTMAP_ERROR_INVALID_ARGUMENT);
-  });
+  return guard("potmap_scan_init", POTMAP_ERROR_INTERNAL,
+               [&] { init_struct(scan, struct_size, default_scan(), kScanV1, "scan"); });
 }
 
 potmap_status potmap_dataset_load(const char* path, potmap_dataset** out) {

@@ -38,6 +38,16 @@ void write_struct(T* out, const T& value, std::size_t min, const char* what,
   out->struct_size = size;
 }
 
+/// A struct's *_init function: `value` written into the caller's `size` bytes of *out, which
+/// must hold at least the first version's `min`.
+template <class T>
+void init_struct(T* out, std::size_t size, const T& value, std::size_t min, const char* what) {
+  require(out, what);
+  check_struct_size(size, min, what, POTMAP_ERROR_INVALID_ARGUMENT);
+  out->struct_size = size;
+  write_struct(out, value, min, what, POTMAP_ERROR_INVALID_ARGUMENT);
+}
+
 /// The caller's struct read into a full one: defaults for the fields it does not have. A
 /// struct_size larger than this library knows is refused: its extra fields would be ignored.
 template <class T>

@@ -106,6 +106,15 @@ std::vector<RoomScan> targets(std::size_t n) {
   return t;
 }
 
+// The C++ API's dictionary of the source, as potmap_dictionary_build makes it.
+std::shared_ptr<potmap::Dictionary> cpp_dictionary(const Source& src) {
+  std::vector<potmap::Scan> src_scans;
+  for (const RoomScan& r : src.room) src_scans.push_back(to_cpp(r));
+  auto dict = std::make_shared<potmap::Dictionary>();
+  potmap::build_dictionary(src_scans, read_back(src.map), {}, *dict);
+  return dict;
+}
+
 potmap_mapper_options fast_options(int refine) {
   potmap_mapper_options o;
   potmap_mapper_options_init(&o, sizeof o);
@@ -113,6 +122,15 @@ potmap_mapper_options fast_options(int refine) {
   o.refine = refine;
   o.seed = 5;
   return o;
+}
+
+// What fast_options(refine) asks of the C++ Mapper.
+potmap::MapperOptions cpp_options(int refine) {
+  potmap::MapperOptions mo;
+  mo.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  mo.pot.refine = refine == 1;
+  mo.pot.seed = mo.labels.seed = 5;
+  return mo;
 }
 
 }  // namespace
@@ -500,20 +518,14 @@ TEST(CApiMapper, MapperMatchesTheCppMapper) {
   const std::vector<RoomScan> tgt = targets(4);
   std::vector<potmap::Scan> cpp_scans;
   for (const RoomScan& r : tgt) cpp_scans.push_back(to_cpp(r));
-  std::vector<potmap::Scan> src_scans;
-  for (const RoomScan& r : src.room) src_scans.push_back(to_cpp(r));
-  auto dict = std::make_shared<potmap::Dictionary>();
-  potmap::build_dictionary(src_scans, read_back(src.map), {}, *dict);
+  const auto dict = cpp_dictionary(src);
 
   for (int refine = 0; refine <= 1; ++refine) {
     SCOPED_TRACE(refine ? "RePOT" : "POT");
     const potmap_mapper_options o = fast_options(refine);
     potmap_mapper* m = nullptr;
     POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &m));
-    potmap::MapperOptions mo;
-    mo.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
-    mo.pot.refine = refine == 1;
-    mo.pot.seed = mo.labels.seed = 5;
+    potmap::MapperOptions mo = cpp_options(refine);
     potmap::Mapper cpp(&cpp_context(), dict, mo);
 
     std::vector<potmap::KernelMap> first_pass;
@@ -577,10 +589,7 @@ TEST(CApiMapper, MapperMatchesTheCppMapper) {
 TEST(CApiMapper, MapDefaultsMapAsThePotmapMapCommand) {
   const Source& src = source();
   const std::vector<RoomScan> tgt = targets(3);
-  std::vector<potmap::Scan> src_scans;
-  for (const RoomScan& r : src.room) src_scans.push_back(to_cpp(r));
-  auto dict = std::make_shared<potmap::Dictionary>();
-  potmap::build_dictionary(src_scans, read_back(src.map), {}, *dict);
+  const auto dict = cpp_dictionary(src);
   for (int refine = 0; refine <= 1; ++refine) {
     SCOPED_TRACE(refine ? "RePOT" : "POT");
     potmap_mapper_options o;
@@ -590,10 +599,7 @@ TEST(CApiMapper, MapDefaultsMapAsThePotmapMapCommand) {
     o.seed = 5;
     potmap_mapper* m = nullptr;
     POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &m));
-    potmap::MapperOptions mo;
-    mo.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
-    mo.pot.refine = refine == 1;
-    mo.pot.seed = mo.labels.seed = 5;
+    potmap::MapperOptions mo = cpp_options(refine);
     mo.pot.ranking = potmap::PotRanking::indexed;
     mo.pot.placement =
         refine ? potmap::PotPlacement::barycentric : potmap::PotPlacement::target_samples;
