@@ -175,6 +175,8 @@ void bind_pot(py::module_& m) {
                      "normalised cost (0.0005)")
       .def_readwrite("transport_max_iterations", &PotOptions::transport_max_iterations, "(2000)")
       .def_readwrite("transport_tolerance", &PotOptions::transport_tolerance, "(1e-5)")
+      .def_readwrite("transport_free_tolerance", &PotOptions::transport_free_tolerance,
+                     "the free samples' plan's tolerance (1e-2)")
       .def_readwrite("transport_free", &PotOptions::transport_free,
                      "transport free samples too (True)")
       .def_readwrite("wall_clearance", &PotOptions::wall_clearance,
