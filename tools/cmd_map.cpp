@@ -32,6 +32,7 @@ struct MapArgs {
   double max_range = 0, holdout = 0.2, res = 0.25, range_cut = 0, ros_res = 0.05;
   std::size_t first = 0, max_scans = 0, candidates = 0, max_kernels = 0;
   std::size_t free_points = PotOptions{}.transport_free_points;
+  double free_tolerance = PotOptions{}.transport_free_tolerance;
   double merge_radius = OverallMapOptions{}.merge_radius;
   double wall_clearance = 0.5, displacement_var = 0;
   std::uint64_t seed = 0;
@@ -73,6 +74,7 @@ nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const 
           {"--candidates", a.candidates},
           {"--max-range", a.max_range},
           {"--free-points", a.free_points},
+          {"--free-tolerance", a.free_tolerance},
           {"--hits-only", a.hits_only},
           {"--holdout", a.holdout},
           {"--seed", a.seed},
@@ -115,6 +117,7 @@ int run_map(const MapArgs& a, const std::string& device) {
   po.candidates = a.candidates;
   po.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
   po.transport_free_points = a.free_points;
+  po.transport_free_tolerance = a.free_tolerance;
   po.transport_free = !a.hits_only;
   po.wall_clearance = a.wall_clearance;
   po.displacement_variance = a.displacement_var;
@@ -249,6 +252,10 @@ void register_map(CLI::App& app, Runner& runner) {
                   "Sector radius, metres (default 0: the dictionary's)");
   cmd->add_option("--free-points", a->free_points,
                   "Free samples a side in the transport, thinned evenly (default 200)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--free-tolerance", a->free_tolerance,
+                  "The free samples' transport stops at this marginal error (default 1e-2: "
+                  "their plan is read as plan-weighted means of free-space logits)")
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--hits-only", a->hits_only,
                 "Transport hits only (SPEC step 4); kernels follow the nearest hit");
