@@ -121,12 +121,9 @@ int run_map(const MapArgs& a, const std::string& device) {
   po.transport_free = !a.hits_only;
   po.wall_clearance = a.wall_clearance;
   po.displacement_variance = a.displacement_var;
-  // auto: kernels on the scan's samples for POT; RePOT's persistent map keeps barycentric
-  // seeds (kernels on the samples are all reached by samples and would seed nothing).
-  const bool seeds = a.refine && !a.per_scan_refine;
-  po.placement = a.placement == "target_samples" || (a.placement == "auto" && !seeds)
-                     ? PotPlacement::target_samples
-                     : PotPlacement::barycentric;
+  po.placement = a.placement == "auto"             ? auto_placement(job.mapper)
+                 : a.placement == "target_samples" ? PotPlacement::target_samples
+                                                   : PotPlacement::barycentric;
   job.mapper.average_overall = a.average;
   po.seed = a.seed;
   job.mapper.labels.holdout_fraction = a.holdout;

@@ -94,9 +94,8 @@ Options to_options(const potmap_mapper_options* in) {
   r.mapper.persistent_refine = o.persistent_refine == 1;
   p.ranking = o.ranking == POTMAP_RANKING_INDEXED ? potmap::PotRanking::indexed
                                                   : potmap::PotRanking::exhaustive;
-  const bool seeds = potmap::persistent_refine(r.mapper);
-  p.placement = o.placement == POTMAP_PLACEMENT_TARGET_SAMPLES ||
-                        (o.placement == POTMAP_PLACEMENT_AUTO && !seeds)
+  p.placement = o.placement == POTMAP_PLACEMENT_AUTO ? potmap::auto_placement(r.mapper)
+                : o.placement == POTMAP_PLACEMENT_TARGET_SAMPLES
                     ? potmap::PotPlacement::target_samples
                     : potmap::PotPlacement::barycentric;
   p.anchor_spacing = o.anchor_spacing;

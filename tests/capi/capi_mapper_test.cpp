@@ -168,11 +168,20 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(md.placement, POTMAP_PLACEMENT_AUTO);
   EXPECT_EQ(md.wall_clearance, 0.5);
   EXPECT_EQ(md.average_overall, 1);
-  md.ranking = m.ranking;
-  md.placement = m.placement;
-  md.wall_clearance = m.wall_clearance;
-  md.average_overall = m.average_overall;
-  EXPECT_EQ(std::memcmp(&md, &m, sizeof m), 0);
+  // Field by field (a struct's padding bytes are not its value).
+  EXPECT_EQ(md.sectors, m.sectors);
+  EXPECT_EQ(md.rotations, m.rotations);
+  EXPECT_EQ(md.refine, m.refine);
+  EXPECT_EQ(md.max_range, m.max_range);
+  EXPECT_EQ(md.candidates, m.candidates);
+  EXPECT_EQ(md.holdout_fraction, m.holdout_fraction);
+  EXPECT_EQ(md.free_per_metre, m.free_per_metre);
+  EXPECT_EQ(md.seed, m.seed);
+  EXPECT_EQ(md.merge_radius, m.merge_radius);
+  EXPECT_EQ(md.gamma_ratio, m.gamma_ratio);
+  EXPECT_EQ(md.max_kernels, m.max_kernels);
+  EXPECT_EQ(md.persistent_refine, m.persistent_refine);
+  EXPECT_EQ(md.anchor_spacing, m.anchor_spacing);
   POTMAP_EXPECT_FAIL(potmap_mapper_options_init_map_defaults(nullptr, sizeof md),
                      POTMAP_ERROR_NULL_ARGUMENT);
   POTMAP_EXPECT_FAIL(potmap_mapper_options_init_map_defaults(&md, 4),

@@ -93,6 +93,13 @@ inline bool persistent_refine(const MapperOptions& o) {
   return o.pot.refine && o.persistent_refine;
 }
 
+/// The placement `potmap map` chooses for `o` ("auto"): kernels on the scan's samples, except
+/// for the seeds of RePOT's persistent map, which stay barycentric (kernels on the samples are
+/// all reached by samples and would seed nothing).
+inline PotPlacement auto_placement(const MapperOptions& o) {
+  return persistent_refine(o) ? PotPlacement::barycentric : PotPlacement::target_samples;
+}
+
 /// One mapped scan.
 struct MappedScan {
   std::size_t index = 0;  ///< position in the input
