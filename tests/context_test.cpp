@@ -85,6 +85,28 @@ TEST(Context, ProgramsAreCachedInMemory) {
   EXPECT_EQ(ctx.builds_from_source(), 2u);
 }
 
+// A lease given back is lent again (no new cl_kernel, no program lookup); leases alive at once
+// never share a kernel, whose argument state is its borrower's.
+TEST(Context, LentKernelsComeBackAndAreNeverShared) {
+  Context& ctx = test::context();
+  const std::string defines = "-DDIM=2";
+  cl_kernel first = nullptr;
+  {
+    KernelLease a = ctx.lend_kernel("learn/bhm_update", "bhm_accumulate", defines);
+    first = a->get();
+    KernelLease b = ctx.lend_kernel("learn/bhm_update", "bhm_accumulate", defines);
+    EXPECT_NE(b->get(), first);
+    KernelLease moved = std::move(b);
+    EXPECT_NE(moved->get(), nullptr);
+  }
+  std::vector<KernelLease> again;
+  again.push_back(ctx.lend_kernel("learn/bhm_update", "bhm_accumulate", defines));
+  again.push_back(ctx.lend_kernel("learn/bhm_update", "bhm_accumulate", defines));
+  EXPECT_TRUE(again[0]->get() == first || again[1]->get() == first);
+  EXPECT_NE(again[0]->get(), again[1]->get());
+  EXPECT_EQ((*again[0]).name(), "bhm_accumulate");
+}
+
 TEST(Context, BuildFailureCarriesTheLogAndErrorName) {
   const std::string src = "__kernel void broken(__global float* x) { x[0] = undefined_name; }";
   try {

@@ -64,8 +64,9 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
              b_wv = to_device(ctx, wv, "BHM: weight variances");
 
   const std::string defs = "-DDIM=" + std::to_string(dim);
-  bc::kernel acc = ctx.kernel("learn/bhm_update", "bhm_accumulate", defs);
-  bc::kernel lam = ctx.kernel("learn/bhm_update", "bhm_lambda", defs);
+  KernelLease acc_lease = ctx.lend_kernel("learn/bhm_update", "bhm_accumulate", defs);
+  KernelLease lam_lease = ctx.lend_kernel("learn/bhm_update", "bhm_lambda", defs);
+  bc::kernel &acc = *acc_lease, &lam = *lam_lease;
   const std::size_t wg = static_cast<std::size_t>(ctx.tuning().learn.bhm_work_group);
 
   const std::vector<double> mean0 = map.w_mean, var0 = map.w_var;

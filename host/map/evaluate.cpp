@@ -293,8 +293,8 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
   bc::buffer& b_m = out_mean.get(cx, n * 4);
   bc::buffer& b_v = out_var.get(cx, n * 4);
   bc::buffer& b_p = out_prob.get(cx, n * 4);
-  bc::kernel k = ctx->kernel("map/evaluate", "map_eval_points", defines);
-  detail::launch_1d(q, k, "map_eval_points", nchunks * wg, wg, kpos_hi, kpos_lo, kpar, b_qh, b_ql,
+  KernelLease k = ctx->lend_kernel("map/evaluate", "map_eval_points", defines);
+  detail::launch_1d(q, *k, "map_eval_points", nchunks * wg, wg, kpos_hi, kpos_lo, kpar, b_qh, b_ql,
                     static_cast<cl_uint>(packed.padded), b_start, b_list, b_ord, bias_mean,
                     bias_var, b_m, b_v, b_p);
   // Outputs were scattered to the caller's order; NaN slots (non-finite points) are untouched

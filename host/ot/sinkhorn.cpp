@@ -263,7 +263,9 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   std::snprintf(defs, sizeof defs, "-DDIM=%d -DWG=%d -DUSE_DOUBLE=%d -DACC_DOUBLE=%d", dim, wg,
                 L.dbl ? 1 : 0, acc_double ? 1 : 0);
   const char* name = opt.stabilised ? "sinkhorn_stab_solve" : "sinkhorn_solve";
-  auto k = ctx.kernel(opt.stabilised ? "ot/sinkhorn_stab" : "ot/sinkhorn", name, defs);
+  KernelLease lease =
+      ctx.lend_kernel(opt.stabilised ? "ot/sinkhorn_stab" : "ot/sinkhorn", name, defs);
+  bc::kernel& k = *lease;
   std::size_t groups = np;
   const cl_int want_bary = opt.want_barycentric ? 1 : 0;
   if (opt.stabilised) {

@@ -136,6 +136,15 @@ std::string embedded_kernel_source(const std::string& name) {
   return std::string(it->second);
 }
 
+namespace detail {
+// Kernels lent and given back (KernelLease), by file + '\0' + name + '\0' + defines. Its own
+// lock: a lease given back never waits for a program build.
+struct KernelPool {
+  std::mutex mutex;
+  std::map<std::string, std::vector<bc::kernel>> idle;
+};
+}  // namespace detail
+
 struct Context::Impl {
   bc::device device;
   bc::context context;
@@ -148,6 +157,7 @@ struct Context::Impl {
   detail::BinaryCache disk;
   std::mutex mutex;
   std::map<std::string, bc::program> programs;  // key: options + '\0' + source hash
+  detail::KernelPool kernels;
   std::size_t source_builds = 0;
   std::size_t disk_hits = 0;
 
@@ -326,6 +336,41 @@ bc::kernel Context::kernel(const std::string& file, const std::string& kernel_na
   bc::program p = program(file, defines);
   return detail::cl_call(("clCreateKernel(" + kernel_name + ")").c_str(),
                          [&] { return bc::kernel(p, kernel_name); });
+}
+
+KernelLease Context::lend_kernel(const std::string& file, const std::string& kernel_name,
+                                 const std::string& defines) {
+  std::string key = file + '\0' + kernel_name + '\0' + defines;
+  detail::KernelPool& pool = impl_->kernels;
+  {
+    std::lock_guard<std::mutex> lock(pool.mutex);
+    auto it = pool.idle.find(key);
+    if (it != pool.idle.end() && !it->second.empty()) {
+      bc::kernel k = std::move(it->second.back());
+      it->second.pop_back();
+      return KernelLease(&pool, std::move(key), std::move(k));
+    }
+  }
+  bc::kernel k = kernel(file, kernel_name, defines);
+  return KernelLease(&pool, std::move(key), std::move(k));
+}
+
+KernelLease::KernelLease(detail::KernelPool* pool, std::string key, bc::kernel k)
+    : pool_(pool), key_(std::move(key)), kernel_(std::move(k)) {}
+
+KernelLease::KernelLease(KernelLease&& other) noexcept
+    : pool_(other.pool_), key_(std::move(other.key_)), kernel_(std::move(other.kernel_)) {
+  other.pool_ = nullptr;
+}
+
+KernelLease::~KernelLease() {
+  if (!pool_) return;
+  try {
+    std::lock_guard<std::mutex> lock(pool_->mutex);
+    pool_->idle[std::move(key_)].push_back(std::move(kernel_));
+  } catch (...) {
+    // Out of memory while keeping it: the kernel is released instead, nothing is lost.
+  }
 }
 
 std::size_t Context::builds_from_source() const {

@@ -69,13 +69,31 @@ void upload(Context& ctx, boost::compute::buffer& b, const std::vector<T>& v, co
   upload(ctx.queue(), b, v, label);
 }
 
-/// A new buffer holding v (`label` as for device_buffer).
+/// A new buffer holding v (`label` as for device_buffer). The bytes are copied as the buffer is
+/// made (CL_MEM_COPY_HOST_PTR), not by a command on the queue: a blocking write is a round trip
+/// through the driver's worker threads, which on PoCL's CPU device took 0.5-1 ms per buffer
+/// while other host threads kept the cores busy (docs/pot-scale.md).
 template <class T>
 boost::compute::buffer to_device(boost::compute::context& cx, boost::compute::command_queue& q,
                                  const std::vector<T>& v, const char* label) {
-  boost::compute::buffer b = device_buffer(cx, v.size() * sizeof(T), label);
-  upload(q, b, v, label);
-  return b;
+  (void)q;
+  const std::size_t bytes = v.size() * sizeof(T);
+  if (bytes == 0) return device_buffer(cx, 0, label);
+  std::vector<unsigned char> padded;
+  const void* src = v.data();
+  if (bytes < kMinBufferBytes) {
+    padded.assign(kMinBufferBytes, 0);
+    std::copy_n(reinterpret_cast<const unsigned char*>(v.data()), bytes, padded.begin());
+    src = padded.data();
+  }
+  const std::size_t size = std::max(bytes, kMinBufferBytes);
+  try {
+    return boost::compute::buffer(
+        cx, size, boost::compute::buffer::read_write | boost::compute::buffer::copy_host_ptr,
+        const_cast<void*>(src));
+  } catch (const boost::compute::opencl_error& e) {
+    throw OpenCLError(e.error_code(), buffer_call("clCreateBuffer", cx, label, size));
+  }
 }
 template <class T>
 boost::compute::buffer to_device(Context& ctx, const std::vector<T>& v, const char* label) {
