@@ -136,14 +136,12 @@ std::string embedded_kernel_source(const std::string& name) {
   return std::string(it->second);
 }
 
-namespace detail {
 // Kernels lent and given back (KernelLease), by file + '\0' + name + '\0' + defines. Its own
 // lock: a lease given back never waits for a program build.
 struct KernelPool {
   std::mutex mutex;
   std::map<std::string, std::vector<bc::kernel>> idle;
 };
-}  // namespace detail
 
 struct Context::Impl {
   bc::device device;
@@ -157,7 +155,7 @@ struct Context::Impl {
   detail::BinaryCache disk;
   std::mutex mutex;
   std::map<std::string, bc::program> programs;  // key: options + '\0' + source hash
-  detail::KernelPool kernels;
+  KernelPool kernels;
   std::size_t source_builds = 0;
   std::size_t disk_hits = 0;
 
@@ -341,7 +339,7 @@ bc::kernel Context::kernel(const std::string& file, const std::string& kernel_na
 KernelLease Context::lend_kernel(const std::string& file, const std::string& kernel_name,
                                  const std::string& defines) {
   std::string key = file + '\0' + kernel_name + '\0' + defines;
-  detail::KernelPool& pool = impl_->kernels;
+  KernelPool& pool = impl_->kernels;
   {
     std::lock_guard<std::mutex> lock(pool.mutex);
     auto it = pool.idle.find(key);
@@ -355,7 +353,7 @@ KernelLease Context::lend_kernel(const std::string& file, const std::string& ker
   return KernelLease(&pool, std::move(key), std::move(k));
 }
 
-KernelLease::KernelLease(detail::KernelPool* pool, std::string key, bc::kernel k)
+KernelLease::KernelLease(KernelPool* pool, std::string key, bc::kernel k)
     : pool_(pool), key_(std::move(key)), kernel_(std::move(k)) {}
 
 KernelLease::KernelLease(KernelLease&& other) noexcept

@@ -79,9 +79,8 @@ struct DeviceInfo {
 /// Every device of every platform, in platform order.
 std::vector<DeviceInfo> list_devices();
 
-namespace detail {
+/// The idle kernels of a Context (opaque; see KernelLease).
 struct KernelPool;
-}
 
 /// A kernel lent by a Context for one launch: set every argument, enqueue, then let the lease
 /// go and the kernel returns to the context's idle kernels (an enqueued launch keeps its own
@@ -100,8 +99,8 @@ class KernelLease {
 
  private:
   friend class Context;
-  KernelLease(detail::KernelPool* pool, std::string key, boost::compute::kernel k);
-  detail::KernelPool* pool_;
+  KernelLease(KernelPool* pool, std::string key, boost::compute::kernel k);
+  KernelPool* pool_;
   std::string key_;
   boost::compute::kernel kernel_;
 };
