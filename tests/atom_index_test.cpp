@@ -7,7 +7,10 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <thread>
 
+#include "pot/atom_transport_cache.hpp"
+#include "pot/thinning.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
@@ -100,6 +103,49 @@ TEST(AtomIndex, RotatedCopyAmongThousandsIsNearestAndItsRotationIsFound) {
     }
   }
   EXPECT_GE(checked, 15);
+}
+
+// The per-atom cache gives what the transfer would compute afresh: the same thinned samples
+// (for the cap it first saw, and for another), the same kernel classes, from two threads at once.
+TEST(AtomIndex, TransportCacheGivesWhatTheTransferComputes) {
+  const Dictionary dict = town_atoms(2, 1);
+  ASSERT_GT(dict.size(), 4u);
+  EXPECT_EQ(AtomIndex().transport_cache(), nullptr);
+  const AtomIndex index(dict);
+  AtomTransportCache* cache = index.transport_cache();
+  ASSERT_NE(cache, nullptr);
+  auto ask_all = [&](std::vector<detail::KernelClasses>& cls, std::vector<Eigen::MatrixXd>& free) {
+    for (std::size_t a = 0; a < dict.size(); ++a) {
+      cls.push_back(cache->classes(dict.atoms[a], a));
+      free.push_back(cache->thinned(dict.atoms[a], a, 1, 40));
+    }
+  };
+  std::vector<detail::KernelClasses> c1, c2;
+  std::vector<Eigen::MatrixXd> f1, f2;
+  std::thread other([&] { ask_all(c2, f2); });
+  ask_all(c1, f1);
+  other.join();
+  std::size_t capped = 0, both_classes = 0;
+  for (std::size_t a = 0; a < dict.size(); ++a) {
+    const Atom& atom = dict.atoms[a];
+    const detail::KernelClasses fresh = detail::kernel_classes(atom);
+    EXPECT_EQ(c1[a].cls, fresh.cls);
+    EXPECT_EQ(c2[a].cls, fresh.cls);
+    EXPECT_EQ(c1[a].gamma_sum, fresh.gamma_sum);
+    EXPECT_EQ(c1[a].count, fresh.count);
+    both_classes += fresh.count[0] > 0 && fresh.count[1] > 0;
+    const Eigen::MatrixXd want = detail::subsample_even(atom.sector.free, dict.dim, 40);
+    capped += atom.sector.num_free() > 40;
+    EXPECT_TRUE(f1[a] == want) << "atom " << a;
+    EXPECT_TRUE(f2[a] == want) << "atom " << a;
+    EXPECT_TRUE(cache->thinned(atom, a, 1, 40) == want);
+    EXPECT_TRUE(cache->thinned(atom, a, 1, 25) ==
+                detail::subsample_even(atom.sector.free, dict.dim, 25));
+    EXPECT_TRUE(cache->thinned(atom, a, 0, 1500) ==
+                detail::subsample_even(atom.sector.hits, dict.dim, 1500));
+  }
+  EXPECT_GT(capped, 0u);        // the thinning was exercised, not only the copy
+  EXPECT_GT(both_classes, 0u);  // and atoms have kernels of both classes
 }
 
 TEST(AtomIndex, RejectsBadOptionsAndDimensions) {

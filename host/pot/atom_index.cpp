@@ -8,6 +8,7 @@
 #include <numeric>
 #include <string>
 
+#include "atom_transport_cache.hpp"
 #include "class_ranking.hpp"
 #include "potmap/error.hpp"
 #include "thinning.hpp"
@@ -132,6 +133,7 @@ AtomIndex::AtomIndex(const Dictionary& dict, const AtomIndexOptions& o)
   features_ = static_cast<std::size_t>(AtomDescriptor::kQuantiles * (dim_ == 3 ? 2 : 1) +
                                        o.rings * o.harmonics);
   const std::size_t n = dict.size(), hist = static_cast<std::size_t>(o.rings) * o.bins;
+  transport_ = std::make_shared<AtomTransportCache>(n);
   hits_.resize(n);
   free_.resize(n);
   hit_features_.assign(n * features_, 0.f);

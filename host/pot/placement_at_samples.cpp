@@ -17,24 +17,21 @@
 namespace potmap::detail {
 
 std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const SectorPlans& plans,
-                               const PotOptions& o, std::vector<Anchor>& out) {
+                               const PotOptions& o, std::vector<Anchor>& out,
+                               const KernelClasses* classes) {
   const int dim = sec.dim;
   const KernelMap& k = atom.kernels;
   const double s = sec.scale;
   // Each atom kernel's class is its nearest atom sample's: kernels at samples sit on one, and a
   // map kernel is wall evidence where it lies nearer the walls than the free space.
-  std::vector<int> cls(k.size(), 0);
-  double gsum[2] = {0, 0}, gcnt[2] = {0, 0};
-  const PointGrid atom_hits(atom.sector.hits, dim), atom_free(atom.sector.free, dim);
-  for (std::size_t e = 0; e < k.size(); ++e) {
-    const double* h = &k.position[e * dim];
-    double dh = HUGE_VAL, df = HUGE_VAL;
-    atom_hits.nearest(h, dh);
-    atom_free.nearest(h, df);
-    cls[e] = dh <= df ? 0 : 1;
-    gsum[cls[e]] += k.gamma[e];
-    gcnt[cls[e]] += 1;
+  KernelClasses own;
+  if (!classes) {
+    own = kernel_classes(atom);
+    classes = &own;
   }
+  const std::vector<std::uint8_t>& cls = classes->cls;
+  const double* gsum = classes->gamma_sum.data();
+  const double* gcnt = classes->count.data();
   // The kernels by class in a grid whose cells span the widest kernel's reach (gamma d^2 <= 16).
   double gmin[2] = {HUGE_VAL, HUGE_VAL};
   std::vector<double> kpos[2];

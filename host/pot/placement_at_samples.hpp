@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include "atom_transport_cache.hpp"
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/transfer.hpp"
@@ -35,9 +36,11 @@ struct SectorPlans {
 };
 
 /// Appends the anchors of `sec` (the target sector) transported from `atom` by `plans`.
+/// `classes`: the atom's kernel classes if already known (AtomTransportCache), else null.
 /// Returns how many anchors it dropped (free anchors within the wall clearance of a hit).
 std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const SectorPlans& plans,
-                               const PotOptions& o, std::vector<Anchor>& out);
+                               const PotOptions& o, std::vector<Anchor>& out,
+                               const KernelClasses* classes = nullptr);
 
 /// The instantaneous map of a scan's anchors: each class's kernels weighted so that, alone,
 /// they reproduce the anchors' values at the anchors (a Nadaraya-Watson partition, as atoms'

@@ -49,7 +49,7 @@ Eigen::MatrixXd subsample(const std::vector<double>& pts, int dim, std::size_t c
 
 // The cell size is found by bisection (docs/pot-measurements.md: what even thinning did to the
 // transport's convergence and the maps).
-Eigen::MatrixXd subsample_even(const std::vector<double>& pts, int dim, std::size_t cap) {
+std::vector<std::size_t> even_indices(const std::vector<double>& pts, int dim, std::size_t cap) {
   const std::size_t n = pts.size() / dim;
   std::vector<std::size_t> keep;
   if (n > cap) {
@@ -100,6 +100,11 @@ Eigen::MatrixXd subsample_even(const std::vector<double>& pts, int dim, std::siz
     keep.resize(n);
     std::iota(keep.begin(), keep.end(), std::size_t{0});
   }
+  return keep;
+}
+
+Eigen::MatrixXd subsample_even(const std::vector<double>& pts, int dim, std::size_t cap) {
+  const std::vector<std::size_t> keep = even_indices(pts, dim, cap);
   Eigen::MatrixXd out(keep.size(), dim);
   for (std::size_t i = 0; i < keep.size(); ++i)
     for (int d = 0; d < dim; ++d) out(i, d) = pts[keep[i] * dim + d];

@@ -27,5 +27,7 @@ std::vector<std::size_t> thin_to_cells(const std::vector<double>& pts, int dim, 
 /// subsample keeps the cloud's density, so two random subsamples of matching places differ
 /// point by point and their plan is noisy and slow to converge; evenly spread ones look alike.
 Eigen::MatrixXd subsample_even(const std::vector<double>& pts, int dim, std::size_t cap);
+/// The indices (in input order) of the points subsample_even keeps.
+std::vector<std::size_t> even_indices(const std::vector<double>& pts, int dim, std::size_t cap);
 
 }  // namespace potmap::detail

@@ -11,6 +11,7 @@
 #include <numeric>
 #include <string>
 
+#include "atom_transport_cache.hpp"
 #include "placement_at_samples.hpp"
 #include "point_proximity.hpp"
 #include "potmap/error.hpp"
@@ -78,6 +79,7 @@ Transport assemble_transport(const Dictionary& dict, const std::vector<Sector>& 
                              const std::vector<detail::Winner>& winners, const PotOptions& o) {
   Transport t;
   t.of.assign(sectors.size(), {-1, -1});
+  AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
   for (std::size_t s = 0; s < sectors.size(); ++s) {
     if (winners[s].atom < 0) continue;
     const Atom& atom = dict.atoms[winners[s].atom];
@@ -85,10 +87,12 @@ Transport assemble_transport(const Dictionary& dict, const std::vector<Sector>& 
     if (atom.kernels.empty()) continue;
     const bool hits = sec.num_hits() > 0 && atom.sector.num_hits() > 0;
     const bool frees = sec.num_free() > 0 && atom.sector.num_free() > 0;
-    auto add = [&](const std::vector<double>& src_pts, const std::vector<double>& tgt_pts,
-                   std::size_t cap, double tolerance) {
+    auto add = [&](int cls, const std::vector<double>& tgt_pts, std::size_t cap, double tolerance) {
       SinkhornProblem p;
-      p.source = detail::subsample_even(src_pts, dict.dim, cap);
+      const std::size_t a = static_cast<std::size_t>(winners[s].atom);
+      p.source = cache ? cache->thinned(atom, a, cls, cap)
+                       : detail::subsample_even(cls == 0 ? atom.sector.hits : atom.sector.free,
+                                                dict.dim, cap);
       p.target = detail::subsample_even(tgt_pts, dict.dim, cap);
       p.angle = winners[s].angle;
       p.epsilon = o.transport_epsilon;
@@ -97,11 +101,9 @@ Transport assemble_transport(const Dictionary& dict, const std::vector<Sector>& 
       p.normalise_cost = true;
       return static_cast<long>(t.batch.add(std::move(p)));
     };
-    if (hits)
-      t.of[s][0] = add(atom.sector.hits, sec.hits, o.transport_points, o.transport_tolerance);
+    if (hits) t.of[s][0] = add(0, sec.hits, o.transport_points, o.transport_tolerance);
     if (frees && (o.transport_free || !hits))
-      t.of[s][1] =
-          add(atom.sector.free, sec.free, o.transport_free_points, o.transport_free_tolerance);
+      t.of[s][1] = add(1, sec.free, o.transport_free_points, o.transport_free_tolerance);
   }
   return t;
 }
@@ -251,6 +253,7 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   out.timing.transport_ms = ms_since(t0);
 
   t0 = Clock::now();
+  AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
   std::vector<detail::Anchor> anchors;
   for (std::size_t s = 0; s < sectors.size(); ++s) {
     const auto& of = transport.of[s];
@@ -273,8 +276,10 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
       st.transport_iterations = std::max(st.transport_iterations, moved[of[q]].iterations);
     }
     const std::size_t before = anchors.size();
-    st.kernels_dropped +=
-        detail::anchors_at_samples(dict.atoms[st.atom], sectors[s], plans, o, anchors);
+    const Atom& atom = dict.atoms[st.atom];
+    const detail::KernelClasses* classes =
+        cache ? &cache->classes(atom, static_cast<std::size_t>(st.atom)) : nullptr;
+    st.kernels_dropped += detail::anchors_at_samples(atom, sectors[s], plans, o, anchors, classes);
     st.kernels_placed += anchors.size() - before;
   }
   if (at_samples) detail::anchors_to_map(anchors, dict.dim, out.map);

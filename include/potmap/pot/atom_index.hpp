@@ -21,6 +21,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "potmap/export.h"
@@ -29,6 +30,10 @@
 
 POTMAP_CXX_API_BEGIN
 namespace potmap {
+
+/// Per-atom results of the transport and the placement that depend on the atom alone, made on
+/// first use (opaque; see AtomIndex::transport_cache).
+struct AtomTransportCache;
 
 /// Shape of the signatures. Defaults: 4 rings, 64 bins (5.6 degrees; the estimate is refined
 /// between bins), 4 harmonics.
@@ -92,6 +97,11 @@ class AtomIndex {
   const Eigen::MatrixXd& coarse_hits(std::size_t atom) const { return coarse_hits_.at(atom); }
   const Eigen::MatrixXd& coarse_free(std::size_t atom) const { return coarse_free_.at(atom); }
 
+  /// For the transfer of the dictionary this index was built on: what its transport and
+  /// placement compute from an atom alone, kept once made (thread-safe). Null for an index made
+  /// by the default constructor.
+  AtomTransportCache* transport_cache() const { return transport_.get(); }
+
   std::size_t size() const { return hits_.size(); }
   const AtomIndexOptions& options() const { return options_; }
   /// Bytes held per atom (features, histograms and coarse samples; their mean).
@@ -109,6 +119,7 @@ class AtomIndex {
   std::vector<float> hit_features_, free_features_;  ///< atoms x features_
   std::vector<float> hit_polar_, free_polar_;        ///< atoms x rings x bins
   std::vector<Eigen::MatrixXd> coarse_hits_, coarse_free_;
+  std::shared_ptr<AtomTransportCache> transport_;
 };
 
 }  // namespace potmap
