@@ -140,6 +140,11 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "RePOT: a seeded kernel returns to the plain prior when a sample first "
                   "reaches it (false: the seed stays its prior under the data)")
       ->capture_default_str();
+  cmd->add_option("--repot-seeds-yield-fully", s.pot.seeds_yield_fully,
+                  "RePOT: a seed yields when its kernel enters a scan's solve (within the solve "
+                  "margin of the data), its mean too (false: when a sample reaches it, its mean "
+                  "starting that scan's bound)")
+      ->capture_default_str();
   cmd->add_option("--repot-persistent", s.pot.persistent_refine,
                   "RePOT: one persistent joint BHM seeded by the transported kernels (true) or "
                   "per-scan refinement merged as POT's map (false)")

@@ -635,6 +635,7 @@ nlohmann::json settings_json(const Settings& s) {
       {"repot_persistent", s.pot.persistent_refine},
       {"repot_seed_min_variance", s.pot.seed_min_variance},
       {"repot_seeds_yield", s.pot.seeds_yield},
+      {"repot_seeds_yield_fully", s.pot.seeds_yield_fully},
       {"holdout", s.holdout},
       {"budget_ms", s.budget_ms},
       {"structure",

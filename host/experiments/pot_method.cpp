@@ -161,6 +161,7 @@ Method pot_method(const PotSetup& setup, const std::string& name,
       po.displacement_variance = setup.seed_displacement_variance;
       JointBhmOptions jo = joint_bhm_options(setup.target_bhm);
       jo.seeds_yield = setup.seeds_yield;
+      jo.seeds_yield_fully = setup.seeds_yield_fully;
       learner = std::make_unique<JointBhm>(task.dim, task.lo, task.hi, jo);
     }
     const double range = po.max_range > 0 ? po.max_range : dict->max_range;

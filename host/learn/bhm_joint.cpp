@@ -794,9 +794,11 @@ void JointBhm::update(const LabelledPoints& samples) {
       if (seeded_[k] && !touched_[k] && o_.seeds_yield) {
         // No sample has reached this kernel before, so its natural parameters are the seed's
         // alone (no coupling, no data in eta): the prior it had before the seed, exactly. Its
-        // mean stays as the starting point of this scan's xi (and of the solve).
+        // mean stays as the starting point of this scan's xi (and of the solve) unless the
+        // seed yields fully.
         prec_[std::size_t(k) * slots_ + centre] = 1.0 / o_.prior_var;
         eta_[k] = 0;
+        if (o_.seeds_yield_fully) mean_[k] = 0;
       }
       touched_[k] = 1;
       reached.push_back(k);
@@ -809,6 +811,17 @@ void JointBhm::update(const LabelledPoints& samples) {
   rows.clear();
   dilate_rows(rows, reached, o_.solve_margin, dim_ == 3 ? o_.solve_margin : 0, sc);
   stats_.active = rows.size();
+  if (o_.seeds_yield && o_.seeds_yield_fully)
+    for (std::uint32_t k : rows)
+      if (seeded_[k] && !touched_[k]) {
+        // A seed in the solve's margin yields too: no sample reached it, so the same reset
+        // leaves the kernel as the unseeded model has it (its own seeded_ flag keeps later
+        // seeds off, as for any kernel a seed once reached).
+        prec_[std::size_t(k) * slots_ + centre] = 1.0 / o_.prior_var;
+        eta_[k] = 0;
+        mean_[k] = 0;
+        mark_dirty(k);
+      }
 
   for (std::size_t i = 0; i < n; ++i) {
     for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)

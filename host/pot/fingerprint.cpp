@@ -155,6 +155,8 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
   f.i64(j.solve_margin);
   f.u64(j.max_kernels);
   f.i64(j.seeds_yield);
+  // Appended only when on, so that states saved before it existed keep their fingerprint.
+  if (j.seeds_yield_fully) f.i64(7);
   f.f64(o.seed_min_variance);
   f.f64(overall.merge_radius);
   f.f64(overall.gamma_ratio);
