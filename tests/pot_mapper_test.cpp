@@ -91,7 +91,8 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
 
 // `potmap bench`'s pot sweep moves the number of scans in flight (MapperOptions::pipeline) and
 // sinkhorn.work_group: neither may change the maps. The pipeline changes only which thread
-// prepares a scan (the warm candidates are those of scan i - 2 either way): bit for bit. The
+// prepares a scan and which places its kernels, beside the next scan's solve (the warm
+// candidates are those of scan i - 2 either way): bit for bit, and the scans in order. The
 // work-group changes the order of the solver's sums: the same atoms and rotations win, and the
 // kernels land within 1e-4 m and 1e-3 in weight.
 TEST(PotMapper, MapsDoNotDependOnScansInFlightOrSinkhornWorkGroup) {
@@ -110,7 +111,10 @@ TEST(PotMapper, MapsDoNotDependOnScansInFlightOrSinkhornWorkGroup) {
   ASSERT_EQ(off.size(), targets.size());
   std::size_t kernels = 0;
   for (std::size_t i = 0; i < on.size(); ++i) {
+    EXPECT_EQ(on[i].index, i);
+    EXPECT_EQ(off[i].index, i);
     expect_same(on[i].transfer.map, off[i].transfer.map);
+    EXPECT_EQ(on[i].test.label, off[i].test.label);
     kernels += on[i].transfer.map.size();
   }
   EXPECT_GT(kernels, 0u);

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <future>
 #include <map>
 #include <memory>
 #include <set>
@@ -138,6 +139,50 @@ TEST(Pot, PreselectionRanksOnlyKAtomsAndKeepsTheOwnAtom) {
   o.preselector = std::make_shared<const AtomPreselector>(fewer);
   EXPECT_THROW(transfer_scan(nullptr, dict, train, scans[1].origin(), scan_heading(scans[1]), 1, o),
                ArgumentError);
+}
+
+// solve_transfer() and place_transfer() are finish_transfer() in two stages, so that a mapper
+// places one scan's kernels while the device solves the next: placed on another thread beside
+// another scan's solve, a scan's map is finish_transfer()'s bit for bit. Parts that disagree
+// are refused.
+TEST(Pot, SolvedTransferPlacedBesideAnotherSolveIsFinishTransfer) {
+  SimOptions so;
+  so.scans = 3;
+  so.spacing = 12;
+  const std::vector<Scan> scans = simulate(Town::builtin("town1"), so).scans;
+  Dictionary dict;
+  build_dictionary(scans, tagged_grid(scans[1].origin(), 40, 2), {}, dict);
+  const PotOptions o = small_options();
+  auto prepared = [&](std::size_t i) {
+    return prepare_transfer(dict, training_samples(scans[i], i), scans[i].origin(),
+                            scan_heading(scans[i]), static_cast<std::int64_t>(i), o);
+  };
+  Context& ctx = test::context();
+  const ScanTransfer whole = finish_transfer(&ctx, dict, prepared(1), o);
+  ASSERT_GT(whole.map.size(), 0u);
+
+  SolvedTransfer solved = solve_transfer(&ctx, dict, prepared(1), o);
+  EXPECT_TRUE(solved.transfer.map.empty());
+  EXPECT_EQ(chosen_atoms(solved), chosen_atoms(whole));
+  std::future<ScanTransfer> placed = std::async(
+      std::launch::async, [&] { return place_transfer(&ctx, dict, std::move(solved), o); });
+  const SolvedTransfer next = solve_transfer(&ctx, dict, prepared(2), o);
+  const ScanTransfer split = placed.get();
+  EXPECT_FALSE(next.plans.empty());
+  EXPECT_EQ(split.map.position, whole.map.position);
+  EXPECT_EQ(split.map.w_mean, whole.map.w_mean);
+  EXPECT_EQ(split.map.w_var, whole.map.w_var);
+  EXPECT_EQ(split.map.gamma, whole.map.gamma);
+  ASSERT_EQ(split.sectors.size(), whole.sectors.size());
+  for (std::size_t s = 0; s < split.sectors.size(); ++s) {
+    EXPECT_EQ(split.sectors[s].atom, whole.sectors[s].atom);
+    EXPECT_EQ(split.sectors[s].kernels_placed, whole.sectors[s].kernels_placed);
+  }
+
+  SolvedTransfer broken = solve_transfer(&ctx, dict, prepared(1), o);
+  ASSERT_FALSE(broken.plans.empty());
+  broken.plans.pop_back();
+  EXPECT_THROW(place_transfer(&ctx, dict, std::move(broken), o), ArgumentError);
 }
 
 TEST(Pot, RotatedAtomIsRankedBestAtItsRotation) {

@@ -343,9 +343,8 @@ SimSource sim_source() {
 // (quick) or 16 scans of town2, 3 m apart, mapped with the default PotOptions (exhaustive
 // ranking, 8 rotations). The axis is the number of scans in flight: 1 with
 // MapperOptions::pipeline off (prepare, then solve, one scan at a time), 2 with it on (the next
-// scan prepared on a second thread while this one is solved; map_scans has no deeper
-// pipeline). The lines are sinkhorn.work_group, which every ranking and transport solve of POT
-// reads.
+// scan prepared, and the last one placed, on other threads while this one is solved). The lines are
+// sinkhorn.work_group, which every ranking and transport solve of POT reads.
 RoutineSweep sweep_pot(Context& ctx, const SimSource& src, const SweepOptions& o, int reps) {
   const Tuning base = ctx.tuning();
   KernelMap source_map = bhm_grid_prior(2, src.lo, src.hi, 1.0, 4.0);

@@ -204,11 +204,7 @@ Method pot_method(const PotSetup& setup, const std::string& name,
         overall.add(transported);
       combine_ms += 1e3 * seconds_since(c0);
     };
-    for (std::size_t i = 0; i < n; ++i) {
-      PreparedTransfer cur = next.get();
-      if (i + 1 < n) next = std::async(launch, prepare, i + 1, warm);
-      ScanTransfer t = finish_transfer(ctx, *dict, std::move(cur), po);
-      warm = chosen_atoms(t);
+    auto finish_scan = [&](std::size_t i, ScanTransfer t) {
       if (setup.on_scan) setup.on_scan(i, t);
       sectors += t.sectors.size();
       inst_kernels += t.map.size();
@@ -219,7 +215,28 @@ Method pot_method(const PotSetup& setup, const std::string& name,
       timing.refine_ms += t.timing.refine_ms;
       if (merging.valid()) merging.get();
       merging = std::async(launch, merge, i, std::move(t.map));
+    };
+    // A scan's kernels are placed (host) beside the next scan's ranking and transport (device),
+    // as map_scans() does; not with the per-scan refinement, which uses the device too.
+    const bool overlap = setup.pipeline && !po.refine;
+    std::future<ScanTransfer> placing;
+    for (std::size_t i = 0; i < n; ++i) {
+      PreparedTransfer cur = next.get();
+      if (i + 1 < n) next = std::async(launch, prepare, i + 1, warm);
+      SolvedTransfer solved = solve_transfer(ctx, *dict, std::move(cur), po);
+      warm = chosen_atoms(solved);
+      auto place = [ctx, &dict, &po](SolvedTransfer s) {
+        return place_transfer(ctx, *dict, std::move(s), po);
+      };
+      if (!overlap) {
+        finish_scan(i, place(std::move(solved)));
+        continue;
+      }
+      std::future<ScanTransfer> placed = std::async(std::launch::async, place, std::move(solved));
+      if (placing.valid()) finish_scan(i - 1, placing.get());
+      placing = std::move(placed);
     }
+    if (placing.valid()) finish_scan(n - 1, placing.get());
     if (merging.valid()) merging.get();
     timing.refine_ms += refine_ms;
     const double secs = seconds_since(t0);

@@ -116,15 +116,40 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
   std::future<Prepared> next =
       std::async(launch, prepare, std::cref(dict), std::cref(scans[start.first]), start.first,
                  std::cref(o), start.warm_before);
+  // With the pipeline, a scan's kernels are placed (host) beside the next scan's ranking and
+  // transport (device): placement reads only the dictionary and its own solved transfer. Not
+  // with the per-scan refinement, which uses the device too.
+  const bool overlap = o.pipeline && !po.refine;
+  std::future<MappedScan> placing;
   for (std::size_t i = start.first; i < scans.size(); ++i) {
     Prepared cur = next.get();
     if (i + 1 < scans.size())
       next = std::async(launch, prepare, std::cref(dict), std::cref(scans[i + 1]), i + 1,
                         std::cref(o), warm);
-    MappedScan m = finish(ctx, dict, std::move(cur), i, o, po);
-    warm = chosen_atoms(m.transfer);
-    on_scan(std::move(m));
+    const auto t0 = std::chrono::steady_clock::now();
+    MappedScan m;
+    m.index = i;
+    if (persistent_refine(o)) m.train = cur.transfer.train;
+    m.test = std::move(cur.test);
+    SolvedTransfer solved = solve_transfer(ctx, dict, std::move(cur.transfer), po);
+    warm = chosen_atoms(solved);
+    const double solve_ms = ms_since(t0);
+    auto place = [ctx, &dict, &po](MappedScan m, SolvedTransfer solved, double solve_ms) {
+      const auto t1 = std::chrono::steady_clock::now();
+      m.transfer = place_transfer(ctx, dict, std::move(solved), po);
+      m.wall_ms = solve_ms + ms_since(t1);
+      return m;
+    };
+    if (!overlap) {
+      on_scan(place(std::move(m), std::move(solved), solve_ms));
+      continue;
+    }
+    std::future<MappedScan> placed =
+        std::async(std::launch::async, place, std::move(m), std::move(solved), solve_ms);
+    if (placing.valid()) on_scan(placing.get());
+    placing = std::move(placed);
   }
+  if (placing.valid()) on_scan(placing.get());
 }
 
 RepotMap::RepotMap(int dim, const MapperOptions& options)

@@ -220,9 +220,10 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
   return pt;
 }
 
-ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& pt,
-                             const PotOptions& o) {
-  ScanTransfer out;
+SolvedTransfer solve_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& pt,
+                              const PotOptions& o) {
+  SolvedTransfer sv;
+  ScanTransfer& out = sv.transfer;
   out.map.dim = dict.dim;
   out.timing = pt.timing;
   const std::vector<Sector>& sectors = pt.sectors;
@@ -240,7 +241,7 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   }
 
   auto t0 = Clock::now();
-  const Transport transport = assemble_transport(dict, sectors, winners, o);
+  Transport transport = assemble_transport(dict, sectors, winners, o);
   out.timing.prepare_ms += ms_since(t0);
   t0 = Clock::now();
   SinkhornOptions topt;
@@ -249,10 +250,26 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   topt.want_coupling = at_samples;
   topt.double_sums =
       !single_sums_reach(std::min(o.transport_tolerance, o.transport_free_tolerance));
-  const std::vector<SinkhornResult> moved = detail::solve(ctx, transport.batch, topt);
+  sv.plans = detail::solve(ctx, transport.batch, topt);
   out.timing.transport_ms = ms_since(t0);
+  sv.transport = std::move(transport.batch);
+  sv.problem_of = std::move(transport.of);
+  sv.prepared = std::move(pt);
+  return sv;
+}
 
-  t0 = Clock::now();
+ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer&& sv,
+                            const PotOptions& o) {
+  ScanTransfer out = std::move(sv.transfer);
+  const PreparedTransfer& pt = sv.prepared;
+  const std::vector<Sector>& sectors = pt.sectors;
+  if (sectors.size() != out.sectors.size() || sv.problem_of.size() != sectors.size() ||
+      sv.plans.size() != sv.transport.size())
+    throw ArgumentError("place_transfer: the solved transfer's parts disagree in size");
+  const bool at_samples = o.placement == PotPlacement::target_samples;
+  const Transport transport{std::move(sv.transport), std::move(sv.problem_of)};
+  const std::vector<SinkhornResult>& moved = sv.plans;
+  const auto t0 = Clock::now();
   AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
   std::vector<detail::Anchor> anchors;
   for (std::size_t s = 0; s < sectors.size(); ++s) {
@@ -286,11 +303,20 @@ ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTrans
   out.timing.placement_ms = ms_since(t0);
 
   if (o.refine && !out.map.empty() && !pt.train.empty()) {
-    t0 = Clock::now();
+    const auto t1 = Clock::now();
     refine_weights(ctx, pt.train, o, out.map);
-    out.timing.refine_ms = ms_since(t0);
+    out.timing.refine_ms = ms_since(t1);
   }
   return out;
+}
+
+ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& pt,
+                             const PotOptions& o) {
+  return place_transfer(ctx, dict, solve_transfer(ctx, dict, std::move(pt), o), o);
+}
+
+std::vector<long> chosen_atoms(const SolvedTransfer& solved) {
+  return chosen_atoms(solved.transfer);
 }
 
 std::vector<long> chosen_atoms(const ScanTransfer& transfer) {

@@ -227,8 +227,9 @@ struct PotSetup {
     o.merge_radius = 0.5;
     return o;
   }();
-  /// Prepare the next scan on a second thread, and run RePOT's update of a scan beside the next
-  /// scan's transfer on a third (default true; false: one scan at a time, the same maps).
+  /// Prepare the next scan, place the last one's kernels, and add a scan to the overall map
+  /// (RePOT's update, POT's averaged map) on other threads, beside the current scan's ranking
+  /// and transport (default true; false: one scan at a time, the same maps).
   bool pipeline = true;
   /// Called with every target scan's transfer, in order (benchmarks read the chosen atoms);
   /// may be empty.

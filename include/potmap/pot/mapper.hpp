@@ -55,9 +55,12 @@ POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 struct MapperOptions {
-  PotOptions pot;        ///< transfer settings (PotOptions::refine switches RePOT on)
-  LabelOptions labels;   ///< labelling and the held-out split (default: 20 % of beams held out)
-  bool pipeline = true;  ///< prepare the next scan on a second thread (false: one thread)
+  PotOptions pot;       ///< transfer settings (PotOptions::refine switches RePOT on)
+  LabelOptions labels;  ///< labelling and the held-out split (default: 20 % of beams held out)
+  /// Overlap the host's work with the device's (false: one thread, one stage at a time): the
+  /// next scan is prepared, and the last one's kernels placed, on other threads while the
+  /// current scan is ranked and transported. The same maps either way.
+  bool pipeline = true;
   /// RePOT's overall map (read only with pot.refine; default true): one persistent joint BHM
   /// (RepotMap) that every scan updates with its own training samples, the priors of the
   /// kernels no sample has reached yet seeded from the scan's transported kernels. The scans
@@ -111,7 +114,9 @@ struct MappedScan {
   /// The scan's training samples within the sector radius (what the transport used), for the
   /// caller's persistent map: filled only when persistent_refine(options), else empty.
   LabelledPoints train;
-  double wall_ms = 0;  ///< wall-clock time from the start of its solve to the callback
+  /// Wall-clock time of its solve and placement, milliseconds (with the pipeline, the wait
+  /// for the callback while the next scan is solved is not counted).
+  double wall_ms = 0;
 };
 
 /// RePOT's persistent overall map (MapperOptions::persistent_refine): a growable JointBhm with

@@ -280,10 +280,41 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
 /// one, in sector order.
 std::vector<long> chosen_atoms(const ScanTransfer& transfer);
 
-/// Ranks, transports, places and (for RePOT) refines a prepared scan. `ctx` null: the CPU
-/// reference, one problem at a time. `dict` and `options` must be those it was prepared with.
+/// A transfer ranked and transported but not yet placed: the device half of
+/// finish_transfer(). Kept apart so that a mapper can place one scan's kernels on the host
+/// while the device ranks the next (map_scans() does). Plain data; place_transfer() consumes
+/// it.
+struct SolvedTransfer {
+  PreparedTransfer prepared;  ///< what solve_transfer() was given (sectors, samples, timing)
+  /// Per sector its atom, rotation and score (chosen_atoms() reads them), the timing so far;
+  /// no kernels yet.
+  ScanTransfer transfer;
+  SinkhornBatch transport;  ///< the winners' high-quality transport problems
+  /// Per sector: the index in `transport` of its hits problem and of its free-sample problem
+  /// (-1: none).
+  std::vector<std::array<long, 2>> problem_of;
+  std::vector<SinkhornResult> plans;  ///< the solutions of `transport`, in order
+};
+
+/// Ranks a prepared scan and solves its winners' transport. `ctx` null: the CPU reference, one
+/// problem at a time. `dict` and `options` must be those it was prepared with.
+SolvedTransfer solve_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& prepared,
+                              const PotOptions& options = {});
+
+/// Places a solved transfer's kernels (host only) and, for RePOT's per-scan refinement
+/// (PotOptions::refine), refines them on `ctx` (null: the CPU reference). `dict` and `options`
+/// as for solve_transfer(). Thread-safe for a shared dictionary when options.refine is off.
+ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer&& solved,
+                            const PotOptions& options = {});
+
+/// Ranks, transports, places and (for RePOT) refines a prepared scan:
+/// place_transfer(solve_transfer(...)). `ctx` null: the CPU reference, one problem at a time.
+/// `dict` and `options` must be those it was prepared with.
 ScanTransfer finish_transfer(Context* ctx, const Dictionary& dict, PreparedTransfer&& prepared,
                              const PotOptions& options = {});
+
+/// The atoms a solved transfer chose (chosen_atoms(solved.transfer)).
+std::vector<long> chosen_atoms(const SolvedTransfer& solved);
 
 /// Transfers one scan: finish_transfer(prepare_transfer(...)). `train` are the scan's training
 /// samples (world frame), seen from `sensor` (world frame, metres) with `heading` (radians);
