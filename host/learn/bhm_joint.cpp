@@ -386,6 +386,14 @@ void JointBhm::add_outer(const Scratch& f, std::size_t i, double c) {
   pbb_ += c;
 }
 
+void JointBhm::yield_seed(std::uint32_t k, bool with_mean) {
+  // A seeded kernel no sample reached holds the seed alone: resetting its precision and eta
+  // gives the prior it had before the seed, exactly.
+  prec_[std::size_t(k) * slots_ + std::size_t(slots_ / 2)] = 1.0 / o_.prior_var;
+  eta_[k] = 0;
+  if (with_mean) mean_[k] = 0;
+}
+
 void JointBhm::dilate_rows(std::vector<std::uint32_t>& rows,
                            const std::vector<std::uint32_t>& reached, std::int64_t mg,
                            std::int64_t mz, Scratch& sc) {
@@ -791,15 +799,10 @@ void JointBhm::update(const LabelledPoints& samples) {
   for (std::uint32_t k : sc.kernel)
     if (!mark_[k]) {
       mark_[k] = 1;
-      if (seeded_[k] && !touched_[k] && o_.seeds_yield) {
-        // No sample has reached this kernel before, so its natural parameters are the seed's
-        // alone (no coupling, no data in eta): the prior it had before the seed, exactly. Its
-        // mean stays as the starting point of this scan's xi (and of the solve) unless the
-        // seed yields fully.
-        prec_[std::size_t(k) * slots_ + centre] = 1.0 / o_.prior_var;
-        eta_[k] = 0;
-        if (o_.seeds_yield_fully) mean_[k] = 0;
-      }
+      // No sample has reached this kernel before, so its natural parameters are the seed's
+      // alone (no coupling, no data in eta). Its mean stays as the starting point of this
+      // scan's xi (and of the solve) unless the seed yields fully.
+      if (seeded_[k] && !touched_[k] && o_.seeds_yield) yield_seed(k, o_.seeds_yield_fully);
       touched_[k] = 1;
       reached.push_back(k);
     }
@@ -817,9 +820,7 @@ void JointBhm::update(const LabelledPoints& samples) {
         // A seed in the solve's margin yields too: no sample reached it, so the same reset
         // leaves the kernel as the unseeded model has it (its own seeded_ flag keeps later
         // seeds off, as for any kernel a seed once reached).
-        prec_[std::size_t(k) * slots_ + centre] = 1.0 / o_.prior_var;
-        eta_[k] = 0;
-        mean_[k] = 0;
+        yield_seed(k, true);
         mark_dirty(k);
       }
 

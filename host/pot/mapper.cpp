@@ -78,21 +78,38 @@ PotOptions transfer_options(const MapperOptions& o) {
   return p;
 }
 
-MappedScan finish(Context* ctx, const Dictionary& dict, Prepared&& cur, std::size_t i,
-                  const MapperOptions& o, const PotOptions& po) {
-  const auto t0 = std::chrono::steady_clock::now();
-  MappedScan m;
-  m.index = i;
-  if (persistent_refine(o)) m.train = cur.transfer.train;
-  m.transfer = finish_transfer(ctx, dict, std::move(cur.transfer), po);
-  m.test = std::move(cur.test);
-  m.wall_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  return m;
-}
-
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// A scan ranked and transported (the device's part), its kernels not yet placed.
+struct Solved {
+  MappedScan scan;  // index, samples and the solve's wall time; no transfer yet
+  SolvedTransfer transfer;
+};
+
+Solved solve(Context* ctx, const Dictionary& dict, Prepared&& cur, std::size_t i,
+             const MapperOptions& o, const PotOptions& po) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Solved s;
+  s.scan.index = i;
+  if (persistent_refine(o)) s.scan.train = cur.transfer.train;
+  s.scan.test = std::move(cur.test);
+  s.transfer = solve_transfer(ctx, dict, std::move(cur.transfer), po);
+  s.scan.wall_ms = ms_since(t0);
+  return s;
+}
+
+MappedScan place(Context* ctx, const Dictionary& dict, Solved&& s, const PotOptions& po) {
+  const auto t0 = std::chrono::steady_clock::now();
+  s.scan.transfer = place_transfer(ctx, dict, std::move(s.transfer), po);
+  s.scan.wall_ms += ms_since(t0);
+  return std::move(s.scan);
+}
+
+MappedScan finish(Context* ctx, const Dictionary& dict, Prepared&& cur, std::size_t i,
+                  const MapperOptions& o, const PotOptions& po) {
+  return place(ctx, dict, solve(ctx, dict, std::move(cur), i, o, po), po);
 }
 
 }  // namespace
@@ -126,26 +143,16 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
     if (i + 1 < scans.size())
       next = std::async(launch, prepare, std::cref(dict), std::cref(scans[i + 1]), i + 1,
                         std::cref(o), warm);
-    const auto t0 = std::chrono::steady_clock::now();
-    MappedScan m;
-    m.index = i;
-    if (persistent_refine(o)) m.train = cur.transfer.train;
-    m.test = std::move(cur.test);
-    SolvedTransfer solved = solve_transfer(ctx, dict, std::move(cur.transfer), po);
-    warm = chosen_atoms(solved);
-    const double solve_ms = ms_since(t0);
-    auto place = [ctx, &dict, &po](MappedScan m, SolvedTransfer solved, double solve_ms) {
-      const auto t1 = std::chrono::steady_clock::now();
-      m.transfer = place_transfer(ctx, dict, std::move(solved), po);
-      m.wall_ms = solve_ms + ms_since(t1);
-      return m;
-    };
+    Solved solved = solve(ctx, dict, std::move(cur), i, o, po);
+    warm = chosen_atoms(solved.transfer);
     if (!overlap) {
-      on_scan(place(std::move(m), std::move(solved), solve_ms));
+      on_scan(place(ctx, dict, std::move(solved), po));
       continue;
     }
-    std::future<MappedScan> placed =
-        std::async(std::launch::async, place, std::move(m), std::move(solved), solve_ms);
+    std::future<MappedScan> placed = std::async(
+        std::launch::async,
+        [ctx, &dict, &po](Solved s) { return place(ctx, dict, std::move(s), po); },
+        std::move(solved));
     if (placing.valid()) on_scan(placing.get());
     placing = std::move(placed);
   }

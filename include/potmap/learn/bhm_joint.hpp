@@ -214,6 +214,9 @@ class JointBhm {
   void features(const double* x, std::vector<Feature>& out) const;
   // P += c phi phi^T for sample i of the scan's features in `f`.
   void add_outer(const Scratch& f, std::size_t i, double c);
+  // Returns seeded kernel k, which no sample has reached, to its prior (its mean to 0 too
+  // with `with_mean`).
+  void yield_seed(std::uint32_t k, bool with_mean);
   // rows += the stored kernels within mg cells (mz in z) of a reached one, sorted.
   void dilate_rows(std::vector<std::uint32_t>& rows, const std::vector<std::uint32_t>& reached,
                    std::int64_t mg, std::int64_t mz, Scratch& sc);
