@@ -77,7 +77,6 @@ JointBhmOptions joint_bhm_options(const BhmSetup& setup) {
   if (setup.prior_var > 0) o.prior_var = setup.prior_var;
   o.bias = setup.bias;
   o.em_iterations = setup.options.em_iterations;
-  o.tau = setup.options.tau;
   return o;
 }
 

@@ -128,7 +128,8 @@ void bind_learn(py::module_& m) {
       .def_readwrite("prior_var", &JointBhmOptions::prior_var, "prior weight variance (default 10)")
       .def_readwrite("bias", &JointBhmOptions::bias, "a bias weight (default True)")
       .def_readwrite("em_iterations", &JointBhmOptions::em_iterations, "per scan (default 3)")
-      .def_readwrite("tau", &JointBhmOptions::tau, "feature cut-off exponent (default 18)")
+      .def_readwrite("tau", &JointBhmOptions::tau,
+                     "feature cut-off exponent of the learner (default 6)")
       .def_readwrite("cg_tolerance", &JointBhmOptions::cg_tolerance,
                      "relative residual (default 1e-5)")
       .def_readwrite("cg_max_iterations", &JointBhmOptions::cg_max_iterations,

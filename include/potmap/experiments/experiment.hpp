@@ -105,7 +105,9 @@ struct BhmSetup {
   /// neighbours overlap; diagonal: 8 / spacing^2, as `potmap learn bhm`).
   double gamma = 0;
   std::size_t count = 0;  ///< if > 0: spacing chosen to give about this many kernels
-  BhmOptions options;     ///< EM settings (em_iterations per scan, default 3; tau)
+  /// EM settings: em_iterations per scan (default 3) for both models; tau (the feature
+  /// cut-off) for the diagonal model only, the joint one keeping JointBhmOptions::tau.
+  BhmOptions options;
   /// Prior weight variance; 0: the model's default (joint 10, diagonal 1e4).
   double prior_var = 0;
   /// A bias weight with the same prior (default true): it sets the level of unobserved space
@@ -114,7 +116,7 @@ struct BhmSetup {
 };
 
 /// The joint learner's options of `setup` (spacing, width, prior variance when set, bias, EM
-/// iterations, cut-off); `setup.count` is ignored (learn_bhm derives the spacing from it).
+/// iterations); `setup.count` is ignored (learn_bhm derives the spacing from it).
 JointBhmOptions joint_bhm_options(const BhmSetup& setup);
 
 /// Learns the BHM of `setup` on a grid over [lo, hi] from `samples`, scan by scan (the

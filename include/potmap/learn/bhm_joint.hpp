@@ -16,9 +16,9 @@
 // reaches plus a margin. P is stored per kernel as a stencil of its grid neighbours.
 //
 // Storage is in tiles of kernels (32 x 32 in 2D, 8 x 8 x 8 in 3D, larger when the stencil is
-// wider than a tile; a 3D kernel's stencil holds 15^3 doubles at the default width, so 3D tiles
-// are kept small), allocated when a sample or a seed first reaches them and found through a
-// hash map of tile coordinates: memory grows with the area the samples cover, never with the
+// wider than a tile; a 3D kernel's stencil holds 9^3 doubles at the default width and cut-off, so
+// 3D tiles are kept small), allocated when a sample or a seed first reaches them and found through
+// a hash map of tile coordinates: memory grows with the area the samples cover, never with the
 // number of scans (driving over the same place again allocates nothing). A kernel no sample or
 // seed reached is never stored; it holds its prior (mean 0, variance prior_var) exactly, which
 // is what an allocated but unreached kernel holds too. The grid may be unbounded (the
@@ -63,9 +63,15 @@ struct JointBhmOptions {
   bool bias = true;
   /// EM iterations on a scan (default 3); each but the last is followed by an M-step.
   int em_iterations = 3;
-  /// Kernel cut-off exponent for the features: gamma d^2 > tau counts as 0 (default 18, as
-  /// the evaluators).
-  double tau = kDefaultCutoffTau;
+  /// Feature cut-off exponent of the learner: a kernel with gamma d^2 > tau is not a feature
+  /// of a sample at distance d (default 6: features below e^-6, 0.25 % of a kernel's peak, are
+  /// dropped). An update costs the square of the features a sample has (2D: about 12 at 6, 34
+  /// at the evaluators' 18; 3D: about 30 and 150) and each kernel's stencil shrinks with it,
+  /// while the dropped products are below the prior's precision by orders of magnitude: on the
+  /// real logs the held-out scores are those of 18 to within the solver's tolerance
+  /// (docs/pot-measurements.md). The maps it exports are evaluated with the evaluators' own
+  /// cut-off.
+  double tau = 6;
   /// Conjugate-gradient stop: relative residual of a scan's solve (default 1e-5).
   double cg_tolerance = 1e-5;
   /// At most this many CG iterations per solve (default 300).
