@@ -30,8 +30,7 @@ TEST(JointBhmStream, Freiburg079MemoryFollowsTheAreaNotTheScans) {
   const std::size_t n = ds.scans.size();
   ASSERT_GE(n, 4000u);  // 4,791 scans in the corrected log
   // Every `stride`-th scan (1: all of them; small inputs, under the sanitizers: every 16th, the
-  // same drive over the same building, so the same memory bounds hold; measured there: 33.6 MB
-  // once covered, 43.0 MB at the end, held-out AUC 0.944 from a sixteenth of the beams).
+  // same drive over the same building, so the same memory bounds hold).
   const std::size_t stride = test::sized<std::size_t>(1, 16);
   const std::size_t last_tested = test::sized<std::size_t>(100, 40);
 
