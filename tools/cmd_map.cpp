@@ -42,12 +42,13 @@ struct MapArgs {
   // and summed kernels at the same clearance and 0.880 / 1.302 without a clearance.
   std::string placement = "auto";
   bool average = true;
-  // Checkpoints every 100 scans by default: at most 100 scans of work lost, for about 2 % of
-  // the time (RePOT on Intel: a 35 MB checkpoint in 0.14 s against 7.5 s for 100 scans; POT's
-  // are 1 to 3 MB, 0.02 s; README).
+  // Checkpoints every 30 s of work by default: at most that much is lost whatever a scan costs
+  // (a count of scans bounds neither the loss nor the overhead: scans take 1 ms to seconds),
+  // and a checkpoint costs a small fraction of it (RePOT's largest, tens of MB, take tenths of
+  // a second; README).
   std::string checkpoint;  // default: OUT + ".ckpt"
-  std::size_t checkpoint_every = 100;
-  double checkpoint_seconds = 0;
+  std::size_t checkpoint_every = 0;
+  double checkpoint_seconds = 30;
   bool resume = false, keep_checkpoint = false;
 };
 
@@ -315,10 +316,10 @@ void register_map(CLI::App& app, Runner& runner) {
                   "Checkpoint file: the overall map and everything needed to continue the run, "
                   "replaced atomically (default: OUT.ckpt; removed when the run ends well)");
   cmd->add_option("--checkpoint-every", a->checkpoint_every,
-                  "Write the checkpoint after every N scans (default 100; 0: not by count)");
+                  "Write the checkpoint after every N scans (default 0: not by count)");
   cmd->add_option("--checkpoint-seconds", a->checkpoint_seconds,
-                  "Also write it when T seconds have passed since the last one (default 0: "
-                  "not by time). With both 0 no checkpoint is written")
+                  "Write it when T seconds have passed since the last one (default 30; 0: not by "
+                  "time). With both 0 no checkpoint is written")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--resume", a->resume,
                 "Continue from the checkpoint (if there is one) and end with the same overall "
