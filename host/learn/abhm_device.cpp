@@ -66,8 +66,8 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
   const std::string defs = "-DDIM=" + std::to_string(dim);
   const std::size_t wg = static_cast<std::size_t>(ctx.tuning().learn.abhm_work_group);
   if (n > 0) {
-    bc::kernel fwd = ctx.kernel("learn/abhm_grad", "abhm_forward", defs);
-    detail::launch_1d(ctx.queue(), fwd, "abhm_forward", round_up(n, wg), wg, b_kpos, b_kg, b_kw,
+    KernelLease fwd = ctx.lend_kernel("learn/abhm_grad", "abhm_forward", defs);
+    detail::launch_1d(ctx.queue(), *fwd, "abhm_forward", round_up(n, wg), wg, b_kpos, b_kg, b_kw,
                       b_spos, b_sy, b_sstart, b_slist, static_cast<cl_uint>(n),
                       static_cast<float>(draw.b), static_cast<float>(scale), b_gf, b_ll);
     from_device(ctx, b_ll, ll);
@@ -81,8 +81,8 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
   loss += abhm_kl(p, prior);
   if (!grad) return loss;
   if (m > 0 && n > 0) {
-    bc::kernel bwd = ctx.kernel("learn/abhm_grad", "abhm_backward", defs);
-    detail::launch_1d(ctx.queue(), bwd, "abhm_backward", round_up(m, wg), wg, b_kpos, b_kg, b_kw,
+    KernelLease bwd = ctx.lend_kernel("learn/abhm_grad", "abhm_backward", defs);
+    detail::launch_1d(ctx.queue(), *bwd, "abhm_backward", round_up(m, wg), wg, b_kpos, b_kg, b_kw,
                       b_spos, b_gf, b_kstart, b_klist, static_cast<cl_uint>(m), b_dw, b_dg, b_dh);
     from_device(ctx, b_dw, dw);
     from_device(ctx, b_dg, dg);

@@ -125,8 +125,9 @@ bc::event MapEvaluator::evaluate_device(const bc::buffer& points, std::size_t n,
   }
   // Cells are found in float: a point that rounds into a neighbouring cell lies micrometres
   // from it, so all it can miss are kernels at the very edge of their cut-off.
-  bc::kernel k =
-      im.ctx->kernel("map/evaluate_cells", "map_eval_cells", "-DDIM=" + std::to_string(dim));
+  KernelLease lease =
+      im.ctx->lend_kernel("map/evaluate_cells", "map_eval_cells", "-DDIM=" + std::to_string(dim));
+  bc::kernel& k = *lease;
   cl_float4 ohv = {{oh[0], oh[1], oh[2], oh[3]}}, olv = {{ol[0], ol[1], ol[2], ol[3]}};
   cl_float4 clov = {{clo[0], clo[1], clo[2], clo[3]}};
   cl_uint4 cnv = {{im.cell_n[0], im.cell_n[1], im.cell_n[2], 1}};

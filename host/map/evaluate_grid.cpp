@@ -159,7 +159,8 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
   std::snprintf(defs, sizeof defs,
                 "-DDIM=%d -DROWS=%zu -DTILE_X=%zu -DTILE_Y=%zu -DTAU=%#.9gf -cl-denorms-are-zero",
                 g.dim, rows_per_item, tile, tile, opt.tau);
-  bc::kernel kern = ctx->kernel("map/raster", "map_raster", defs);
+  KernelLease lease = ctx->lend_kernel("map/raster", "map_raster", defs);
+  bc::kernel& kern = *lease;
 
   std::vector<float> host;
   for (std::size_t b0 = 0; b0 < g.nblocks; b0 += blocks_per_launch) {
