@@ -136,6 +136,10 @@ struct Run {
 // The indexed ranking's settings under test (--neighbours, --rotations-per-atom, --coarse,
 // --fine; defaults: PotOptions').
 PotOptions g_indexed;
+// --pipeline 0: every scan prepared, solved, placed and merged before the next starts, so that
+// ms a scan is the latency a mapper fed one scan at a time sees (default 1: the experiments'
+// pipeline, whose ms a scan is throughput).
+bool g_pipeline = true;
 
 Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
                const std::vector<Scan>& scans, std::size_t count, PotRanking ranking, bool refine,
@@ -162,6 +166,7 @@ Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
   setup.pot.warm_candidates = g_indexed.warm_candidates;
   setup.pot.snap_rotations = g_indexed.snap_rotations;
   setup.pot.index_anchors = g_indexed.index_anchors;
+  setup.pipeline = g_pipeline;
   Run run;
   setup.on_scan = [&run](std::size_t i, const ScanTransfer& t) {
     for (const SectorTransfer& s : t.sectors) run.chosen[{i, s.sector}] = {s.atom, s.rotation};
@@ -229,7 +234,9 @@ const char* const kUsage =
     "                 [--pool N (atoms in the cached pool; default: the largest of --atoms)]\n"
     "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE]\n"
     "                 [--coarse-tolerance 1e-5] [--free-tolerance 1e-2] [--fine N]\n"
-    "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1]\n"
+    "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1] [--pipeline 0|1]\n"
+    "--pipeline 0: each scan finished (merge included) before the next starts: ms a scan is\n"
+    "then a scan's latency, not the pipeline's throughput.\n"
     "A Radish log's scans have 180 beams; a town's (simulated, as `potmap data simulate`) 360.\n"
     "The indexed ranking's settings default to PotOptions'.\n";
 
@@ -288,6 +295,8 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
         g_indexed.transport_free_tolerance = std::stod(v);
       else if (k == "--fine")
         g_indexed.fine_candidates = std::stoul(v);
+      else if (k == "--pipeline")
+        g_pipeline = v != "0";
       else if (k == "--warm")
         g_indexed.warm_candidates = v != "0";
       else if (k == "--snap")
@@ -414,6 +423,7 @@ int run(int argc, char** argv) {
               {"warm_candidates", g_indexed.warm_candidates},
               {"snap_rotations", g_indexed.snap_rotations},
               {"index_anchors", g_indexed.index_anchors}}},
+            {"pipeline", g_pipeline},
             {"target", target},
             {"first", first},
             {"dictionary", dj},
