@@ -67,10 +67,9 @@ struct JointBhmOptions {
   /// of a sample at distance d (default 6: features below e^-6, 0.25 % of a kernel's peak, are
   /// dropped). An update costs the square of the features a sample has (2D: about 12 at 6, 34
   /// at the evaluators' 18; 3D: about 30 and 150) and each kernel's stencil shrinks with it,
-  /// while the dropped products are below the prior's precision by orders of magnitude: on the
-  /// real logs the held-out scores are those of 18 to within the solver's tolerance
-  /// (docs/pot-measurements.md). The maps it exports are evaluated with the evaluators' own
-  /// cut-off.
+  /// while the dropped products are below the prior's precision by orders of magnitude, and
+  /// the held-out scores on the real logs and frames stay those of 18 (docs/pot-measurements.md).
+  /// The maps it exports are evaluated with the evaluators' own cut-off.
   double tau = 6;
   /// Conjugate-gradient stop: relative residual of a scan's solve (default 1e-5).
   double cg_tolerance = 1e-5;
