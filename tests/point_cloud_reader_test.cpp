@@ -243,4 +243,9 @@ TEST(PointCloudReadersMalformed, PosesFileLines) {
   expect_input_error([&] { read_dataset(nan_pose); }, {nan_pose, "line 1", "'nan'"});
   const std::string missing = write_file(d, "missing.txt", "9.pcd 1 0 0 0 0 1 0 0 0 0 1 0\n");
   expect_input_error([&] { read_dataset(missing); }, {missing, "line 1", "9.pcd"});
+  // A name the system refuses to look up (longer than NAME_MAX; found by fuzz_point_cloud_poses,
+  // where the lookup threw the filesystem library's own exception).
+  const std::string too_long =
+      write_file(d, "long.txt", std::string(300, 'm') + ".pcd 1 0 0 0 0 1 0 0 0 0 1 0\n");
+  expect_input_error([&] { read_dataset(too_long); }, {too_long, "line 1", "cannot look up"});
 }
