@@ -86,9 +86,6 @@ TEST(JointBhm, OneScanMatchesTheDenseClosedForm) {
   EXPECT_GT(mean.cwiseAbs().maxCoeff(), 0.5);  // the data moved the weights
 }
 
-// After several scans with EM, the conjugate-gradient means equal the exact solve of the same
-// precision (sparse Cholesky), and the exported per-kernel variances reproduce the exact
-// predictive variance near the data within a small factor.
 // The exported map against the learner's own posterior (its features cut at its tau),
 // evaluated densely (no cut-off), on a grid of points: the means' largest difference and
 // scale, and the sorted ratios of the variances (the export's per-kernel variance is an
@@ -129,6 +126,9 @@ void expect_export_is_posterior(const ExportCheck& c, double tau) {
   EXPECT_LT(median, 2.0);
 }
 
+// After several scans with EM, the conjugate-gradient means equal the exact solve of the same
+// precision (sparse Cholesky), and the exported per-kernel variances reproduce the exact
+// predictive variance near the data within a small factor.
 TEST(JointBhm, MeansAndVariancesAgreeWithTheExactPosterior) {
   for (double tau : {kDefaultCutoffTau, JointBhmOptions{}.tau}) {
     SCOPED_TRACE(tau);

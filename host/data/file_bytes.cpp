@@ -3,8 +3,10 @@
 #include <zlib.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <system_error>
 
 #include "potmap/error.hpp"
 
@@ -58,6 +60,13 @@ std::string read_file_bytes(const std::string& path) {
       static_cast<unsigned char>(bytes[1]) == 0x8b)
     return gunzip(path, bytes);
   return bytes;
+}
+
+bool file_exists(const std::string& path, const std::string& where) {
+  std::error_code ec;
+  const bool found = std::filesystem::exists(path, ec);
+  if (ec) throw InputError(where + ": cannot look up " + path + ": " + ec.message());
+  return found;
 }
 
 }  // namespace potmap::data

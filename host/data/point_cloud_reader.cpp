@@ -14,7 +14,6 @@
 #include <fstream>
 #include <mutex>
 #include <sstream>
-#include <system_error>
 #include <vector>
 
 #include "data/file_bytes.hpp"
@@ -401,12 +400,8 @@ Dataset read_point_cloud_sequence(const std::string& poses_path, double max_rang
     if (ss >> extra) throw InputError(where + ": more than 12 numbers: '" + extra + "'");
     std::filesystem::path fp(frame);
     if (fp.is_relative()) fp = dir / fp;
-    // The error_code form: a name the system refuses (too long, say) is bad input of this
-    // line, not an exception from the filesystem library.
-    std::error_code ec;
-    const bool found = std::filesystem::exists(fp, ec);
-    if (ec) throw InputError(where + ": cannot look up frame " + fp.string() + ": " + ec.message());
-    if (!found) throw InputError(where + ": no frame " + fp.string());
+    if (!data::file_exists(fp.string(), where))
+      throw InputError(where + ": no frame " + fp.string());
     std::size_t dropped = 0;
     Scan scan = read_point_cloud(fp.string(), max_range, &dropped);
     apply_pose(scan, pose);

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "data/file_bytes.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
@@ -54,9 +55,9 @@ Dataset read_dataset(const std::string& path) {
       char name[32];
       std::snprintf(name, sizeof name, "%06zu.bin", i);
       const std::filesystem::path frame = dir / "velodyne" / name;
-      if (!std::filesystem::exists(frame))
-        throw InputError(path + ": line " + std::to_string(i + 1) + " has no frame " +
-                         frame.string());
+      const std::string where = path + ": line " + std::to_string(i + 1);
+      if (!data::file_exists(frame.string(), where))
+        throw InputError(where + " has no frame " + frame.string());
       Scan scan = read_kitti_bin(frame.string());
       apply_pose(scan, poses[i]);
       scan.timestamp = static_cast<double>(i);
