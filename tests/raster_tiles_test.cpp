@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -233,4 +234,42 @@ TEST(RasterTiles, BadOptionsAreNamed) {
     EXPECT_NE(std::string(e.what()).find("NOT-A-CRS:42"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(fs::exists(dir + "/y.tif"));
+}
+
+TEST(RasterTiles, EveryCodecHoldsTheSameValues) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  Fixture f;
+  const std::string dir = test::temp_dir("raster-tiles-codecs");
+  TiledRasterOptions o = f.options(dir);
+  o.remove_tiles = false;  // each codec assembles the same tiles
+  EXPECT_EQ(o.compression, "ZSTD");
+  std::vector<float> reference;
+  for (const char* codec : {"ZSTD", "none", "Deflate", "LZW"}) {
+    o.compression = codec;
+    const std::string out = dir + "/map-" + codec + ".tif";
+    const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+    const detail::GeoTiffImage prob = detail::read_geotiff_band(out, 1);
+    std::string upper = codec;
+    for (char& ch : upper) ch = char(std::toupper(static_cast<unsigned char>(ch)));
+    EXPECT_EQ(prob.compression, upper == "NONE" ? "" : upper) << codec;
+    if (reference.empty()) {
+      EXPECT_EQ(s.computed, s.tiles);
+      reference = prob.values;
+      continue;
+    }
+    EXPECT_EQ(s.reused, s.tiles) << codec;  // the codec is not part of a tile
+    ASSERT_EQ(prob.values.size(), reference.size());
+    for (std::size_t i = 0; i < reference.size(); ++i)
+      ASSERT_TRUE(prob.values[i] == reference[i] ||
+                  (std::isnan(prob.values[i]) && std::isnan(reference[i])))
+          << codec << " pixel " << i;
+  }
+  o.compression = "jpeg";
+  try {
+    TiledRaster job(test::context(), f.scene.map, f.spec, dir + "/bad.tif", o);
+    FAIL() << "expected an error";
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("'JPEG'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad.tif"), std::string::npos) << e.what();
+  }
 }

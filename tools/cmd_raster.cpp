@@ -27,7 +27,7 @@ struct RasterArgs {
   std::size_t band_cells = RasterOptions{}.max_band_cells;
   bool no_png = false, no_npy = false, json = false;
   std::size_t tile = TiledRasterOptions{}.tile_cells;
-  std::string work_dir, crs;
+  std::string work_dir, crs, compress = TiledRasterOptions{}.compression;
   bool keep_tiles = false, no_overviews = false;
 };
 
@@ -112,6 +112,10 @@ void register_raster(CLI::App& app, Runner& runner) {
                   "GeoTIFF: coordinate reference system of the map frame (EPSG:n, WKT or PROJ); "
                   "default a local frame in metres");
   cmd->add_flag("--no-overviews", a->no_overviews, "GeoTIFF: no reduced-resolution overviews");
+  cmd->add_option("--compress", a->compress,
+                  "GeoTIFF: codec of the blocks: zstd (default: as small as deflate, several "
+                  "times faster), deflate (for readers without ZSTD), lzw, none (fastest, "
+                  "largest)");
   cmd->callback([&runner, a, device] {
     runner.action = [a, device] {
       RasterSpec spec;
@@ -130,6 +134,7 @@ void register_raster(CLI::App& app, Runner& runner) {
         t.options.remove_tiles = !a->keep_tiles;
         t.options.crs = a->crs;
         t.options.overviews = !a->no_overviews;
+        t.options.compression = a->compress;
         t.options.eval = RasterOptions{}.eval;
         t.json = a->json;
         return run_tiled_raster(t);

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "io/le_bytes.hpp"
 
@@ -44,10 +45,7 @@ class ContainerWriter {
   void f64s(const Range& values) {
     for (double v : values) put_f64(out_, v);
   }
-  template <class Range>
-  void f32s(const Range& values) {
-    for (float v : values) put_f32(out_, v);
-  }
+  void f32s(const std::vector<float>& values) { put_f32s(out_, values.data(), values.size()); }
   void bytes(std::string_view s) { out_ += s; }
   std::size_t size() const { return out_.size(); }
   void finish(const std::string& path);

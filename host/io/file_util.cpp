@@ -23,10 +23,21 @@ std::string read_whole_file(const std::string& path) {
     throw InputError(path + ": is a directory, not a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
+  // One read of the size the file has (raster tiles, maps and dictionaries are megabytes);
+  // whatever a growing or special file gives beyond it is appended.
+  std::string bytes;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && size > 0) {
+    bytes.resize(size);
+    in.read(bytes.data(), std::streamsize(size));
+    bytes.resize(std::size_t(in.gcount()));
+    if (in.bad()) throw InputError(path + ": read error");
+    if (std::size_t(in.gcount()) < size) return bytes;
+  }
   std::ostringstream s;
   s << in.rdbuf();
   if (in.bad()) throw InputError(path + ": read error");
-  return s.str();
+  return bytes + s.str();
 }
 
 }  // namespace potmap::detail

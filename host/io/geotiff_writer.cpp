@@ -113,18 +113,41 @@ void sync_file(const std::string& path, const std::string& file) {
   if (!ok) throw Error(path + ": cannot write " + file + ": " + why);
 }
 
+// GDAL's block cache is process-wide and defaults to 5 % of the machine's memory: with room
+// for most of the image, the blocks written stay allocated until the end and the job spends
+// more time in page faults and freeing than in copying (docs/raster-scale.md: the 0.05 m COG
+// step took 2.5x as long). A small cache keeps memory bounded by the tile size, as the job
+// promises. The user's GDAL_CACHEMAX wins; the previous size is restored on return, for
+// embedders that use GDAL themselves.
+class BoundedBlockCache {
+ public:
+  BoundedBlockCache() : old_(GDALGetCacheMax64()) {
+    if (!CPLGetConfigOption("GDAL_CACHEMAX", nullptr)) GDALSetCacheMax64(kBytes);
+  }
+  ~BoundedBlockCache() { GDALSetCacheMax64(old_); }
+  BoundedBlockCache(const BoundedBlockCache&) = delete;
+  BoundedBlockCache& operator=(const BoundedBlockCache&) = delete;
+
+ private:
+  static constexpr GIntBig kBytes = GIntBig(32) << 20;  // 16 blocks of 512 x 512 float32
+  GIntBig old_;
+};
+
 }  // namespace
 
 void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
                const std::function<void(double)>& progress) {
   register_drivers();
   QuietErrors quiet;
+  BoundedBlockCache cache;
   const int nb = static_cast<int>(spec.band_names.size());
   if (nb < 1 || spec.width == 0 || spec.height == 0 || spec.block == 0 || spec.block % 16)
     throw ArgumentError(path + ": GeoTIFF of " + std::to_string(spec.width) + " x " +
                         std::to_string(spec.height) + " pixels, " + std::to_string(nb) +
                         " bands, block " + std::to_string(spec.block) +
                         ": needs pixels, a band and a block that is a multiple of 16");
+  const std::string& compression = spec.compression;
+  check_compression(compression, path);
   const std::string wkt = crs_wkt(spec.crs, path);
   GDALDriverH gtiff = GDALGetDriverByName("GTiff");
   GDALDriverH cog = GDALGetDriverByName("COG");
@@ -203,12 +226,11 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
     if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
   }
 
-  // The COG layout: overviews and blocks in the order readers expect. DEFLATE (every TIFF
-  // reader has it) at level 1 with the floating-point predictor: float32 maps are mostly
-  // mantissa noise to a compressor, so higher levels buy a few per cent of size for several
-  // times the time (docs/raster-scale.md). Blocks are compressed on every core; GDAL writes
-  // them in order, so the file is the same for the same input whatever the thread count (no
-  // time stamp either).
+  // The COG layout: overviews and blocks in the order readers expect. Level 1 with the
+  // floating-point predictor: float32 maps are mostly mantissa noise to a compressor without
+  // it, and higher levels buy a few per cent of size for several times the time
+  // (docs/raster-scale.md). Blocks are compressed on every core; GDAL writes them in order, so
+  // the file is the same for the same input whatever the thread count (no time stamp either).
   const std::string final_temp = temp_name(path, "partial");
   RemoveOnExit remove_partial{final_temp};
   {
@@ -216,13 +238,13 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
     if (!src) fail(path, "cannot reopen " + staging);
     Options o;
     o.set("BLOCKSIZE", std::to_string(spec.block))
-        .set("COMPRESS", "DEFLATE")
-        .set("LEVEL", "1")
-        .set("PREDICTOR", "YES")
+        .set("COMPRESS", compression)
         .set("NUM_THREADS", "ALL_CPUS")
         .set("OVERVIEWS", spec.overviews ? "AUTO" : "NONE")
         .set("RESAMPLING", "AVERAGE")
         .set("BIGTIFF", "IF_SAFER");
+    if (compression == "ZSTD" || compression == "DEFLATE") o.set("LEVEL", "1");
+    if (compression != "NONE") o.set("PREDICTOR", "YES");
     struct Ctx {
       const std::function<void(double)>* progress;
     } pctx{&progress};
@@ -259,6 +281,8 @@ GeoTiffImage read_geotiff_band(const std::string& path, int band) {
     throw InputError(path + ": band " + std::to_string(band) + " of " + std::to_string(im.bands));
   GDALGetGeoTransform(ds.get(), im.geotransform);
   if (const char* w = GDALGetProjectionRef(ds.get())) im.crs_wkt = w;
+  if (const char* c = GDALGetMetadataItem(ds.get(), "COMPRESSION", "IMAGE_STRUCTURE"))
+    im.compression = c;
   GDALRasterBandH b = GDALGetRasterBand(ds.get(), band);
   int bx = 0, by = 0;
   GDALGetBlockSize(b, &bx, &by);

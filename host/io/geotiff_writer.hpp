@@ -1,8 +1,8 @@
 #pragma once
 // Cloud-Optimized GeoTIFF output through GDAL: float32 bands written block by block into a
 // tiled staging file, then copied by GDAL's COG driver into the final layout (internal tiles,
-// overviews, DEFLATE with the floating-point predictor). Memory stays bounded by a block and
-// GDAL's own cache, whatever the image size.
+// overviews, compressed with the floating-point predictor). Memory stays bounded by a block
+// and a bounded GDAL block cache, whatever the image size.
 //
 // In a shared build geotiff_writer.cpp is a module of its own, libpotmap_gdal.so beside
 // libpotmap, which geotiff_module.cpp loads on the first call: processes that write no GeoTIFF
@@ -14,6 +14,8 @@
 #include <utility>
 #include <vector>
 
+#include "potmap/error.hpp"
+
 namespace potmap::detail {
 
 struct GeoTiffSpec {
@@ -24,8 +26,20 @@ struct GeoTiffSpec {
   std::string crs;                      ///< as GDAL reads it; empty: a local frame in metres
   bool overviews = true;                ///< averaged overviews down to one block
   std::vector<std::string> band_names;  ///< one per band
+  /// Codec of the blocks, as GDAL names it: ZSTD, DEFLATE, LZW or NONE (TiledRasterOptions
+  /// says why ZSTD).
+  std::string compression = "ZSTD";
   std::vector<std::pair<std::string, std::string>> metadata;  ///< dataset metadata items
 };
+
+/// Throws ArgumentError naming `path` and the value unless `compression` is a codec write_cog
+/// takes (ZSTD, DEFLATE, LZW or NONE, upper case as GDAL names them).
+inline void check_compression(const std::string& compression, const std::string& path) {
+  for (const char* ok : {"ZSTD", "DEFLATE", "LZW", "NONE"})
+    if (compression == ok) return;
+  throw ArgumentError(path + ": GeoTIFF compression '" + compression +
+                      "': expected zstd, deflate, lzw or none");
+}
 
 /// Fills one block: `bands[b]` receives width * height floats of band b, row-major, for the
 /// block at pixel (x0, y0) of size width x height.
@@ -44,6 +58,7 @@ struct GeoTiffImage {
   std::size_t width = 0, height = 0, bands = 0, block_x = 0, block_y = 0, overviews = 0;
   double geotransform[6] = {0, 0, 0, 0, 0, 0};
   std::string crs_wkt;
+  std::string compression;  ///< GDAL's name of the codec ("ZSTD", ...); empty: uncompressed
   std::vector<float> values;
 };
 GeoTiffImage read_geotiff_band(const std::string& path, int band);

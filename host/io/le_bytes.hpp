@@ -29,6 +29,23 @@ inline void put_f32(std::string& out, float f) {
   put_u32(out, v);
 }
 
+inline bool host_is_little_endian() {
+  const std::uint32_t one = 1;
+  unsigned char b;
+  std::memcpy(&b, &one, 1);
+  return b == 1;
+}
+
+/// n floats, little-endian: on a little-endian host (every platform potmap runs on today) the
+/// bytes as they are, in one append; raster tiles carry millions of them.
+inline void put_f32s(std::string& out, const float* v, std::size_t n) {
+  if (host_is_little_endian()) {
+    out.append(reinterpret_cast<const char*>(v), n * sizeof(float));
+    return;
+  }
+  for (std::size_t i = 0; i < n; ++i) put_f32(out, v[i]);
+}
+
 /// n (<= 8) little-endian bytes at p as an unsigned integer.
 inline std::uint64_t get_le(const unsigned char* p, int n) {
   std::uint64_t v = 0;

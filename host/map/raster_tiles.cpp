@@ -1,5 +1,6 @@
 #include "potmap/map/raster_tiles.hpp"
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -22,13 +23,6 @@ namespace fs = std::filesystem;
 namespace {
 
 using detail::hex64;
-
-bool host_is_little_endian() {
-  const std::uint32_t one = 1;
-  unsigned char b;
-  std::memcpy(&b, &one, 1);
-  return b == 1;
-}
 
 // A finished tile: the job's fingerprint and the tile's place, then probability and variance
 // in image order (row 0 = top), float32.
@@ -114,7 +108,7 @@ struct TiledRaster::Impl {
     if (prob && var) {
       prob->resize(n);
       var->resize(n);
-      if (host_is_little_endian()) {
+      if (detail::host_is_little_endian()) {
         std::memcpy(prob->data(), r.data() + kTileHeader, 4 * n);
         std::memcpy(var->data(), r.data() + kTileHeader + 4 * n, 4 * n);
       } else {
@@ -135,6 +129,8 @@ TiledRaster::TiledRaster(Context& ctx, const KernelMap& map, const RasterSpec& s
     throw ArgumentError("raster: tile size " + std::to_string(options.tile_cells) +
                         " cells; must be a multiple of 64 from 64 to 8192");
   detail::check_crs(options.crs, output);  // before any tile is computed
+  for (char& ch : options.compression) ch = char(std::toupper(static_cast<unsigned char>(ch)));
+  detail::check_compression(options.compression, output);
   if (options.work_dir.empty()) options.work_dir = output + ".tiles";
   Impl& im = *impl_;
   im.spec = spec;
@@ -267,6 +263,7 @@ TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& prog
   g.pixel = im.spec.resolution;
   g.crs = im.options.crs;
   g.overviews = im.options.overviews;
+  g.compression = im.options.compression;
   g.band_names = {"probability", "variance"};
   g.metadata = {{"POTMAP_VERSION", POTMAP_VERSION_STRING},
                 {"POTMAP_JOB", hex64(im.fingerprint)},
