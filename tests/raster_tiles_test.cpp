@@ -85,6 +85,23 @@ TEST(RasterTiles, TilesAreTheEvaluatorsGridAndTheGeoTiffHoldsThem) {
   EXPECT_EQ(prob.block_x, 64u);
   EXPECT_EQ(prob.block_y, 64u);
   EXPECT_GE(prob.overviews, 1u);
+  // The first overview: each cell the mean of the (up to) 2 x 2 image cells it covers.
+  ASSERT_EQ(prob.overview_width, (W + 1) / 2);
+  ASSERT_EQ(prob.overview_height, (H + 1) / 2);
+  for (std::size_t r = 0; r < prob.overview_height; ++r)
+    for (std::size_t c = 0; c < prob.overview_width; ++c) {
+      double sum = 0;
+      int n = 0;
+      for (std::size_t y = 2 * r; y < std::min(2 * r + 2, H); ++y)
+        for (std::size_t x = 2 * c; x < std::min(2 * c + 2, W); ++x)
+          if (!std::isnan(prob.values[y * W + x])) {
+            sum += prob.values[y * W + x];
+            ++n;
+          }
+      ASSERT_TRUE(n > 0);
+      ASSERT_NEAR(prob.overview_values[r * prob.overview_width + c], sum / n, 1e-6)
+          << "overview cell " << r << ", " << c;
+    }
   EXPECT_DOUBLE_EQ(prob.geotransform[0], f.spec.xmin);
   EXPECT_DOUBLE_EQ(prob.geotransform[1], f.spec.resolution);
   EXPECT_DOUBLE_EQ(prob.geotransform[3], f.spec.ymin + double(H) * f.spec.resolution);

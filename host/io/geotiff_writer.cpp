@@ -133,6 +133,27 @@ class BoundedBlockCache {
   GIntBig old_;
 };
 
+// The first overview of a w x h block (row-major): each cell the mean of the 2 x 2 cells it
+// covers that are numbers (NaN, the nodata value, where none is), as GDAL's AVERAGE; cells past
+// an odd edge cover one row or column.
+void average_halves(const float* in, std::size_t w, std::size_t h, float* out) {
+  const std::size_t hw = (w + 1) / 2, hh = (h + 1) / 2;
+  for (std::size_t r = 0; r < hh; ++r)
+    for (std::size_t c = 0; c < hw; ++c) {
+      double sum = 0;
+      int n = 0;
+      for (std::size_t dr = 0; dr < 2 && 2 * r + dr < h; ++dr)
+        for (std::size_t dc = 0; dc < 2 && 2 * c + dc < w; ++dc) {
+          const float v = in[(2 * r + dr) * w + 2 * c + dc];
+          if (!std::isnan(v)) {
+            sum += v;
+            ++n;
+          }
+        }
+      out[r * hw + c] = n ? float(sum / n) : std::nanf("");
+    }
+}
+
 }  // namespace
 
 void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
@@ -180,7 +201,24 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
       GDALSetDescription(band, spec.band_names[b].c_str());
       GDALSetRasterNoDataValue(band, std::nan(""));
     }
+    // The overviews live in the uncompressed staging file, where the COG driver takes them as
+    // they are (OVERVIEWS=AUTO); left to it, it would compute them into a compressed temporary
+    // file of its own and compress them again into the COG. Levels as the COG driver picks
+    // them: halve until both sides fit in one block. Their directories are made first, empty
+    // ("NONE"), so that the first level is written from each block while it is in memory
+    // rather than read back from the whole image (0.8 s of a 5.5 s job at 64 M cells).
+    std::vector<int> factors;
+    for (int f = 2; spec.overviews; f *= 2) {
+      factors.push_back(f);
+      if ((spec.width + f - 1) / f <= spec.block && (spec.height + f - 1) / f <= spec.block) break;
+    }
+    if (spec.width <= spec.block && spec.height <= spec.block) factors.clear();
+    if (!factors.empty() &&
+        GDALBuildOverviews(ds.get(), "NONE", static_cast<int>(factors.size()), factors.data(), 0,
+                           nullptr, nullptr, nullptr) != CE_None)
+      fail(path, "making the overviews of " + staging);
     std::vector<std::vector<float>> buf(nb, std::vector<float>(spec.block * spec.block));
+    std::vector<float> half((spec.block / 2) * (spec.block / 2));
     std::vector<float*> ptr(nb);
     const std::size_t bx = (spec.width + spec.block - 1) / spec.block;
     const std::size_t by = (spec.height + spec.block - 1) / spec.block;
@@ -191,35 +229,43 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
         const std::size_t h = std::min(spec.block, spec.height - y0);
         for (int b = 0; b < nb; ++b) ptr[b] = buf[b].data();
         fill(x0, y0, w, h, ptr);
-        for (int b = 0; b < nb; ++b)
-          if (GDALRasterIO(GDALGetRasterBand(ds.get(), b + 1), GF_Write, int(x0), int(y0), int(w),
-                           int(h), ptr[b], int(w), int(h), GDT_Float32, 0, 0) != CE_None)
+        for (int b = 0; b < nb; ++b) {
+          GDALRasterBandH band = GDALGetRasterBand(ds.get(), b + 1);
+          if (GDALRasterIO(band, GF_Write, int(x0), int(y0), int(w), int(h), ptr[b], int(w), int(h),
+                           GDT_Float32, 0, 0) != CE_None)
             fail(path, "writing block at pixel (" + std::to_string(x0) + ", " + std::to_string(y0) +
                            ") of " + staging);
+          if (factors.empty()) continue;
+          const std::size_t hw = (w + 1) / 2, hh = (h + 1) / 2;
+          average_halves(ptr[b], w, h, half.data());
+          if (GDALRasterIO(GDALGetOverview(band, 0), GF_Write, int(x0 / 2), int(y0 / 2), int(hw),
+                           int(hh), half.data(), int(hw), int(hh), GDT_Float32, 0, 0) != CE_None)
+            fail(path, "writing the overview of the block at pixel (" + std::to_string(x0) + ", " +
+                           std::to_string(y0) + ") of " + staging);
+        }
         if (progress) progress(0.6 * double(r * bx + c + 1) / double(bx * by));
       }
-    // The overviews, here in the uncompressed staging file, where the COG driver takes them
-    // as they are (OVERVIEWS=AUTO); left to it, it would compute them into a compressed
-    // temporary file of its own and compress them again into the COG. Levels as the COG driver
-    // picks them: halve until both sides fit in one block.
-    std::vector<int> factors;
-    for (int f = 2; spec.overviews; f *= 2) {
-      factors.push_back(f);
-      if ((spec.width + f - 1) / f <= spec.block && (spec.height + f - 1) / f <= spec.block) break;
-    }
-    if (spec.width <= spec.block && spec.height <= spec.block) factors.clear();
-    if (!factors.empty()) {
+    // The coarser levels from the first (a quarter of the image), each averaged over its cells.
+    if (factors.size() > 1) {
       struct Ctx {
         const std::function<void(double)>* progress;
-      } pctx{&progress};
+        int band, bands;
+      } pctx{&progress, 0, nb};
       GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
         auto* c = static_cast<Ctx*>(arg);
-        if (*c->progress) (*c->progress)(0.6 + 0.1 * f);
+        if (*c->progress) (*c->progress)(0.6 + 0.1 * (c->band + f) / c->bands);
         return TRUE;
       };
-      if (GDALBuildOverviews(ds.get(), "AVERAGE", static_cast<int>(factors.size()), factors.data(),
-                             0, nullptr, pf, &pctx) != CE_None)
-        fail(path, "computing the overviews in " + staging);
+      for (int b = 0; b < nb; ++b) {
+        pctx.band = b;
+        GDALRasterBandH band = GDALGetRasterBand(ds.get(), b + 1);
+        std::vector<GDALRasterBandH> coarser;
+        for (int i = 1; i < GDALGetOverviewCount(band); ++i)
+          coarser.push_back(GDALGetOverview(band, i));
+        if (GDALRegenerateOverviews(GDALGetOverview(band, 0), static_cast<int>(coarser.size()),
+                                    coarser.data(), "AVERAGE", pf, &pctx) != CE_None)
+          fail(path, "computing the overviews in " + staging);
+      }
     }
     GDALFlushCache(ds.get());
     ds.reset();  // closing writes the last blocks: its failure must show below too
@@ -293,6 +339,16 @@ GeoTiffImage read_geotiff_band(const std::string& path, int band) {
   if (GDALRasterIO(b, GF_Read, 0, 0, int(im.width), int(im.height), im.values.data(), int(im.width),
                    int(im.height), GDT_Float32, 0, 0) != CE_None)
     fail(path, "reading band " + std::to_string(band));
+  if (im.overviews > 0) {
+    GDALRasterBandH o = GDALGetOverview(b, 0);
+    im.overview_width = GDALGetRasterBandXSize(o);
+    im.overview_height = GDALGetRasterBandYSize(o);
+    im.overview_values.resize(im.overview_width * im.overview_height);
+    if (GDALRasterIO(o, GF_Read, 0, 0, int(im.overview_width), int(im.overview_height),
+                     im.overview_values.data(), int(im.overview_width), int(im.overview_height),
+                     GDT_Float32, 0, 0) != CE_None)
+      fail(path, "reading the first overview of band " + std::to_string(band));
+  }
   return im;
 }
 

@@ -60,6 +60,9 @@ struct GeoTiffImage {
   std::string crs_wkt;
   std::string compression;  ///< GDAL's name of the codec ("ZSTD", ...); empty: uncompressed
   std::vector<float> values;
+  /// The first (finest) overview of the band, when there is one: its size and values.
+  std::size_t overview_width = 0, overview_height = 0;
+  std::vector<float> overview_values;
 };
 GeoTiffImage read_geotiff_band(const std::string& path, int band);
 
