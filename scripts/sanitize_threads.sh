@@ -23,7 +23,7 @@ export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$root/
 cmake --build "$build" -j"$(nproc)" --target potmap_thread_tests potmap_capi_tests >/dev/null
 export POTMAP_CACHE_DIR=$build/kernel-cache
 cd "$root"
-filter=${POTMAP_TSAN_FILTER:-'*Thread*:*Concurren*:*Parallel*:Load.*:PotMapper.AddScanGivesWhatMapScansGives'}
+filter=${POTMAP_TSAN_FILTER:-'*Thread*:*Concurren*:*Parallel*:Load.*:PotMapper.AddScanGivesWhatMapScansGives:PotMapper.AsyncMerge*'}
 # shellcheck disable=SC2086
 "$build/tests/capi/potmap_capi_tests" --gtest_brief=1 --gtest_filter="$filter" ${POTMAP_SANITIZE_ARGS:-}
 # shellcheck disable=SC2086

@@ -3,7 +3,10 @@
 // leave the mapper unchanged.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
 #include <memory>
+#include <string>
 
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
@@ -29,6 +32,11 @@ struct Scene {
                      *dict);
   }
 };
+
+std::string bytes_of(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
 
 void expect_same(const KernelMap& a, const KernelMap& b) {
   ASSERT_EQ(a.size(), b.size());
@@ -187,6 +195,66 @@ TEST(PotMapper, PersistentRepotMapKeepsItsMemoryOverRepeatedDrives) {
   std::vector<float> prob(v.prob.begin(), v.prob.end());
   const Scores sc = score(prob, test.label);
   EXPECT_GT(sc.auc, 0.9);
+}
+
+// MapperOptions::async_merge: add_scan() hands the scan back before its merge, which runs
+// beside the next scan's transfer. The overall map, the merge records and a checkpoint are
+// those of the synchronous mapper, bit for bit, for the three overall maps (POT's merged and
+// averaged maps, RePOT's persistent map); reading the map between scans and reset() wait for
+// the merge in flight. Under ThreadSanitizer (potmap_thread_tests) this is also the check that
+// the caller's reads of last() and the merge's writes do not race.
+TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
+  const Scene s;
+  const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
+  const std::string dir = test::temp_dir("pot-mapper-async");
+  for (const int kind : {0, 1, 2}) {
+    SCOPED_TRACE(kind == 0 ? "POT merged" : kind == 1 ? "POT averaged" : "RePOT persistent");
+    MapperOptions o = test::small_mapper_options(kind == 2);
+    o.average_overall = kind == 1;
+    Mapper sync(&test::context(), s.dict, o);
+    o.async_merge = true;
+    Mapper async(&test::context(), s.dict, o);
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      const MappedScan& a = sync.add_scan(targets[i]);
+      const MappedScan& b = async.add_scan(targets[i]);
+      EXPECT_EQ(b.index, i);
+      EXPECT_EQ(&b, &async.last());
+      expect_same(b.transfer.map, a.transfer.map);  // read while b's merge may be running
+      EXPECT_EQ(async.scans(), i + 1);
+      if (i % 2) continue;  // every other scan goes on with its merge in flight
+      const MapperMerge &ma = sync.last_merge(), &mb = async.last_merge();
+      EXPECT_EQ(mb.stats.added, ma.stats.added);
+      EXPECT_EQ(mb.stats.merged, ma.stats.merged);
+      EXPECT_EQ(mb.seeded, ma.seeded);
+      if (kind == 2) EXPECT_GT(mb.merge_ms, 0.0);  // the persistent update, counted here
+      expect_same(async.overall_map(), sync.overall_map());
+    }
+    expect_same(async.overall_map(), sync.overall_map());
+    EXPECT_EQ(async.overall_kernels(), sync.overall_kernels());
+    EXPECT_GT(async.overall_kernels(), 0u);
+    // A checkpoint of the asynchronous mapper restores the synchronous one's map (the files
+    // differ only in the last merge's time, which they record).
+    const std::string fa = dir + "/sync-" + std::to_string(kind) + ".state";
+    const std::string fb = dir + "/async-" + std::to_string(kind) + ".state";
+    async.add_scan(targets[0]);  // a merge in flight when the state is saved
+    sync.add_scan(targets[0]);
+    async.save_state(fb);
+    sync.save_state(fa);
+    EXPECT_EQ(bytes_of(fa).size(), bytes_of(fb).size());
+    o.async_merge = false;
+    Mapper from_sync(&test::context(), s.dict, o), from_async(&test::context(), s.dict, o);
+    from_sync.load_state(fa);
+    from_async.load_state(fb);
+    expect_same(from_async.overall_map(), from_sync.overall_map());
+    expect_same(from_async.overall_map(), sync.overall_map());
+    from_async.add_scan(targets[1]);
+    sync.add_scan(targets[1]);
+    expect_same(from_async.overall_map(), sync.overall_map());
+    async.add_scan(targets[2]);
+    async.reset();  // waits for the merge in flight
+    EXPECT_EQ(async.scans(), 0u);
+    EXPECT_EQ(async.overall_kernels(), 0u);
+  }
 }
 
 TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {

@@ -38,6 +38,7 @@ potmap_mapper_options default_mapper_options() {
   o.anchor_spacing = m.pot.anchor_spacing;
   o.wall_clearance = m.pot.wall_clearance;
   o.average_overall = m.average_overall ? 1 : 0;
+  o.async_merge = m.async_merge ? 1 : 0;
   return o;
 }
 
@@ -85,6 +86,7 @@ Options to_options(const potmap_mapper_options* in) {
   if (!(o.wall_clearance >= 0) || !std::isfinite(o.wall_clearance))
     bad("wall_clearance", o.wall_clearance);
   if (o.average_overall != 0 && o.average_overall != 1) bad("average_overall", o.average_overall);
+  if (o.async_merge != 0 && o.async_merge != 1) bad("async_merge", o.async_merge);
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
@@ -101,6 +103,7 @@ Options to_options(const potmap_mapper_options* in) {
   p.anchor_spacing = o.anchor_spacing;
   p.wall_clearance = o.wall_clearance;
   r.mapper.average_overall = o.average_overall == 1;
+  r.mapper.async_merge = o.async_merge == 1;
   p.max_range = o.max_range;
   p.candidates = o.candidates;
   p.seed = o.seed;

@@ -203,24 +203,41 @@ Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const Mappe
 }
 
 const MappedScan& Mapper::add_scan(const Scan& scan) {
+  // The preparation and the transfer read the dictionary, the options, the scan count and the
+  // warm candidates, never the overall map: they run beside the previous scan's merge.
   Prepared cur = prepare(*dict_, scan, scans_, options_, warm_[1]);
-  add_mapped(finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_)));
+  MappedScan m = finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_));
+  if (!options_.async_merge) {
+    add_mapped(std::move(m));
+    return last_;
+  }
+  settle();
+  warm_[0] = std::move(warm_[1]);
+  warm_[1] = chosen_atoms(m.transfer);
+  last_ = std::move(m);
+  ++scans_;
+  // The merge reads last_ (which the caller may read too, never write) and writes the maps and
+  // merge_, which every accessor reads only after settle().
+  merging_ = std::async(std::launch::async, [this] {
+    MapperMerge merge;
+    merge_scan(last_, merge, false);
+    merge_ = merge;
+  });
   return last_;
 }
 
-const MapperMerge& Mapper::add_mapped(MappedScan&& m) {
-  if (m.index != scans_)
-    throw ArgumentError("Mapper::add_mapped: scan " + std::to_string(m.index) +
-                        " given, the mapper expects scan " + std::to_string(scans_));
-  if (m.transfer.map.dim != dict_->dim)
-    throw ArgumentError("Mapper::add_mapped: scan " + std::to_string(m.index) + " is " +
-                        std::to_string(m.transfer.map.dim) + "D, the dictionary " +
-                        std::to_string(dict_->dim) + "D");
+void Mapper::settle() const {
+  if (merging_.valid()) merging_.get();  // get() leaves it empty, so an error is thrown once
+}
+
+void Mapper::merge_scan(MappedScan& m, MapperMerge& merge, bool refine_into_scan) {
   const auto t1 = std::chrono::steady_clock::now();
-  MapperMerge merge;
   if (repot_) {
     merge.seeded = repot_->add(m.transfer.map, m.train);
-    m.transfer.timing.refine_ms += ms_since(t1);
+    if (refine_into_scan)
+      m.transfer.timing.refine_ms += ms_since(t1);
+    else
+      merge.merge_ms = ms_since(t1);
   } else {
     if (averaged_)
       averaged_->add(m.transfer.map);
@@ -228,6 +245,19 @@ const MapperMerge& Mapper::add_mapped(MappedScan&& m) {
       merge.stats = overall_.add(m.transfer.map);
     merge.merge_ms = ms_since(t1);
   }
+}
+
+const MapperMerge& Mapper::add_mapped(MappedScan&& m) {
+  settle();
+  if (m.index != scans_)
+    throw ArgumentError("Mapper::add_mapped: scan " + std::to_string(m.index) +
+                        " given, the mapper expects scan " + std::to_string(scans_));
+  if (m.transfer.map.dim != dict_->dim)
+    throw ArgumentError("Mapper::add_mapped: scan " + std::to_string(m.index) + " is " +
+                        std::to_string(m.transfer.map.dim) + "D, the dictionary " +
+                        std::to_string(dict_->dim) + "D");
+  MapperMerge merge;
+  merge_scan(m, merge, true);
   warm_[0] = std::move(warm_[1]);
   warm_[1] = chosen_atoms(m.transfer);
   last_ = std::move(m);
@@ -245,20 +275,25 @@ MapScansStart Mapper::continuation() const {
 }
 
 const KernelMap& Mapper::overall_map() const {
+  settle();
   return repot_ ? repot_->map() : averaged_ ? averaged_->map() : overall_.map();
 }
 
 std::size_t Mapper::overall_kernels() const {
+  settle();
   return repot_ ? repot_->size() : averaged_ ? averaged_->size() : overall_.size();
 }
 
 std::size_t Mapper::overall_memory_bytes() const {
+  settle();
   return repot_      ? repot_->memory_bytes()
          : averaged_ ? averaged_->memory_bytes()
                      : overall_.memory_bytes();
 }
 
 void Mapper::reset() {
+  if (merging_.valid()) merging_.wait();
+  merging_ = {};
   overall_ = OverallMap(dict_->dim, overall_.options());
   if (repot_) repot_.emplace(dict_->dim, options_);
   if (averaged_) averaged_.emplace(dict_->dim, options_.averaged);

@@ -135,10 +135,12 @@ struct MapperState {
 }  // namespace detail
 
 void Mapper::save_state(const std::string& path, const std::string& extra) const {
+  settle();
   detail::MapperState::save(*this, path, extra);
 }
 
 std::string Mapper::load_state(const std::string& path) {
+  settle();
   return detail::MapperState::load(*this, path);
 }
 

@@ -433,6 +433,14 @@ typedef struct potmap_mapper_options {
    *  grid, which with target-sample placement depicts the Radish logs best
    *  (docs/pot-measurements.md). Not read by the persistent RePOT map. */
   int average_overall;
+  /* ---- appended in version 4 ---- */
+  /** 1: potmap_mapper_add_scan returns once the scan is transferred, and its merge into the
+   *  overall map runs on another thread beside the next add_scan (the same overall map, bit for
+   *  bit; every call that reads the overall map, saves or resets first waits for it, and an
+   *  error of the merge is returned there). Pass stats NULL to add_scan to keep the overlap:
+   *  its overall_* fields wait for the merge. 0 (default): the merge is done when add_scan
+   *  returns. */
+  int async_merge;
 } potmap_mapper_options;
 
 /** Values of potmap_mapper_options::ranking. */

@@ -129,7 +129,8 @@ void set_fields(py::object obj, const py::dict& kwargs, const char* what,
 void add_fields_repr(py::object cls) {
   py::object property = py::module_::import("builtins").attr("property");
   py::list fields;
-  for (auto item : py::reinterpret_borrow<py::dict>(cls.attr("__dict__"))) {
+  // A class's __dict__ is a mappingproxy, not a dict: borrowed as one it iterates as empty.
+  for (auto item : py::dict(cls.attr("__dict__"))) {
     std::string key = py::str(item.first);
     if (key[0] != '_' && py::isinstance(item.second, property)) fields.append(key);
   }

@@ -258,7 +258,10 @@ void bind_pot(py::module_& m) {
       .def_property(
           "average_spacing", [](const MapperOptions& o) { return o.averaged.spacing; },
           [](MapperOptions& o, double v) { o.averaged.spacing = v; },
-          "averaged overall map's grid, metres (0.25)");
+          "averaged overall map's grid, metres (0.25)")
+      .def_readwrite("async_merge", &MapperOptions::async_merge,
+                     "add_scan returns before the scan's merge into the overall map, which "
+                     "runs beside the next add_scan; reading the map waits for it (False)");
   add_fields_repr(mopt);
 
   py::class_<SectorTransfer>(m, "SectorTransfer", "What happened to one target sector.")

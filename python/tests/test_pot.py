@@ -96,6 +96,23 @@ def test_transfer_scan_matches_the_mapper_instantaneous_map(source, ctx):
 
 
 @pytest.mark.parametrize("refine", [False, True])
+def test_async_merge_gives_the_same_map(source, ctx, refine):
+    d = potmap.Dictionary.load(str(source / "town1.potdict"))
+    scans = list(potmap.read_dataset(str(source / "dst" / "scans.log")))
+    behind = mapper_options()
+    behind.async_merge = True
+    sync = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
+    async_ = potmap.Mapper(ctx, d, refine=refine, options=behind)
+    for s in scans:
+        sync.add_scan(s)
+        async_.add_scan(s)
+    a, b = sync.overall_map(), async_.overall_map()  # the second waits for the last merge
+    assert len(a) == len(b) > 0
+    np.testing.assert_array_equal(a.w_mean, b.w_mean)
+    np.testing.assert_array_equal(a.w_var, b.w_var)
+
+
+@pytest.mark.parametrize("refine", [False, True])
 def test_mapper_state_continues_bit_for_bit(source, ctx, tmp_path, refine):
     d = potmap.Dictionary.load(str(source / "town1.potdict"))
     scans = list(potmap.read_dataset(str(source / "dst" / "scans.log")))

@@ -36,3 +36,6 @@ def test_help_shows_units_and_defaults():
     assert "default 0.5" in potmap.JointBhmOptions.spacing.__doc__
     assert "metres" in repr(potmap.JointBhmOptions.spacing.__doc__)
     assert repr(potmap.PotOptions(wall_clearance=0.5)).startswith("PotOptions(")
+    # Every field with its value (the class's __dict__ is a mappingproxy, once read as empty).
+    assert "wall_clearance=0.5" in repr(potmap.PotOptions(wall_clearance=0.5))
+    assert "async_merge=True" in repr(potmap.MapperOptions(async_merge=True))

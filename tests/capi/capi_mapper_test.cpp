@@ -161,6 +161,7 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.anchor_spacing, 0.5);
   EXPECT_EQ(m.wall_clearance, 0.0);
   EXPECT_EQ(m.average_overall, 0);
+  EXPECT_EQ(m.async_merge, 0);
   // `potmap map`'s settings: the defaults but for the four it sets.
   potmap_mapper_options md;
   POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(&md, sizeof md));
@@ -590,6 +591,43 @@ TEST(CApiMapper, MapperMatchesTheCppMapper) {
     }
     POTMAP_ASSERT_OK(potmap_mapper_destroy(m));
   }
+}
+
+// async_merge: add_scan hands the scan back before its merge; the overall map read afterwards
+// (which waits for the merge in flight) is the synchronous mapper's, bit for bit, and a saved
+// state too. A value other than 0 or 1 is refused, naming the field.
+TEST(CApiMapper, AsyncMergeMapsAsTheSynchronousMapper) {
+  const Source& src = source();
+  const std::vector<RoomScan> tgt = targets(4);
+  for (int refine = 0; refine <= 1; ++refine) {
+    SCOPED_TRACE(refine ? "RePOT" : "POT");
+    potmap_mapper_options o = fast_options(refine);
+    potmap_mapper *sync = nullptr, *behind = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &sync));
+    o.async_merge = 1;
+    POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &behind));
+    for (const RoomScan& r : tgt) {
+      const potmap_scan s = r.scan();
+      POTMAP_ASSERT_OK(potmap_mapper_add_scan(sync, &s, nullptr));
+      POTMAP_ASSERT_OK(potmap_mapper_add_scan(behind, &s, nullptr));
+    }
+    potmap_map *a = nullptr, *b = nullptr;
+    POTMAP_ASSERT_OK(potmap_mapper_overall_map(sync, &a));
+    POTMAP_ASSERT_OK(potmap_mapper_overall_map(behind, &b));
+    expect_same(read_back(b), read_back(a), "overall map");
+    EXPECT_GT(read_back(b).size(), 0u);
+    POTMAP_ASSERT_OK(potmap_map_destroy(a));
+    POTMAP_ASSERT_OK(potmap_map_destroy(b));
+    POTMAP_ASSERT_OK(potmap_mapper_destroy(sync));
+    POTMAP_ASSERT_OK(potmap_mapper_destroy(behind));  // with nothing in flight or a merge: fine
+  }
+  potmap_mapper_options bad = fast_options(0);
+  bad.async_merge = 2;
+  potmap_mapper* m = nullptr;
+  POTMAP_EXPECT_FAIL(potmap_mapper_create(shared_context(), src.dict, &bad, &m),
+                     POTMAP_ERROR_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(potmap_last_error(), "async_merge")) << potmap_last_error();
+  EXPECT_EQ(m, nullptr);
 }
 
 // potmap_mapper_options_init_map_defaults maps as the C++ Mapper with `potmap map`'s settings

@@ -29,6 +29,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -89,6 +90,17 @@ struct MapperOptions {
   /// barycentric kernels gives 0.89-0.94).
   bool average_overall = false;
   AveragedMapOptions averaged;  ///< the averaged overall map's grid and solve
+  /// Mapper::add_scan() returns once the scan is transferred, and its merge into the overall
+  /// map (POT's merge, RePOT's persistent update) runs on another thread beside the caller's
+  /// next add_scan(), whose preparation and transfer it overlaps (default false). The overall
+  /// map is the same, bit for bit: every accessor of it, last_merge(), save_state(), reset()
+  /// and the next add_scan() or add_mapped() first wait for the merge in flight, and an
+  /// exception the merge threw is rethrown there (the overall map then lacks that scan).
+  /// Why not the default: a caller that reads the overall map after every scan waits for the
+  /// merge anyway, and gains nothing; one that reads it now and then (a planner at 1 Hz, a
+  /// checkpoint) gets the scans through at the transfer's pace (docs/pot-scale.md). Ignored by
+  /// map_scans(), whose pipeline overlaps scans already.
+  bool async_merge = false;
 };
 
 /// Whether `o` asks for RePOT's persistent overall map (pot.refine and persistent_refine).
@@ -178,7 +190,8 @@ struct MapperMerge {
   /// RePOT's persistent map: its kernels whose prior the scan's transported kernels seeded.
   std::size_t seeded = 0;
   /// Wall-clock time of the merge, milliseconds (the persistent map's update counts as the
-  /// scan's refinement, ScanTransfer::timing.refine_ms, not here).
+  /// scan's refinement, ScanTransfer::timing.refine_ms, not here; with
+  /// MapperOptions::async_merge it is counted here, since the scan was handed back before it).
   double merge_ms = 0;
 };
 
@@ -234,11 +247,17 @@ class Mapper {
 
   /// The last mapped scan (index 0 and an empty map before the first add_scan()).
   const MappedScan& last() const { return last_; }
-  /// What the last add_scan() did to the overall map.
-  const MapperMerge& last_merge() const { return merge_; }
+  /// What the last add_scan() did to the overall map (waits for a merge in flight).
+  const MapperMerge& last_merge() const {
+    settle();
+    return merge_;
+  }
   /// The merged map of every scan since construction or reset(): POT's, or RePOT's without
   /// persistent_refine; empty for RePOT's persistent map (see overall_map(), repot()).
-  const OverallMap& overall() const { return overall_; }
+  const OverallMap& overall() const {
+    settle();
+    return overall_;
+  }
   /// The overall map whichever the kind: overall().map(), or the persistent map's export
   /// (RepotMap::map(): computed on the first call after a scan, then kept).
   const KernelMap& overall_map() const;
@@ -247,17 +266,25 @@ class Mapper {
   /// Bytes held by the overall map.
   std::size_t overall_memory_bytes() const;
   /// RePOT's persistent map; null unless persistent_refine(options()).
-  const RepotMap* repot() const { return repot_ ? &*repot_ : nullptr; }
+  const RepotMap* repot() const {
+    settle();
+    return repot_ ? &*repot_ : nullptr;
+  }
   /// Scans added since construction or reset().
   std::size_t scans() const { return scans_; }
   const Dictionary& dictionary() const { return *dict_; }
   const MapperOptions& options() const { return options_; }
 
-  /// Forgets every scan: empty overall map, scan index back to 0 (same options).
+  /// Forgets every scan: empty overall map, scan index back to 0 (same options). A merge in
+  /// flight is waited for and its error, if any, forgotten with it.
   void reset();
 
  private:
   friend struct detail::MapperState;
+  // Merges `m` into the overall map, recording what it did in `out`.
+  void merge_scan(MappedScan& m, MapperMerge& out, bool refine_into_scan);
+  // Waits for the merge in flight (async_merge) and rethrows its exception.
+  void settle() const;
   Context* ctx_;
   std::shared_ptr<const Dictionary> dict_;
   MapperOptions options_;
@@ -268,6 +295,9 @@ class Mapper {
   MapperMerge merge_;
   std::size_t scans_ = 0;
   std::vector<long> warm_[2];  // chosen atoms of scans scans_ - 2 and scans_ - 1
+  // The merge of last_ in flight (async_merge). Last: destroyed first, so its destructor waits
+  // for the merge before the maps it writes go.
+  mutable std::future<void> merging_;
 };
 
 }  // namespace potmap

@@ -1,0 +1,179 @@
+// What an embedder's Mapper costs a scan (issue #15): potmap::Mapper::add_scan, one scan at a
+// time as a ROS node or SLAM front end calls it, with the merge into the overall map done before
+// add_scan returns (the default) and behind it (MapperOptions::async_merge), alternated on the
+// same scans in the same run. The map is read once at the end, as a planner reading it now and
+// then would; both runs' overall maps are compared bit for bit.
+//
+// The dictionary is a file (pot_scale's cached pool, e.g. town2_first10_200.potdict); the scans
+// are a built-in town's (simulated as pot_scale does, 360 beams) or a log's, cut at 20 m. The
+// mapper's settings are `potmap map`'s defaults (averaged overall map for POT, RePOT's
+// persistent map, indexed ranking, wall clearance 0.5 m).
+//
+// Usage: mapper_latency --dict FILE [--target town2 | --log PATH] [--first 10] [--scans 100]
+//                       [--repeat 2] [--out mapper_latency.json]
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "potmap/data/scan.hpp"
+#include "potmap/data/simulator.hpp"
+#include "potmap/experiments/experiment.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/dictionary_io.hpp"
+#include "potmap/pot/mapper.hpp"
+#include "potmap/runtime/context.hpp"
+
+using namespace potmap;
+namespace ex = potmap::experiment;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Args {
+  std::string dict, target = "town2", log, out = "mapper_latency.json";
+  std::size_t first = 10, scans = 100, repeat = 2;
+};
+
+bool parse_args(int argc, char** argv, Args& a) {
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string k = argv[i], v = argv[i + 1];
+    if (k == "--dict")
+      a.dict = v;
+    else if (k == "--target")
+      a.target = v;
+    else if (k == "--log")
+      a.log = v;
+    else if (k == "--first")
+      a.first = std::stoul(v);
+    else if (k == "--scans")
+      a.scans = std::stoul(v);
+    else if (k == "--repeat")
+      a.repeat = std::stoul(v);
+    else if (k == "--out")
+      a.out = v;
+    else {
+      std::fprintf(stderr, "mapper_latency: unknown option %s\n", k.c_str());
+      return false;
+    }
+  }
+  if (a.dict.empty() || argc % 2 == 0 || a.repeat == 0) {
+    std::fprintf(stderr,
+                 "usage: mapper_latency --dict FILE [--target town2 | --log PATH] [--first N]\n"
+                 "       [--scans N] [--repeat N] [--out F]\n");
+    return false;
+  }
+  return true;
+}
+
+std::vector<Scan> target_scans(const Args& a) {
+  std::vector<Scan> all;
+  if (a.log.empty()) {
+    SimOptions so;
+    so.scans = a.first + a.scans;
+    all = simulate(Town::builtin(a.target), so).scans;
+  } else {
+    all = read_dataset(a.log).scans;
+  }
+  std::vector<Scan> out;
+  for (std::size_t i = a.first; i < all.size() && out.size() < a.scans; ++i)
+    out.push_back(ex::limit_range(all[i], 20.0));
+  return out;
+}
+
+struct Run {
+  double ms_per_scan = 0, merge_ms = 0;
+  KernelMap map;
+};
+
+Run run(Context& ctx, const std::shared_ptr<const Dictionary>& dict, const std::vector<Scan>& scans,
+        MapperOptions o, bool async) {
+  o.async_merge = async;
+  Mapper m(&ctx, dict, o);
+  Run r;
+  const auto t0 = Clock::now();
+  for (const Scan& s : scans) {
+    m.add_scan(s);
+    if (!async) r.merge_ms += m.last_merge().merge_ms + m.last().transfer.timing.refine_ms;
+  }
+  r.map = m.overall_map();  // waits for the last merge
+  r.ms_per_scan =
+      std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / double(scans.size());
+  r.merge_ms /= double(scans.size());
+  return r;
+}
+
+bool same(const KernelMap& a, const KernelMap& b) {
+  return a.position == b.position && a.gamma == b.gamma && a.w_mean == b.w_mean &&
+         a.w_var == b.w_var && a.bias_mean == b.bias_mean && a.bias_var == b.bias_var;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  if (!parse_args(argc, argv, a)) return 2;
+  try {
+    Context ctx;
+    auto dict = std::make_shared<const Dictionary>(read_dictionary(a.dict));
+    const std::vector<Scan> scans = target_scans(a);
+    nlohmann::json rows = nlohmann::json::array();
+    std::printf("%-6s %6s %5s %14s %14s %8s %9s %9s\n", "method", "atoms", "scans", "sync ms/scan",
+                "async ms/scan", "faster", "merge ms", "same map");
+    for (const bool refine : {false, true}) {
+      MapperOptions o;
+      o.pot.refine = refine;
+      o.pot.ranking = PotRanking::indexed;
+      o.pot.wall_clearance = 0.5;
+      o.average_overall = true;
+      o.pot.placement = auto_placement(o);
+      std::vector<double> sync_ms, async_ms;
+      double merge_ms = 0;
+      bool identical = true;
+      for (std::size_t rep = 0; rep < a.repeat; ++rep) {
+        const Run s = run(ctx, dict, scans, o, false);
+        const Run as = run(ctx, dict, scans, o, true);
+        sync_ms.push_back(s.ms_per_scan);
+        async_ms.push_back(as.ms_per_scan);
+        merge_ms += s.merge_ms / double(a.repeat);
+        identical = identical && same(s.map, as.map);
+      }
+      const double sm = *std::min_element(sync_ms.begin(), sync_ms.end());
+      const double am = *std::min_element(async_ms.begin(), async_ms.end());
+      const char* method = refine ? "RePOT" : "POT";
+      std::printf("%-6s %6zu %5zu %14.2f %14.2f %7.2fx %9.2f %9s\n", method, dict->size(),
+                  scans.size(), sm, am, sm / am, merge_ms, identical ? "yes" : "NO");
+      std::fflush(stdout);
+      rows.push_back(nlohmann::json{{"method", method},
+                                    {"atoms", dict->size()},
+                                    {"scans", scans.size()},
+                                    {"sync_ms_per_scan", sync_ms},
+                                    {"async_ms_per_scan", async_ms},
+                                    {"sync_best", sm},
+                                    {"async_best", am},
+                                    {"merge_ms", merge_ms},
+                                    {"same_map", identical}});
+      if (!identical) {
+        std::fprintf(stderr, "mapper_latency: %s: the asynchronous merge changed the map\n",
+                     method);
+        return 1;
+      }
+    }
+    nlohmann::json out = {{"device", ctx.info().summary()},
+                          {"dictionary", a.dict},
+                          {"target", a.log.empty() ? a.target : a.log},
+                          {"first", a.first},
+                          {"rows", rows}};
+    std::ofstream(a.out) << out.dump(2) << "\n";
+    std::printf("device: %s; wrote %s\n", ctx.info().summary().c_str(), a.out.c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mapper_latency: %s\n", e.what());
+    return 1;
+  }
+}
