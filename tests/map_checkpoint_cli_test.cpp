@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -69,9 +70,13 @@ pid_t spawn(const std::string& args, const std::string& log) {
 TEST(MapCheckpointCli, KilledAtRandomAndResumedEndsWithTheSameMap) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string dir = potmap::test::temp_dir("map-checkpoint-kill");
+  const auto t0 = std::chrono::steady_clock::now();
   const auto whole = potmap::test::run_cli(
       map_args(dir + "/whole.potmap", "--checkpoint-every 0 --json " + quoted(dir + "/whole.json")),
       "2>&1");
+  const auto whole_ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0)
+          .count();
   ASSERT_EQ(whole.status, 0) << whole.out;
   EXPECT_FALSE(fs::exists(dir + "/whole.potmap.ckpt"));
 
@@ -80,7 +85,9 @@ TEST(MapCheckpointCli, KilledAtRandomAndResumedEndsWithTheSameMap) {
       map_args(out, "--checkpoint " + quoted(ckpt) + " --checkpoint-every 3 --resume --json " +
                         quoted(dir + "/killed.json"));
   std::mt19937 rng(20261201);
-  std::uniform_int_distribution<int> delay_ms(0, 400);
+  // Kills land within the first quarter of a whole run's time after a checkpoint, so that on a
+  // machine of any speed most runs are killed mid-way rather than finishing first.
+  std::uniform_int_distribution<int> delay_ms(0, std::max(1, int(whole_ms / 4)));
   int kills = 0;
   for (int attempt = 0; attempt < 5 && kills < 3; ++attempt) {
     const ino_t before = inode_of(ckpt);
