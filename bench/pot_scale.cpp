@@ -162,6 +162,7 @@ Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
   setup.pot.coarse_free = g_indexed.coarse_free;
   setup.pot.coarse_tolerance = g_indexed.coarse_tolerance;
   setup.pot.transport_free_tolerance = g_indexed.transport_free_tolerance;
+  setup.pot.transport_max_iterations = g_indexed.transport_max_iterations;
   setup.pot.fine_candidates = g_indexed.fine_candidates;
   setup.pot.warm_candidates = g_indexed.warm_candidates;
   setup.pot.snap_rotations = g_indexed.snap_rotations;
@@ -234,6 +235,7 @@ const char* const kUsage =
     "                 [--pool N (atoms in the cached pool; default: the largest of --atoms)]\n"
     "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE]\n"
     "                 [--coarse-tolerance 1e-5] [--free-tolerance 1e-2] [--fine N]\n"
+    "                 [--transport-max-iterations 2000]\n"
     "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1] [--pipeline 0|1]\n"
     "--pipeline 0: each scan finished (merge included) before the next starts: ms a scan is\n"
     "then a scan's latency, not the pipeline's throughput.\n"
@@ -295,6 +297,8 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
         g_indexed.transport_free_tolerance = std::stod(v);
       else if (k == "--fine")
         g_indexed.fine_candidates = std::stoul(v);
+      else if (k == "--transport-max-iterations")
+        g_indexed.transport_max_iterations = std::stoi(v);
       else if (k == "--pipeline")
         g_pipeline = v != "0";
       else if (k == "--warm")
@@ -422,6 +426,7 @@ int run(int argc, char** argv) {
               {"fine_candidates", g_indexed.fine_candidates},
               {"warm_candidates", g_indexed.warm_candidates},
               {"snap_rotations", g_indexed.snap_rotations},
+              {"transport_max_iterations", g_indexed.transport_max_iterations},
               {"index_anchors", g_indexed.index_anchors}}},
             {"pipeline", g_pipeline},
             {"target", target},
