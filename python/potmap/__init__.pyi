@@ -675,7 +675,8 @@ class Mapper:
     def add_scan(self, scan: Scan) -> MappedScan:
         """Maps one Scan (labelled with its index = scans added so far) and adds it to the
         overall map. Returns its MappedScan: instantaneous map, sector choices, timings,
-        held-out samples, merge counts."""
+        held-out samples, merge counts (zero with options.async_merge: the merge is then
+        still running)."""
         ...
     def overall_map(self) -> KernelMap:
         """The overall KernelMap (POT: merged; RePOT: the persistent BHM's export, with a bias)."""

@@ -375,12 +375,16 @@ void bind_pot(py::module_& m) {
             py::gil_scoped_release release;
             std::lock_guard<std::mutex> lock(lm.mu);
             const MappedScan& r = lm.mapper.add_scan(scan);
-            return ScanStats{r, lm.mapper.last_merge()};
+            // With async_merge the scan's merge is still running: waiting for its counts here
+            // would undo the option.
+            return ScanStats{
+                r, lm.mapper.options().async_merge ? MapperMerge{} : lm.mapper.last_merge()};
           },
           "scan"_a,
           "Maps one Scan (labelled with its index = scans added so far) and adds it to the\n"
           "overall map. Returns its MappedScan: instantaneous map, sector choices, timings,\n"
-          "held-out samples, merge counts.")
+          "held-out samples, merge counts (zero with options.async_merge: the merge is then\n"
+          "still running).")
       .def(
           "overall_map",
           [](LockedMapper& lm) {

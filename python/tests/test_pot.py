@@ -104,8 +104,9 @@ def test_async_merge_gives_the_same_map(source, ctx, refine):
     sync = potmap.Mapper(ctx, d, refine=refine, options=mapper_options())
     async_ = potmap.Mapper(ctx, d, refine=refine, options=behind)
     for s in scans:
-        sync.add_scan(s)
-        async_.add_scan(s)
+        assert sync.add_scan(s).merge_ms > 0 or refine
+        r = async_.add_scan(s)
+        assert r.merge_ms == 0 and r.seeded == 0  # not merged yet: its counts are not known
     a, b = sync.overall_map(), async_.overall_map()  # the second waits for the last merge
     assert len(a) == len(b) > 0
     np.testing.assert_array_equal(a.w_mean, b.w_mean)
