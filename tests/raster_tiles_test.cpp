@@ -269,6 +269,16 @@ TEST(RasterTiles, EveryCodecHoldsTheSameValues) {
     std::string upper = codec;
     for (char& ch : upper) ch = char(std::toupper(static_cast<unsigned char>(ch)));
     EXPECT_EQ(prob.compression, upper == "NONE" ? "" : upper) << codec;
+    EXPECT_EQ(prob.block_x, 64u) << codec;
+    EXPECT_GE(prob.overviews, 1u) << codec;
+    // The Cloud-Optimized layout's header, which GDAL writes before the first directory of a
+    // compressed COG (GDAL 3.6 writes none for an uncompressed one, whose directories come
+    // first all the same).
+    const std::string head = bytes_of(out).substr(0, 400);
+    if (upper != "NONE") {
+      EXPECT_NE(head.find("LAYOUT=IFDS_BEFORE_DATA"), std::string::npos) << codec;
+      EXPECT_NE(head.find("KNOWN_INCOMPATIBLE_EDITION=NO"), std::string::npos) << codec;
+    }
     if (reference.empty()) {
       EXPECT_EQ(s.computed, s.tiles);
       reference = prob.values;

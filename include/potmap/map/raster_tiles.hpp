@@ -48,7 +48,8 @@ struct TiledRasterOptions {
   /// Default "ZSTD" (level 1, floating-point predictor): the same size as DEFLATE on float32
   /// maps for a fifth of its time, so on a CPU the job is not the compressor's (measured in
   /// docs/raster-scale.md). GDAL, QGIS, rasterio and libtiff 4.0.10 and later read it; give
-  /// "DEFLATE" for a reader without ZSTD, "NONE" for the fastest job and the largest file.
+  /// "DEFLATE" for a reader without ZSTD, "NONE" for the fastest job and the largest file
+  /// (tiled, directories first, but GDAL 3.6 writes no COG header for an uncompressed file).
   std::string compression = "ZSTD";
   EvalOptions eval;  ///< options of the device evaluator; defaults as EvalOptions
 };
