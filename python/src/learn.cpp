@@ -136,6 +136,12 @@ void bind_learn(py::module_& m) {
                      "per solve (default 300)")
       .def_readwrite("solve_margin", &JointBhmOptions::solve_margin,
                      "rings of kernels, spacings (default 4)")
+      .def_readwrite("seeds_yield", &JointBhmOptions::seeds_yield,
+                     "a seeded prior returns to the plain one when a sample reaches its kernel "
+                     "(default True)")
+      .def_readwrite("seeds_yield_fully", &JointBhmOptions::seeds_yield_fully,
+                     "a seed yields, its mean too, when its kernel enters a scan's solve: "
+                     "RePOT then equals BHM near the data (default False)")
       .def_readwrite("max_kernels", &JointBhmOptions::max_kernels,
                      "stored-kernel guard (default 2^26)");
   add_fields_repr(jopt);

@@ -39,3 +39,4 @@ def test_help_shows_units_and_defaults():
     # Every field with its value (the class's __dict__ is a mappingproxy, once read as empty).
     assert "wall_clearance=0.5" in repr(potmap.PotOptions(wall_clearance=0.5))
     assert "async_merge=True" in repr(potmap.MapperOptions(async_merge=True))
+    assert "seeds_yield_fully=True" in repr(potmap.JointBhmOptions(seeds_yield_fully=True))
