@@ -250,6 +250,13 @@ TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
     from_async.add_scan(targets[1]);
     sync.add_scan(targets[1]);
     expect_same(from_async.overall_map(), sync.overall_map());
+    // Copied and moved with a merge in flight: each copy holds the finished map.
+    async.add_scan(targets[1]);
+    const Mapper copy = async;
+    Mapper moved = std::move(async);
+    expect_same(copy.overall_map(), sync.overall_map());
+    expect_same(moved.overall_map(), sync.overall_map());
+    async = std::move(moved);
     async.add_scan(targets[2]);
     async.reset();  // waits for the merge in flight
     EXPECT_EQ(async.scans(), 0u);

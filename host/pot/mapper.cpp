@@ -218,16 +218,20 @@ const MappedScan& Mapper::add_scan(const Scan& scan) {
   ++scans_;
   // The merge reads last_ (which the caller may read too, never write) and writes the maps and
   // merge_, which every accessor reads only after settle().
-  merging_ = std::async(std::launch::async, [this] {
+  merging_.start(std::async(std::launch::async, [this] {
     MapperMerge merge;
     merge_scan(last_, merge, false);
     merge_ = merge;
-  });
+  }));
   return last_;
 }
 
+Mapper::~Mapper() {
+  merging_.wait();  // before the maps the merge writes are destroyed
+}
+
 void Mapper::settle() const {
-  if (merging_.valid()) merging_.get();  // get() leaves it empty, so an error is thrown once
+  merging_.settle();
 }
 
 void Mapper::merge_scan(MappedScan& m, MapperMerge& merge, bool refine_into_scan) {
@@ -292,8 +296,7 @@ std::size_t Mapper::overall_memory_bytes() const {
 }
 
 void Mapper::reset() {
-  if (merging_.valid()) merging_.wait();
-  merging_ = {};
+  merging_.forget();
   overall_ = OverallMap(dict_->dim, overall_.options());
   if (repot_) repot_.emplace(dict_->dim, options_);
   if (averaged_) averaged_.emplace(dict_->dim, options_.averaged);

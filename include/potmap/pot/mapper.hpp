@@ -205,6 +205,13 @@ class Mapper {
   /// dictionary or bad options.
   Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const MapperOptions& options = {},
          const OverallMapOptions& overall = {});
+  /// Copies and moves wait for the source's merge in flight (async_merge) first; the
+  /// destructor waits for this one's.
+  Mapper(const Mapper&) = default;
+  Mapper(Mapper&&) = default;
+  Mapper& operator=(const Mapper&) = default;
+  Mapper& operator=(Mapper&&) = default;
+  ~Mapper();
 
   /// Maps one scan (its index is the number of scans added since construction or reset(), which
   /// seeds the labelling and subsampling as in map_scans) and adds it to the overall map: POT
@@ -285,6 +292,43 @@ class Mapper {
   void merge_scan(MappedScan& m, MapperMerge& out, bool refine_into_scan);
   // Waits for the merge in flight (async_merge) and rethrows its exception.
   void settle() const;
+  // The merge of last_ in flight (async_merge). Copying or moving one first waits for the
+  // source's merge, and it is the first member, so a Mapper copied, moved or assigned while a
+  // merge runs copies finished maps; ~Mapper() waits for it before the maps go.
+  class MergeSlot {
+   public:
+    MergeSlot() = default;
+    MergeSlot(const MergeSlot& o) { o.wait(); }  // a copy has nothing in flight
+    MergeSlot(MergeSlot&& o) noexcept : f_((o.wait(), std::move(o.f_))) {}
+    MergeSlot& operator=(const MergeSlot& o) {
+      wait();
+      o.wait();
+      return *this;
+    }
+    MergeSlot& operator=(MergeSlot&& o) noexcept {
+      wait();
+      o.wait();
+      f_ = std::move(o.f_);
+      return *this;
+    }
+    ~MergeSlot() = default;
+    void wait() const {
+      if (f_.valid()) f_.wait();
+    }
+    void start(std::future<void> f) { f_ = std::move(f); }
+    // Waits and rethrows the merge's exception (once: get() leaves the future empty).
+    void settle() const {
+      if (f_.valid()) f_.get();
+    }
+    void forget() {
+      wait();
+      f_ = {};
+    }
+
+   private:
+    mutable std::future<void> f_;
+  };
+  MergeSlot merging_;
   Context* ctx_;
   std::shared_ptr<const Dictionary> dict_;
   MapperOptions options_;
@@ -295,9 +339,6 @@ class Mapper {
   MapperMerge merge_;
   std::size_t scans_ = 0;
   std::vector<long> warm_[2];  // chosen atoms of scans scans_ - 2 and scans_ - 1
-  // The merge of last_ in flight (async_merge). Last: destroyed first, so its destructor waits
-  // for the merge before the maps it writes go.
-  mutable std::future<void> merging_;
 };
 
 }  // namespace potmap
