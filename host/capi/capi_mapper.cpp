@@ -39,6 +39,7 @@ potmap_mapper_options default_mapper_options() {
   o.wall_clearance = m.pot.wall_clearance;
   o.average_overall = m.average_overall ? 1 : 0;
   o.async_merge = m.async_merge ? 1 : 0;
+  o.seeds_yield_fully = m.refine_map.seeds_yield_fully ? 1 : 0;
   return o;
 }
 
@@ -87,6 +88,8 @@ Options to_options(const potmap_mapper_options* in) {
     bad("wall_clearance", o.wall_clearance);
   if (o.average_overall != 0 && o.average_overall != 1) bad("average_overall", o.average_overall);
   if (o.async_merge != 0 && o.async_merge != 1) bad("async_merge", o.async_merge);
+  if (o.seeds_yield_fully != 0 && o.seeds_yield_fully != 1)
+    bad("seeds_yield_fully", o.seeds_yield_fully);
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
@@ -104,6 +107,7 @@ Options to_options(const potmap_mapper_options* in) {
   p.wall_clearance = o.wall_clearance;
   r.mapper.average_overall = o.average_overall == 1;
   r.mapper.async_merge = o.async_merge == 1;
+  r.mapper.refine_map.seeds_yield_fully = o.seeds_yield_fully == 1;
   p.max_range = o.max_range;
   p.candidates = o.candidates;
   p.seed = o.seed;
