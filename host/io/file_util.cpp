@@ -32,7 +32,8 @@ std::string read_whole_file(const std::string& path) {
     in.read(bytes.data(), std::streamsize(size));
     bytes.resize(std::size_t(in.gcount()));
     if (in.bad()) throw InputError(path + ": read error");
-    if (std::size_t(in.gcount()) < size) return bytes;
+    // The usual case: the whole file in that one read, nothing after it (no second copy).
+    if (std::size_t(in.gcount()) < size || in.peek() == std::char_traits<char>::eof()) return bytes;
   }
   std::ostringstream s;
   s << in.rdbuf();

@@ -4,18 +4,10 @@
 #include <cstring>
 #include <vector>
 
+#include "io/le_bytes.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap::detail {
-
-namespace {
-bool host_is_little_endian() {
-  const std::uint32_t one = 1;
-  unsigned char b;
-  std::memcpy(&b, &one, 1);
-  return b == 1;
-}
-}  // namespace
 
 std::string NpyWriter::header(std::size_t rows, std::size_t cols) {
   std::string dict = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(rows) +
