@@ -74,14 +74,17 @@ void print(const std::string& what, const FrameEvaluation& e) {
 }
 
 // RePOT is the frame's BHM seeded by the transported kernels where no sample reached: it must
-// not lose to BHM; POT alone must rank the held-out samples well.
+// not lose to BHM (seeds yield fully by default, so near the data it is BHM up to the conjugate
+// gradients' tolerance, 1e-5 of the residual: measured, the scores move by about 1e-6 in 3D);
+// POT alone must rank the held-out samples well.
 void expect_targets(const FrameEvaluation& e, double pot_auc, double pot_nll) {
   const Scores& bhm = result(e, "BHM").scores;
   const Scores& pot = result(e, "POT").scores;
   const Scores& repot = result(e, "RePOT").scores;
+  constexpr double kRounding = 1e-5;
   EXPECT_GT(bhm.auc, 0.95);
-  EXPECT_GE(repot.auc, bhm.auc - 0.002);
-  EXPECT_LE(repot.nll, bhm.nll);
+  EXPECT_GE(repot.auc, bhm.auc - kRounding);
+  EXPECT_LE(repot.nll, bhm.nll + kRounding);
   EXPECT_GT(pot.auc, pot_auc);
   EXPECT_LT(pot.nll, pot_nll);
   EXPECT_GT(e.test.size(), 1000u);

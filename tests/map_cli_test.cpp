@@ -52,6 +52,13 @@ TEST(MapCli, MapsAnotherTownWithADictionary) {
   EXPECT_GT(j["ms_per_scan"]["refine"].get<double>(), 0);
   const double acc = j["overall"]["acc"].get<double>();
   EXPECT_TRUE(acc > 0.5 && acc <= 1) << acc;
+  // --seeds-keep-start reaches RePOT's persistent map: the seeded means start the bound, so the
+  // map is another one than the default rule's (seeds that yield fully).
+  must("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+       "/kept.potmap --refine --rotations 4 --seeds-keep-start");
+  const KernelMap kept = read_map(d + "/kept.potmap");
+  EXPECT_EQ(kept.size(), m.size());
+  EXPECT_NE(kept.w_mean, m.w_mean);
 }
 
 TEST(MapCli, ClearErrors) {

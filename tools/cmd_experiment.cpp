@@ -142,8 +142,8 @@ void add_common(CLI::App* cmd, Settings& s) {
       ->capture_default_str();
   cmd->add_option("--repot-seeds-yield-fully", s.pot.seeds_yield_fully,
                   "RePOT: a seed yields when its kernel enters a scan's solve (within the solve "
-                  "margin of the data), its mean too (false: when a sample reaches it, its mean "
-                  "starting that scan's bound)")
+                  "margin of the data), its mean too, so RePOT is BHM there (false: when a "
+                  "sample reaches it, its mean starting that scan's bound)")
       ->capture_default_str();
   cmd->add_option("--repot-persistent", s.pot.persistent_refine,
                   "RePOT: one persistent joint BHM seeded by the transported kernels (true) or "

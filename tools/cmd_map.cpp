@@ -26,7 +26,7 @@ constexpr double kPi = 3.14159265358979323846;
 struct MapArgs {
   std::string dict, scans, out, instantaneous, json, picture, ros_map;
   bool refine = false, per_scan_refine = false, cpu = false, quiet = false, no_pipeline = false,
-       hits_only = false, seeds_yield_fully = false;
+       hits_only = false, seeds_yield_fully = true;
   double refine_min_variance = 0;
   int sectors = 5, rotations = 8, em = 1;
   double max_range = 0, holdout = 0.2, res = 0.25, range_cut = 0, ros_res = 0.05;
@@ -231,10 +231,12 @@ void register_map(CLI::App& app, Runner& runner) {
   cmd->add_flag("--per-scan-refine", a->per_scan_refine,
                 "RePOT the old way: refine each scan's transported weights on their own and "
                 "merge the refined maps (--refine-min-variance and --em apply to it)");
-  cmd->add_flag("--seeds-yield-fully", a->seeds_yield_fully,
-                "RePOT: a seed yields when its kernel comes within the solve's margin of a "
-                "scan's samples, its mean too, so that the map there is BHM's exactly (default: "
-                "a seed yields when a sample reaches its kernel and its mean starts the bound)");
+  cmd->add_flag("--seeds-yield-fully,!--seeds-keep-start", a->seeds_yield_fully,
+                "RePOT (default): a seed yields when its kernel comes within the solve's margin "
+                "of a scan's samples, its mean too, so that the map there is BHM's (up to the "
+                "solve's tolerance). "
+                "--seeds-keep-start: a seed yields when a sample reaches its kernel and its mean "
+                "starts that scan's bound (higher F1, at times lower AUC than BHM)");
   cmd->add_option("--refine-min-variance", a->refine_min_variance,
                   "RePOT per scan: floor on the transported weight variances (default 0)");
   cmd->add_option("--em", a->em, "RePOT per scan: BHM E-steps per scan (default 1)")

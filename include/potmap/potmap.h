@@ -442,12 +442,11 @@ typedef struct potmap_mapper_options {
    *  returns. */
   int async_merge;
   /* ---- appended in version 5 ---- */
-  /** RePOT's persistent map (refine 1, persistent_refine 1): 1 makes a seed yield, its mean
-   *  too, when its kernel enters a scan's solve, so the map near the data is BHM's exactly and
-   *  transported kernels speak only for space farther from it; 0 (default) keeps the seeded
-   *  mean as the start of the scan's bound, which is most of what RePOT adds to BHM (higher
-   *  F1, lower NLL, up to 0.002 lower AUC on the worst sim-to-real log;
-   *  docs/pot-measurements.md). */
+  /** RePOT's persistent map (refine 1, persistent_refine 1): 1 (default) makes a seed yield,
+   *  its mean too, when its kernel enters a scan's solve, so the map near the data is BHM's exactly
+   * and transported kernels speak only for space farther from it: never worse than BHM there. 0
+   * keeps the seeded mean as the start of the scan's bound (higher F1 and lower NLL on most runs,
+   * up to 0.002 lower AUC from a mismatched source; docs/pot-measurements.md). */
   int seeds_yield_fully;
 } potmap_mapper_options;
 
@@ -471,8 +470,8 @@ POTMAP_EXPORT potmap_status potmap_mapper_options_init(potmap_mapper_options* op
  *  60 scans, the default dictionary: overall AUC / NLL 0.958 / 0.211 against 0.880 / 1.302 with
  *  the paper's rules). Set refine afterwards as wanted; struct_size as for _init. A caller whose
  *  struct predates version 3 gets only the fields it has. */
-POTMAP_EXPORT potmap_status potmap_mapper_options_init_map_defaults(
-    potmap_mapper_options* options, size_t struct_size);
+POTMAP_EXPORT potmap_status potmap_mapper_options_init_map_defaults(potmap_mapper_options* options,
+                                                                    size_t struct_size);
 
 /** Creates a mapper on the context's device with the dictionary (shared, kept alive by the
  *  mapper). `options` NULL: the defaults. *out receives a new handle; free it with

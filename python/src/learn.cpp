@@ -141,7 +141,7 @@ void bind_learn(py::module_& m) {
                      "(default True)")
       .def_readwrite("seeds_yield_fully", &JointBhmOptions::seeds_yield_fully,
                      "a seed yields, its mean too, when its kernel enters a scan's solve: "
-                     "RePOT then equals BHM near the data (default False)")
+                     "RePOT then equals BHM near the data (default True)")
       .def_readwrite("max_kernels", &JointBhmOptions::max_kernels,
                      "stored-kernel guard (default 2^26)");
   add_fields_repr(jopt);

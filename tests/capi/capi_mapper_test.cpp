@@ -162,7 +162,7 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.wall_clearance, 0.0);
   EXPECT_EQ(m.average_overall, 0);
   EXPECT_EQ(m.async_merge, 0);
-  EXPECT_EQ(m.seeds_yield_fully, 0);
+  EXPECT_EQ(m.seeds_yield_fully, 1);
   // `potmap map`'s settings: the defaults but for the four it sets.
   potmap_mapper_options md;
   POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(&md, sizeof md));
@@ -631,30 +631,30 @@ TEST(CApiMapper, AsyncMergeMapsAsTheSynchronousMapper) {
   EXPECT_EQ(m, nullptr);
 }
 
-// seeds_yield_fully reaches RePOT's persistent map: the C mapper gives the C++ mapper's map with
-// the same rule, and a map other than the default rule's.
+// seeds_yield_fully reaches RePOT's persistent map: 0 (the seeded start kept) gives the C++
+// mapper's map with the same rule, and a map other than the default rule's.
 TEST(CApiMapper, SeedsYieldFullyReachesThePersistentMap) {
   const Source& src = source();
   const std::vector<RoomScan> tgt = targets(4);
   const auto dict = cpp_dictionary(src);
   potmap_mapper_options o = fast_options(1);
-  o.seeds_yield_fully = 1;
+  o.seeds_yield_fully = 0;
   potmap_mapper* m = nullptr;
   POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &m));
   potmap::MapperOptions mo = cpp_options(1);
-  mo.refine_map.seeds_yield_fully = true;
-  potmap::Mapper fully(&cpp_context(), dict, mo);
+  mo.refine_map.seeds_yield_fully = false;
+  potmap::Mapper kept(&cpp_context(), dict, mo);
   potmap::Mapper plain(&cpp_context(), dict, cpp_options(1));
   for (const RoomScan& r : tgt) {
     const potmap_scan s = r.scan();
     POTMAP_ASSERT_OK(potmap_mapper_add_scan(m, &s, nullptr));
-    fully.add_scan(to_cpp(r));
+    kept.add_scan(to_cpp(r));
     plain.add_scan(to_cpp(r));
   }
   potmap_map* got = nullptr;
   POTMAP_ASSERT_OK(potmap_mapper_overall_map(m, &got));
   const potmap::KernelMap k = read_back(got);
-  expect_same(k, fully.overall_map(), "overall map");
+  expect_same(k, kept.overall_map(), "overall map");
   EXPECT_NE(k.w_mean, plain.overall_map().w_mean);
   POTMAP_ASSERT_OK(potmap_map_destroy(got));
   POTMAP_ASSERT_OK(potmap_mapper_destroy(m));

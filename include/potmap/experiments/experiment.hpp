@@ -205,9 +205,10 @@ struct PotSetup {
   /// under the data, as before (RePOT then lost to BHM on half the real-log runs,
   /// docs/pot-measurements.md).
   bool seeds_yield = true;
-  /// Seeds yield fully (JointBhmOptions::seeds_yield_fully; default false). true: within the
-  /// solve's margin of the data RePOT's map is the BHM's, its scores on held-out beams BHM's.
-  bool seeds_yield_fully = false;
+  /// Seeds yield fully (JointBhmOptions::seeds_yield_fully; default true: within the solve's
+  /// margin of the data RePOT's map is the BHM's, so it is never worse than BHM on held-out
+  /// beams). false: a seeded mean starts the first scan's bound where a sample reaches it.
+  bool seeds_yield_fully = true;
   /// Sector cut and kernel filter of the atoms. Default: kernels at the atoms' own samples,
   /// thinned to 0.5 m (DictionaryOptions::kernels_at_samples).
   DictionaryOptions dictionary = [] {

@@ -80,25 +80,26 @@ struct JointBhmOptions {
   int solve_margin = 4;
   /// Seeds yield to data (default true): when a sample first reaches a kernel whose prior
   /// seed_unreached() set, the kernel's prior returns to the plain one (mean 0, variance
-  /// prior_var) before the sample is added; the seeded mean is kept only as the point where
-  /// that scan's Jaakkola-Jordan bound starts (its first xi) and as the solve's warm start. So
-  /// wherever data arrive the posterior is the unseeded model's (up to where the bound is
-  /// tightened), and a seed speaks for space no sample has reached. A seed is a guess from
+  /// prior_var) before the sample is added (its mean too, and sooner, with seeds_yield_fully,
+  /// the default; without it the seeded mean stays as the point where that scan's
+  /// Jaakkola-Jordan bound starts). So wherever data arrive the posterior is the unseeded
+  /// model's, and a seed speaks for space no sample has reached. A seed is a guess from
   /// another place (RePOT's transported kernels): kept as the prior under the data it biased
   /// the posterior for good, and RePOT lost up to 0.001 AUC and NLL against the BHM it refines
   /// on the real logs (docs/pot-measurements.md). false: the seed stays the kernel's prior.
   bool seeds_yield = true;
-  /// How far a seed yields (with seeds_yield). true: it yields when its kernel enters a scan's
-  /// solve (a sample reaches it, or reaches a kernel within solve_margin of it), its mean with
-  /// it, so the kernel starts the scan where an unseeded one starts. Every kernel within the
-  /// margin of the data then holds what the unseeded model holds (to the solver's rounding): a
-  /// seeded map is never worse than the unseeded one on observed space, nor better, and seeds
-  /// speak only for space farther from the data. false (default): a seed yields when a sample
-  /// reaches its kernel and its mean starts that scan's bound (first xi) and solve. Why the
-  /// default: that start lasts, and on the real logs it is most of what RePOT adds to BHM
-  /// (higher F1 and lower NLL for a slightly lower AUC; the figures are in
-  /// docs/pot-measurements.md). true gives BHM's scores exactly there.
-  bool seeds_yield_fully = false;
+  /// How far a seed yields (with seeds_yield). true (default): it yields when its kernel
+  /// enters a scan's solve (a sample reaches it, or reaches a kernel within solve_margin of
+  /// it), its mean with it, so the kernel starts the scan where an unseeded one starts. Every
+  /// kernel within the margin of the data then holds what the unseeded model holds, up to the
+  /// solve's tolerance (cg_tolerance), and seeds speak only for space farther from the data.
+  /// Why the default: a seeded map is then never worse than the unseeded one where data
+  /// arrived, whatever the source, which RePOT promises against the BHM it refines. false: a
+  /// seed yields when a sample reaches its kernel and its mean starts that scan's bound (first
+  /// xi) and solve; with three EM rounds that start lasts: higher F1 and lower NLL on most
+  /// runs, but AUC up to 0.002 below BHM's on 28 of 78 committed runs, and NLL above it on
+  /// some, most from a source unlike the target (docs/pot-measurements.md).
+  bool seeds_yield_fully = true;
   /// At most this many stored kernels (default 2^26, the most the storage can address): a
   /// guard against runaway input (samples scattered over a huge area). Each stored kernel
   /// holds its precision stencil, (2 ceil(2 sqrt(tau / gamma) / spacing) + 1)^dim doubles.
