@@ -36,6 +36,16 @@ PAPER_TABLE_VI = {
 }
 
 
+def seed_rule(st):
+    """How RePOT's seeds yield to data, from the run's settings."""
+    if not st.get("repot_seeds_yield"):
+        return "; seeds stay the priors under the data"
+    if st.get("repot_seeds_yield_fully"):
+        return ("; a seed yields, its mean too, when its kernel comes within the solve's margin "
+                "of a scan's samples: near the data the map is BHM's")
+    return "; a seed yields when a sample reaches its kernel, its mean starting the bound"
+
+
 def fmt(stat, digits):
     if stat is None or stat.get("mean") is None:
         return "–"
@@ -217,8 +227,7 @@ def main():
                        f"{st['repot_seed_placement']}, displacement variance "
                        f"{st['repot_seed_displacement_variance']:g} per m^2, seed variance at "
                        f"least {st['repot_seed_min_variance']:g}"
-                       + ("; a seed yields when a sample reaches its kernel)"
-                          if st.get("repot_seeds_yield") else ")")
+                       + seed_rule(st) + ")"
                        if st.get("repot_persistent") else "per-scan refinement, merged"))
             elif "pot_kernels_at_samples" in st:
                 lines.append(
@@ -228,8 +237,7 @@ def main():
                     f"{st['pot_displacement_variance']:g} per m^2; RePOT: "
                     + ("one persistent joint BHM seeded by the transported kernels (seed variance "
                        f"at least {st['repot_seed_min_variance']:g}"
-                       + ("; a seed yields when a sample reaches its kernel)"
-                          if st.get("repot_seeds_yield") else ")")
+                       + seed_rule(st) + ")"
                        if st.get("repot_persistent") else "per-scan refinement, merged"))
             if "bhm_joint" in st:
                 lines.append(
