@@ -255,24 +255,27 @@ TEST(CApiSoak, AStreamOfScansKeepsResidentMemoryFlat) {
   int failures = 0;
   std::size_t kernels = 0, placed = 0;
   const auto t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < scans; ++i) {
-    // A loop clear of the pillar, the heading turning a little more every lap: no two scans of
-    // the stream are the same, but they all see the same room.
-    const double a = 2 * 3.14159265358979323846 * (i % lap) / lap;
-    const RoomScan r =
-        room_scan(6 + 3.5 * std::cos(a), 4.5 + 2.5 * std::sin(a), a + 0.013 * (i / lap), 72);
-    const potmap_scan s = r.scan();
-    potmap_scan_stats st;
-    st.struct_size = sizeof st;
-    if (potmap_mapper_add_scan(m, &s, &st) != POTMAP_SUCCESS) {
-      ++failures;
-      break;
+  auto stream = [&](int first, int last) {
+    for (int i = first; i < last; ++i) {
+      // A loop clear of the pillar, the heading turning a little more every lap: no two scans of
+      // the stream are the same, but they all see the same room.
+      const double a = 2 * 3.14159265358979323846 * (i % lap) / lap;
+      const RoomScan r =
+          room_scan(6 + 3.5 * std::cos(a), 4.5 + 2.5 * std::sin(a), a + 0.013 * (i / lap), 72);
+      const potmap_scan s = r.scan();
+      potmap_scan_stats st;
+      st.struct_size = sizeof st;
+      if (potmap_mapper_add_scan(m, &s, &st) != POTMAP_SUCCESS) {
+        ++failures;
+        break;
+      }
+      kernels = st.overall_kernels;
+      placed += st.kernels_placed;
+      if ((i + 1) % lap == 0 && i + 1 >= warm_up)
+        samples.push_back({i + 1, potmap::test::memory_in_use(), kernels});
     }
-    kernels = st.overall_kernels;
-    placed += st.kernels_placed;
-    if ((i + 1) % lap == 0 && i + 1 >= warm_up)
-      samples.push_back({i + 1, potmap::test::memory_in_use(), kernels});
-  }
+  };
+  stream(0, scans);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_EQ(failures, 0) << potmap_last_error();
   ASSERT_GE(samples.size(), 3u);
@@ -287,17 +290,37 @@ TEST(CApiSoak, AStreamOfScansKeepsResidentMemoryFlat) {
   // peak and stays there; the live heap (under ASan) also holds what is in flight at the moment
   // of the sample (a 1.8 MB driver buffer, caught at some laps and not others), so the halves'
   // floors compare there. A leak raises both.
-  const std::size_t half = samples.size() / 2;
+  // Growth of the samples from `mid` on over those from `from` to `mid`.
+  auto growth_from = [&](std::size_t from, std::size_t mid) {
 #ifdef POTMAP_TEST_ASAN
-  std::size_t early = SIZE_MAX, late = SIZE_MAX;
-  for (std::size_t k = 0; k < samples.size(); ++k)
-    (k < half ? early : late) = std::min(k < half ? early : late, samples[k].rss);
+    std::size_t early = SIZE_MAX, late = SIZE_MAX;
+    for (std::size_t k = from; k < samples.size(); ++k)
+      (k < mid ? early : late) = std::min(k < mid ? early : late, samples[k].rss);
 #else
-  std::size_t early = 0, late = 0;
-  for (std::size_t k = 0; k < samples.size(); ++k)
-    (k < half ? early : late) = std::max(k < half ? early : late, samples[k].rss);
+    std::size_t early = 0, late = 0;
+    for (std::size_t k = from; k < samples.size(); ++k)
+      (k < mid ? early : late) = std::max(k < mid ? early : late, samples[k].rss);
 #endif
-  const double growth_mb = (double(late) - double(early)) / (1 << 20);
+    return (double(late) - double(early)) / (1 << 20);
+  };
+  const std::size_t half = samples.size() / 2;
+  const double bound_mb = 1.5;
+  const double growth_mb = growth_from(0, half);
+  // A step once, not a slope: on a loaded machine the allocator or the driver's pools have
+  // grown by 1.7 MB once between the halves (a CI run) where a quiet run moves 0 to 0.4 MB. A
+  // leak grows again over as many more scans, a step does not: the stream goes on for half
+  // its length and the new samples are compared with the later half, and only growth in both
+  // comparisons fails.
+  double confirmed_mb = growth_mb;
+  if (growth_mb >= bound_mb) {
+    const std::size_t later = half;
+    stream(scans, scans + scans / 2);
+    ASSERT_EQ(failures, 0) << potmap_last_error();
+    const std::size_t mid = samples.size() - (samples.size() - later) / 2;
+    confirmed_mb = growth_from(later, mid);
+    std::printf("soak (stream): %+.2f MB between the halves; %d more scans: %+.2f MB\n", growth_mb,
+                scans / 2, confirmed_mb);
+  }
   double mx = 0, my = 0, sxy = 0, sxx = 0;
   for (const Sample& x : samples) mx += x.scan, my += double(x.rss) / (1 << 20);
   mx /= double(samples.size());
@@ -307,9 +330,9 @@ TEST(CApiSoak, AStreamOfScansKeepsResidentMemoryFlat) {
     sxx += (x.scan - mx) * (x.scan - mx);
   }
   const double mb_per_hour = sxx > 0 ? 36000 * sxy / sxx : 0;  // 10 Hz
-  const double bound_mb = 1.5;
-  EXPECT_LT(growth_mb, bound_mb) << potmap::test::memory_in_use_name() << " grew by " << growth_mb
-                                 << " MB over " << scans << " scans after warm-up";
+  EXPECT_LT(std::min(growth_mb, confirmed_mb), bound_mb)
+      << potmap::test::memory_in_use_name() << " grew by " << growth_mb << " MB over " << scans
+      << " scans after warm-up, and by " << confirmed_mb << " MB over the next " << scans / 2;
   std::printf(
       "soak (stream): %d scans in %.1f s (%.1f ms a scan, %.0f kernels placed a scan), overall "
       "map %zu kernels, %s %.1f MB at scan %d, later half %+.2f MB over the "
