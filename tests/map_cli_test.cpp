@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "potmap/io/map_io.hpp"
@@ -59,6 +61,23 @@ TEST(MapCli, MapsAnotherTownWithADictionary) {
   const KernelMap kept = read_map(d + "/kept.potmap");
   EXPECT_EQ(kept.size(), m.size());
   EXPECT_NE(kept.w_mean, m.w_mean);
+  // --refine-spacing sets the persistent map's pitch (0.5 m by default).
+  must("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+       "/coarse.potmap --refine --rotations 4 --refine-spacing 1 --refine-prior-var 5");
+  auto pitch = [](const KernelMap& km) {
+    double p = HUGE_VAL;
+    for (std::size_t a = 1; a < km.size(); ++a)
+      if (km.position[2 * a + 1] == km.position[1] && km.position[2 * a] != km.position[0])
+        p = std::min(p, std::abs(km.position[2 * a] - km.position[0]));
+    return p;
+  };
+  EXPECT_NEAR(pitch(read_map(d + "/coarse.potmap")), 1.0, 1e-9);
+  EXPECT_NEAR(pitch(m), 0.5, 1e-9);
+  const test::CliResult bad =
+      test::run_cli("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+                    "/bad.potmap --refine --refine-spacing 0");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("--refine-spacing"), std::string::npos) << bad.out;
 }
 
 TEST(MapCli, ClearErrors) {

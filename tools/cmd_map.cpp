@@ -28,6 +28,7 @@ struct MapArgs {
   bool refine = false, per_scan_refine = false, cpu = false, quiet = false, no_pipeline = false,
        hits_only = false, seeds_yield_fully = true;
   double refine_min_variance = 0;
+  double refine_spacing = JointBhmOptions{}.spacing, refine_prior_var = JointBhmOptions{}.prior_var;
   int sectors = 5, rotations = 8, em = 1;
   double max_range = 0, holdout = 0.2, res = 0.25, range_cut = 0, ros_res = 0.05;
   std::size_t first = 0, max_scans = 0, candidates = 0, max_kernels = 0;
@@ -68,6 +69,8 @@ nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const 
           {"--refine", a.refine},
           {"--per-scan-refine", a.per_scan_refine},
           {"--seeds-yield-fully", a.seeds_yield_fully},
+          {"--refine-spacing", a.refine_spacing},
+          {"--refine-prior-var", a.refine_prior_var},
           {"--refine-min-variance", a.refine_min_variance},
           {"--em", a.em},
           {"--sectors", a.sectors},
@@ -115,6 +118,8 @@ int run_map(const MapArgs& a, const std::string& device) {
   po.refine = a.refine;
   job.mapper.persistent_refine = !a.per_scan_refine;
   job.mapper.refine_map.seeds_yield_fully = a.seeds_yield_fully;
+  job.mapper.refine_map.spacing = a.refine_spacing;
+  job.mapper.refine_map.prior_var = a.refine_prior_var;
   po.refine_min_variance = a.refine_min_variance;
   po.refine_bhm.em_iterations = a.em;
   po.candidates = a.candidates;
@@ -237,6 +242,13 @@ void register_map(CLI::App& app, Runner& runner) {
                 "solve's tolerance). "
                 "--seeds-keep-start: a seed yields when a sample reaches its kernel and its mean "
                 "starts that scan's bound (higher F1, at times lower AUC than BHM)");
+  cmd->add_option("--refine-spacing", a->refine_spacing,
+                  "RePOT's persistent map: metres between its kernels (default 0.5, about a "
+                  "wall's thickness; a sample's cost grows as (1 / spacing)^dim)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--refine-prior-var", a->refine_prior_var,
+                  "RePOT's persistent map: prior variance of its weights (default 10)")
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--refine-min-variance", a->refine_min_variance,
                   "RePOT per scan: floor on the transported weight variances (default 0)");
   cmd->add_option("--em", a->em, "RePOT per scan: BHM E-steps per scan (default 1)")

@@ -11,7 +11,8 @@ namespace potmap::capi {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kMaxRotations = 3600;  // 0.1 degree steps: beyond, a typo rather than a choice
+constexpr int kMaxRotations = 3600;    // 0.1 degree steps: beyond, a typo rather than a choice
+constexpr int kMaxEmIterations = 100;  // each a solve per scan: beyond, a typo rather than a choice
 
 potmap_mapper_options default_mapper_options() {
   const potmap::MapperOptions m;
@@ -40,6 +41,9 @@ potmap_mapper_options default_mapper_options() {
   o.average_overall = m.average_overall ? 1 : 0;
   o.async_merge = m.async_merge ? 1 : 0;
   o.seeds_yield_fully = m.refine_map.seeds_yield_fully ? 1 : 0;
+  o.refine_spacing = m.refine_map.spacing;
+  o.refine_prior_var = m.refine_map.prior_var;
+  o.refine_em_iterations = m.refine_map.em_iterations;
   return o;
 }
 
@@ -90,6 +94,12 @@ Options to_options(const potmap_mapper_options* in) {
   if (o.async_merge != 0 && o.async_merge != 1) bad("async_merge", o.async_merge);
   if (o.seeds_yield_fully != 0 && o.seeds_yield_fully != 1)
     bad("seeds_yield_fully", o.seeds_yield_fully);
+  if (!(o.refine_spacing > 0) || !std::isfinite(o.refine_spacing))
+    bad("refine_spacing", o.refine_spacing);
+  if (!(o.refine_prior_var > 0) || !std::isfinite(o.refine_prior_var))
+    bad("refine_prior_var", o.refine_prior_var);
+  if (o.refine_em_iterations < 1 || o.refine_em_iterations > kMaxEmIterations)
+    bad("refine_em_iterations", o.refine_em_iterations);
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
@@ -108,6 +118,9 @@ Options to_options(const potmap_mapper_options* in) {
   r.mapper.average_overall = o.average_overall == 1;
   r.mapper.async_merge = o.async_merge == 1;
   r.mapper.refine_map.seeds_yield_fully = o.seeds_yield_fully == 1;
+  r.mapper.refine_map.spacing = o.refine_spacing;
+  r.mapper.refine_map.prior_var = o.refine_prior_var;
+  r.mapper.refine_map.em_iterations = o.refine_em_iterations;
   p.max_range = o.max_range;
   p.candidates = o.candidates;
   p.seed = o.seed;

@@ -448,6 +448,18 @@ typedef struct potmap_mapper_options {
    * keeps the seeded mean as the start of the scan's bound (higher F1 and lower NLL on most runs,
    * up to 0.002 lower AUC from a mismatched source; docs/pot-measurements.md). */
   int seeds_yield_fully;
+  /* ---- appended in version 6 ---- */
+  /** RePOT's persistent map (refine 1, persistent_refine 1): metres between its kernels, > 0
+   *  (default 0.5: about an indoor wall's thickness, so walls come out as walls; a long 3D
+   *  drive may want 1). Memory and time per scan grow with the kernels a sample reaches, about
+   *  (1 / spacing)^dim. */
+  double refine_spacing;
+  /** Prior variance of its weights, > 0 (default 10, the BHM authors' demo: with overlapping
+   *  kernels a large prior lets neighbours cancel in unobserved gaps). */
+  double refine_prior_var;
+  /** Jaakkola-Jordan EM rounds per scan, 1 to 100 (default 3: each round costs a solve; more
+   *  tighten the bound on the scan's samples). */
+  int refine_em_iterations;
 } potmap_mapper_options;
 
 /** Values of potmap_mapper_options::ranking. */

@@ -1,5 +1,6 @@
 // The C API's datasets, source maps, dictionaries and POT/RePOT mappers: every error path, and
 // results equal to the C++ API's (potmap::Mapper, build_dictionary, BHM) on the same input.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -163,6 +164,9 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.average_overall, 0);
   EXPECT_EQ(m.async_merge, 0);
   EXPECT_EQ(m.seeds_yield_fully, 1);
+  EXPECT_EQ(m.refine_spacing, 0.5);
+  EXPECT_EQ(m.refine_prior_var, 10.0);
+  EXPECT_EQ(m.refine_em_iterations, 3);
   // `potmap map`'s settings: the defaults but for the four it sets.
   potmap_mapper_options md;
   POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(&md, sizeof md));
@@ -449,6 +453,12 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
   bad_option([](potmap_mapper_options& b) { b.free_per_metre = 0; }, "free_per_metre");
   bad_option([](potmap_mapper_options& b) { b.gamma_ratio = 0.5; }, "gamma_ratio");
   bad_option([](potmap_mapper_options& b) { b.max_range = NAN; }, "max_range");
+  bad_option([](potmap_mapper_options& b) { b.refine_spacing = 0; }, "refine_spacing");
+  bad_option([](potmap_mapper_options& b) { b.refine_spacing = NAN; }, "refine_spacing");
+  bad_option([](potmap_mapper_options& b) { b.refine_prior_var = -1; }, "refine_prior_var");
+  bad_option([](potmap_mapper_options& b) { b.refine_em_iterations = 0; }, "refine_em_iterations");
+  bad_option([](potmap_mapper_options& b) { b.refine_em_iterations = 101; },
+             "refine_em_iterations");
   bad_option([](potmap_mapper_options& b) { b.struct_size = 3; }, "struct_size");
   bad_option([](potmap_mapper_options& b) { b.struct_size = 4096; }, "newer");
   EXPECT_EQ(m, nullptr);
@@ -480,6 +490,20 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
     EXPECT_EQ(init_v2.ranking, -1);
     EXPECT_EQ(init_v2.average_overall, -1);
     EXPECT_EQ(init_v2.persistent_refine, 1);
+    // A caller of version 5 (no refine_spacing, ...): bad values beyond its struct are never
+    // read, and _init leaves them alone.
+    potmap_mapper_options v5 = fast_options(1);
+    v5.refine_spacing = -1;
+    v5.refine_em_iterations = 0;
+    v5.struct_size = offsetof(potmap_mapper_options, refine_spacing);
+    POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &v5, &old_caller));
+    POTMAP_ASSERT_OK(potmap_mapper_destroy(old_caller));
+    potmap_mapper_options init_v5;
+    std::memset(&init_v5, 0xff, sizeof init_v5);
+    POTMAP_ASSERT_OK(
+        potmap_mapper_options_init(&init_v5, offsetof(potmap_mapper_options, refine_spacing)));
+    EXPECT_EQ(init_v5.refine_em_iterations, -1);
+    EXPECT_EQ(init_v5.seeds_yield_fully, 1);
   }
 
   POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &o, &m));
@@ -631,38 +655,84 @@ TEST(CApiMapper, AsyncMergeMapsAsTheSynchronousMapper) {
   EXPECT_EQ(m, nullptr);
 }
 
+namespace {
+
+// Overall maps of `scans` target scans: a C mapper with `o`, the C++ Mapper with `mo` (the same
+// settings) and the C++ Mapper with the defaults of cpp_options(1).
+struct ThreeMaps {
+  potmap::KernelMap c, cpp, plain;
+};
+ThreeMaps persistent_maps(const potmap_mapper_options& o, const potmap::MapperOptions& mo,
+                          std::size_t scans) {
+  const Source& src = source();
+  const auto dict = cpp_dictionary(src);
+  potmap_mapper* m = nullptr;
+  ThreeMaps r;
+  EXPECT_EQ(potmap_mapper_create(shared_context(), src.dict, &o, &m), POTMAP_SUCCESS)
+      << potmap_last_error();
+  if (!m) return r;
+  potmap::Mapper same(&cpp_context(), dict, mo);
+  potmap::Mapper plain(&cpp_context(), dict, cpp_options(1));
+  for (const RoomScan& t : targets(scans)) {
+    const potmap_scan s = t.scan();
+    EXPECT_EQ(potmap_mapper_add_scan(m, &s, nullptr), POTMAP_SUCCESS) << potmap_last_error();
+    same.add_scan(to_cpp(t));
+    plain.add_scan(to_cpp(t));
+  }
+  potmap_map* got = nullptr;
+  EXPECT_EQ(potmap_mapper_overall_map(m, &got), POTMAP_SUCCESS);
+  r.c = read_back(got);
+  r.cpp = same.overall_map();
+  r.plain = plain.overall_map();
+  potmap_map_destroy(got);
+  potmap_mapper_destroy(m);
+  return r;
+}
+
+}  // namespace
+
 // seeds_yield_fully reaches RePOT's persistent map: 0 (the seeded start kept) gives the C++
 // mapper's map with the same rule, and a map other than the default rule's.
 TEST(CApiMapper, SeedsYieldFullyReachesThePersistentMap) {
-  const Source& src = source();
-  const std::vector<RoomScan> tgt = targets(4);
-  const auto dict = cpp_dictionary(src);
   potmap_mapper_options o = fast_options(1);
   o.seeds_yield_fully = 0;
-  potmap_mapper* m = nullptr;
-  POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &m));
   potmap::MapperOptions mo = cpp_options(1);
   mo.refine_map.seeds_yield_fully = false;
-  potmap::Mapper kept(&cpp_context(), dict, mo);
-  potmap::Mapper plain(&cpp_context(), dict, cpp_options(1));
-  for (const RoomScan& r : tgt) {
-    const potmap_scan s = r.scan();
-    POTMAP_ASSERT_OK(potmap_mapper_add_scan(m, &s, nullptr));
-    kept.add_scan(to_cpp(r));
-    plain.add_scan(to_cpp(r));
-  }
-  potmap_map* got = nullptr;
-  POTMAP_ASSERT_OK(potmap_mapper_overall_map(m, &got));
-  const potmap::KernelMap k = read_back(got);
-  expect_same(k, kept.overall_map(), "overall map");
-  EXPECT_NE(k.w_mean, plain.overall_map().w_mean);
-  POTMAP_ASSERT_OK(potmap_map_destroy(got));
-  POTMAP_ASSERT_OK(potmap_mapper_destroy(m));
+  const ThreeMaps maps = persistent_maps(o, mo, 4);
+  expect_same(maps.c, maps.cpp, "overall map");
+  EXPECT_NE(maps.c.w_mean, maps.plain.w_mean);
   potmap_mapper_options bad = fast_options(1);
   bad.seeds_yield_fully = -1;
-  POTMAP_EXPECT_FAIL(potmap_mapper_create(shared_context(), src.dict, &bad, &m),
+  potmap_mapper* m = nullptr;
+  POTMAP_EXPECT_FAIL(potmap_mapper_create(shared_context(), source().dict, &bad, &m),
                      POTMAP_ERROR_INVALID_ARGUMENT);
   EXPECT_TRUE(contains(potmap_last_error(), "seeds_yield_fully")) << potmap_last_error();
+}
+
+// refine_spacing, refine_prior_var and refine_em_iterations reach RePOT's persistent map: the C
+// mapper gives the C++ mapper's map with the same JointBhmOptions, its kernels at twice the
+// default's pitch.
+TEST(CApiMapper, PersistentMapSettingsReachTheMapper) {
+  potmap_mapper_options o = fast_options(1);
+  o.refine_spacing = 1.0;
+  o.refine_prior_var = 5.0;
+  o.refine_em_iterations = 2;
+  potmap::MapperOptions mo = cpp_options(1);
+  mo.refine_map.spacing = 1.0;
+  mo.refine_map.prior_var = 5.0;
+  mo.refine_map.em_iterations = 2;
+  const ThreeMaps maps = persistent_maps(o, mo, 3);
+  expect_same(maps.c, maps.cpp, "overall map");
+  // Kernels 1 m apart, where the default map's are 0.5 m apart.
+  auto pitch = [](const potmap::KernelMap& km) {
+    double p = HUGE_VAL;
+    for (std::size_t a = 1; a < km.size(); ++a)
+      if (km.position[2 * a + 1] == km.position[1] && km.position[2 * a] != km.position[0])
+        p = std::min(p, std::abs(km.position[2 * a] - km.position[0]));
+    return p;
+  };
+  EXPECT_NEAR(pitch(maps.c), 1.0, 1e-9);
+  EXPECT_NEAR(pitch(maps.plain), 0.5, 1e-9);
 }
 
 // potmap_mapper_options_init_map_defaults maps as the C++ Mapper with `potmap map`'s settings
