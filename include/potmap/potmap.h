@@ -443,10 +443,11 @@ typedef struct potmap_mapper_options {
   int async_merge;
   /* ---- appended in version 5 ---- */
   /** RePOT's persistent map (refine 1, persistent_refine 1): 1 (default) makes a seed yield,
-   *  its mean too, when its kernel enters a scan's solve, so the map near the data is BHM's exactly
-   * and transported kernels speak only for space farther from it: never worse than BHM there. 0
-   * keeps the seeded mean as the start of the scan's bound (higher F1 and lower NLL on most runs,
-   * up to 0.002 lower AUC from a mismatched source; docs/pot-measurements.md). */
+   *  its mean too, when its kernel enters a scan's solve, so the map near the data is BHM's (up
+   *  to the solve's tolerance) and transported kernels speak only for space farther from it:
+   *  never worse than BHM there. 0 keeps the seeded mean as the start of the scan's bound
+   *  (higher F1 and lower NLL on most runs, up to 0.002 lower AUC from a mismatched source;
+   *  docs/pot-measurements.md). */
   int seeds_yield_fully;
   /* ---- appended in version 6 ---- */
   /** RePOT's persistent map (refine 1, persistent_refine 1): metres between its kernels, > 0
