@@ -80,6 +80,9 @@ struct Launch {
   std::vector<bc::buffer> scratch;
   std::vector<SinkhornLaunchInts> ints;
   bool weights_double = false;  // loga, logb hold doubles
+  // loga, logb as uploaded, widened: the host batch undoes the duals' log-weight convention
+  // with them instead of reading the buffers back.
+  std::vector<double> host_loga, host_logb;
   int vw = 16;
   bool dbl = false;
 };
@@ -182,6 +185,8 @@ void upload_log_weights(Context& ctx, const LaunchTable& t, const LaunchProblems
   }
   L.loga = detail::to_device(ctx, a, "Sinkhorn: source log weights");
   L.logb = detail::to_device(ctx, b, "Sinkhorn: target log weights");
+  L.host_loga.assign(a.begin(), a.end());
+  L.host_logb.assign(b.begin(), b.end());
 }
 
 // Stage 3, stabilised scheme only: the persistent work-groups' scratch (K, absorbed duals,
@@ -296,13 +301,6 @@ Launch launch(Context& ctx, int dim, const bc::buffer& source, const bc::buffer&
   return launch_typed<float>(ctx, dim, source, target, source_points, lp, opt);
 }
 
-template <class R>
-std::vector<double> read_back(bc::command_queue& q, const bc::buffer& b, std::size_t count) {
-  std::vector<R> tmp(count);
-  detail::from_device(q, b, tmp);
-  return std::vector<double>(tmp.begin(), tmp.end());
-}
-
 }  // namespace
 
 std::size_t SinkhornBatch::add(SinkhornProblem problem) {
@@ -342,27 +340,42 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
   auto tb = detail::to_device(ctx, tgt, "Sinkhorn: target points");
   Launch L = launch(ctx, dim, sb, tb, src.size() / dim, soff, scnt, toff, tcnt, par, opt);
 
-  std::vector<SinkhornLaunchStats> stats(np);
-  detail::from_device(q, L.result.stats, stats);
+  // Every buffer the caller asked for, read in one wait (detail::BatchedReads).
   const SinkhornLaunchInts& last = L.ints[np - 1];
   const std::size_t sslots = last.src_slot + last.npad, tslots = last.tgt_slot + last.mpad;
-  std::vector<double> fh, gh, la, lb;
+  std::vector<SinkhornLaunchStats> stats(np);
+  std::vector<float> fh32, gh32;
+  std::vector<double> fh64, gh64;
+  std::vector<float> plan, bary;
+  detail::BatchedReads reads(q);
+  reads.read(L.result.stats, stats);
   if (opt.want_duals) {
-    auto read = [&q](const bc::buffer& b, std::size_t n, bool dbl) {
-      return dbl ? read_back<double>(q, b, n) : read_back<float>(q, b, n);
-    };
-    fh = read(L.fh, sslots, L.dbl);
-    gh = read(L.gh, tslots, L.dbl);
-    la = read(L.loga, sslots, L.weights_double);
-    lb = read(L.logb, tslots, L.weights_double);
+    if (L.dbl) {
+      fh64.resize(sslots);
+      gh64.resize(tslots);
+      reads.read(L.fh, fh64);
+      reads.read(L.gh, gh64);
+    } else {
+      fh32.resize(sslots);
+      gh32.resize(tslots);
+      reads.read(L.fh, fh32);
+      reads.read(L.gh, gh32);
+    }
   }
-  std::vector<double> plan, bary;
   if (opt.want_coupling) {
     const long total =
         L.result.coupling_offset[np - 1] + static_cast<long>(scnt[np - 1]) * tcnt[np - 1];
-    plan = read_back<float>(q, L.result.coupling, total);
+    plan.resize(static_cast<std::size_t>(total));
+    reads.read(L.result.coupling, plan);
   }
-  if (opt.want_barycentric) bary = read_back<float>(q, L.result.barycentric, src.size());
+  if (opt.want_barycentric) {
+    bary.resize(src.size());
+    reads.read(L.result.barycentric, bary);
+  }
+  reads.wait();
+  auto fh = [&](std::size_t i) { return L.dbl ? fh64[i] : double(fh32[i]); };
+  auto gh = [&](std::size_t j) { return L.dbl ? gh64[j] : double(gh32[j]); };
+  const std::vector<double>&la = L.host_loga, &lb = L.host_logb;
 
   std::vector<SinkhornResult> out(np);
   for (std::size_t p = 0; p < np; ++p) {
@@ -377,8 +390,8 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
     if (opt.want_duals) {
       r.f.resize(n);
       r.g.resize(m);
-      for (int i = 0; i < n; ++i) r.f(i) = (fh[ss + i] - la[ss + i]) * pr.epsilon;
-      for (int j = 0; j < m; ++j) r.g(j) = (gh[ts + j] - lb[ts + j]) * pr.epsilon;
+      for (int i = 0; i < n; ++i) r.f(i) = (fh(ss + i) - la[ss + i]) * pr.epsilon;
+      for (int j = 0; j < m; ++j) r.g(j) = (gh(ts + j) - lb[ts + j]) * pr.epsilon;
     }
     if (opt.want_coupling) {
       r.coupling.resize(n, m);

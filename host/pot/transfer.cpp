@@ -248,6 +248,7 @@ SolvedTransfer solve_transfer(Context* ctx, const Dictionary& dict, PreparedTran
   const bool at_samples = o.placement == PotPlacement::target_samples;
   topt.want_barycentric = !at_samples;
   topt.want_coupling = at_samples;
+  topt.want_duals = false;  // the placement reads the plans, never the potentials
   topt.double_sums =
       !single_sums_reach(std::min(o.transport_tolerance, o.transport_free_tolerance));
   sv.plans = detail::solve(ctx, transport.batch, topt);

@@ -107,6 +107,40 @@ inline void read_bytes(boost::compute::command_queue& q, const boost::compute::b
   cl_call("clEnqueueReadBuffer", [&] { q.enqueue_read_buffer(b, 0, bytes, dst); });
 }
 
+/// Reads from a launch's buffers queued together and waited for once (`read` each, then
+/// `wait`): every blocking read is a round trip through the driver's worker threads, which on
+/// PoCL's CPU device costs 35-80 us on a quiet machine and far more while other host threads
+/// hold the cores (docs/pot-scale.md), and a Sinkhorn launch reads up to seven buffers. The
+/// destinations must stay alive and untouched until `wait` returns.
+class BatchedReads {
+ public:
+  explicit BatchedReads(boost::compute::command_queue& q) : q_(q) {}
+  BatchedReads(const BatchedReads&) = delete;
+  BatchedReads& operator=(const BatchedReads&) = delete;
+  /// Waits for what is still queued (reads must not outlive their destinations), without
+  /// throwing: a failure has already been reported by the call that threw.
+  ~BatchedReads() {
+    if (pending_) clFinish(q_.get());
+  }
+  void bytes(const boost::compute::buffer& b, std::size_t n, void* dst) {
+    if (n == 0) return;
+    pending_ = true;
+    cl_call("clEnqueueReadBuffer", [&] { q_.enqueue_read_buffer_async(b, 0, n, dst); });
+  }
+  template <class T>
+  void read(const boost::compute::buffer& b, std::vector<T>& v) {
+    bytes(b, v.size() * sizeof(T), v.data());
+  }
+  void wait() {
+    cl_call("clFinish", [&] { q_.finish(); });
+    pending_ = false;
+  }
+
+ private:
+  boost::compute::command_queue& q_;
+  bool pending_ = false;
+};
+
 /// Reads v.size() elements from the start of b (blocking); nothing for an empty v.
 template <class T>
 void from_device(boost::compute::command_queue& q, const boost::compute::buffer& b,

@@ -293,7 +293,9 @@ struct SolvedTransfer {
   /// Per sector: the index in `transport` of its hits problem and of its free-sample problem
   /// (-1: none).
   std::vector<std::array<long, 2>> problem_of;
-  std::vector<SinkhornResult> plans;  ///< the solutions of `transport`, in order
+  /// The solutions of `transport`, in order: their plans (couplings, or barycentric images for
+  /// PotPlacement::barycentric) and statistics; the dual potentials are not read back.
+  std::vector<SinkhornResult> plans;
 };
 
 /// Ranks a prepared scan and solves its winners' transport. `ctx` null: the CPU reference, one
