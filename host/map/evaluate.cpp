@@ -285,6 +285,7 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
   // Stage 5: upload, run, read back.
   auto& cx = ctx->context();
   auto& q = ctx->queue();
+  detail::BatchedReads reads(q);  // first: it outlives nothing the queued writes read
   bc::buffer& b_qh = q_hi.put(cx, q, packed.hi);
   bc::buffer& b_ql = q_lo.put(cx, q, packed.lo);
   bc::buffer& b_start = chunk_start.put(cx, q, lists.start);
@@ -299,15 +300,18 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
                     bias_var, b_m, b_v, b_p);
   // Outputs were scattered to the caller's order; NaN slots (non-finite points) are untouched
   // on the device, so read only through the host's finite set when any were dropped.
-  std::vector<float> tmp(n);
-  auto read = [&](bc::buffer& b, float* dst) {
-    if (!dst) return;
-    detail::from_device(q, b, tmp);
-    for (std::uint32_t i : finite.index) dst[i] = tmp[i];
-  };
-  read(b_m, out_m);
-  read(b_v, out_v);
-  read(b_p, out_p);
+  std::vector<float> tmp[3];
+  float* const dsts[3] = {out_m, out_v, out_p};
+  bc::buffer* const bufs[3] = {&b_m, &b_v, &b_p};
+  for (int o = 0; o < 3; ++o) {
+    if (!dsts[o]) continue;
+    tmp[o].resize(n);
+    reads.read(*bufs[o], tmp[o]);
+  }
+  reads.wait();
+  for (int o = 0; o < 3; ++o)
+    if (dsts[o])
+      for (std::uint32_t i : finite.index) dsts[o][i] = tmp[o][i];
 }
 
 MapEvaluator::MapEvaluator(Context& ctx, const KernelMap& map, const EvalOptions& options)

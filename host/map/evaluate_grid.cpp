@@ -153,6 +153,7 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
   auto& q = ctx->queue();
   std::vector<float> chi, clo;
   column_coordinates(grid, g, anchor, chi, clo);
+  detail::BatchedReads drain(q);  // the columns' queued writes read chi and clo until it ends
   bc::buffer& b_chi = g_col_hi.put(cx, q, chi);
   bc::buffer& b_clo = g_col_lo.put(cx, q, clo);
   char defs[200];
@@ -162,7 +163,7 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
   KernelLease lease = ctx->lend_kernel("map/raster", "map_raster", defs);
   bc::kernel& kern = *lease;
 
-  std::vector<float> host;
+  std::vector<float> host[3];  // 3D: each output's rows before they are placed
   for (std::size_t b0 = 0; b0 < g.nblocks; b0 += blocks_per_launch) {
     const std::size_t b1 = std::min(g.nblocks, b0 + blocks_per_launch);
     const RowSlots rows = row_slots(grid, g, anchor, b0, b1 - b0);
@@ -170,6 +171,7 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
     last_pairs += static_cast<std::size_t>(lists.start.back()) * tile * tile;
 
     const std::size_t cells = rows.count * g.nx;
+    detail::BatchedReads reads(q);  // after rows and lists: see its comment
     bc::buffer& b_rhi = g_row_hi.put(cx, q, rows.hi);
     bc::buffer& b_rlo = g_row_lo.put(cx, q, rows.lo);
     bc::buffer& b_rout = g_row_out.put(cx, q, rows.out);
@@ -187,20 +189,23 @@ void MapEvaluator::Impl::run_grid(const GridSpec& grid, float* out_m, float* out
     detail::enqueue_2d(q, kern, "map_raster", global, local);
     // 2D launches cover consecutive whole rows: read straight into the caller's array.
     const std::size_t first_row = b0 * tile, real_rows = std::min(g.ny, b1 * tile) - first_row;
-    auto fetch = [&](bc::buffer& b, float* dst) {
-      if (!dst) return;
+    float* const dsts[3] = {out_m, out_v, out_p};
+    bc::buffer* const bufs[3] = {&b_m, &b_v, &b_p};
+    for (int o = 0; o < 3; ++o) {
+      if (!dsts[o]) continue;
       if (g.dim == 2) {
-        detail::read_bytes(q, b, real_rows * g.nx * 4, dst + first_row * g.nx);
-        return;
+        reads.bytes(*bufs[o], real_rows * g.nx * 4, dsts[o] + first_row * g.nx);
+        continue;
       }
-      host.resize(cells);
-      detail::from_device(q, b, host);
-      for (std::size_t s = 0; s < rows.count; ++s)
-        if (rows.out[s] >= 0) std::copy_n(host.data() + s * g.nx, g.nx, dst + rows.row[s] * g.nx);
-    };
-    fetch(b_m, out_m);
-    fetch(b_v, out_v);
-    fetch(b_p, out_p);
+      host[o].resize(cells);
+      reads.read(*bufs[o], host[o]);
+    }
+    reads.wait();
+    for (int o = 0; o < 3 && g.dim != 2; ++o)
+      if (dsts[o])
+        for (std::size_t s = 0; s < rows.count; ++s)
+          if (rows.out[s] >= 0)
+            std::copy_n(host[o].data() + s * g.nx, g.nx, dsts[o] + rows.row[s] * g.nx);
   }
 }
 

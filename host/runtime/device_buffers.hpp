@@ -111,20 +111,22 @@ inline void read_bytes(boost::compute::command_queue& q, const boost::compute::b
 /// `wait`): every blocking read is a round trip through the driver's worker threads, which on
 /// PoCL's CPU device costs 35-80 us on a quiet machine and far more while other host threads
 /// hold the cores (docs/pot-scale.md), and a Sinkhorn launch reads up to seven buffers. The
-/// destinations must stay alive and untouched until `wait` returns.
+/// destinations must stay alive and untouched until `wait` returns. Made before a launch's
+/// queued writes (GrowBuffer::put), it also keeps their sources alive: declared after them, it
+/// is destroyed first, and unless `wait` ran it drains the queue (an exception between the
+/// writes and the wait must not free what the driver still reads).
 class BatchedReads {
  public:
   explicit BatchedReads(boost::compute::command_queue& q) : q_(q) {}
   BatchedReads(const BatchedReads&) = delete;
   BatchedReads& operator=(const BatchedReads&) = delete;
-  /// Waits for what is still queued (reads must not outlive their destinations), without
-  /// throwing: a failure has already been reported by the call that threw.
+  /// Waits for what is still queued, without throwing: a failure has already been reported by
+  /// the call that threw.
   ~BatchedReads() {
     if (pending_) clFinish(q_.get());
   }
   void bytes(const boost::compute::buffer& b, std::size_t n, void* dst) {
     if (n == 0) return;
-    pending_ = true;
     cl_call("clEnqueueReadBuffer", [&] { q_.enqueue_read_buffer_async(b, 0, n, dst); });
   }
   template <class T>
@@ -138,7 +140,7 @@ class BatchedReads {
 
  private:
   boost::compute::command_queue& q_;
-  bool pending_ = false;
+  bool pending_ = true;
 };
 
 /// Reads v.size() elements from the start of b (blocking); nothing for an empty v.
@@ -171,12 +173,21 @@ struct GrowBuffer {
     }
     return buf;
   }
-  /// The buffer, grown to hold v, with v written to its start.
+  /// The buffer, grown to hold v, with v's write to its start queued, not waited for (a
+  /// blocking write is a round trip through the driver's threads, see BatchedReads): v must
+  /// stay alive and unchanged until the queue has run it, which the next blocking call on q
+  /// (a read, BatchedReads::wait, a finish) ensures.
   template <class T>
   boost::compute::buffer& put(boost::compute::context& cx, boost::compute::command_queue& q,
                               const std::vector<T>& v) {
     boost::compute::buffer& b = get(cx, v.size() * sizeof(T));
-    upload(q, b, v, label);
+    if (v.empty()) return b;
+    try {
+      q.enqueue_write_buffer_async(b, 0, v.size() * sizeof(T), v.data());
+    } catch (const boost::compute::opencl_error& e) {
+      throw OpenCLError(e.error_code(),
+                        buffer_call("clEnqueueWriteBuffer", cx, label, v.size() * sizeof(T)));
+    }
     return b;
   }
 };
