@@ -37,8 +37,56 @@ std::int64_t AveragedMap::cell(double x) const {
   return static_cast<std::int64_t>(std::floor(x / opt_.spacing));
 }
 
-std::uint64_t AveragedMap::key(const std::int64_t c[3]) const {
-  return detail::pack_cell(c);
+namespace {
+
+// Blocks of 32 x 32 cells in 2D (8 m at 0.25 m, 4 KB of slots), 16^3 in 3D.
+constexpr std::int64_t kBlock2 = 32, kBlock3 = 16;
+
+std::int64_t floor_div(std::int64_t a, std::int64_t b) {
+  return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
+
+}  // namespace
+
+std::int64_t AveragedMap::block_side() const {
+  return dim_ == 3 ? kBlock3 : kBlock2;
+}
+
+void AveragedMap::slots_along_x(const std::int64_t c[3], std::size_t count,
+                                std::int64_t* out) const {
+  const std::int64_t b = block_side();
+  std::int64_t blk[3] = {0, floor_div(c[1], b), floor_div(c[2], b)};
+  const std::int64_t row = (c[1] - blk[1] * b) * b + (c[2] - blk[2] * b) * b * b;
+  const std::size_t volume = std::size_t(dim_ == 3 ? b * b * b : b * b);
+  std::int64_t x = c[0];
+  const std::int64_t end = c[0] + std::int64_t(count);
+  while (x < end) {
+    blk[0] = floor_div(x, b);
+    const std::int64_t x0 = x - blk[0] * b, run = std::min(b - x0, end - x);
+    const auto it = blocks_.find(detail::pack_cell(blk));
+    if (it == blocks_.end()) {
+      std::fill_n(out, run, std::int64_t(-1));
+    } else {
+      const std::int32_t* s = &block_slots_[it->second * volume + std::size_t(row + x0)];
+      for (std::int64_t k = 0; k < run; ++k) out[k] = s[k];
+    }
+    out += run;
+    x += run;
+  }
+}
+
+bool AveragedMap::set_slot(const std::int64_t c[3], std::uint32_t slot) {
+  const std::int64_t b = block_side();
+  const std::int64_t blk[3] = {floor_div(c[0], b), floor_div(c[1], b), floor_div(c[2], b)};
+  const std::size_t volume = std::size_t(dim_ == 3 ? b * b * b : b * b);
+  const auto ins = blocks_.emplace(detail::pack_cell(blk), std::uint32_t(blocks_.size()));
+  if (ins.second) block_slots_.resize(block_slots_.size() + volume, -1);
+  std::int32_t& s = block_slots_[ins.first->second * volume +
+                                 std::size_t((c[0] - blk[0] * b) +
+                                             b * ((c[1] - blk[1] * b) + b * (c[2] - blk[2] * b)))];
+  if (s >= 0) return false;
+  s = std::int32_t(slot);
+  return true;
 }
 
 void AveragedMap::add(const KernelMap& inst) {
@@ -127,24 +175,18 @@ void AveragedMap::add(const KernelMap& inst) {
       }
     }
   }
-  // Anchor of each cell: -1 none, -2 not looked up yet. Only the footprint and its stencil are
-  // looked up; new anchors are the footprint's own cells, so a later lookup of any other cell
-  // finds what an earlier one would have.
-  work.slot.assign(cells, -2);
+  // Every cell's anchor over the box (-1: none), read a block row at a time.
+  work.slot.resize(cells);
   std::vector<std::int64_t>& slot = work.slot;
+  for (std::int64_t z = 0; z < n[2]; ++z)
+    for (std::int64_t y = 0; y < n[1]; ++y) {
+      const std::int64_t c[3] = {lo[0], lo[1] + y, lo[2] + z};
+      slots_along_x(c, std::size_t(n[0]), &slot[std::size_t(n[0] * (y + n[1] * z))]);
+    }
   auto grid_cell = [&](std::size_t i, std::int64_t g[3]) {
     g[0] = lo[0] + std::int64_t(i % std::size_t(n[0]));
     g[1] = lo[1] + std::int64_t((i / std::size_t(n[0])) % std::size_t(n[1]));
     g[2] = d == 3 ? lo[2] + std::int64_t(i / std::size_t(n[0] * n[1])) : 0;
-  };
-  auto slot_of = [&](std::size_t i) {
-    if (slot[i] == -2) {
-      std::int64_t g[3];
-      grid_cell(i, g);
-      const auto it = index_.find(key(g));
-      slot[i] = it != index_.end() ? std::int64_t(it->second) : -1;
-    }
-    return slot[i];
   };
   std::vector<std::size_t>& active = work.active;  // cells the scan counts at
   std::vector<double>& change = work.change;       // their averages' change (old average first)
@@ -152,12 +194,12 @@ void AveragedMap::add(const KernelMap& inst) {
   change.clear();
   for (std::size_t i = 0; i < cells; ++i) {
     if (sup[i] < opt_.min_support) continue;
-    if (slot_of(i) < 0) {
+    if (slot[i] < 0) {
       std::int64_t g[3];
       grid_cell(i, g);
       for (int a = 0; a < d; ++a) x[a] = (g[a] + 0.5) * h;
       slot[i] = std::int64_t(map_.size());
-      index_.emplace(key(g), std::uint32_t(map_.size()));
+      set_slot(g, std::uint32_t(map_.size()));
       map_.push_back(x, sg[i] / sup[i], 0.0, 0.0);
       sum_sm_.push_back(0);
       sum_s_.push_back(0);
@@ -176,52 +218,68 @@ void AveragedMap::add(const KernelMap& inst) {
 
   // Weights: Gauss-Seidel on (Phi + ridge I) w = v over the footprint, neighbours outside it
   // held. On the grid Phi depends on the offset and the width only; the row's own width stands
-  // for its neighbours' (equal wherever the atoms share one width, as BHM atoms do).
+  // for its neighbours' (equal wherever the atoms share one width, as BHM atoms do). The
+  // stencil (offsets within the solve's cut) is a set of runs along x, walked over dense copies
+  // of the box's weights (0 where no anchor) and of where anchors are: contiguous loads, no
+  // per-neighbour lists to build.
   const std::int64_t ws =
       std::min<std::int64_t>(span, std::int64_t(std::floor(std::sqrt(kSolveCut / (gmin * h * h)))));
-  std::vector<std::array<std::int64_t, 2>> stencil;  // (cell offset, squared grid distance)
+  struct Run {
+    std::int64_t offset;  // box offset of the run's first cell from the centre cell
+    std::size_t first;    // its first entry in the weights
+    std::size_t length;
+  };
+  std::vector<Run> runs;
+  std::vector<std::int64_t> q2;  // squared grid distance of each stencil entry
   for (std::int64_t dz = -(d == 3 ? ws : 0); dz <= (d == 3 ? ws : 0); ++dz)
-    for (std::int64_t dy = -ws; dy <= ws; ++dy)
-      for (std::int64_t dx = -ws; dx <= ws; ++dx) {
-        const std::int64_t q2 = dx * dx + dy * dy + dz * dz;
-        if (q2 <= ws * ws) stencil.push_back({dx + n[0] * (dy + n[1] * dz), q2});
-      }
-  std::vector<double> table(std::size_t(ws * ws * (d == 3 ? 3 : 2)) + 1);
+    for (std::int64_t dy = -ws; dy <= ws; ++dy) {
+      const std::int64_t q = dy * dy + dz * dz;
+      if (q > ws * ws) continue;
+      const auto hx = std::int64_t(std::floor(std::sqrt(double(ws * ws - q))));
+      runs.push_back({-hx + n[0] * (dy + n[1] * dz), q2.size(), std::size_t(2 * hx + 1)});
+      for (std::int64_t dx = -hx; dx <= hx; ++dx) q2.push_back(dx * dx + q);
+    }
+  // Gram entries of the stencil, the centre's set to 0 (the sweep leaves it out), and squared.
+  std::vector<double> gram(q2.size()), gram2(q2.size());
   double table_gamma = -1;
   auto weights_of = [&](double gamma) {
     // An anchor's width is an average of equal widths, equal to the last up to rounding: a
     // table rebuilt for every ulp cost more than the sweeps. 1e-9 relative changes a weight by
     // less than 1e-8 of itself.
     if (std::abs(gamma - table_gamma) <= 1e-9 * gamma) return;
-    for (std::size_t q = 0; q < table.size(); ++q) table[q] = std::exp(-gamma * h * h * double(q));
+    for (std::size_t e = 0; e < q2.size(); ++e) {
+      gram[e] = q2[e] == 0 ? 0.0 : std::exp(-gamma * h * h * double(q2[e]));
+      gram2[e] = gram[e] * gram[e];
+    }
     table_gamma = gamma;
   };
-  // Each footprint row's neighbours that hold anchors and their Gram entries, gathered once:
-  // the start, the sweeps and the variances then read a short list instead of the stencil.
-  work.nb_start.assign(active.size() + 1, 0);
-  work.part.assign(active.size(), 0);
-  work.s2.assign(active.size(), 0);
-  work.nb.clear();
-  work.nw.clear();
-  std::vector<std::uint32_t>&nb_start = work.nb_start, &nb = work.nb;
-  std::vector<double>&nw = work.nw, &part = work.part, &s2 = work.s2;
+  // sum over the stencil of box[i + offset] * wt; four partial sums, so that the adds do not
+  // wait on each other.
+  auto stencil_dot = [&](const double* box, std::size_t i, const std::vector<double>& wt) {
+    double r4[4] = {0, 0, 0, 0};
+    for (const Run& run : runs) {
+      const double* b = box + std::int64_t(i) + run.offset;
+      const double* w = wt.data() + run.first;
+      std::size_t e = 0;
+      for (; e + 4 <= run.length; e += 4)
+        for (int u = 0; u < 4; ++u) r4[u] += b[e + u] * w[e + u];
+      for (; e < run.length; ++e) r4[0] += b[e] * w[e];
+    }
+    return (r4[0] + r4[1]) + (r4[2] + r4[3]);
+  };
+  work.has.resize(cells);
+  work.w.resize(cells);
+  std::vector<double>&has = work.has, &wbox = work.w;
+  for (std::size_t i = 0; i < cells; ++i) has[i] = slot[i] >= 0 ? 1.0 : 0.0;
+  // Each anchor's partition (sum of the Gram row over cells with anchors) and its squares.
+  work.part.resize(active.size());
+  work.s2.resize(active.size());
+  std::vector<double>&part = work.part, &s2 = work.s2;
   for (std::size_t t = 0; t < active.size(); ++t) {
     const std::size_t i = active[t];
     weights_of(map_.gamma[std::size_t(slot[i])]);
-    double p1 = 0, p2 = 0;
-    for (const auto& st : stencil) {
-      const std::int64_t b = slot_of(std::size_t(std::int64_t(i) + st[0]));
-      if (b < 0) continue;
-      const double w = table[std::size_t(st[1])];
-      p1 += w;
-      p2 += w * w;
-      if (st[1] == 0) continue;
-      nb.push_back(std::uint32_t(b));
-      nw.push_back(w);
-    }
-    part[t] = p1;
-    s2[t] = p2;
-    nb_start[t + 1] = std::uint32_t(nb.size());
+    part[t] = 1.0 + stencil_dot(has.data(), i, gram);
+    s2[t] = 1.0 + stencil_dot(has.data(), i, gram2);
   }
   // Start the sweeps from the weights moved by each average's change over its partition (the
   // Nadaraya-Watson step): Gauss-Seidel alone removes smooth errors slowly, and a scan's change
@@ -231,25 +289,21 @@ void AveragedMap::add(const KernelMap& inst) {
     const double delta = change[t] + sum_sm_[a] / sum_s_[a];
     map_.w_mean[a] += delta / part[t];
   }
+  for (std::size_t i = 0; i < cells; ++i)
+    wbox[i] = slot[i] >= 0 ? map_.w_mean[std::size_t(slot[i])] : 0.0;
   for (int sweep = 0; sweep < opt_.sweeps; ++sweep)
     for (std::size_t t = 0; t < active.size(); ++t) {
-      const std::size_t a = std::size_t(slot[active[t]]);
+      const std::size_t i = active[t];
+      const std::size_t a = std::size_t(slot[i]);
+      weights_of(map_.gamma[a]);
       const double va = sum_sm_[a] / sum_s_[a];
-      // Four partial sums: one chain of dependent subtractions kept the core waiting on each
-      // (the sweeps were 40 % of add before).
-      double r4[4] = {0, 0, 0, 0};
-      const double* wmean = map_.w_mean.data();
-      std::uint32_t e = nb_start[t];
-      const std::uint32_t end = nb_start[t + 1];
-      for (; e + 4 <= end; e += 4)
-        for (int u = 0; u < 4; ++u) r4[u] += wmean[nb[e + u]] * nw[e + u];
-      for (; e < end; ++e) r4[0] += wmean[nb[e]] * nw[e];
-      const double r = va - ((r4[0] + r4[1]) + (r4[2] + r4[3]));
+      const double r = va - stencil_dot(wbox.data(), i, gram);
       // Projected onto the average's sign: a weight of the other sign would only cancel its
       // neighbours' tails, and past the last anchors it rings into space no scan saw.
       const double wa = r / (1.0 + opt_.ridge);
-      map_.w_mean[a] = va >= 0 ? std::max(wa, 0.0) : std::min(wa, 0.0);
+      wbox[i] = va >= 0 ? std::max(wa, 0.0) : std::min(wa, 0.0);
     }
+  for (std::size_t i : active) map_.w_mean[std::size_t(slot[i])] = wbox[i];
   // Variances: the anchors' averages spread by the partition sum_b phi_b(x_a)^2.
   for (std::size_t t = 0; t < active.size(); ++t) {
     const std::size_t a = std::size_t(slot[active[t]]);
@@ -262,13 +316,13 @@ std::size_t AveragedMap::memory_bytes() const {
   b += 8 * (map_.position.capacity() + map_.gamma.capacity() + map_.w_mean.capacity() +
             map_.w_var.capacity());
   b += 8 * (sum_sm_.capacity() + sum_s_.capacity() + sum_sv_.capacity() + sum_sg_.capacity());
-  for (const auto* x : {&ws_.m, &ws_.v, &ws_.sup, &ws_.sg, &ws_.t2, &ws_.f, &ws_.nw, &ws_.part,
-                        &ws_.s2, &ws_.change})
+  for (const auto* x : {&ws_.m, &ws_.v, &ws_.sup, &ws_.sg, &ws_.t2, &ws_.f, &ws_.part, &ws_.s2,
+                        &ws_.change, &ws_.w, &ws_.has})
     b += 8 * x->capacity();
-  b += 8 * (ws_.slot.capacity() + ws_.active.capacity()) +
-       4 * (ws_.nb_start.capacity() + ws_.nb.capacity());
-  b += index_.bucket_count() * sizeof(void*) +
-       index_.size() * (sizeof(std::uint64_t) + 4 + 2 * sizeof(void*));
+  b += 8 * (ws_.slot.capacity() + ws_.active.capacity());
+  b += blocks_.bucket_count() * sizeof(void*) +
+       blocks_.size() * (sizeof(std::uint64_t) + 4 + 2 * sizeof(void*)) +
+       4 * block_slots_.capacity();
   return b;
 }
 

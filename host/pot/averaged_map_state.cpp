@@ -47,20 +47,24 @@ void AveragedMapState::read(ContainerCursor& c, AveragedMap& m) {
         !std::isfinite(sg[i]))
       c.reader().fail(at, "averaged map state: anchor " + std::to_string(i) + " has support " +
                               std::to_string(s[i]));
-  std::unordered_map<std::uint64_t, std::uint32_t> index;
+  AveragedMap cells(m.dim_, m.opt_);  // the new anchors' cells; m is untouched on failure
   for (std::size_t i = 0; i < n; ++i) {
     std::int64_t g[3] = {0, 0, 0};
     for (int d = 0; d < m.dim_; ++d) g[d] = m.cell(k.position[i * m.dim_ + d]);
-    if (!index.emplace(m.key(g), std::uint32_t(i)).second)
-      c.reader().fail(at, "averaged map state: anchors " + std::to_string(index[m.key(g)]) +
-                              " and " + std::to_string(i) + " share a cell");
+    if (!cells.set_slot(g, std::uint32_t(i))) {
+      std::int64_t other = -1;
+      cells.slots_along_x(g, 1, &other);
+      c.reader().fail(at, "averaged map state: anchors " + std::to_string(other) + " and " +
+                              std::to_string(i) + " share a cell");
+    }
   }
   m.map_ = std::move(k);
   m.sum_sm_ = std::move(sm);
   m.sum_s_ = std::move(s);
   m.sum_sv_ = std::move(sv);
   m.sum_sg_ = std::move(sg);
-  m.index_ = std::move(index);
+  m.blocks_ = std::move(cells.blocks_);
+  m.block_slots_ = std::move(cells.block_slots_);
 }
 
 }  // namespace potmap::detail

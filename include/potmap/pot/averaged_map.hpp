@@ -69,21 +69,28 @@ class AveragedMap {
  private:
   friend struct detail::AveragedMapState;
   std::int64_t cell(double x) const;
-  std::uint64_t key(const std::int64_t c[3]) const;
+  std::int64_t block_side() const;
+  /// Anchor slots of the `count` cells from c along x (-1: none) into out.
+  void slots_along_x(const std::int64_t c[3], std::size_t count, std::int64_t* out) const;
+  /// Makes `slot` the anchor of cell c; false (and nothing changed) when c has one already.
+  bool set_slot(const std::int64_t c[3], std::uint32_t slot);
 
   int dim_;
   AveragedMapOptions opt_;
   KernelMap map_;                        // anchor k = kernel k
   std::vector<double> sum_sm_, sum_s_;   // running sums of s * mu and s
   std::vector<double> sum_sv_, sum_sg_;  // of s * variance and s * gamma
-  std::unordered_map<std::uint64_t, std::uint32_t> index_;
+  // The anchors' cells in blocks of block_side()^dim cells (a hash map from block to its
+  // number, then a dense array of slots, -1 where no anchor): a scan's footprint reads its
+  // slots a block row at a time instead of hashing every cell.
+  std::unordered_map<std::uint64_t, std::uint32_t> blocks_;
+  std::vector<std::int32_t> block_slots_;
   // Working memory of add(), kept between scans: a 360-beam scan's footprint needs megabytes,
   // and fresh pages for every scan cost more than filling them.
   struct Workspace {
-    std::vector<double> m, v, sup, sg, t2, f, nw, part, s2, change;
+    std::vector<double> m, v, sup, sg, t2, f, part, s2, change, w, has;
     std::vector<std::int64_t> slot;
     std::vector<std::size_t> active;
-    std::vector<std::uint32_t> nb_start, nb;
   } ws_;
 };
 
