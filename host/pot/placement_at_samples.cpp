@@ -20,7 +20,6 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
                                const PotOptions& o, std::vector<Anchor>& out,
                                const KernelClasses* classes) {
   const int dim = sec.dim;
-  const KernelMap& k = atom.kernels;
   const double s = sec.scale;
   // Each atom kernel's class is its nearest atom sample's: kernels at samples sit on one, and a
   // map kernel is wall evidence where it lies nearer the walls than the free space.
@@ -29,18 +28,8 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
     own = kernel_classes(atom);
     classes = &own;
   }
-  const std::vector<std::uint8_t>& cls = classes->cls;
   const double* gsum = classes->gamma_sum.data();
   const double* gcnt = classes->count.data();
-  // The kernels by class in a grid whose cells span the widest kernel's reach (gamma d^2 <= 16).
-  double gmin[2] = {HUGE_VAL, HUGE_VAL};
-  std::vector<double> kpos[2];
-  std::vector<std::size_t> kof[2];
-  for (std::size_t e = 0; e < k.size(); ++e) {
-    gmin[cls[e]] = std::min(gmin[cls[e]], k.gamma[e]);
-    kpos[cls[e]].insert(kpos[cls[e]].end(), &k.position[e * dim], &k.position[e * dim] + dim);
-    kof[cls[e]].push_back(e);
-  }
   std::unique_ptr<PointProximity> on_wall;
   if (o.wall_clearance > 0 && sec.num_hits() > 0)
     on_wall = std::make_unique<PointProximity>(sec.hits, dim, o.wall_clearance * s);
@@ -53,28 +42,16 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
     const Eigen::MatrixXd& P = *plans.coupling[q];
     const double gamma = gcnt[q] > 0 ? gsum[q] / gcnt[q] : gsum[1 - q] / std::max(1.0, gcnt[1 - q]);
     if (!(gamma > 0)) continue;
-    // The atom's map at its coupled samples, from its kernels of the same class (each class
-    // alone reproduces the source map at its own samples).
-    Eigen::VectorXd L = Eigen::VectorXd::Zero(X.rows()), V = Eigen::VectorXd::Zero(X.rows());
-    if (!kof[q].empty()) {
-      const double reach = s * std::sqrt(16.0 / gmin[q]);
-      const PointGrid kernels(kpos[q], dim, reach);
-      for (Eigen::Index i = 0; i < X.rows(); ++i) {
-        double x[3] = {0, 0, 0};
-        for (int d = 0; d < dim; ++d) x[d] = X(i, d);
-        double m = 0, v = 0;
-        kernels.for_each_within(x, reach, [&](std::size_t j, double d2) {
-          const std::size_t e = kof[q][j];
-          const double g = k.gamma[e] * d2 / (s * s);
-          if (g > 16) return;
-          const double phi = std::exp(-g);
-          m += k.w_mean[e] * phi;
-          v += k.w_var[e] * phi * phi;
-        });
-        L(i) = m;
-        V(i) = v;
-      }
+    // The atom's map at its coupled samples (cached per atom when the plans' sources are its
+    // cached thinned samples).
+    SampleMap own_map;
+    const SampleMap* map = plans.source_map[q];
+    if (!map || map->mean.size() != X.rows()) {
+      own_map = atom_map_at(atom, *classes, q, X, s);
+      map = &own_map;
     }
+    const Eigen::VectorXd& L = map->mean;
+    const Eigen::VectorXd& V = map->variance;
     const std::vector<double>& pts = q == 0 ? sec.hits : sec.free;
     const std::vector<std::size_t> keep = thin_to_cells(pts, dim, o.anchor_spacing * s);
     std::vector<double> ypts(std::size_t(Y.rows()) * dim);
@@ -144,19 +121,25 @@ void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map)
   for (std::size_t i = 0; i < n; ++i)
     for (int d = 0; d < dim; ++d) pts[i * dim + d] = anchors[i].position[d];
   const PointGrid grid(pts, dim, reach);
+  // Each pair once: phi is symmetric where the two share a width (every pair of a class within
+  // a sector), which halves the exps, the partition's whole cost.
+  std::vector<double> sum(n, 1.0), sum2(n, 1.0);  // each anchor's own phi = 1
   for (std::size_t i = 0; i < n; ++i) {
-    const double* p = &pts[i * dim];
-    double sum = 0, sum2 = 0;
-    grid.for_each_within(p, reach, [&](std::size_t j, double d2) {
-      if (anchors[j].hit != anchors[i].hit) return;
-      const double g = anchors[j].gamma * d2;
-      if (g > 16) return;
-      const double phi = std::exp(-g);
-      sum += phi;
-      sum2 += phi * phi;
+    const Anchor& ai = anchors[i];
+    grid.for_each_within(&pts[i * dim], reach, [&](std::size_t j, double d2) {
+      if (j <= i || anchors[j].hit != ai.hit) return;
+      const double gj = anchors[j].gamma * d2, gi = ai.gamma * d2;
+      const double phi_j = gj <= 16 ? std::exp(-gj) : 0.0;  // anchor j's kernel at i
+      const double phi_i = gi == gj ? phi_j : gi <= 16 ? std::exp(-gi) : 0.0;
+      sum[i] += phi_j;
+      sum2[i] += phi_j * phi_j;
+      sum[j] += phi_i;
+      sum2[j] += phi_i * phi_i;
     });
-    map.push_back(p, anchors[i].gamma, anchors[i].value / sum, anchors[i].variance / sum2);
   }
+  for (std::size_t i = 0; i < n; ++i)
+    map.push_back(&pts[i * dim], anchors[i].gamma, anchors[i].value / sum[i],
+                  anchors[i].variance / sum2[i]);
 }
 
 }  // namespace potmap::detail

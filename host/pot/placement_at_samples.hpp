@@ -32,6 +32,8 @@ struct SectorPlans {
   std::array<const Eigen::MatrixXd*, 2> source{nullptr, nullptr};
   std::array<const Eigen::MatrixXd*, 2> target{nullptr, nullptr};
   std::array<const Eigen::MatrixXd*, 2> coupling{nullptr, nullptr};
+  /// The atom's map at each source (AtomTransportCache::sample_map), or null: computed here.
+  std::array<const SampleMap*, 2> source_map{nullptr, nullptr};
   double angle = 0;
 };
 

@@ -295,8 +295,12 @@ ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer
     }
     const std::size_t before = anchors.size();
     const Atom& atom = dict.atoms[st.atom];
-    const detail::KernelClasses* classes =
-        cache ? &cache->classes(atom, static_cast<std::size_t>(st.atom)) : nullptr;
+    const auto a = static_cast<std::size_t>(st.atom);
+    const detail::KernelClasses* classes = cache ? &cache->classes(atom, a) : nullptr;
+    for (int q = 0; q < 2 && cache; ++q)
+      if (of[q] >= 0)
+        plans.source_map[q] = cache->sample_map(
+            atom, a, q, q == 0 ? o.transport_points : o.transport_free_points, sectors[s].scale);
     st.kernels_dropped += detail::anchors_at_samples(atom, sectors[s], plans, o, anchors, classes);
     st.kernels_placed += anchors.size() - before;
   }
