@@ -18,11 +18,19 @@ using Quantiles = std::array<float, AtomDescriptor::kQuantiles>;
 
 void quantiles(std::vector<double>& v, Quantiles& q) {
   if (v.empty()) return;
-  std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
+  // Each level's order statistic in turn, the next searched above the last: the values of a
+  // full sort at a fraction of its cost (a target sector's thousand free samples, every scan).
+  auto from = v.begin();
   for (int i = 0; i < AtomDescriptor::kQuantiles; ++i) {
     const double level = (i + 0.5) / AtomDescriptor::kQuantiles;
-    q[i] = static_cast<float>(v[std::min(n - 1, static_cast<std::size_t>(level * n))]);
+    const auto at =
+        v.begin() + std::ptrdiff_t(std::min(n - 1, static_cast<std::size_t>(level * n)));
+    if (at >= from) {
+      std::nth_element(from, at, v.end());
+      from = at + 1;
+    }
+    q[i] = static_cast<float>(*at);
   }
 }
 

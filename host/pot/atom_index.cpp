@@ -87,12 +87,18 @@ std::vector<float> features(const std::array<float, AtomDescriptor::kQuantiles>&
   for (float q : radius) f.push_back(q * w);
   if (dim == 3)
     for (float q : z) f.push_back(q * w);
+  // The harmonics' phase factors, made once for every ring (and the same as made per term).
+  std::vector<std::complex<double>> phase(static_cast<std::size_t>(s.harmonics) * s.bins);
+  for (int k = 1; k <= s.harmonics; ++k)
+    for (int b = 0; b < s.bins; ++b)
+      phase[static_cast<std::size_t>(k - 1) * s.bins + b] =
+          std::polar(1.0, -kTwoPi * k * b / s.bins);
   for (int r = 0; r < s.rings; ++r) {
     const float* row = polar.data() + static_cast<std::size_t>(r) * s.bins;
     for (int k = 1; k <= s.harmonics; ++k) {
+      const std::complex<double>* ph = &phase[static_cast<std::size_t>(k - 1) * s.bins];
       std::complex<double> c = 0;
-      for (int b = 0; b < s.bins; ++b)
-        c += double(row[b]) * std::polar(1.0, -kTwoPi * k * b / s.bins);
+      for (int b = 0; b < s.bins; ++b) c += double(row[b]) * ph[b];
       f.push_back(static_cast<float>(std::abs(c) * ring_mid(s, r)));
     }
   }
