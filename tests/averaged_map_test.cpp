@@ -2,7 +2,9 @@
 // support-weighted average of the scans that saw it, never their sum.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <set>
 
 #include "potmap/error.hpp"
 #include "potmap/map/evaluate.hpp"
@@ -148,6 +150,55 @@ TEST(AveragedMap, ThreeDimensionsToo) {
   const auto w = evaluate_exact(avg.map(), hi, 1).mean[0];
   EXPECT_LT(v, -0.3);
   EXPECT_GT(w, 0.3);
+}
+
+// The anchors are found through blocks of cells (32 x 32 in 2D, 16^3 in 3D): a map moved by a
+// whole number of cells, across block edges and to negative coordinates, must solve to the
+// same weights at the moved anchors, each cell holding one anchor. Several overlapping scans,
+// so that later ones find the anchors of earlier ones through the blocks.
+void expect_moved_map_is_the_same(int dim, const double shift[3]) {
+  const double h = AveragedMapOptions{}.spacing;
+  auto scan = [&](double x0, double y0, const double* by) {
+    KernelMap m;
+    m.dim = dim;
+    for (double x = 0; x <= 9 + 1e-9; x += 0.5)
+      for (double y = 0; y <= 4 + 1e-9; y += 0.5)
+        for (double z = 0; z <= (dim == 3 ? 1.0 : 0.0) + 1e-9; z += 0.5) {
+          const double q[3] = {x0 + x + by[0], y0 + y + by[1], z + by[2]};
+          m.push_back(q, kGamma, y < 0.6 ? 1.2 : -0.8, 0.3);
+        }
+    return m;
+  };
+  const double none[3] = {0, 0, 0};
+  AveragedMap here(dim), there(dim);
+  for (int i = 0; i < 4; ++i) {
+    here.add(scan(2.5 * i, 1.5 * i, none));
+    there.add(scan(2.5 * i, 1.5 * i, shift));
+  }
+  ASSERT_EQ(here.size(), there.size());
+  ASSERT_GT(here.size(), 500u);
+  std::set<std::array<long, 3>> cells;
+  for (std::size_t k = 0; k < here.size(); ++k) {
+    std::array<long, 3> c{0, 0, 0};
+    for (int d = 0; d < dim; ++d) {
+      const double p = here.map().position[k * dim + d], q = there.map().position[k * dim + d];
+      ASSERT_NEAR(q - p, shift[d], 1e-9) << "anchor " << k;
+      c[d] = std::lround(std::floor(q / h));
+    }
+    EXPECT_TRUE(cells.insert(c).second) << "two anchors in one cell at anchor " << k;
+    EXPECT_NEAR(there.map().w_mean[k], here.map().w_mean[k], 1e-9) << "anchor " << k;
+    EXPECT_NEAR(there.map().w_var[k], here.map().w_var[k], 1e-9) << "anchor " << k;
+  }
+}
+
+TEST(AveragedMap, AMapMovedAcrossBlocksSolvesTheSame) {
+  const double h = AveragedMapOptions{}.spacing;
+  const double by2[3] = {-37 * h, -45 * h, 0};
+  expect_moved_map_is_the_same(2, by2);
+  const double by2b[3] = {61 * h, -203 * h, 0};
+  expect_moved_map_is_the_same(2, by2b);
+  const double by3[3] = {-21 * h, 13 * h, -9 * h};
+  expect_moved_map_is_the_same(3, by3);
 }
 
 }  // namespace
