@@ -465,43 +465,40 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
   {
     // A caller compiled against the first version (no persistent_refine) still works, and
     // gets the default for it.
-    potmap_mapper_options v1 = fast_options(1);
+    // A caller whose struct ends at `size`: a mapper made with `opts` (its fields beyond
+    // `size` never read), and in `out` what `init` writes into a struct of 0xff bytes of that
+    // size.
+    auto old_caller = [&](potmap_mapper_options opts, size_t size,
+                          potmap_status (*init)(potmap_mapper_options*, size_t),
+                          potmap_mapper_options& out) {
+      opts.struct_size = size;
+      potmap_mapper* made = nullptr;
+      POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &opts, &made));
+      POTMAP_ASSERT_OK(potmap_mapper_destroy(made));
+      std::memset(&out, 0xff, sizeof out);
+      POTMAP_ASSERT_OK(init(&out, size));
+    };
+    potmap_mapper_options v1 = fast_options(1), init_v1;
     v1.persistent_refine = 7;  // beyond the caller's struct: never read
-    v1.struct_size = offsetof(potmap_mapper_options, persistent_refine);
-    potmap_mapper* old_caller = nullptr;
-    POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &v1, &old_caller));
-    POTMAP_ASSERT_OK(potmap_mapper_destroy(old_caller));
-    potmap_mapper_options init_v1;
-    std::memset(&init_v1, 0xff, sizeof init_v1);
-    POTMAP_ASSERT_OK(
-        potmap_mapper_options_init(&init_v1, offsetof(potmap_mapper_options, persistent_refine)));
+    ASSERT_NO_FATAL_FAILURE(old_caller(v1, offsetof(potmap_mapper_options, persistent_refine),
+                                       potmap_mapper_options_init, init_v1));
     EXPECT_EQ(init_v1.persistent_refine, -1);  // not written: beyond the caller's struct
     EXPECT_EQ(init_v1.sectors, 5);
     // The same for a caller of version 2 (no ranking, placement, ...), with either _init.
-    potmap_mapper_options v2 = fast_options(0);
+    potmap_mapper_options v2 = fast_options(0), init_v2;
     v2.ranking = 9;  // beyond the caller's struct: never read
-    v2.struct_size = offsetof(potmap_mapper_options, ranking);
-    POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &v2, &old_caller));
-    POTMAP_ASSERT_OK(potmap_mapper_destroy(old_caller));
-    potmap_mapper_options init_v2;
-    std::memset(&init_v2, 0xff, sizeof init_v2);
-    POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(
-        &init_v2, offsetof(potmap_mapper_options, ranking)));
+    ASSERT_NO_FATAL_FAILURE(old_caller(v2, offsetof(potmap_mapper_options, ranking),
+                                       potmap_mapper_options_init_map_defaults, init_v2));
     EXPECT_EQ(init_v2.ranking, -1);
     EXPECT_EQ(init_v2.average_overall, -1);
     EXPECT_EQ(init_v2.persistent_refine, 1);
     // A caller of version 5 (no refine_spacing, ...): bad values beyond its struct are never
     // read, and _init leaves them alone.
-    potmap_mapper_options v5 = fast_options(1);
+    potmap_mapper_options v5 = fast_options(1), init_v5;
     v5.refine_spacing = -1;
     v5.refine_em_iterations = 0;
-    v5.struct_size = offsetof(potmap_mapper_options, refine_spacing);
-    POTMAP_ASSERT_OK(potmap_mapper_create(ctx, src.dict, &v5, &old_caller));
-    POTMAP_ASSERT_OK(potmap_mapper_destroy(old_caller));
-    potmap_mapper_options init_v5;
-    std::memset(&init_v5, 0xff, sizeof init_v5);
-    POTMAP_ASSERT_OK(
-        potmap_mapper_options_init(&init_v5, offsetof(potmap_mapper_options, refine_spacing)));
+    ASSERT_NO_FATAL_FAILURE(old_caller(v5, offsetof(potmap_mapper_options, refine_spacing),
+                                       potmap_mapper_options_init, init_v5));
     EXPECT_EQ(init_v5.refine_em_iterations, -1);
     EXPECT_EQ(init_v5.seeds_yield_fully, 1);
   }
