@@ -145,10 +145,6 @@ TEST(Abhm, CheckpointResumeEqualsUninterrupted) {
   EXPECT_THROW(abhm_train(other, data, o), InputError);
 }
 
-std::string file_bytes(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
 void put_file(const std::string& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
 }
@@ -174,7 +170,7 @@ TEST(Abhm, CorruptOrTruncatedCheckpointIsRefusedNamingFileAndOffset) {
   AbhmParams p = abhm_init_grid(2, lo, hi, 1.0, 1.0);
   const AbhmParams start = p;
   ASSERT_EQ(abhm_train(p, data, o), 4u);
-  const std::string good = file_bytes(o.checkpoint);
+  const std::string good = test::file_bytes(o.checkpoint);
   ASSERT_GT(good.size(), 44u);
   EXPECT_EQ(good.substr(0, 8), std::string("POTABC\r\n"));
   auto refused = [&](const std::string& bytes) {
@@ -234,7 +230,7 @@ TEST(Abhm, ParamsRoundTrip) {
   EXPECT_EQ(q.flat(), p.flat());
   EXPECT_THROW(read_abhm_params(path + ".missing"), InputError);
   // A damaged file is refused naming the file and the offset.
-  std::string b = file_bytes(path);
+  std::string b = test::file_bytes(path);
   b[40] ^= 1;
   put_file(path, b);
   const std::string msg = input_error_of([&] { read_abhm_params(path); });

@@ -25,11 +25,9 @@
 namespace potmap {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double angle_gap(double a, double b) {
-  double d = std::fmod(std::abs(a - b), 2 * kPi);
-  return std::min(d, 2 * kPi - d);
+  double d = std::fmod(std::abs(a - b), 2 * test::kPi);
+  return std::min(d, 2 * test::kPi - d);
 }
 
 // Samples of a scan as the index tests rank them: 0.3 free samples per metre, none held out.
@@ -96,7 +94,7 @@ TEST(AtomIndex, RotatedCopyAmongThousandsIsNearestAndItsRotationIsFound) {
       EXPECT_EQ(near[0], j) << "atom " << j << " turned " << angle;
       const std::vector<RotationEstimate> r = index.rotations(sig, j, 2);
       ASSERT_FALSE(r.empty());
-      EXPECT_LT(angle_gap(r[0].angle, angle), 4 * kPi / 180)
+      EXPECT_LT(angle_gap(r[0].angle, angle), 4 * test::kPi / 180)
           << "atom " << j << " got " << r[0].angle;
       if (r.size() == 2) EXPECT_GE(r[0].correlation, r[1].correlation);
       ++checked;
@@ -202,7 +200,7 @@ TEST(AtomIndex, IndexedRankingPicksTheExhaustiveWinnerOfATurnedScan) {
   const std::size_t offset = big.size();
   for (const Atom& a : small.atoms) big.atoms.push_back(a);
 
-  const double angle = kPi / 2;
+  const double angle = test::kPi / 2;
   const LabelledPoints target = turned(lp, scan.origin(), angle);
   const double heading = scan_heading(scan) + angle;
   PotOptions ex;
@@ -221,7 +219,7 @@ TEST(AtomIndex, IndexedRankingPicksTheExhaustiveWinnerOfATurnedScan) {
     ++own_atoms;
     EXPECT_NEAR(e.sectors[s].rotation, angle, 1e-12) << "sector " << s;
     EXPECT_EQ(x.sectors[s].atom, static_cast<long>(offset) + e.sectors[s].atom) << "sector " << s;
-    EXPECT_LT(angle_gap(x.sectors[s].rotation, angle), 4 * kPi / 180) << "sector " << s;
+    EXPECT_LT(angle_gap(x.sectors[s].rotation, angle), 4 * test::kPi / 180) << "sector " << s;
   }
   EXPECT_GE(own_atoms, 3);  // the construction holds where the scan has walls
 }
@@ -246,7 +244,7 @@ TEST(AtomIndex, FiveThousandAtomsMapWithinAMarginOfTheExhaustiveRanking) {
   LabelledSplit split;
   label_scan(scan, 2, lo, split);
   PotOptions o;
-  o.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  o.rotations = {0, test::kPi / 2, test::kPi, 3 * test::kPi / 2};
   o.rank_hits = 24;
   o.rank_free = 12;
   o.transport_points = 300;

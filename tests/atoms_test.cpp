@@ -10,13 +10,11 @@
 namespace potmap {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 LabelledPoints ring(int dim, int n, double radius, const std::array<double, 3>& c) {
   LabelledPoints lp;
   lp.dim = dim;
   for (int i = 0; i < n; ++i) {
-    const double a = (i + 0.5) * 2 * kPi / n;
+    const double a = (i + 0.5) * 2 * test::kPi / n;
     lp.position.push_back(c[0] + radius * std::cos(a));
     lp.position.push_back(c[1] + radius * std::sin(a));
     if (dim == 3) lp.position.push_back(c[2] + 0.1 * i);
@@ -35,7 +33,7 @@ TEST(Sectors, AssignsByBearingFromTheHeadingAndCentresAndScales) {
   o.scale = 0.5;
   o.min_samples = 1;
   // Heading pi/2: sector 0 covers world bearings pi/2 to pi.
-  const auto secs = cut_sectors(lp, sensor, kPi / 2, o);
+  const auto secs = cut_sectors(lp, sensor, test::kPi / 2, o);
   ASSERT_EQ(secs.size(), 4u);
   for (const Sector& s : secs) {
     EXPECT_EQ(s.num_hits() + s.num_free(), 10u);
@@ -49,9 +47,9 @@ TEST(Sectors, AssignsByBearingFromTheHeadingAndCentresAndScales) {
     EXPECT_NEAR(mx, 0, 1e-9);
     EXPECT_NEAR(my, 0, 1e-9);
     // The centre lies in the sector's quadrant.
-    const double a = std::atan2(s.centre[1] - sensor[1], s.centre[0] - sensor[0]) - kPi / 2;
-    const double wrapped = a - 2 * kPi * std::floor(a / (2 * kPi));
-    EXPECT_EQ(static_cast<int>(wrapped / (kPi / 2)), s.index);
+    const double a = std::atan2(s.centre[1] - sensor[1], s.centre[0] - sensor[0]) - test::kPi / 2;
+    const double wrapped = a - 2 * test::kPi * std::floor(a / (2 * test::kPi));
+    EXPECT_EQ(static_cast<int>(wrapped / (test::kPi / 2)), s.index);
     // Scaled: a point 10 m from the sensor is at most 20 m from the centre, times 0.5.
     for (double v : s.free) EXPECT_LE(std::abs(v), 10.0 + 1e-9);
   }

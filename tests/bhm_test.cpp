@@ -93,12 +93,12 @@ double map_auc(const KernelMap& map, const LabelledPoints& pts) {
 const std::vector<std::pair<double, double>> kPoses = {{8, 8}, {22, 12}, {14, 24}, {30, 24}};
 constexpr std::uint32_t kSeed = 3;
 
-struct Scene {
+struct BhmScene {
   LabelledPoints train, test;
-  Scene() { simulate(kSeed, kPoses, 0.5, 4, train, test); }
+  BhmScene() { simulate(kSeed, kPoses, 0.5, 4, train, test); }
 };
-const Scene& scene() {
-  static const Scene s;
+const BhmScene& bhm_scene() {
+  static const BhmScene s;
   return s;
 }
 
@@ -169,25 +169,25 @@ TEST(Bhm, SingleSampleMatchesClosedForm) {
 
 TEST(Bhm, SeparatesOccupiedFromFree) {
   KernelMap m = grid();
-  bhm_update_reference(m, scene().train);
-  const double a = map_auc(m, scene().test);
+  bhm_update_reference(m, bhm_scene().train);
+  const double a = map_auc(m, bhm_scene().test);
   std::printf("BHM reference held-out AUC %.4f (%zu train, %zu test samples, %zu kernels)\n", a,
-              scene().train.size(), scene().test.size(), m.size());
+              bhm_scene().train.size(), bhm_scene().test.size(), m.size());
   EXPECT_GT(a, 0.95);
   // The prior alone cannot separate anything.
-  EXPECT_NEAR(map_auc(grid(), scene().test), 0.5, 1e-12);
+  EXPECT_NEAR(map_auc(grid(), bhm_scene().test), 0.5, 1e-12);
 }
 
 TEST(Bhm, VarianceStaysAtPriorWithoutDataAndShrinksWithData) {
   KernelMap m = grid();
-  bhm_update_reference(m, scene().train);
+  bhm_update_reference(m, bhm_scene().train);
   const double reach2 = 18.0 / 8.0;  // tau / gamma
   std::size_t untouched = 0, touched = 0;
   for (std::size_t k = 0; k < m.size(); ++k) {
     double dmin = 1e300;
-    for (std::size_t i = 0; i < scene().train.size(); ++i) {
-      const double dx = scene().train.position[2 * i] - m.position[2 * k];
-      const double dy = scene().train.position[2 * i + 1] - m.position[2 * k + 1];
+    for (std::size_t i = 0; i < bhm_scene().train.size(); ++i) {
+      const double dx = bhm_scene().train.position[2 * i] - m.position[2 * k];
+      const double dy = bhm_scene().train.position[2 * i + 1] - m.position[2 * k + 1];
       dmin = std::min(dmin, dx * dx + dy * dy);
     }
     if (dmin > reach2) {
@@ -211,7 +211,7 @@ TEST(Bhm, AnyKernelMapIsAPriorAndOnlyWeightsChange) {
     prior.w_var[k] = 1e3 * (1 + k % 5);    // per-kernel variances, weak enough for data to rule
   }
   KernelMap post = prior;
-  bhm_update_reference(post, scene().train);
+  bhm_update_reference(post, bhm_scene().train);
   EXPECT_EQ(post.position, prior.position);
   EXPECT_EQ(post.gamma, prior.gamma);
   std::size_t changed = 0;
@@ -220,7 +220,7 @@ TEST(Bhm, AnyKernelMapIsAPriorAndOnlyWeightsChange) {
     changed += post.w_mean[k] != prior.w_mean[k];
   }
   EXPECT_GT(changed, 100u);
-  const double before = map_auc(prior, scene().test), after = map_auc(post, scene().test);
+  const double before = map_auc(prior, bhm_scene().test), after = map_auc(post, bhm_scene().test);
   std::printf("synthetic-map prior AUC %.4f, after BHM %.4f\n", before, after);
   EXPECT_GT(after, 0.95);
 }
@@ -232,8 +232,8 @@ TEST(Bhm, SequentialEqualsBatchWhenXiIsFixed) {
   o.em_iterations = 1;
   o.xi_init = 1.5;
   KernelMap batch = grid(1.0, 8.0, true), seq = batch;
-  bhm_update_reference(batch, scene().train, o);
-  bhm_update_sequential(nullptr, seq, scene().train, o);
+  bhm_update_reference(batch, bhm_scene().train, o);
+  bhm_update_sequential(nullptr, seq, bhm_scene().train, o);
   for (std::size_t k = 0; k < batch.size(); ++k) {
     ASSERT_NEAR(seq.w_var[k], batch.w_var[k], 1e-9 * batch.w_var[k]) << k;
     ASSERT_NEAR(seq.w_mean[k], batch.w_mean[k], 1e-9 * (1 + std::abs(batch.w_mean[k]))) << k;
@@ -243,8 +243,8 @@ TEST(Bhm, SequentialEqualsBatchWhenXiIsFixed) {
   // shows the equality above is a property of fixed xi, not of a test that cannot fail.
   o.em_iterations = 3;
   KernelMap batch3 = grid(1.0, 8.0, true), seq3 = batch3;
-  bhm_update_reference(batch3, scene().train, o);
-  bhm_update_sequential(nullptr, seq3, scene().train, o);
+  bhm_update_reference(batch3, bhm_scene().train, o);
+  bhm_update_sequential(nullptr, seq3, bhm_scene().train, o);
   double maxdiff = 0;
   for (std::size_t k = 0; k < batch3.size(); ++k)
     maxdiff = std::max(maxdiff, std::abs(seq3.w_var[k] - batch3.w_var[k]) / batch3.w_var[k]);
@@ -256,8 +256,8 @@ TEST(Bhm, DeviceEqualsReference) {
     BhmOptions o;
     o.em_iterations = em;
     KernelMap ref = grid(1.0, 8.0, true), dev = ref;
-    bhm_update_reference(ref, scene().train, o);
-    bhm_update(test::context(), dev, scene().train, o);
+    bhm_update_reference(ref, bhm_scene().train, o);
+    bhm_update(test::context(), dev, bhm_scene().train, o);
     double worst_var = 0, worst_mean = 0;
     for (std::size_t k = 0; k < ref.size(); ++k) {
       worst_var = std::max(worst_var, std::abs(dev.w_var[k] - ref.w_var[k]) / ref.w_var[k]);
@@ -272,11 +272,11 @@ TEST(Bhm, DeviceEqualsReference) {
 
 TEST(Bhm, DeviceSequentialEqualsReference) {
   KernelMap ref = grid(), dev = ref;
-  bhm_update_sequential(nullptr, ref, scene().train);
-  bhm_update_sequential(&test::context(), dev, scene().train);
+  bhm_update_sequential(nullptr, ref, bhm_scene().train);
+  bhm_update_sequential(&test::context(), dev, bhm_scene().train);
   for (std::size_t k = 0; k < ref.size(); ++k)
     ASSERT_NEAR(dev.w_var[k], ref.w_var[k], 1e-3 * ref.w_var[k]) << k;
-  EXPECT_GT(map_auc(dev, scene().test), 0.95);
+  EXPECT_GT(map_auc(dev, bhm_scene().test), 0.95);
 }
 
 TEST(Bhm, ThreeDimensions) {
@@ -314,9 +314,9 @@ TEST(Bhm, RejectsBadInput) {
   EXPECT_THROW(bhm_update_reference(m, s3), ArgumentError);
   BhmOptions o;
   o.em_iterations = 0;
-  EXPECT_THROW(bhm_update_reference(m, scene().train, o), ArgumentError);
+  EXPECT_THROW(bhm_update_reference(m, bhm_scene().train, o), ArgumentError);
   m.w_var[3] = 0;
-  EXPECT_THROW(bhm_update_reference(m, scene().train), ArgumentError);
+  EXPECT_THROW(bhm_update_reference(m, bhm_scene().train), ArgumentError);
 }
 
 }  // namespace

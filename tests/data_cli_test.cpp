@@ -9,7 +9,7 @@
 
 namespace {
 
-std::string run(const std::string& args, int* rc) {
+std::string run_data_cli(const std::string& args, int* rc) {
   std::string out;
   FILE* p = popen((std::string(POTMAP_CLI) + " " + args + " 2>&1").c_str(), "r");
   char buf[4096];
@@ -25,7 +25,7 @@ TEST(DataCli, InfoPrintsTheScanCount) {
   if (std::string(POTMAP_CLI).empty()) GTEST_SKIP() << "tools not built";
   int rc = 0;
   const std::string out =
-      run("data info " + potmap::test::shared_data("radish/aces-corrected.log.gz"), &rc);
+      run_data_cli("data info " + potmap::test::shared_data("radish/aces-corrected.log.gz"), &rc);
   EXPECT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("\nscans: 440\n"), std::string::npos) << out;
   EXPECT_NE(out.find("beams per scan: 180\n"), std::string::npos) << out;
@@ -34,7 +34,7 @@ TEST(DataCli, InfoPrintsTheScanCount) {
 TEST(DataCli, InfoOnBadFileFailsNamingIt) {
   if (std::string(POTMAP_CLI).empty()) GTEST_SKIP() << "tools not built";
   int rc = 0;
-  const std::string out = run("data info /nonexistent/x.log", &rc);
+  const std::string out = run_data_cli("data info /nonexistent/x.log", &rc);
   EXPECT_NE(rc, 0);
   EXPECT_NE(out.find("/nonexistent/x.log"), std::string::npos) << out;
 }
@@ -43,10 +43,11 @@ TEST(DataCli, SimulateWritesALogTheInfoCommandReads) {
   if (std::string(POTMAP_CLI).empty()) GTEST_SKIP() << "tools not built";
   const std::string dir = potmap::test::temp_dir("cli_sim");
   int rc = 0;
-  std::string out = run("data simulate --town town3 --seed 4 --scans 25 --out " + dir, &rc);
+  std::string out =
+      run_data_cli("data simulate --town town3 --seed 4 --scans 25 --out " + dir, &rc);
   ASSERT_EQ(rc, 0) << out;
   EXPECT_TRUE(std::filesystem::exists(dir + "/town.png"));
-  out = run("data info " + dir + "/scans.log", &rc);
+  out = run_data_cli("data info " + dir + "/scans.log", &rc);
   EXPECT_NE(out.find("\nscans: 25\n"), std::string::npos) << out;
   EXPECT_NE(out.find("beams per scan: 360\n"), std::string::npos) << out;
 }

@@ -76,12 +76,6 @@ void expect_same(const Dictionary& a, const Dictionary& b) {
   }
 }
 
-std::string slurp(const std::string& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 void spit(const std::string& p, const std::string& bytes) {
   std::ofstream(p, std::ios::binary) << bytes;
 }
@@ -139,7 +133,7 @@ TEST(DictionaryIo, EveryTruncationIsAnInputErrorNamingTheFile) {
   const std::string dir = test::temp_dir("dict_io_truncate");
   const std::string p = dir + "/d.potdict", q = dir + "/t.potdict";
   write_dictionary(random_dictionary(2, 4, 3), p);
-  const std::string bytes = slurp(p);
+  const std::string bytes = potmap::test::file_bytes(p);
   ASSERT_GT(bytes.size(), 500u);
   // Every section boundary of every atom, a byte either side, every header length, every 11th.
   const Dictionary d = read_dictionary(p);
@@ -172,7 +166,7 @@ TEST(DictionaryIo, EveryFlippedByteIsDetected) {
   const std::string dir = test::temp_dir("dict_io_flip");
   const std::string p = dir + "/d.potdict", q = dir + "/f.potdict";
   write_dictionary(random_dictionary(3, 3, 5), p);
-  const std::string bytes = slurp(p);
+  const std::string bytes = potmap::test::file_bytes(p);
   for (std::size_t i = 0; i < bytes.size(); i += i < 200 ? 1 : 7) {
     std::string b = bytes;
     b[i] = static_cast<char>(b[i] ^ (1 << (i % 8)));
@@ -185,7 +179,7 @@ TEST(DictionaryIo, BadHeaderFieldsNameOffsetAndValue) {
   const std::string dir = test::temp_dir("dict_io_header");
   const std::string p = dir + "/d.potdict", q = dir + "/h.potdict";
   write_dictionary(random_dictionary(2, 2, 7), p);
-  const std::string bytes = slurp(p);
+  const std::string bytes = potmap::test::file_bytes(p);
 
   std::string b = bytes;
   b[0] = 'X';
@@ -233,7 +227,7 @@ TEST(DictionaryIo, BadAtomFieldsNameAtomOffsetAndValue) {
   Dictionary d = random_dictionary(2, 1, 9);
   d.atoms[0].source = "";
   write_dictionary(d, p);
-  const std::string bytes = slurp(p);
+  const std::string bytes = potmap::test::file_bytes(p);
   const std::size_t atom = 64;          // first record
   const std::size_t hits = atom + 112;  // no source text
   const std::size_t nh = d.atoms[0].sector.num_hits(), nf = d.atoms[0].sector.num_free();

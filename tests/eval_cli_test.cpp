@@ -19,10 +19,6 @@ namespace {
 
 using test::CliResult;
 
-CliResult run(const std::string& args, const std::string& redirect) {
-  return test::run_cli(args, redirect);
-}
-
 std::string q(const std::string& s) {
   return "'" + s + "'";
 }
@@ -40,7 +36,7 @@ TEST_F(EvalCli, JsonMatchesLibraryOnRealTown1) {
   const std::string map_path = test::shared_data("carla/npz/town1_abhm_map.npz");
   const std::string test_path = test::shared_data("carla/town1_test2k.csv");
   const std::string json_path = test::temp_dir("eval_cli") + "/scores.json";
-  const CliResult r = run(
+  const CliResult r = test::run_cli(
       "eval --map " + q(map_path) + " --test " + q(test_path) + " --json " + q(json_path), "2>&1");
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("auc"), std::string::npos) << r.out;
@@ -79,7 +75,7 @@ TEST_F(EvalCli, JsonToStdoutIsPureAndReferenceMatchesExact) {
   }
   const std::string test_path = test::temp_dir("eval_cli_ref") + "/sub.csv";
   write_labelled_csv(sub, test_path);
-  const CliResult r = run(
+  const CliResult r = test::run_cli(
       "eval --reference --json - --map " + q(map_path) + " --test " + q(test_path), "2>/dev/null");
   ASSERT_EQ(r.status, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);  // throws if anything else is on stdout
@@ -95,12 +91,13 @@ TEST_F(EvalCli, DimensionMismatchAndMissingFileAreClearErrors) {
   const std::string dir = test::temp_dir("eval_cli_err");
   std::ofstream(dir + "/p3.csv") << "t,x,y,z,occupied\n0,1,2,3,1\n";
   const std::string map_path = test::shared_data("carla/npz/town1_abhm_map.npz");
-  CliResult r =
-      run("eval --reference --map " + q(map_path) + " --test " + q(dir + "/p3.csv"), "2>&1");
+  CliResult r = test::run_cli(
+      "eval --reference --map " + q(map_path) + " --test " + q(dir + "/p3.csv"), "2>&1");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("2D"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("3D"), std::string::npos) << r.out;
-  r = run("eval --map " + q(dir + "/none.potmap") + " --test " + q(dir + "/p3.csv"), "2>&1");
+  r = test::run_cli("eval --map " + q(dir + "/none.potmap") + " --test " + q(dir + "/p3.csv"),
+                    "2>&1");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("none.potmap"), std::string::npos) << r.out;
 }

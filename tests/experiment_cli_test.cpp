@@ -31,7 +31,7 @@ std::string small_args() {
          "--abhm-steps 20 --figure-pixels 64 --atom-scans 3 --rotations 4";
 }
 
-json run(const std::string& name, const std::string& args) {
+json run_experiment(const std::string& name, const std::string& args) {
   const std::string dir = potmap::test::temp_dir("experiment_" + name);
   const std::string js = dir + "/out.json";
   const auto r = potmap::test::run_cli("experiment " + args + small_args() + " --json " +
@@ -179,7 +179,7 @@ void check_pot(const json& j) {
 
 TEST(ExperimentCli, IntraOnIntelLogQuality) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
-  const json j = run("intra", "intra " + intel() + " --scans 16 --source-scans 10");
+  const json j = run_experiment("intra", "intra " + intel() + " --scans 16 --source-scans 10");
   check(j, "intra-domain", 1, {"OGM", "BHM", "ABHM", "POT", "RePOT"});
   check_pot(j);
   check_structure(j, 1);
@@ -205,8 +205,8 @@ TEST(ExperimentCli, IntraOnIntelLogQuality) {
 
 TEST(ExperimentCli, InterBetweenTwoLogs) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
-  const json j =
-      run("inter", "inter " + intel() + " " + aces() + " --scans 5 --methods ogm,bhm,pot");
+  const json j = run_experiment(
+      "inter", "inter " + intel() + " " + aces() + " --scans 5 --methods ogm,bhm,pot");
   check(j, "inter-domain", 2, {"OGM", "BHM", "POT"});
   check_pot(j);
   check_structure(j, 2);
@@ -214,7 +214,8 @@ TEST(ExperimentCli, InterBetweenTwoLogs) {
 
 TEST(ExperimentCli, SimToReal) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
-  const json j = run("sim2real", "sim2real " + intel() +
+  const json j =
+      run_experiment("sim2real", "sim2real " + intel() +
                                      " --scans 5 --methods ogm,bhm,pot --towns town1+town2 "
                                      "--sim-scans 6");
   check(j, "sim-to-real", 1, {"OGM", "BHM", "POT"});
@@ -226,8 +227,8 @@ TEST(ExperimentCli, SimToReal) {
 
 TEST(ExperimentCli, DynamicInstantaneousMaps) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
-  const json j =
-      run("dynamic", "dynamic --scans 4 --moving 10 --sources sim:town1 --methods ogm,bhm,repot");
+  const json j = run_experiment(
+      "dynamic", "dynamic --scans 4 --moving 10 --sources sim:town1 --methods ogm,bhm,repot");
   check(j, "dynamic", 1, {"OGM", "BHM", "RePOT"});
   check_structure(j, 1);
   for (const json& r : j["runs"]) EXPECT_TRUE(r.contains("scan"));
@@ -236,8 +237,8 @@ TEST(ExperimentCli, DynamicInstantaneousMaps) {
 // The budget is POT's measured time per scan; the matched learners carry it in their record.
 TEST(ExperimentCli, PerTimeUnit) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
-  const json j =
-      run("pertime", "per-time sim:town1 --source sim:town2 --sim-scans 4 --max-kernels 5000");
+  const json j = run_experiment(
+      "pertime", "per-time sim:town1 --source sim:town2 --sim-scans 4 --max-kernels 5000");
   check(j, "per-time-unit", 1,
         {"OGM", "BHM", "ABHM", "POT", "RePOT", "BHM (budget)", "ABHM (budget)"});
   check_pot(j);

@@ -16,7 +16,7 @@ using namespace potmap;
 
 namespace {
 
-test::CliResult must(const std::string& args) {
+test::CliResult must_label(const std::string& args) {
   const test::CliResult r = test::run_cli(args, "2>&1");
   EXPECT_EQ(r.status, 0) << args << "\n" << r.out;
   return r;
@@ -28,8 +28,8 @@ TEST(LabelCli, LabelsARealLogAsTheLibraryDoes) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("label-cli");
   const std::string log = test::shared_data("radish/intel-corrected.log.gz");
-  must("data label " + test::quoted(log) + " -o " + test::quoted(d + "/train.csv") + " --test " +
-       test::quoted(d + "/test.csv") + " --holdout 0.2 --range-cut 20 --seed 3");
+  must_label("data label " + test::quoted(log) + " -o " + test::quoted(d + "/train.csv") +
+             " --test " + test::quoted(d + "/test.csv") + " --holdout 0.2 --range-cut 20 --seed 3");
   const LabelledPoints train = read_labelled_csv(d + "/train.csv");
   const LabelledPoints test = read_labelled_csv(d + "/test.csv");
 
@@ -72,18 +72,18 @@ TEST(LabelCli, LearnFromALogEqualsLearningFromItsLabels) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("learn-log");
   const std::string q = test::quoted(d);
-  must("data simulate --town town2 --seed 2 --scans 4 --spacing 3 --out " + q + "/sim");
-  must("data label " + q + "/sim/scans.log -o " + q + "/s.csv --free-per-metre 0.5");
-  must("learn bhm " + q + "/s.csv -o " + q + "/from_csv.potmap --spacing 1");
-  must("learn bhm " + q + "/sim/scans.log -o " + q +
-       "/from_log.potmap --spacing 1 "
-       "--free-per-metre 0.5");
+  must_label("data simulate --town town2 --seed 2 --scans 4 --spacing 3 --out " + q + "/sim");
+  must_label("data label " + q + "/sim/scans.log -o " + q + "/s.csv --free-per-metre 0.5");
+  must_label("learn bhm " + q + "/s.csv -o " + q + "/from_csv.potmap --spacing 1");
+  must_label("learn bhm " + q + "/sim/scans.log -o " + q +
+             "/from_log.potmap --spacing 1 "
+             "--free-per-metre 0.5");
   const std::string a = test::file_bytes(d + "/from_csv.potmap"),
                     b = test::file_bytes(d + "/from_log.potmap");
   ASSERT_GT(a.size(), 100u);
   EXPECT_EQ(a, b);
   // Another labelling gives another map: the options reach the labelling.
-  must("learn bhm " + q + "/sim/scans.log -o " + q + "/other.potmap --spacing 1");
+  must_label("learn bhm " + q + "/sim/scans.log -o " + q + "/other.potmap --spacing 1");
   EXPECT_NE(test::file_bytes(d + "/other.potmap"), a);
 }
 
@@ -91,11 +91,11 @@ TEST(LabelCli, DictBuildLearnsItsOwnSourceMapFromALog) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("dict-log");
   const std::string q = test::quoted(d);
-  must("data simulate --town town1 --seed 1 --scans 3 --spacing 3 --out " + q + "/sim");
+  must_label("data simulate --town town1 --seed 1 --scans 3 --spacing 3 --out " + q + "/sim");
   const test::CliResult r =
-      must("dict build --scans " + q + "/sim/scans.log --out " + q + "/d.potdict --json -");
+      must_label("dict build --scans " + q + "/sim/scans.log --out " + q + "/d.potdict --json -");
   EXPECT_NE(r.out.find("\"atoms\""), std::string::npos) << r.out;
-  const test::CliResult info = must("dict info " + q + "/d.potdict");
+  const test::CliResult info = must_label("dict info " + q + "/d.potdict");
   EXPECT_NE(info.out.find("joint BHM"), std::string::npos) << info.out;
   EXPECT_EQ(info.out.find("atoms             0\n"), std::string::npos) << info.out;
 }
@@ -104,11 +104,11 @@ TEST(LabelCli, KittiFolderIsReadAsItsSequence) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("kitti-folder");
   const std::string q = test::quoted(d);
-  must("data simulate --town town3 --3d --scans 3 --spacing 4 --out " + q + "/seq");
-  const test::CliResult info = must("data info " + q + "/seq");
+  must_label("data simulate --town town3 --3d --scans 3 --spacing 4 --out " + q + "/seq");
+  const test::CliResult info = must_label("data info " + q + "/seq");
   EXPECT_NE(info.out.find("\nscans: 3\n"), std::string::npos) << info.out;
   EXPECT_NE(info.out.find("\ndimension: 3\n"), std::string::npos) << info.out;
-  const test::CliResult label = must("data label " + q + "/seq -o " + q + "/s.csv");
+  const test::CliResult label = must_label("data label " + q + "/seq -o " + q + "/s.csv");
   EXPECT_EQ(read_labelled_csv(d + "/s.csv").dim, 3);
   // A folder that is no sequence is named, not read as an empty log.
   std::filesystem::create_directories(d + "/empty");

@@ -14,7 +14,7 @@ using namespace potmap;
 
 namespace {
 
-void must(const std::string& args) {
+void must_map(const std::string& args) {
   const test::CliResult r = test::run_cli(args, "2>&1");
   ASSERT_EQ(r.status, 0) << args << "\n" << r.out;
 }
@@ -25,11 +25,11 @@ TEST(MapCli, MapsAnotherTownWithADictionary) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("map-cli");
   const std::string q = test::quoted(d);
-  must("data simulate --town town1 --seed 1 --scans 4 --spacing 3 --out " + q + "/src");
-  must("learn bhm " + q + "/src/train.csv -o " + q + "/src.potmap --gamma 4 --sequential");
-  must("dict build --scans " + q + "/src/scans.log --map " + q + "/src.potmap --out " + q +
-       "/d.potdict");
-  must("data simulate --town town2 --seed 7 --scans 3 --spacing 3 --out " + q + "/tgt");
+  must_map("data simulate --town town1 --seed 1 --scans 4 --spacing 3 --out " + q + "/src");
+  must_map("learn bhm " + q + "/src/train.csv -o " + q + "/src.potmap --gamma 4 --sequential");
+  must_map("dict build --scans " + q + "/src/scans.log --map " + q + "/src.potmap --out " + q +
+           "/d.potdict");
+  must_map("data simulate --town town2 --seed 7 --scans 3 --spacing 3 --out " + q + "/tgt");
   const test::CliResult r =
       test::run_cli("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
                         "/m.potmap --refine --rotations 4 --instantaneous " + q +
@@ -56,14 +56,14 @@ TEST(MapCli, MapsAnotherTownWithADictionary) {
   EXPECT_TRUE(acc > 0.5 && acc <= 1) << acc;
   // --seeds-keep-start reaches RePOT's persistent map: the seeded means start the bound, so the
   // map is another one than the default rule's (seeds that yield fully).
-  must("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
-       "/kept.potmap --refine --rotations 4 --seeds-keep-start");
+  must_map("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+           "/kept.potmap --refine --rotations 4 --seeds-keep-start");
   const KernelMap kept = read_map(d + "/kept.potmap");
   EXPECT_EQ(kept.size(), m.size());
   EXPECT_NE(kept.w_mean, m.w_mean);
   // --refine-spacing sets the persistent map's pitch (0.5 m by default).
-  must("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
-       "/coarse.potmap --refine --rotations 4 --refine-spacing 1 --refine-prior-var 5");
+  must_map("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+           "/coarse.potmap --refine --rotations 4 --refine-spacing 1 --refine-prior-var 5");
   auto pitch = [](const KernelMap& km) {
     double p = HUGE_VAL;
     for (std::size_t a = 1; a < km.size(); ++a)

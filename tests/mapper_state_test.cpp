@@ -26,11 +26,11 @@ MapperOptions small_options(bool refine) {
   return o;
 }
 
-struct Scene {
+struct StateScene {
   Simulation sim;
   std::vector<Scan> targets;
   std::shared_ptr<Dictionary> dict = std::make_shared<Dictionary>();
-  Scene() {
+  StateScene() {
     SimOptions so;
     so.scans = 8;
     so.spacing = 3;
@@ -41,8 +41,8 @@ struct Scene {
   }
 };
 
-const Scene& scene() {
-  static const Scene s;
+const StateScene& state_scene() {
+  static const StateScene s;
   return s;
 }
 
@@ -64,7 +64,7 @@ OverallMapOptions capped() {
 }
 
 TEST(MapperState, RestoredMapperContinuesBitForBit) {
-  const Scene& s = scene();
+  const StateScene& s = state_scene();
   const std::string dir = test::temp_dir("mapper-state");
   for (const bool refine : {false, true}) {
     SCOPED_TRACE(refine ? "RePOT" : "POT");
@@ -95,7 +95,7 @@ TEST(MapperState, RestoredMapperContinuesBitForBit) {
 // The averaged overall map with kernels on the targets' samples (what the experiments run):
 // its anchors' running sums come back too, and a state of the summed map is refused.
 TEST(MapperState, AveragedOverallMapContinuesBitForBit) {
-  const Scene& s = scene();
+  const StateScene& s = state_scene();
   const std::string dir = test::temp_dir("mapper-state-averaged");
   MapperOptions o = small_options(false);
   o.pot.placement = PotPlacement::target_samples;
@@ -126,7 +126,7 @@ TEST(MapperState, AveragedOverallMapContinuesBitForBit) {
 // What `potmap map --resume` does: map_scans (pipelined) from the restored mapper's
 // continuation(), each scan added with add_mapped().
 TEST(MapperState, MapScansContinuesARestoredRun) {
-  const Scene& s = scene();
+  const StateScene& s = state_scene();
   const std::string dir = test::temp_dir("mapper-state-pipeline");
   for (const bool refine : {false, true}) {
     SCOPED_TRACE(refine ? "RePOT" : "POT");
@@ -176,7 +176,7 @@ std::string message_of(Mapper& m, const std::string& path) {
 }
 
 TEST(MapperState, RefusesOtherInputsAndBrokenFilesNamingThem) {
-  const Scene& s = scene();
+  const StateScene& s = state_scene();
   const std::string dir = test::temp_dir("mapper-state-refusals");
   const MapperOptions o = small_options(false);
   Mapper saved(&test::context(), s.dict, o);

@@ -16,7 +16,7 @@ namespace {
 
 // The default dictionary is built once per build tree, in its own cache folder (the commands
 // inherit the variable).
-test::CliResult run(const std::string& args, const std::string& redirect = "2>&1") {
+test::CliResult run_mapping_cli(const std::string& args, const std::string& redirect = "2>&1") {
   ::setenv("XDG_CACHE_HOME", (std::string(POTMAP_BINARY_DIR) + "/user-cache").c_str(), 1);
   return test::run_cli(args, redirect);
 }
@@ -26,10 +26,10 @@ test::CliResult run(const std::string& args, const std::string& redirect = "2>&1
 TEST(MappingCli, RealLogToMapPicturesRosMapAndScores) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("mapping-cli");
-  const test::CliResult r =
-      run("mapping " + test::quoted(test::shared_data("radish/intel-corrected.log.gz")) +
-              " --max-scans 15 -q -o " + test::quoted(d) + " --json -",
-          "2>/dev/null");
+  const test::CliResult r = run_mapping_cli(
+      "mapping " + test::quoted(test::shared_data("radish/intel-corrected.log.gz")) +
+          " --max-scans 15 -q -o " + test::quoted(d) + " --json -",
+      "2>/dev/null");
   ASSERT_EQ(r.status, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["method"], "RePOT");
@@ -56,9 +56,11 @@ TEST(MappingCli, RealLogToMapPicturesRosMapAndScores) {
 TEST(MappingCli, DefaultDictionaryIsCachedAndVersioned) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("default-dict");
-  const test::CliResult first = run("dict default --out " + test::quoted(d + "/a.potdict"));
+  const test::CliResult first =
+      run_mapping_cli("dict default --out " + test::quoted(d + "/a.potdict"));
   ASSERT_EQ(first.status, 0) << first.out;
-  const test::CliResult second = run("dict default --out " + test::quoted(d + "/b.potdict"));
+  const test::CliResult second =
+      run_mapping_cli("dict default --out " + test::quoted(d + "/b.potdict"));
   ASSERT_EQ(second.status, 0) << second.out;
   EXPECT_EQ(second.out.find("building the default dictionary"), std::string::npos) << second.out;
   EXPECT_NE(second.out.find("default-v"), std::string::npos) << second.out;

@@ -14,7 +14,7 @@ using namespace potmap;
 
 namespace {
 
-std::string npy(const std::string& descr, const std::string& shape, const std::string& body) {
+std::string npy_bytes(const std::string& descr, const std::string& shape, const std::string& body) {
   std::string h = "{'descr': '" + descr + "', 'fortran_order': False, 'shape': " + shape + ", }";
   while ((10 + h.size() + 1) % 64) h += ' ';
   h += '\n';
@@ -64,9 +64,9 @@ std::string raw(std::initializer_list<T> v) {
 TEST(NpzDataset, ReadsXAndY) {
   const std::string dir = test::temp_dir("npz_ok");
   const std::string p = dir + "/d.npz";
-  std::ofstream(p, std::ios::binary)
-      << stored_zip({{"X.npy", npy("<f8", "(3, 3)", raw<double>({0, 1, 2, 0, 3, 4, 1, 5, 6}))},
-                     {"Y.npy", npy("<f8", "(3, 1)", raw<double>({1, 0, 1}))}});
+  std::ofstream(p, std::ios::binary) << stored_zip(
+      {{"X.npy", npy_bytes("<f8", "(3, 3)", raw<double>({0, 1, 2, 0, 3, 4, 1, 5, 6}))},
+       {"Y.npy", npy_bytes("<f8", "(3, 1)", raw<double>({1, 0, 1}))}});
   const LabelledPoints lp = read_npz_labelled(p);
   ASSERT_EQ(lp.size(), 3u);
   EXPECT_EQ(lp.dim, 2);
@@ -81,8 +81,8 @@ TEST(NpzDataset, MismatchedLabelsNameTheFile) {
   const std::string dir = test::temp_dir("npz_bad");
   const std::string p = dir + "/d.npz";
   std::ofstream(p, std::ios::binary)
-      << stored_zip({{"X.npy", npy("<f4", "(2, 4)", raw<float>({0, 1, 2, 3, 0, 4, 5, 6}))},
-                     {"Y.npy", npy("|u1", "(3,)", std::string("\x01\x00\x01", 3))}});
+      << stored_zip({{"X.npy", npy_bytes("<f4", "(2, 4)", raw<float>({0, 1, 2, 3, 0, 4, 5, 6}))},
+                     {"Y.npy", npy_bytes("|u1", "(3,)", std::string("\x01\x00\x01", 3))}});
   try {
     read_npz_labelled(p);
     FAIL();

@@ -18,8 +18,6 @@
 namespace potmap {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 SimOptions small3d(std::size_t scans, std::uint64_t seed) {
   SimOptions so;
   so.scans = scans;
@@ -71,7 +69,7 @@ TEST(Pot3d, ScanOntoItselfPutsKernelsBackAtTheirHeight) {
   ASSERT_GE(dict.size(), 3u);
   EXPECT_EQ(dict.dim, 3);
   PotOptions opt;
-  opt.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  opt.rotations = {0, test::kPi / 2, test::kPi, 3 * test::kPi / 2};
   opt.rank_hits = 100000;
   opt.rank_free = 100000;
   opt.transport_points = 100000;

@@ -20,10 +20,10 @@
 namespace potmap {
 namespace {
 
-struct Scene {
+struct MapperScene {
   Simulation sim;
   std::shared_ptr<Dictionary> dict = std::make_shared<Dictionary>();
-  Scene() {
+  MapperScene() {
     SimOptions so;
     so.scans = 6;
     so.spacing = 4;
@@ -33,12 +33,7 @@ struct Scene {
   }
 };
 
-std::string bytes_of(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-void expect_same(const KernelMap& a, const KernelMap& b) {
+void expect_same_map(const KernelMap& a, const KernelMap& b) {
   ASSERT_EQ(a.size(), b.size());
   EXPECT_EQ(a.position, b.position);
   EXPECT_EQ(a.gamma, b.gamma);
@@ -47,7 +42,7 @@ void expect_same(const KernelMap& a, const KernelMap& b) {
 }
 
 TEST(PotMapper, AddScanGivesWhatMapScansGives) {
-  const Scene s;
+  const MapperScene s;
   ASSERT_GE(s.dict->size(), 4u);
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
   for (const bool refine : {false, true}) {
@@ -73,7 +68,7 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
         const MappedScan& got = mapper.add_scan(targets[i]);
         EXPECT_EQ(got.index, i);
         EXPECT_EQ(&got, &mapper.last());
-        expect_same(got.transfer.map, want[i].transfer.map);
+        expect_same_map(got.transfer.map, want[i].transfer.map);
         EXPECT_EQ(got.test.position, want[i].test.position);
         EXPECT_EQ(got.transfer.timing.refine_ms > 0, refine);
         // POT merges every instantaneous kernel; RePOT's persistent map seeds instead.
@@ -83,7 +78,7 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
       }
       EXPECT_EQ(mapper.scans(), targets.size());
       EXPECT_EQ(mapper.repot() != nullptr, refine);
-      expect_same(mapper.overall_map(), refine ? repot.map() : overall.map());
+      expect_same_map(mapper.overall_map(), refine ? repot.map() : overall.map());
       EXPECT_EQ(mapper.overall_map().has_bias, refine);
       EXPECT_GT(mapper.overall_kernels(), 0u);
       EXPECT_GT(mapper.overall_memory_bytes(), 0u);
@@ -104,7 +99,7 @@ TEST(PotMapper, AddScanGivesWhatMapScansGives) {
 // work-group changes the order of the solver's sums: the same atoms and rotations win, and the
 // kernels land within 1e-4 m and 1e-3 in weight.
 TEST(PotMapper, MapsDoNotDependOnScansInFlightOrSinkhornWorkGroup) {
-  const Scene s;
+  const MapperScene s;
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
   const auto run = [&](Context& ctx, bool pipeline) {
     MapperOptions o = test::small_mapper_options(false);
@@ -121,7 +116,7 @@ TEST(PotMapper, MapsDoNotDependOnScansInFlightOrSinkhornWorkGroup) {
   for (std::size_t i = 0; i < on.size(); ++i) {
     EXPECT_EQ(on[i].index, i);
     EXPECT_EQ(off[i].index, i);
-    expect_same(on[i].transfer.map, off[i].transfer.map);
+    expect_same_map(on[i].transfer.map, off[i].transfer.map);
     EXPECT_EQ(on[i].test.label, off[i].test.label);
     kernels += on[i].transfer.map.size();
   }
@@ -157,7 +152,7 @@ TEST(PotMapper, MapsDoNotDependOnScansInFlightOrSinkhornWorkGroup) {
 // maps, POT's). Driving over the same scans again leaves the persistent map's memory about as it
 // was, and it still maps the place: the scans' own held-out samples score well on it.
 TEST(PotMapper, PersistentRepotMapKeepsItsMemoryOverRepeatedDrives) {
-  const Scene s;
+  const MapperScene s;
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
   MapperOptions per_scan = test::small_mapper_options(true);
   per_scan.persistent_refine = false;
@@ -176,7 +171,7 @@ TEST(PotMapper, PersistentRepotMapKeepsItsMemoryOverRepeatedDrives) {
       EXPECT_TRUE(a.train.empty());
       if (pass == 0) {
         // The persistent mapper's instantaneous maps are POT's (same scan index, same seeds).
-        expect_same(c.transfer.map, b.transfer.map);
+        expect_same_map(c.transfer.map, b.transfer.map);
         test.position.insert(test.position.end(), c.test.position.begin(), c.test.position.end());
         test.label.insert(test.label.end(), c.test.label.begin(), c.test.label.end());
       }
@@ -204,7 +199,7 @@ TEST(PotMapper, PersistentRepotMapKeepsItsMemoryOverRepeatedDrives) {
 // the merge in flight. Under ThreadSanitizer (potmap_thread_tests) this is also the check that
 // the caller's reads of last() and the merge's writes do not race.
 TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
-  const Scene s;
+  const MapperScene s;
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
   const std::string dir = test::temp_dir("pot-mapper-async");
   for (const int kind : {0, 1, 2}) {
@@ -219,7 +214,7 @@ TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
       const MappedScan& b = async.add_scan(targets[i]);
       EXPECT_EQ(b.index, i);
       EXPECT_EQ(&b, &async.last());
-      expect_same(b.transfer.map, a.transfer.map);  // read while b's merge may be running
+      expect_same_map(b.transfer.map, a.transfer.map);  // read while b's merge may be running
       EXPECT_EQ(async.scans(), i + 1);
       if (i % 2) continue;  // every other scan goes on with its merge in flight
       const MapperMerge &ma = sync.last_merge(), &mb = async.last_merge();
@@ -227,9 +222,9 @@ TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
       EXPECT_EQ(mb.stats.merged, ma.stats.merged);
       EXPECT_EQ(mb.seeded, ma.seeded);
       if (kind == 2) EXPECT_GT(mb.merge_ms, 0.0);  // the persistent update, counted here
-      expect_same(async.overall_map(), sync.overall_map());
+      expect_same_map(async.overall_map(), sync.overall_map());
     }
-    expect_same(async.overall_map(), sync.overall_map());
+    expect_same_map(async.overall_map(), sync.overall_map());
     EXPECT_EQ(async.overall_kernels(), sync.overall_kernels());
     EXPECT_GT(async.overall_kernels(), 0u);
     // A checkpoint of the asynchronous mapper restores the synchronous one's map (the files
@@ -240,22 +235,22 @@ TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
     sync.add_scan(targets[0]);
     async.save_state(fb);
     sync.save_state(fa);
-    EXPECT_EQ(bytes_of(fa).size(), bytes_of(fb).size());
+    EXPECT_EQ(test::file_bytes(fa).size(), test::file_bytes(fb).size());
     o.async_merge = false;
     Mapper from_sync(&test::context(), s.dict, o), from_async(&test::context(), s.dict, o);
     from_sync.load_state(fa);
     from_async.load_state(fb);
-    expect_same(from_async.overall_map(), from_sync.overall_map());
-    expect_same(from_async.overall_map(), sync.overall_map());
+    expect_same_map(from_async.overall_map(), from_sync.overall_map());
+    expect_same_map(from_async.overall_map(), sync.overall_map());
     from_async.add_scan(targets[1]);
     sync.add_scan(targets[1]);
-    expect_same(from_async.overall_map(), sync.overall_map());
+    expect_same_map(from_async.overall_map(), sync.overall_map());
     // Copied and moved with a merge in flight: each copy holds the finished map.
     async.add_scan(targets[1]);
     const Mapper copy = async;
     Mapper moved = std::move(async);
-    expect_same(copy.overall_map(), sync.overall_map());
-    expect_same(moved.overall_map(), sync.overall_map());
+    expect_same_map(copy.overall_map(), sync.overall_map());
+    expect_same_map(moved.overall_map(), sync.overall_map());
     async = std::move(moved);
     async.add_scan(targets[2]);
     async.reset();  // waits for the merge in flight
@@ -267,7 +262,7 @@ TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
 TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {
   EXPECT_THROW(Mapper(&test::context(), nullptr), ArgumentError);
   EXPECT_THROW(Mapper(&test::context(), std::make_shared<Dictionary>()), ArgumentError);
-  const Scene s;
+  const MapperScene s;
   Mapper mapper(&test::context(), s.dict, test::small_mapper_options(false));
   mapper.add_scan(s.sim.scans[2]);
   const KernelMap before = mapper.overall().map();
@@ -277,7 +272,7 @@ TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {
   wrong.no_return.resize(wrong.no_return.size() / 6 * 6);
   EXPECT_THROW(mapper.add_scan(wrong), ArgumentError);
   EXPECT_EQ(mapper.scans(), 1u);
-  expect_same(mapper.overall().map(), before);
+  expect_same_map(mapper.overall().map(), before);
   EXPECT_EQ(mapper.last().index, 0u);
 }
 

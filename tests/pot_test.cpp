@@ -22,8 +22,6 @@ namespace {
 
 using test::training_samples;
 
-constexpr double kPi = 3.14159265358979323846;
-
 // Kernels every `step` metres around a point, each weight mean tagging its index.
 KernelMap tagged_grid(const std::array<double, 3>& c, double half, double step) {
   KernelMap map;
@@ -67,7 +65,7 @@ TEST_P(PotSelf, ScanOntoItselfPutsKernelsBack) {
   build_dictionary({scan}, map, dopt, dict);
   ASSERT_GE(dict.size(), 3u);
   PotOptions o = small_options();
-  o.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
+  o.rotations = {0, test::kPi / 2, test::kPi, 3 * test::kPi / 2};
   o.transport_free = GetParam() > 0;
   o.transport_free_points = GetParam() == 1 ? 5000 : 30;
   const LabelledPoints train = training_samples(scan, 0, dopt.labels.free_per_metre);
@@ -114,7 +112,7 @@ TEST(Pot, PreselectionRanksOnlyKAtomsAndKeepsTheOwnAtom) {
   build_dictionary(scans, map, {}, dict);
   ASSERT_GE(dict.size(), 10u);
   PotOptions o = small_options();
-  o.rotations = {0, kPi};
+  o.rotations = {0, test::kPi};
   o.candidates = 2;
   const LabelledPoints train = training_samples(scans[1], 1);
   const PreparedTransfer pt =
@@ -198,7 +196,7 @@ TEST(Pot, RotatedAtomIsRankedBestAtItsRotation) {
   build_dictionary(sim.scans, map, dopt, dict);
   ASSERT_EQ(dict.size(), 3u);
   // The target: scan 1 turned by 90 degrees about its sensor and moved 500 m away.
-  const double angle = kPi / 2;
+  const double angle = test::kPi / 2;
   const auto o = scan.origin();
   LabelledPoints target = training_samples(scan, 1);
   for (std::size_t i = 0; i < target.size(); ++i) {
@@ -225,7 +223,7 @@ TEST(Pot, DeviceChoosesWhatTheReferenceChooses) {
   Dictionary dict;
   build_dictionary({sim.scans[0], sim.scans[1]}, map, {}, dict);
   PotOptions o = small_options();
-  o.rotations = {0, kPi};
+  o.rotations = {0, test::kPi};
   // Both converged to the same tolerance, so both plans are the same one up to it.
   o.transport_tolerance = 1e-5;
   o.transport_free_tolerance = 1e-5;

@@ -19,19 +19,14 @@ struct Result {
   std::string out, err;
 };
 
-std::string read_all(const std::string& path) {
-  std::ifstream f(path);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
 Result run_cli(const std::string& dir, const std::string& args) {
   const std::string cmd =
       std::string("'") + POTMAP_CLI + "' " + args + " >'" + dir + "/stdout' 2>'" + dir + "/stderr'";
   const int rc = std::system(cmd.c_str());
   Result r;
   r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.out = read_all(dir + "/stdout");
-  r.err = read_all(dir + "/stderr");
+  r.out = potmap::test::file_bytes(dir + "/stdout");
+  r.err = potmap::test::file_bytes(dir + "/stderr");
   return r;
 }
 

@@ -28,15 +28,9 @@ struct Npy {
   std::vector<float> data;
 };
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw std::runtime_error("cannot read " + path);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
 // An independent reader of what NumPy would accept: magic, version 1.0, '<f4', C order, shape.
 Npy read_npy(const std::string& path) {
-  const std::string s = slurp(path);
+  const std::string s = potmap::test::file_bytes(path);
   if (s.size() < 10 || s.compare(0, 6, "\x93NUMPY") != 0) throw std::runtime_error("bad magic");
   if (s[6] != 1 || s[7] != 0) throw std::runtime_error("bad version");
   const std::size_t hlen = static_cast<unsigned char>(s[8]) | static_cast<unsigned char>(s[9]) << 8;
@@ -300,7 +294,9 @@ TEST(Raster, BandsGiveTheSameFilesBitForBit) {
       EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
       EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
       for (const char* suffix : {"_prob.npy", "_var.npy", "_prob.png", "_var.png"})
-        EXPECT_TRUE(slurp(dir + "/one" + suffix) == slurp(prefix + suffix)) << suffix;
+        EXPECT_TRUE(potmap::test::file_bytes(dir + "/one" + suffix) ==
+                    potmap::test::file_bytes(prefix + suffix))
+            << suffix;
     }
   }
 }

@@ -22,11 +22,6 @@ using potmap::test::quoted;
 
 namespace {
 
-std::string bytes_of(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
 std::size_t tiles_in(const std::string& dir) {
   std::size_t n = 0;
   std::error_code ec;
@@ -78,7 +73,7 @@ TEST(RasterTilesCli, AJobKilledMidwayResumesToTheSameFile) {
   EXPECT_NE(resumed.out.find("\"reused\": " + std::to_string(done)), std::string::npos)
       << resumed.out;
   EXPECT_NE(resumed.out.find("\"stale\": 0"), std::string::npos) << resumed.out;
-  EXPECT_EQ(bytes_of(out), bytes_of(dir + "/whole.tif"));
+  EXPECT_EQ(potmap::test::file_bytes(out), potmap::test::file_bytes(dir + "/whole.tif"));
   EXPECT_FALSE(fs::exists(out + ".tiles"));
 }
 

@@ -22,15 +22,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string bytes_of(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-struct Fixture {
+struct TilesFixture {
   SyntheticScene scene = make_synthetic_scene(3, 0.5, 10);
   RasterSpec spec;
-  Fixture() {
+  TilesFixture() {
     spec.xmin = scene.bounds[0];
     spec.xmax = scene.bounds[1];
     spec.ymin = scene.bounds[2];
@@ -49,7 +44,7 @@ struct Fixture {
 
 TEST(RasterTiles, TilesAreTheEvaluatorsGridAndTheGeoTiffHoldsThem) {
   if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
-  Fixture f;
+  TilesFixture f;
   const std::string dir = test::temp_dir("raster-tiles-grid");
   const std::string out = dir + "/map.tif";
   TiledRasterOptions o = f.options(dir);
@@ -138,7 +133,7 @@ TEST(RasterTiles, TilesAreTheEvaluatorsGridAndTheGeoTiffHoldsThem) {
 
 TEST(RasterTiles, AStoppedJobResumesToTheSameFile) {
   if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
-  Fixture f;
+  TilesFixture f;
   const std::string dir = test::temp_dir("raster-tiles-resume");
   const TiledRasterSummary whole = rasterize_tiled(test::context(), f.scene.map, f.spec,
                                                    dir + "/whole.tif", f.options(dir + "/a"));
@@ -162,18 +157,18 @@ TEST(RasterTiles, AStoppedJobResumesToTheSameFile) {
   const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
   EXPECT_EQ(s.reused, left);
   EXPECT_EQ(s.computed, whole.tiles - left);
-  EXPECT_EQ(bytes_of(out), bytes_of(dir + "/whole.tif"));
+  EXPECT_EQ(potmap::test::file_bytes(out), potmap::test::file_bytes(dir + "/whole.tif"));
 }
 
 TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
   if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
-  Fixture f;
+  TilesFixture f;
   const std::string dir = test::temp_dir("raster-tiles-corrupt");
   TiledRasterOptions o = f.options(dir);
   o.remove_tiles = false;
   const std::string out = dir + "/map.tif";
   rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
-  const std::string first = bytes_of(out);
+  const std::string first = potmap::test::file_bytes(out);
 
   TiledRaster job(test::context(), f.scene.map, f.spec, out, o);
   const RasterTile& t = job.tiles()[7];
@@ -196,7 +191,7 @@ TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
   }
-  EXPECT_EQ(bytes_of(out), first);
+  EXPECT_EQ(potmap::test::file_bytes(out), first);
   for (const auto& e : fs::directory_iterator(dir))
     EXPECT_TRUE(e.path() == out || e.path() == o.work_dir ||
                 e.path().filename() == "map.tif.manifest.json")
@@ -205,7 +200,7 @@ TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
   const RasterTile& t2 = job.tiles()[3];
   const std::string path2 =
       o.work_dir + "/tile_" + std::to_string(t2.row) + "_" + std::to_string(t2.col) + ".bin";
-  const std::string saved = bytes_of(path2);
+  const std::string saved = potmap::test::file_bytes(path2);
   fs::remove(path2);
   try {
     job.assemble();
@@ -214,13 +209,13 @@ TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
     EXPECT_NE(std::string(e.what()).find("missing"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find(path2), std::string::npos) << e.what();
   }
-  EXPECT_EQ(bytes_of(out), first);
+  EXPECT_EQ(potmap::test::file_bytes(out), first);
   std::ofstream(path2, std::ios::binary) << saved;
 
   const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
   EXPECT_EQ(s.stale, 1u);
   EXPECT_EQ(s.computed, 1u);
-  EXPECT_EQ(bytes_of(out), first);
+  EXPECT_EQ(potmap::test::file_bytes(out), first);
 
   // Another map: every tile there belongs to another job.
   KernelMap other = f.scene.map;
@@ -231,7 +226,7 @@ TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
 }
 
 TEST(RasterTiles, BadOptionsAreNamed) {
-  Fixture f;
+  TilesFixture f;
   const std::string dir = test::temp_dir("raster-tiles-bad");
   TiledRasterOptions o = f.options(dir);
   o.tile_cells = 100;
@@ -255,7 +250,7 @@ TEST(RasterTiles, BadOptionsAreNamed) {
 
 TEST(RasterTiles, EveryCodecHoldsTheSameValues) {
   if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
-  Fixture f;
+  TilesFixture f;
   const std::string dir = test::temp_dir("raster-tiles-codecs");
   TiledRasterOptions o = f.options(dir);
   o.remove_tiles = false;  // each codec assembles the same tiles
@@ -274,7 +269,7 @@ TEST(RasterTiles, EveryCodecHoldsTheSameValues) {
     // The Cloud-Optimized layout's header, which GDAL writes before the first directory of a
     // compressed COG (GDAL 3.6 writes none for an uncompressed one, whose directories come
     // first all the same).
-    const std::string head = bytes_of(out).substr(0, 400);
+    const std::string head = potmap::test::file_bytes(out).substr(0, 400);
     if (upper != "NONE") {
       EXPECT_NE(head.find("LAYOUT=IFDS_BEFORE_DATA"), std::string::npos) << codec;
       EXPECT_NE(head.find("KNOWN_INCOMPATIBLE_EDITION=NO"), std::string::npos) << codec;

@@ -27,8 +27,8 @@ struct Row {
 };
 
 // Table rows by (target, method) of one run.
-std::map<std::pair<std::string, std::string>, Row> run(const std::string& name,
-                                                       const std::string& args) {
+std::map<std::pair<std::string, std::string>, Row> run_methods(const std::string& name,
+                                                               const std::string& args) {
   const std::string dir = potmap::test::temp_dir("real_logs_" + name);
   const std::string js = dir + "/out.json";
   const auto r = potmap::test::run_cli(
@@ -81,8 +81,8 @@ TEST(RealLogs, IntraDomainMapsDepictThePlace) {
   std::string paths;
   for (const char* t : targets) paths += logs({t});
   const int scans = test::sized(40, 12);
-  const auto rows = run("intra", "intra" + paths + " --scans " + std::to_string(scans) +
-                                     " --methods ogm,bhm,pot,repot");
+  const auto rows = run_methods("intra", "intra" + paths + " --scans " + std::to_string(scans) +
+                                             " --methods ogm,bhm,pot,repot");
   for (const char* t : targets) {
     const std::string c = std::string(t) + ">" + t;
     ASSERT_TRUE(rows.count({c, "BHM"}) && rows.count({c, "POT"}) && rows.count({c, "RePOT"}) &&
@@ -117,8 +117,8 @@ TEST(RealLogs, IntraDomainMapsDepictThePlace) {
 // equal to 4 digits and NLL up to 0.004 below).
 TEST(RealLogs, InterDomainTransferIsNeverConfidentlyWrong) {
   const int scans = test::sized(30, 12);
-  const auto rows = run("inter", "inter" + logs({"intel", "csail"}) + " --scans " +
-                                     std::to_string(scans) + " --methods bhm,pot,repot");
+  const auto rows = run_methods("inter", "inter" + logs({"intel", "csail"}) + " --scans " +
+                                             std::to_string(scans) + " --methods bhm,pot,repot");
   for (const char* c : {"intel>csail", "csail>intel"}) {
     ASSERT_TRUE(rows.count({c, "BHM"}) && rows.count({c, "POT"}) && rows.count({c, "RePOT"})) << c;
     const Row& bhm = rows.at({c, "BHM"});
@@ -137,8 +137,8 @@ TEST(RealLogs, InterDomainTransferIsNeverConfidentlyWrong) {
 // +0.018 against BHM; csail AUC -0.0003). With the default rule the two maps are the same near
 // the data: measured equal to 1e-8 on both logs.
 TEST(RealLogs, SimToRealRePOTIsNeverBelowBHM) {
-  const auto rows = run("sim2real", "sim2real" + logs({"aces", "csail"}) +
-                                        " --scans 12 --atom-scans 4 --methods bhm,repot");
+  const auto rows = run_methods("sim2real", "sim2real" + logs({"aces", "csail"}) +
+                                                " --scans 12 --atom-scans 4 --methods bhm,repot");
   for (const char* c : {"sim:town1+town2+town3>aces", "sim:town1+town2+town3>csail"}) {
     ASSERT_TRUE(rows.count({c, "BHM"}) && rows.count({c, "RePOT"})) << c;
     const Row& bhm = rows.at({c, "BHM"});

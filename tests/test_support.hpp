@@ -15,6 +15,8 @@
 
 namespace potmap::test {
 
+constexpr double kPi = 3.14159265358979323846;
+
 /// The repository root (tests read ../shared/data relative to it).
 std::string source_dir();
 /// Path of a file under ../shared/data, e.g. shared_data("carla/town1_test2k.csv").

@@ -28,11 +28,6 @@ const char* kFileTuning =
     "map_eval.vector_width=8, map_eval.work_group=4, map_eval.chunks_per_query=2,"
     "raster.rows_per_item=4, sinkhorn.work_group=8, sinkhorn.chunk_slots=300";
 
-std::string read_all(const std::string& path) {
-  std::ifstream f(path);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
 // The device's file in a fresh folder, written with `tuning`, then `edit` applied to its text.
 struct TuningDir {
   std::string dir, path;
@@ -42,7 +37,7 @@ struct TuningDir {
     write_tuning_file(path, test::context().info(), tuning);
   }
   void replace(const std::string& from, const std::string& to) const {
-    std::string text = read_all(path);
+    std::string text = potmap::test::file_bytes(path);
     const std::size_t at = text.find(from);
     ASSERT_NE(at, std::string::npos) << from << " not in\n" << text;
     text.replace(at, from.size(), to);

@@ -48,7 +48,7 @@ std::string error_of(const std::string& spec) {
   return "";
 }
 
-KernelMap random_map(int dim, std::size_t m, double extent, std::uint32_t seed) {
+KernelMap random_tuning_map(int dim, std::size_t m, double extent, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> pos(0, extent), lg(std::log(0.05), std::log(2.0)),
       w(-10, 10), lv(std::log(1e-4), std::log(10.0));
@@ -195,7 +195,7 @@ TEST(Tuning, BadPairsAreNamed) {
 }
 
 TEST(Tuning, MapEvaluatorAgreesUnderTwoTunings) {
-  const KernelMap map = random_map(2, 2000, 60, 7);
+  const KernelMap map = random_tuning_map(2, 2000, 60, 7);
   std::mt19937 rng(8);
   std::uniform_real_distribution<double> u(-5, 65);
   std::vector<double> pts(2 * 6000);
@@ -215,7 +215,7 @@ TEST(Tuning, MapEvaluatorAgreesUnderTwoTunings) {
   expect_close(a.evaluate_grid(grid), b.evaluate_grid(grid));
 
   // A 3D grid: tiles of 8 y rows by tile / 8 z rows (raster.tile=32 in the other tuning).
-  const KernelMap map3 = random_map(3, 1500, 40, 9);
+  const KernelMap map3 = random_tuning_map(3, 1500, 40, 9);
   GridSpec g3;
   g3.dim = 3;
   g3.origin[0] = -1;

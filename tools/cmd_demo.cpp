@@ -33,10 +33,6 @@ struct DemoArgs {
   std::string json;
 };
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 int run_demo(const DemoArgs& a, const std::string& device) {
   Context ctx = make_context(device);
   const fs::path carla = fs::path(a.data) / "carla";

@@ -25,10 +25,6 @@ struct EvalArgs {
   bool reference = false;
 };
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // NaN (AUC with one class) has no JSON number: it is written as null.
 nlohmann::json number_or_null(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nullptr;

@@ -21,8 +21,6 @@ namespace potmap::cli {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 struct MapArgs {
   std::string dict, scans, out, instantaneous, json, picture, ros_map;
   bool refine = false, per_scan_refine = false, cpu = false, quiet = false, no_pipeline = false,
@@ -113,8 +111,7 @@ int run_map(const MapArgs& a, const std::string& device) {
   PotOptions& po = job.mapper.pot;
   po.sectors = a.sectors;
   po.max_range = a.max_range;
-  po.rotations.clear();
-  for (int i = 0; i < a.rotations; ++i) po.rotations.push_back(2 * kPi * i / a.rotations);
+  po.rotations = evenly_spaced_rotations(a.rotations);
   po.refine = a.refine;
   job.mapper.persistent_refine = !a.per_scan_refine;
   job.mapper.refine_map.seeds_yield_fully = a.seeds_yield_fully;

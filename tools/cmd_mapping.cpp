@@ -25,8 +25,6 @@ namespace potmap::cli {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 struct MappingArgs {
   std::string log, out, dict, method = "repot", json, ranking = "indexed";
   double range_cut = 20, ros_res = 0.05;
@@ -72,9 +70,7 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
   job.mapper.pot.refine = a.method == "repot";
   job.mapper.pot.seed = a.seed;
   job.mapper.pot.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
-  job.mapper.pot.rotations.clear();
-  for (int i = 0; i < a.rotations; ++i)
-    job.mapper.pot.rotations.push_back(2 * kPi * i / a.rotations);
+  job.mapper.pot.rotations = evenly_spaced_rotations(a.rotations);
   job.mapper.persistent_refine = setup.persistent_refine;
   job.mapper.average_overall = setup.combine == experiment::PotSetup::Combine::average;
   job.mapper.averaged = setup.averaged;

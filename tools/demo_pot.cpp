@@ -29,12 +29,6 @@ namespace potmap::cli {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // The source town's map: BHM over the source scans' samples, kernels every metre (the
 // dictionary needs a learned map of the place its atoms come from).
 KernelMap learn_source_map(Context& ctx, const std::vector<Scan>& scans) {
@@ -134,9 +128,7 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
       job.mapper.pot.placement = refine ? PotPlacement::barycentric : PotPlacement::target_samples;
       job.mapper.average_overall = true;
     }
-    job.mapper.pot.rotations.clear();
-    for (int i = 0; i < a.rotations; ++i)
-      job.mapper.pot.rotations.push_back(2 * kPi * i / a.rotations);
+    job.mapper.pot.rotations = evenly_spaced_rotations(a.rotations);
     job.verbose = false;
     const MapJobResult r = run_map_job(&ctx, dict, target.scans, job);
     std::fprintf(human,

@@ -187,9 +187,7 @@ experiment::PotSetup Harness::pot_setup(bool refine) const {
   // RePOT refines the BHM it is compared with: its persistent map takes the --bhm-* settings.
   p.target_bhm = s_.bhm;
   if (s_.rotations < 1) throw ArgumentError("--rotations: at least 1");
-  p.pot.rotations.clear();
-  for (std::size_t i = 0; i < s_.rotations; ++i)
-    p.pot.rotations.push_back(2 * 3.14159265358979323846 * double(i) / double(s_.rotations));
+  p.pot.rotations = evenly_spaced_rotations(int(s_.rotations));
   return p;
 }
 

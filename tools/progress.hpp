@@ -1,9 +1,15 @@
 #pragma once
 // Small helpers shared by the subcommands.
+#include <chrono>
 #include <functional>
 #include <string>
 
 namespace potmap::cli {
+
+/// Seconds from t0 to now on the steady clock.
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 /// A progress callback printing "potmap: <label> 42.0%  elapsed 3 s  ETA 4 s" on stderr, or an
 /// empty function when stderr is not a terminal (logs and pipes get the summary only).

@@ -10,7 +10,6 @@
 namespace potmap::capi {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxRotations = 3600;    // 0.1 degree steps: beyond, a typo rather than a choice
 constexpr int kMaxEmIterations = 100;  // each a solve per scan: beyond, a typo rather than a choice
 
@@ -103,8 +102,7 @@ Options to_options(const potmap_mapper_options* in) {
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
-  p.rotations.clear();
-  for (int i = 0; i < o.rotations; ++i) p.rotations.push_back(2 * kPi * i / o.rotations);
+  p.rotations = potmap::evenly_spaced_rotations(o.rotations);
   p.refine = o.refine == 1;
   r.mapper.persistent_refine = o.persistent_refine == 1;
   p.ranking = o.ranking == POTMAP_RANKING_INDEXED ? potmap::PotRanking::indexed

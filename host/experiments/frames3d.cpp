@@ -12,8 +12,6 @@ namespace potmap::experiment {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 std::string slug(const std::string& s) {
   std::string o;
   for (char c : s) o += std::isalnum(static_cast<unsigned char>(c)) || c == '.' ? c : '-';
@@ -108,9 +106,7 @@ FrameEvaluation evaluate_frame(Context* ctx, const Scan& frame,
       if (!wants(name)) continue;
       PotSetup p = setup.pot;
       p.pot.refine = std::string(name) == "repot";
-      p.pot.rotations.clear();
-      for (std::size_t i = 0; i < setup.rotations; ++i)
-        p.pot.rotations.push_back(2 * kPi * double(i) / double(setup.rotations));
+      p.pot.rotations = evenly_spaced_rotations(int(setup.rotations));
       run(pot_method(p, p.pot.refine ? "RePOT" : "POT", cache), src.label);
     }
   }

@@ -338,4 +338,10 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
       ctx, dict, prepare_transfer(dict, train, sensor, heading, scan_index, options), options);
 }
 
+std::vector<double> evenly_spaced_rotations(int n) {
+  std::vector<double> r;
+  for (int i = 0; i < n; ++i) r.push_back(2 * 3.14159265358979323846 * i / n);
+  return r;
+}
+
 }  // namespace potmap

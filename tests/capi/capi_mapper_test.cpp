@@ -23,21 +23,6 @@ using namespace capi_test;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-bool contains(const std::string& hay, const std::string& needle) {
-  return hay.find(needle) != std::string::npos;
-}
-
-potmap_context* shared_context() {
-  static potmap_context* ctx = [] {
-    potmap_context* c = nullptr;
-    EXPECT_EQ(potmap_context_create(nullptr, &c), POTMAP_SUCCESS) << potmap_last_error();
-    return c;
-  }();
-  return ctx;
-}
-
 // The C++ side of the comparisons, on the same device as shared_context().
 potmap::Context& cpp_context() {
   static potmap::Context ctx;

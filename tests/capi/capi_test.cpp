@@ -12,24 +12,6 @@ using namespace capi_test;
 
 extern "C" int potmap_c99_check(void);
 
-namespace {
-
-// One context for the tests of this file: loading programs costs time on PoCL.
-potmap_context* shared_context() {
-  static potmap_context* ctx = [] {
-    potmap_context* c = nullptr;
-    EXPECT_EQ(potmap_context_create(nullptr, &c), POTMAP_SUCCESS) << potmap_last_error();
-    return c;
-  }();
-  return ctx;
-}
-
-bool contains(const std::string& hay, const std::string& needle) {
-  return hay.find(needle) != std::string::npos;
-}
-
-}  // namespace
-
 TEST(CApi, HeaderIsPlainC99) {
   EXPECT_EQ(potmap_c99_check(), 0) << "c99_check.c: the check at that line failed";
 }

@@ -14,6 +14,19 @@ namespace fs = std::filesystem;
 
 namespace capi_test {
 
+potmap_context* shared_context() {
+  static potmap_context* ctx = [] {
+    potmap_context* c = nullptr;
+    EXPECT_EQ(potmap_context_create(nullptr, &c), POTMAP_SUCCESS) << potmap_last_error();
+    return c;
+  }();
+  return ctx;
+}
+
+bool contains(const std::string& hay, const std::string& needle) {
+  return hay.find(needle) != std::string::npos;
+}
+
 std::string shared_data(const std::string& rel) {
   return (fs::path(POTMAP_SOURCE_DIR) / ".." / "shared" / "data" / rel).lexically_normal().string();
 }

@@ -30,6 +30,15 @@
 
 namespace capi_test {
 
+constexpr double kPi = 3.14159265358979323846;
+
+/// One context for the tests that need no other (loading programs costs time on PoCL); made on
+/// first use, kept until the process ends.
+potmap_context* shared_context();
+
+/// Whether needle occurs in hay.
+bool contains(const std::string& hay, const std::string& needle);
+
 /// Path of a file under ../shared/data.
 std::string shared_data(const std::string& rel);
 /// A fresh empty folder under the build tree.

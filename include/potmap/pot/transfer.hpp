@@ -206,6 +206,10 @@ struct PotOptions {
   std::uint64_t seed = 0;  ///< subsampling seed (with the scan index: reproducible per scan)
 };
 
+/// `n` rotations evenly spaced over a full turn, radians: 0, 2 pi / n, ..., 2 pi (n - 1) / n
+/// (PotOptions::rotations from a count, as the commands' --rotations; n <= 0 gives none).
+std::vector<double> evenly_spaced_rotations(int n);
+
 /// What happened to one target sector.
 struct SectorTransfer {
   int sector = 0;               ///< sector index in the target scan
