@@ -53,6 +53,26 @@ TEST(MappingCli, RealLogToMapPicturesRosMapAndScores) {
   EXPECT_NE(test::file_bytes(d + "/map.yaml").find("image: map.pgm\n"), std::string::npos);
 }
 
+// RePOT's seed rule reaches the mapper: the two rules give different maps of the same scans,
+// and scores.json says which one made it.
+TEST(MappingCli, SeedRuleFlagChoosesTheRule) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string log = test::quoted(test::shared_data("radish/intel-corrected.log.gz"));
+  std::string maps[2];
+  const char* rules[2] = {"yield-fully", "keep-start"};
+  for (int k = 0; k < 2; ++k) {
+    const std::string d = test::temp_dir(std::string("mapping-seed-") + rules[k]);
+    const test::CliResult r = run_mapping_cli("mapping " + log + " --max-scans 6 -q --seeds-" +
+                                                  rules[k] + " -o " + test::quoted(d) + " --json -",
+                                              "2>/dev/null");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["seed_rule"], rules[k]);
+    maps[k] = test::file_bytes(d + "/map.potmap");
+    ASSERT_FALSE(maps[k].empty());
+  }
+  EXPECT_TRUE(maps[0] != maps[1]) << "both seed rules wrote the same map";
+}
+
 TEST(MappingCli, DefaultDictionaryIsCachedAndVersioned) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("default-dict");

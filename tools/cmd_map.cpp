@@ -215,6 +215,15 @@ int run_map(const MapArgs& a, const std::string& device) {
 
 }  // namespace
 
+void add_seed_rule_flag(CLI::App* cmd, bool* yield_fully) {
+  cmd->add_flag("--seeds-yield-fully,!--seeds-keep-start", *yield_fully,
+                "RePOT (default): a seed yields when its kernel comes within the solve's margin "
+                "of a scan's samples, its mean too, so that the map there is BHM's (up to the "
+                "solve's tolerance). "
+                "--seeds-keep-start: a seed yields when a sample reaches its kernel and its mean "
+                "starts that scan's bound (higher F1, at times lower AUC than BHM)");
+}
+
 void register_map(CLI::App& app, Runner& runner) {
   CLI::App* cmd = app.add_subcommand(
       "map",
@@ -233,12 +242,7 @@ void register_map(CLI::App& app, Runner& runner) {
   cmd->add_flag("--per-scan-refine", a->per_scan_refine,
                 "RePOT the old way: refine each scan's transported weights on their own and "
                 "merge the refined maps (--refine-min-variance and --em apply to it)");
-  cmd->add_flag("--seeds-yield-fully,!--seeds-keep-start", a->seeds_yield_fully,
-                "RePOT (default): a seed yields when its kernel comes within the solve's margin "
-                "of a scan's samples, its mean too, so that the map there is BHM's (up to the "
-                "solve's tolerance). "
-                "--seeds-keep-start: a seed yields when a sample reaches its kernel and its mean "
-                "starts that scan's bound (higher F1, at times lower AUC than BHM)");
+  add_seed_rule_flag(cmd, &a->seeds_yield_fully);
   cmd->add_option("--refine-spacing", a->refine_spacing,
                   "RePOT's persistent map: metres between its kernels (default 0.5, about a "
                   "wall's thickness; a sample's cost grows as (1 / spacing)^dim)")

@@ -31,7 +31,7 @@ struct MappingArgs {
   std::size_t first = 0, max_scans = 0, picture_pixels = 1200;
   int rotations = 8;
   std::uint64_t seed = 0;
-  bool quiet = false;
+  bool quiet = false, seeds_yield_fully = true;
 };
 
 std::string default_out(const std::string& log) {
@@ -79,6 +79,7 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
     job.mapper.pot.displacement_variance = setup.seed_displacement_variance;
   }
   job.mapper.seed_min_variance = setup.seed_min_variance;
+  job.mapper.refine_map.seeds_yield_fully = a.seeds_yield_fully;
   job.mapper.labels.seed = a.seed;
   job.mapper.pipeline = setup.pipeline;
   job.overall = setup.overall;
@@ -124,6 +125,7 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
   j["log"] = a.log;
   j["method"] = a.method == "repot" ? "RePOT" : "POT";
   j["ranking"] = a.ranking;
+  j["seed_rule"] = a.seeds_yield_fully ? "yield-fully" : "keep-start";
   j["dictionary"] = a.dict.empty() ? "default: " + default_dictionary_recipe() : a.dict;
   j["range_cut"] = a.range_cut;
   j["device"] = ctx.info().summary();
@@ -179,6 +181,7 @@ void register_mapping(CLI::App& app, Runner& runner) {
   cmd->add_option("--seed", a->seed, "Seed of labelling, hold-out and subsampling")
       ->capture_default_str();
   cmd->add_option("--json", a->json, "'-': also print the summary as JSON on stdout");
+  add_seed_rule_flag(cmd, &a->seeds_yield_fully);
   cmd->add_flag("-q,--quiet", a->quiet, "No line per scan (a progress bar on a terminal)");
   cmd->callback(
       [&runner, a, device] { runner.action = [a, device] { return run_mapping(*a, *device); }; });
