@@ -51,10 +51,14 @@ SinkhornResult sinkhorn_reference(const SinkhornProblem& q) {
   const double eps = q.epsilon;
   Eigen::ArrayXd f = Eigen::ArrayXd::Zero(n), g = Eigen::ArrayXd::Zero(m);
   SinkhornResult r;
+  // Work rows for lse(), reused: the same values as a temporary a row every iteration, whose
+  // allocations cost a fifth of the reference's time under AddressSanitizer.
+  Eigen::ArrayXd along_m(m), along_n(n);
   auto row_error = [&](Eigen::ArrayXd* lse_rows) {
     double e = 0;
     for (Eigen::Index i = 0; i < n; ++i) {
-      const double l = lse((g - C.row(i).transpose().array()) / eps + lb);
+      along_m = (g - C.row(i).transpose().array()) / eps + lb;
+      const double l = lse(along_m);
       if (lse_rows) (*lse_rows)(i) = l;
       e += std::abs(std::exp(f(i) / eps + la(i) + l) - a(i));
     }
@@ -74,7 +78,10 @@ SinkhornResult sinkhorn_reference(const SinkhornProblem& q) {
     }
     if (it >= q.max_iterations) break;
     f = -eps * lrows;
-    for (Eigen::Index j = 0; j < m; ++j) g(j) = -eps * lse((f - C.col(j).array()) / eps + la);
+    for (Eigen::Index j = 0; j < m; ++j) {
+      along_n = (f - C.col(j).array()) / eps + la;
+      g(j) = -eps * lse(along_n);
+    }
     ++it;
   }
   if (!r.converged) {
