@@ -23,6 +23,7 @@
 #include "potmap/ot/sinkhorn.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/mapper.hpp"
+#include "progress.hpp"
 
 namespace potmap::cli {
 
@@ -67,8 +68,7 @@ SweepPoint time_point(const std::function<void()>& run, int repeats, double work
   for (int r = 0; r < repeats; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
     run();
-    p.seconds.push_back(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    p.seconds.push_back(seconds_since(t0));
   }
   std::vector<double> s = p.seconds;
   std::sort(s.begin(), s.end());

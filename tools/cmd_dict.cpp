@@ -204,7 +204,7 @@ int run_build(BuildArgs& a) {
     if (progress) progress(double(e - a.first) / double(end - a.first));
   }
   write_dictionary(dict, a.out);
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double secs = seconds_since(t0);
   nlohmann::json j = summary_json(dict);
   j["file"] = a.out;
   j["seconds"] = secs;

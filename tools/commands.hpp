@@ -25,6 +25,7 @@ std::shared_ptr<std::string> add_device_option(CLI::App* cmd);
 /// RePOT's seed rule as a pair of flags, --seeds-yield-fully (default) and --seeds-keep-start,
 /// into *yield_fully (JointBhmOptions::seeds_yield_fully).
 void add_seed_rule_flag(CLI::App* cmd, bool* yield_fully);
+
 /// A Context on the device named (or POTMAP_DEVICE, or the default), announced on stderr.
 Context make_context(const std::string& device, bool quiet = false);
 /// The non-empty pieces of `s` between `sep` characters ("a,,b" gives a and b).

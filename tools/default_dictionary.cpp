@@ -2,8 +2,8 @@
 
 #include <chrono>
 #include <filesystem>
-#include <iterator>
 #include <iostream>
+#include <iterator>
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -116,8 +116,7 @@ Dictionary default_dictionary(std::string* where) {
       if (where) where->clear();
     }
   }
-  std::cerr << "potmap: default dictionary: " << dict.size() << " atoms in "
-            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
+  std::cerr << "potmap: default dictionary: " << dict.size() << " atoms in " << seconds_since(t0)
             << " s\n";
   return dict;
 }

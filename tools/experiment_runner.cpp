@@ -206,7 +206,7 @@ std::shared_ptr<const StructureReference> Harness::make_reference(const MapTask&
   if (picture && !s_.figures.empty())
     ref->picture = std::make_shared<experiment::Picture>(
         experiment::probability_picture(ogm, task.dim, task.lo, task.hi, s_.figure_pixels));
-  ref->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ref->seconds = seconds_since(t0);
   return ref;
 }
 
@@ -228,7 +228,7 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
     r.structure = experiment::score_structure(f, task.dim, reference->grid, reference->occupied);
     r.structure_cell_m = reference->grid.cell_m;
     r.structure_tolerance_m = reference->grid.tolerance_m;
-    r.structure_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.structure_s = seconds_since(t0);
   }
   if (figures && !s_.figures.empty()) {
     r.picture = std::make_shared<experiment::Picture>(

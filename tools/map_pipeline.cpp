@@ -188,8 +188,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
     }
     r.overall_scores = score(prob, test.label);
   }
-  r.total_seconds =
-      t.seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.total_seconds = t.seconds + seconds_since(t0);
   return r;
 }
 

@@ -17,8 +17,7 @@ std::function<void(double)> terminal_progress(const std::string& label) {
   if (!::isatty(::fileno(stderr))) return {};
   const auto start = std::chrono::steady_clock::now();
   return [start, label](double f) {
-    const double el =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double el = seconds_since(start);
     const double eta = f > 0 ? el * (1 - f) / f : 0;
     std::fprintf(stderr, "\rpotmap: %s %5.1f%%  elapsed %.0f s  ETA %.0f s   ", label.c_str(),
                  100 * f, el, eta);

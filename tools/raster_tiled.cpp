@@ -62,12 +62,9 @@ void print_summary(const TiledRasterSummary& s, int ranks, std::size_t busy, boo
 
 RasterSetup open_map_and_device(const std::string& map, const std::string& device, bool quiet) {
   const auto t0 = std::chrono::steady_clock::now();
-  auto since = [t0] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  };
-  auto reading = std::async(std::launch::async, [&map, &since] {
+  auto reading = std::async(std::launch::async, [&map, t0] {
     KernelMap m = read_map(map);
-    return std::make_pair(std::move(m), since());
+    return std::make_pair(std::move(m), seconds_since(t0));
   });
   std::optional<Context> ctx;
   std::exception_ptr device_error;
@@ -76,10 +73,10 @@ RasterSetup open_map_and_device(const std::string& map, const std::string& devic
   } catch (...) {
     device_error = std::current_exception();
   }
-  const double device_s = since();
+  const double device_s = seconds_since(t0);
   auto [m, read_s] = reading.get();  // the map's error first: it names the user's file
   if (device_error) std::rethrow_exception(device_error);
-  return RasterSetup{std::move(m), std::move(*ctx), read_s, device_s, since()};
+  return RasterSetup{std::move(m), std::move(*ctx), read_s, device_s, seconds_since(t0)};
 }
 
 int run_tiled_raster(const TiledRunArgs& a) {
@@ -128,7 +125,7 @@ int run_tiled_raster(const TiledRunArgs& a) {
       s.computed = computed;
       s.reused = reused;
       s.stale = stale;
-      s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      s.seconds = seconds_since(t0);
       print_summary(s, ranks.size(), busy, a.json, setup);
     }
     return ranks.all_ok(true) ? 0 : 1;
