@@ -10,12 +10,14 @@
 // persistent map, indexed ranking, wall clearance 0.5 m).
 //
 // Usage: mapper_latency --dict FILE [--target town2 | --log PATH] [--first 10] [--scans 100]
-//                       [--repeat 2] [--out mapper_latency.json]
+//                       [--repeat 2] [--method both|pot|repot] [--out mapper_latency.json]
 #include <nlohmann/json.hpp>
 
+#include <sys/resource.h>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -37,6 +39,7 @@ namespace {
 
 struct Args {
   std::string dict, target = "town2", log, out = "mapper_latency.json";
+  std::string method = "both";
   std::size_t first = 10, scans = 100, repeat = 2;
 };
 
@@ -57,15 +60,18 @@ bool parse_args(int argc, char** argv, Args& a) {
       a.repeat = std::stoul(v);
     else if (k == "--out")
       a.out = v;
+    else if (k == "--method")
+      a.method = v;
     else {
       std::fprintf(stderr, "mapper_latency: unknown option %s\n", k.c_str());
       return false;
     }
   }
-  if (a.dict.empty() || argc % 2 == 0 || a.repeat == 0) {
+  if (a.dict.empty() || argc % 2 == 0 || a.repeat == 0 ||
+      (a.method != "both" && a.method != "pot" && a.method != "repot")) {
     std::fprintf(stderr,
                  "usage: mapper_latency --dict FILE [--target town2 | --log PATH] [--first N]\n"
-                 "       [--scans N] [--repeat N] [--out F]\n");
+                 "       [--scans N] [--repeat N] [--method both|pot|repot] [--out F]\n");
     return false;
   }
   return true;
@@ -86,8 +92,17 @@ std::vector<Scan> target_scans(const Args& a) {
   return out;
 }
 
+// CPU time of every thread of the process (the host's and PoCL's), milliseconds.
+double cpu_ms() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return 1e3 * double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-3 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 struct Run {
-  double ms_per_scan = 0, merge_ms = 0;
+  double ms_per_scan = 0, merge_ms = 0, cpu_ms_per_scan = 0;
+  PotTiming stages;  // the transfer's stages, ms a scan (sync runs)
   KernelMap map;
 };
 
@@ -97,14 +112,25 @@ Run run(Context& ctx, const std::shared_ptr<const Dictionary>& dict, const std::
   Mapper m(&ctx, dict, o);
   Run r;
   const auto t0 = Clock::now();
+  const double c0 = cpu_ms();
   for (const Scan& s : scans) {
     m.add_scan(s);
-    if (!async) r.merge_ms += m.last_merge().merge_ms + m.last().transfer.timing.refine_ms;
+    if (async) continue;
+    const PotTiming& t = m.last().transfer.timing;
+    r.merge_ms += m.last_merge().merge_ms + t.refine_ms;
+    r.stages.prepare_ms += t.prepare_ms;
+    r.stages.ranking_ms += t.ranking_ms;
+    r.stages.transport_ms += t.transport_ms;
+    r.stages.placement_ms += t.placement_ms;
   }
   r.map = m.overall_map();  // waits for the last merge
+  r.cpu_ms_per_scan = (cpu_ms() - c0) / double(scans.size());
   r.ms_per_scan =
       std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / double(scans.size());
   r.merge_ms /= double(scans.size());
+  for (double* x :
+       {&r.stages.prepare_ms, &r.stages.ranking_ms, &r.stages.transport_ms, &r.stages.placement_ms})
+    *x /= double(scans.size());
   return r;
 }
 
@@ -116,6 +142,7 @@ bool same(const KernelMap& a, const KernelMap& b) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  pin_pocl_workers();  // before anything loads PoCL (potmap/runtime/context.hpp)
   Args a;
   if (!parse_args(argc, argv, a)) return 2;
   try {
@@ -123,9 +150,10 @@ int main(int argc, char** argv) {
     auto dict = std::make_shared<const Dictionary>(read_dictionary(a.dict));
     const std::vector<Scan> scans = target_scans(a);
     nlohmann::json rows = nlohmann::json::array();
-    std::printf("%-6s %6s %5s %14s %14s %8s %9s %9s\n", "method", "atoms", "scans", "sync ms/scan",
-                "async ms/scan", "faster", "merge ms", "same map");
+    std::printf("%-6s %6s %5s %14s %14s %8s %9s %12s %9s\n", "method", "atoms", "scans",
+                "sync ms/scan", "async ms/scan", "faster", "merge ms", "sync cpu ms", "same map");
     for (const bool refine : {false, true}) {
+      if (a.method != "both" && refine != (a.method == "repot")) continue;
       MapperOptions o;
       o.pot.refine = refine;
       o.pot.ranking = PotRanking::indexed;
@@ -133,7 +161,8 @@ int main(int argc, char** argv) {
       o.average_overall = true;
       o.pot.placement = auto_placement(o);
       std::vector<double> sync_ms, async_ms;
-      double merge_ms = 0;
+      double merge_ms = 0, sync_cpu_ms = 0;
+      PotTiming stages;  // sync runs, averaged over the repeats
       bool identical = true;
       for (std::size_t rep = 0; rep < a.repeat; ++rep) {
         const Run s = run(ctx, dict, scans, o, false);
@@ -141,13 +170,22 @@ int main(int argc, char** argv) {
         sync_ms.push_back(s.ms_per_scan);
         async_ms.push_back(as.ms_per_scan);
         merge_ms += s.merge_ms / double(a.repeat);
+        sync_cpu_ms += s.cpu_ms_per_scan / double(a.repeat);
+        stages.prepare_ms += s.stages.prepare_ms / double(a.repeat);
+        stages.ranking_ms += s.stages.ranking_ms / double(a.repeat);
+        stages.transport_ms += s.stages.transport_ms / double(a.repeat);
+        stages.placement_ms += s.stages.placement_ms / double(a.repeat);
         identical = identical && same(s.map, as.map);
       }
       const double sm = *std::min_element(sync_ms.begin(), sync_ms.end());
       const double am = *std::min_element(async_ms.begin(), async_ms.end());
       const char* method = refine ? "RePOT" : "POT";
-      std::printf("%-6s %6zu %5zu %14.2f %14.2f %7.2fx %9.2f %9s\n", method, dict->size(),
-                  scans.size(), sm, am, sm / am, merge_ms, identical ? "yes" : "NO");
+      std::printf("%-6s %6zu %5zu %14.2f %14.2f %7.2fx %9.2f %12.2f %9s\n", method, dict->size(),
+                  scans.size(), sm, am, sm / am, merge_ms, sync_cpu_ms, identical ? "yes" : "NO");
+      std::printf(
+          "       sync stages, ms a scan: prepare %.2f, ranking %.2f, transport %.2f, "
+          "placement %.2f, merge %.2f\n",
+          stages.prepare_ms, stages.ranking_ms, stages.transport_ms, stages.placement_ms, merge_ms);
       std::fflush(stdout);
       rows.push_back(nlohmann::json{{"method", method},
                                     {"atoms", dict->size()},
@@ -157,6 +195,13 @@ int main(int argc, char** argv) {
                                     {"sync_best", sm},
                                     {"async_best", am},
                                     {"merge_ms", merge_ms},
+                                    {"sync_cpu_ms_per_scan", sync_cpu_ms},
+                                    {"sync_stages_ms",
+                                     {{"prepare", stages.prepare_ms},
+                                      {"ranking", stages.ranking_ms},
+                                      {"transport", stages.transport_ms},
+                                      {"placement", stages.placement_ms},
+                                      {"merge", merge_ms}}},
                                     {"same_map", identical}});
       if (!identical) {
         std::fprintf(stderr, "mapper_latency: %s: the asynchronous merge changed the map\n",
@@ -164,11 +209,13 @@ int main(int argc, char** argv) {
         return 1;
       }
     }
-    nlohmann::json out = {{"device", ctx.info().summary()},
-                          {"dictionary", a.dict},
-                          {"target", a.log.empty() ? a.target : a.log},
-                          {"first", a.first},
-                          {"rows", rows}};
+    nlohmann::json out = {
+        {"device", ctx.info().summary()},
+        {"pocl_affinity", std::getenv("POCL_AFFINITY") ? std::getenv("POCL_AFFINITY") : ""},
+        {"dictionary", a.dict},
+        {"target", a.log.empty() ? a.target : a.log},
+        {"first", a.first},
+        {"rows", rows}};
     std::ofstream(a.out) << out.dump(2) << "\n";
     std::printf("device: %s; wrote %s\n", ctx.info().summary().c_str(), a.out.c_str());
     return 0;

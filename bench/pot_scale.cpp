@@ -416,6 +416,7 @@ int run(int argc, char** argv) {
     std::fprintf(stderr, "%zu atoms done\n", n);
   }
   json j = {{"device", ctx.info().summary()},
+            {"pocl_affinity", std::getenv("POCL_AFFINITY") ? std::getenv("POCL_AFFINITY") : ""},
             {"indexed",
              {{"index_neighbours", g_indexed.index_neighbours},
               {"index_rotations", g_indexed.index_rotations},
@@ -439,6 +440,7 @@ int run(int argc, char** argv) {
 }
 
 int main(int argc, char** argv) {
+  pin_pocl_workers();  // before anything loads PoCL (potmap/runtime/context.hpp)
   try {
     return run(argc, argv);
   } catch (const std::exception& e) {

@@ -6,9 +6,12 @@
 
 #include "commands.hpp"
 #include "potmap/error.hpp"
+#include "potmap/runtime/context.hpp"
 #include "potmap/version.hpp"
 
 int main(int argc, char** argv) {
+  // Before anything loads PoCL (potmap/runtime/context.hpp says why).
+  potmap::pin_pocl_workers();
   CLI::App app{"potmap: continuous occupancy maps by parameter optimal transport (OpenCL)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("potmap ") + POTMAP_VERSION_STRING);

@@ -117,6 +117,12 @@ std::string DeviceInfo::summary() const {
   return name + " (" + platform + ", driver " + driver_version + ")";
 }
 
+bool pin_pocl_workers() {
+  const char* v = std::getenv("POCL_AFFINITY");
+  if (v && *v) return false;
+  return setenv("POCL_AFFINITY", "1", 0) == 0;
+}
+
 std::vector<DeviceInfo> list_devices() {
   std::vector<DeviceInfo> out;
   for (const bc::device& d : all_devices()) out.push_back(describe(d));

@@ -79,6 +79,20 @@ struct DeviceInfo {
 /// Every device of every platform, in platform order.
 std::vector<DeviceInfo> list_devices();
 
+/// Asks PoCL's CPU device to keep each of its worker threads on a core of its own
+/// (POCL_AFFINITY=1 in this process's environment) unless the environment already names a
+/// value, which is kept (POCL_AFFINITY=0 turns it off). PoCL reads it once, when the first
+/// OpenCL call of the process loads it, so call this at the start of main(), before any
+/// Context, and before any other thread runs (it calls setenv). Returns true when it set it.
+///
+/// Why: a launch wakes PoCL's workers, and a kernel scheduler that believes an idle core is
+/// busy (a virtual machine's idle vCPU is reported as preempted) wakes them on the launching
+/// core, where two workers share one core until the load balancer moves one. Pinned, each runs
+/// on its own core at once. A launch of milliseconds after an idle gap pays this most: one
+/// POT scan at a time (issue #15) ranked in 2.9 instead of 3.9 ms (docs/pot-scale.md). The
+/// `potmap` command and the latency benchmarks call it; an embedder decides for its process.
+bool pin_pocl_workers();
+
 /// The idle kernels of a Context (opaque; see KernelLease).
 struct KernelPool;
 
