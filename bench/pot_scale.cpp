@@ -140,6 +140,9 @@ PotOptions g_indexed;
 // ms a scan is the latency a mapper fed one scan at a time sees (default 1: the experiments'
 // pipeline, whose ms a scan is throughput).
 bool g_pipeline = true;
+// --host-helper 0: the context's host helper off (ContextOptions::host_helper), every host
+// stage on the scan's own thread.
+bool g_host_helper = true;
 
 Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
                const std::vector<Scan>& scans, std::size_t count, PotRanking ranking, bool refine,
@@ -237,6 +240,7 @@ const char* const kUsage =
     "                 [--coarse-tolerance 1e-5] [--free-tolerance 1e-2] [--fine N]\n"
     "                 [--transport-max-iterations 2000]\n"
     "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1] [--pipeline 0|1]\n"
+    "                 [--host-helper 0|1]\n"
     "--pipeline 0: each scan finished (merge included) before the next starts: ms a scan is\n"
     "then a scan's latency, not the pipeline's throughput.\n"
     "A Radish log's scans have 180 beams; a town's (simulated, as `potmap data simulate`) 360.\n"
@@ -301,6 +305,8 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
         g_indexed.transport_max_iterations = std::stoi(v);
       else if (k == "--pipeline")
         g_pipeline = v != "0";
+      else if (k == "--host-helper")
+        g_host_helper = v != "0";
       else if (k == "--warm")
         g_indexed.warm_candidates = v != "0";
       else if (k == "--snap")
@@ -326,7 +332,9 @@ int run(int argc, char** argv) {
   const std::size_t first = args.first, scans = args.scans;
   const bool repot = args.repot;
   const std::vector<std::size_t>&sizes = args.sizes, &ex_scans = args.ex_scans;
-  Context ctx;
+  ContextOptions co;
+  co.host_helper = g_host_helper;
+  Context ctx(co);
   const std::size_t want = std::max(args.pool, *std::max_element(sizes.begin(), sizes.end()));
   std::filesystem::create_directories(cache);
   const std::string pool_file = cache + "/" + target + "_first" + std::to_string(first) + "_" +
@@ -430,6 +438,7 @@ int run(int argc, char** argv) {
               {"transport_max_iterations", g_indexed.transport_max_iterations},
               {"index_anchors", g_indexed.index_anchors}}},
             {"pipeline", g_pipeline},
+            {"host_helper", g_host_helper},
             {"target", target},
             {"first", first},
             {"dictionary", dj},

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # ThreadSanitizer over the tests that share contexts, mappers, evaluators and dictionaries
 # across threads, and over the mapper's own pipeline thread: the library, the C API tests and
-# potmap_thread_tests (the suite's threaded tests alone, so that this build compiles three test
+# potmap_thread_tests (the suite's threaded tests alone, so that this build compiles four test
 # files, not the suite) built with clang -fsanitize=thread in build-tsan, then the tests whose
 # names say threads run.
 # The OpenCL driver is not instrumented: its own threads synchronise with ours through the

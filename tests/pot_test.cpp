@@ -13,6 +13,7 @@
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/pot/atom_descriptor.hpp"
+#include "potmap/pot/atom_index.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/transfer.hpp"
 #include "test_support.hpp"
@@ -181,6 +182,68 @@ TEST(Pot, SolvedTransferPlacedBesideAnotherSolveIsFinishTransfer) {
   ASSERT_FALSE(broken.plans.empty());
   broken.plans.pop_back();
   EXPECT_THROW(place_transfer(&ctx, dict, std::move(broken), o), ArgumentError);
+}
+
+// The context's host helper assembles the indexed ranking's sectors and places their anchors
+// beside the scan's thread (Context::host_parallel_for); the transfer is the one this thread
+// alone makes, bit for bit: the same problems in the same order, the same map.
+TEST(Pot, HostHelperChangesNothingInATransfer) {
+  SimOptions so;
+  so.scans = 3;
+  so.spacing = 12;
+  const std::vector<Scan> scans = simulate(Town::builtin("town1"), so).scans;
+  Dictionary dict;
+  build_dictionary(scans, tagged_grid(scans[1].origin(), 40, 2), {}, dict);
+  PotOptions o = small_options();
+  o.ranking = PotRanking::indexed;
+  o.index = std::make_shared<const AtomIndex>(dict);
+  o.placement = PotPlacement::target_samples;
+  o.wall_clearance = 0.5;
+  Context& ctx = test::context();
+  const LabelledPoints train = training_samples(scans[1], 1);
+  auto prepared = [&](Context* helper) {
+    return prepare_transfer(dict, train, scans[1].origin(), scan_heading(scans[1]), 1, o, {0, 7},
+                            helper);
+  };
+  for (int round = 0; round < 5; ++round) {
+    const PreparedTransfer alone = prepared(nullptr), helped = prepared(&ctx);
+    ASSERT_EQ(helped.ranking.size(), alone.ranking.size());
+    ASSERT_GT(alone.ranking.size(), 10u);
+    for (std::size_t i = 0; i < alone.ranking.size(); ++i) {
+      EXPECT_EQ(helped.ranking.problem(i).source, alone.ranking.problem(i).source) << i;
+      EXPECT_EQ(helped.ranking.problem(i).target, alone.ranking.problem(i).target) << i;
+      EXPECT_EQ(helped.ranking.problem(i).angle, alone.ranking.problem(i).angle) << i;
+    }
+    ASSERT_EQ(helped.candidates.size(), alone.candidates.size());
+    for (std::size_t s = 0; s < alone.candidates.size(); ++s) {
+      ASSERT_EQ(helped.candidates[s].size(), alone.candidates[s].size()) << "sector " << s;
+      for (std::size_t c = 0; c < alone.candidates[s].size(); ++c) {
+        EXPECT_EQ(helped.candidates[s][c].atom, alone.candidates[s][c].atom);
+        EXPECT_EQ(helped.candidates[s][c].hits_problem, alone.candidates[s][c].hits_problem);
+        EXPECT_EQ(helped.candidates[s][c].free_problem, alone.candidates[s][c].free_problem);
+      }
+    }
+    ASSERT_EQ(helped.rank_hits.size(), alone.rank_hits.size());
+    for (std::size_t s = 0; s < alone.rank_hits.size(); ++s) {
+      EXPECT_EQ(helped.rank_hits[s], alone.rank_hits[s]);
+      EXPECT_EQ(helped.rank_free[s], alone.rank_free[s]);
+    }
+
+    SolvedTransfer solved = solve_transfer(&ctx, dict, prepared(&ctx), o);
+    SolvedTransfer copy = solved;
+    const ScanTransfer one = place_transfer(nullptr, dict, std::move(copy), o);
+    const ScanTransfer two = place_transfer(&ctx, dict, std::move(solved), o);
+    ASSERT_GT(one.map.size(), 0u);
+    EXPECT_EQ(two.map.position, one.map.position);
+    EXPECT_EQ(two.map.w_mean, one.map.w_mean);
+    EXPECT_EQ(two.map.w_var, one.map.w_var);
+    EXPECT_EQ(two.map.gamma, one.map.gamma);
+    ASSERT_EQ(two.sectors.size(), one.sectors.size());
+    for (std::size_t s = 0; s < one.sectors.size(); ++s) {
+      EXPECT_EQ(two.sectors[s].kernels_placed, one.sectors[s].kernels_placed);
+      EXPECT_EQ(two.sectors[s].kernels_dropped, one.sectors[s].kernels_dropped);
+    }
+  }
 }
 
 TEST(Pot, RotatedAtomIsRankedBestAtItsRotation) {

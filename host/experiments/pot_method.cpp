@@ -171,7 +171,7 @@ Method pot_method(const PotSetup& setup, const std::string& name,
       const Scan& s = task.train_scans[i];
       const auto sensor = s.origin();
       return prepare_transfer(*dict, samples_of(task, off[i], off[i + 1], sensor, range), sensor,
-                              scan_heading(s), task.first_index + std::int64_t(i), po, warm);
+                              scan_heading(s), task.first_index + std::int64_t(i), po, warm, ctx);
     };
 
     const auto t0 = std::chrono::steady_clock::now();

@@ -35,8 +35,8 @@ void within_range(LabelledPoints& lp, const std::array<double, 3>& sensor, doubl
   lp.scan.resize(k);
 }
 
-Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const MapperOptions& o,
-                 const std::vector<long>& warm) {
+Prepared prepare(Context* ctx, const Dictionary& dict, const Scan& scan, std::size_t i,
+                 const MapperOptions& o, const std::vector<long>& warm) {
   if (scan.dim != dict.dim)
     throw ArgumentError("mapper: scan " + std::to_string(i) + " is " + std::to_string(scan.dim) +
                         "D, the dictionary " + std::to_string(dict.dim) + "D");
@@ -52,7 +52,7 @@ Prepared prepare(const Dictionary& dict, const Scan& scan, std::size_t i, const 
   within_range(split.test, sensor, range);
   Prepared p;
   p.transfer = prepare_transfer(dict, std::move(split.train), scan.origin(), scan_heading(scan),
-                                static_cast<std::int64_t>(i), o.pot, warm);
+                                static_cast<std::int64_t>(i), o.pot, warm, ctx);
   // Labelling is host preparation too.
   p.transfer.timing.prepare_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -131,7 +131,7 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
   // give the same maps).
   std::vector<long> warm = start.warm_last;
   std::future<Prepared> next =
-      std::async(launch, prepare, std::cref(dict), std::cref(scans[start.first]), start.first,
+      std::async(launch, prepare, ctx, std::cref(dict), std::cref(scans[start.first]), start.first,
                  std::cref(o), start.warm_before);
   // With the pipeline, a scan's kernels are placed (host) beside the next scan's ranking and
   // transport (device): placement reads only the dictionary and its own solved transfer. Not
@@ -141,7 +141,7 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
   for (std::size_t i = start.first; i < scans.size(); ++i) {
     Prepared cur = next.get();
     if (i + 1 < scans.size())
-      next = std::async(launch, prepare, std::cref(dict), std::cref(scans[i + 1]), i + 1,
+      next = std::async(launch, prepare, ctx, std::cref(dict), std::cref(scans[i + 1]), i + 1,
                         std::cref(o), warm);
     Solved solved = solve(ctx, dict, std::move(cur), i, o, po);
     warm = chosen_atoms(solved.transfer);
@@ -205,7 +205,7 @@ Mapper::Mapper(Context* ctx, std::shared_ptr<const Dictionary> dict, const Mappe
 const MappedScan& Mapper::add_scan(const Scan& scan) {
   // The preparation and the transfer read the dictionary, the options, the scan count and the
   // warm candidates, never the overall map: they run beside the previous scan's merge.
-  Prepared cur = prepare(*dict_, scan, scans_, options_, warm_[1]);
+  Prepared cur = prepare(ctx_, *dict_, scan, scans_, options_, warm_[1]);
   MappedScan m = finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_));
   if (!options_.async_merge) {
     add_mapped(std::move(m));

@@ -9,8 +9,10 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <numeric>
 
+#include "runtime/host_team.hpp"
 #include "thinning.hpp"
 
 namespace potmap::detail {
@@ -62,9 +64,10 @@ Eigen::MatrixXd target_sample(const Sector& sec, const PotOptions& o, std::int64
 // problem when both sides have such samples. When only one side has them the shapes disagree
 // as much as they can: the term scores its largest normalised value, 1 (a target sector
 // without hits prefers atoms without hits). Returns false when nothing can be matched.
+template <class Batch>
 bool add_candidate(std::size_t atom, double angle, const Eigen::MatrixXd& ah,
                    const Eigen::MatrixXd& af, const Eigen::MatrixXd& th, const Eigen::MatrixXd& tf,
-                   const SinkhornProblem& proto, SinkhornBatch& batch, Candidate& c) {
+                   const SinkhornProblem& proto, Batch& batch, Candidate& c) {
   const bool hp = th.rows() > 0 && ah.rows() > 0;
   const bool fp = tf.rows() > 0 && af.rows() > 0;
   if (!hp && !fp) return false;
@@ -87,6 +90,15 @@ bool add_candidate(std::size_t atom, double angle, const Eigen::MatrixXd& ah,
   }
   return true;
 }
+
+// A sector's problems, gathered apart from the other sectors' and added to the batch after.
+struct ProblemList {
+  std::vector<SinkhornProblem> problems;
+  std::size_t add(SinkhornProblem p) {
+    problems.push_back(std::move(p));
+    return problems.size() - 1;
+  }
+};
 
 // The ranking compares costs: the duals stay on the device.
 SinkhornOptions costs_only() {
@@ -188,7 +200,7 @@ double nearest_rotation(double angle, const std::vector<double>& grid) {
   return best;
 }
 
-void assemble_indexed(const Dictionary& dict, const PotOptions& o,
+void assemble_indexed(Context* ctx, const Dictionary& dict, const PotOptions& o,
                       const std::vector<long>& warm_atoms, PreparedTransfer& pt) {
   std::shared_ptr<const AtomIndex> index = o.index;
   if (!index) index = std::make_shared<const AtomIndex>(dict);
@@ -199,11 +211,16 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
           std::find(warm.begin(), warm.end(), std::size_t(a)) == warm.end())
         warm.push_back(static_cast<std::size_t>(a));
   AtomSamples atoms(dict, o.coarse_hits, o.coarse_free, true, o.seed);
+  std::mutex atoms_mutex;  // its lazy cache, read only when the index lacks these caps
   SinkhornProblem proto = ranking_problem(o);
   proto.tolerance = o.coarse_tolerance;
-  pt.rank_hits.resize(pt.sectors.size());
-  pt.rank_free.resize(pt.sectors.size());
-  for (std::size_t s = 0; s < pt.sectors.size(); ++s) {
+  const std::size_t ns = pt.sectors.size();
+  pt.rank_hits.resize(ns);
+  pt.rank_free.resize(ns);
+  // Each sector's candidates and problems on their own (the sectors in parallel), then joined
+  // in sector order: the same batch as one sector after the other.
+  std::vector<ProblemList> batches(ns);
+  for_each_item(ctx, ns, [&](std::size_t s) {
     const Sector& sec = pt.sectors[s];
     pt.rank_hits[s] = target_sample(sec, o, pt.scan_index, true);
     pt.rank_free[s] = target_sample(sec, o, pt.scan_index, false);
@@ -223,8 +240,13 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
                         index->options().coarse_free == o.coarse_free;
     for (std::size_t i = 0; i < chosen.size(); ++i) {
       const std::size_t a = chosen[i];
-      const Eigen::MatrixXd* ah = stored ? &index->coarse_hits(a) : &atoms(a).first;
-      const Eigen::MatrixXd* af = stored ? &index->coarse_free(a) : &atoms(a).second;
+      const Eigen::MatrixXd* ah = stored ? &index->coarse_hits(a) : nullptr;
+      const Eigen::MatrixXd* af = stored ? &index->coarse_free(a) : nullptr;
+      if (!stored) {
+        std::lock_guard<std::mutex> lock(atoms_mutex);
+        ah = &atoms(a).first;
+        af = &atoms(a).second;
+      }
       std::vector<double> angles;
       for (const RotationEstimate& r : index->rotations(sig, a, std::max(o.index_rotations, 1))) {
         double angle = i < near ? r.angle : std::fmod(r.angle + M_PI, 2 * M_PI);
@@ -232,10 +254,18 @@ void assemble_indexed(const Dictionary& dict, const PotOptions& o,
         if (std::find(angles.begin(), angles.end(), angle) != angles.end()) continue;
         angles.push_back(angle);
         Candidate c;
-        if (!add_candidate(a, angle, *ah, *af, th, tf, proto, pt.ranking, c)) break;
+        if (!add_candidate(a, angle, *ah, *af, th, tf, proto, batches[s], c)) break;
         pt.candidates[s].push_back(c);
         if (i >= near) break;  // one angle for an anchor
       }
+    }
+  });
+  for (std::size_t s = 0; s < ns; ++s) {
+    const auto first = static_cast<long>(pt.ranking.size());
+    for (SinkhornProblem& p : batches[s].problems) pt.ranking.add(std::move(p));
+    for (Candidate& c : pt.candidates[s]) {
+      if (c.hits_problem >= 0) c.hits_problem += first;
+      if (c.free_problem >= 0) c.free_problem += first;
     }
   }
 }
@@ -340,12 +370,12 @@ std::vector<SinkhornResult> solve(Context* ctx, const SinkhornBatch& batch,
   return out;
 }
 
-void assemble_ranking(const Dictionary& dict, const PotOptions& o,
+void assemble_ranking(Context* ctx, const Dictionary& dict, const PotOptions& o,
                       const std::vector<long>& warm_atoms, PreparedTransfer& pt) {
   pt.ranking_mode = o.ranking;
   pt.candidates.assign(pt.sectors.size(), {});
   if (o.ranking == PotRanking::indexed)
-    assemble_indexed(dict, o, warm_atoms, pt);
+    assemble_indexed(ctx, dict, o, warm_atoms, pt);
   else
     assemble_exhaustive(dict, o, pt);
 }

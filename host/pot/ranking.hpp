@@ -21,8 +21,10 @@ struct Winner {
 std::vector<SinkhornResult> solve(Context* ctx, const SinkhornBatch& batch,
                                   const SinkhornOptions& opt);
 
-/// Fills pt.candidates and pt.ranking for pt.sectors (exhaustive or indexed, by options).
-void assemble_ranking(const Dictionary& dict, const PotOptions& options,
+/// Fills pt.candidates and pt.ranking for pt.sectors (exhaustive or indexed, by options). The
+/// indexed ranking's sectors are assembled on ctx's host team (ctx null: this thread); host
+/// only, the device is not used.
+void assemble_ranking(Context* ctx, const Dictionary& dict, const PotOptions& options,
                       const std::vector<long>& warm_atoms, PreparedTransfer& pt);
 
 /// Solves the prepared ranking and returns the winner of every sector. Adds the solves' time to

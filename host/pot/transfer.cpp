@@ -19,6 +19,7 @@
 #include "potmap/pot/transfer.hpp"
 #include "ranking.hpp"
 #include "refine.hpp"
+#include "runtime/host_team.hpp"
 #include "thinning.hpp"
 
 namespace potmap {
@@ -185,6 +186,37 @@ void place_sector(const Dictionary& dict, const Sector& sec, const Transport& t,
 }
 
 // RePOT (SPEC step 7): the transported weights refined on the scan's own training samples.
+// The anchors of sector s on the target's samples (PotPlacement::target_samples), its
+// transport's convergence and counts into st.
+void anchor_sector(const Dictionary& dict, const Sector& sec, const Transport& transport,
+                   const std::vector<SinkhornResult>& moved, std::size_t s, const PotOptions& o,
+                   AtomTransportCache* cache, SectorTransfer& st,
+                   std::vector<detail::Anchor>& anchors) {
+  const auto& of = transport.of[s];
+  if (of[0] < 0 && of[1] < 0) return;
+  detail::SectorPlans plans;
+  st.transport_converged = true;
+  for (int q = 0; q < 2; ++q) {
+    if (of[q] < 0) continue;
+    const SinkhornProblem& p = transport.batch.problem(of[q]);
+    plans.source[q] = &p.source;
+    plans.target[q] = &p.target;
+    plans.coupling[q] = &moved[of[q]].coupling;
+    plans.angle = p.angle;
+    st.transport_converged = st.transport_converged && moved[of[q]].converged;
+    st.transport_iterations = std::max(st.transport_iterations, moved[of[q]].iterations);
+  }
+  const Atom& atom = dict.atoms[st.atom];
+  const auto a = static_cast<std::size_t>(st.atom);
+  const detail::KernelClasses* classes = cache ? &cache->classes(atom, a) : nullptr;
+  for (int q = 0; q < 2 && cache; ++q)
+    if (of[q] >= 0)
+      plans.source_map[q] = cache->sample_map(
+          atom, a, q, q == 0 ? o.transport_points : o.transport_free_points, sec.scale);
+  st.kernels_dropped += detail::anchors_at_samples(atom, sec, plans, o, anchors, classes);
+  st.kernels_placed += anchors.size();
+}
+
 void refine_weights(Context* ctx, const LabelledPoints& train, const PotOptions& o,
                     KernelMap& map) {
   for (double& v : map.w_var) v = std::max(v, o.refine_min_variance);
@@ -201,7 +233,7 @@ void refine_weights(Context* ctx, const LabelledPoints& train, const PotOptions&
 PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
                                   const std::array<double, 3>& sensor, double heading,
                                   std::int64_t scan_index, const PotOptions& o,
-                                  const std::vector<long>& warm_atoms) {
+                                  const std::vector<long>& warm_atoms, Context* ctx) {
   check(dict, train, o);
   const auto t0 = Clock::now();
   PreparedTransfer pt;
@@ -214,7 +246,7 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
   so.min_samples = o.min_samples;
   pt.max_range = so.max_range;
   pt.sectors = cut_sectors(train, sensor, heading, so);
-  detail::assemble_ranking(dict, o, warm_atoms, pt);
+  detail::assemble_ranking(ctx, dict, o, warm_atoms, pt);
   pt.train = std::move(train);
   pt.timing.prepare_ms = ms_since(t0);
   return pt;
@@ -271,40 +303,24 @@ ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer
   const Transport transport{std::move(sv.transport), std::move(sv.problem_of)};
   const std::vector<SinkhornResult>& moved = sv.plans;
   const auto t0 = Clock::now();
-  AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
-  std::vector<detail::Anchor> anchors;
-  for (std::size_t s = 0; s < sectors.size(); ++s) {
-    const auto& of = transport.of[s];
-    if (of[0] < 0 && of[1] < 0) continue;
-    SectorTransfer& st = out.sectors[s];
-    if (!at_samples) {
-      place_sector(dict, sectors[s], transport, of, moved, pt, o, st, out.map);
-      continue;
+  if (!at_samples) {
+    for (std::size_t s = 0; s < sectors.size(); ++s) {
+      const auto& of = transport.of[s];
+      if (of[0] < 0 && of[1] < 0) continue;
+      place_sector(dict, sectors[s], transport, of, moved, pt, o, out.sectors[s], out.map);
     }
-    detail::SectorPlans plans;
-    st.transport_converged = true;
-    for (int q = 0; q < 2; ++q) {
-      if (of[q] < 0) continue;
-      const SinkhornProblem& p = transport.batch.problem(of[q]);
-      plans.source[q] = &p.source;
-      plans.target[q] = &p.target;
-      plans.coupling[q] = &moved[of[q]].coupling;
-      plans.angle = p.angle;
-      st.transport_converged = st.transport_converged && moved[of[q]].converged;
-      st.transport_iterations = std::max(st.transport_iterations, moved[of[q]].iterations);
-    }
-    const std::size_t before = anchors.size();
-    const Atom& atom = dict.atoms[st.atom];
-    const auto a = static_cast<std::size_t>(st.atom);
-    const detail::KernelClasses* classes = cache ? &cache->classes(atom, a) : nullptr;
-    for (int q = 0; q < 2 && cache; ++q)
-      if (of[q] >= 0)
-        plans.source_map[q] = cache->sample_map(
-            atom, a, q, q == 0 ? o.transport_points : o.transport_free_points, sectors[s].scale);
-    st.kernels_dropped += detail::anchors_at_samples(atom, sectors[s], plans, o, anchors, classes);
-    st.kernels_placed += anchors.size() - before;
+  } else {
+    // Each sector's anchors on the context's host team, joined in sector order: the anchors
+    // one sector after the other would give.
+    std::vector<std::vector<detail::Anchor>> anchors(sectors.size());
+    AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
+    detail::for_each_item(ctx, sectors.size(), [&](std::size_t s) {
+      anchor_sector(dict, sectors[s], transport, moved, s, o, cache, out.sectors[s], anchors[s]);
+    });
+    std::vector<detail::Anchor> all;
+    for (const auto& a : anchors) all.insert(all.end(), a.begin(), a.end());
+    detail::anchors_to_map(all, dict.dim, out.map);
   }
-  if (at_samples) detail::anchors_to_map(anchors, dict.dim, out.map);
   out.timing.placement_ms = ms_since(t0);
 
   if (o.refine && !out.map.empty() && !pt.train.empty()) {
@@ -335,7 +351,8 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
                            const std::array<double, 3>& sensor, double heading,
                            std::int64_t scan_index, const PotOptions& options) {
   return finish_transfer(
-      ctx, dict, prepare_transfer(dict, train, sensor, heading, scan_index, options), options);
+      ctx, dict, prepare_transfer(dict, train, sensor, heading, scan_index, options, {}, ctx),
+      options);
 }
 
 std::vector<double> evenly_spaced_rotations(int n) {

@@ -5,11 +5,13 @@
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
+#include <thread>
 
 #include "potmap/runtime/tuning_file.hpp"
 #include "runtime/binary_cache.hpp"
 #include "runtime/cl_check.hpp"
 #include "runtime/hash.hpp"
+#include "runtime/host_team.hpp"
 #include "runtime/quiet_stderr.hpp"
 
 namespace bc = boost::compute;
@@ -164,6 +166,9 @@ struct Context::Impl {
   KernelPool kernels;
   std::size_t source_builds = 0;
   std::size_t disk_hits = 0;
+  bool host_helper = true;
+  std::once_flag team_once;
+  std::unique_ptr<detail::HostTeam> team;  // made on first use
 
   Impl(bc::device d, bc::context c, bc::command_queue q, const ContextOptions& o)
       : device(std::move(d)),
@@ -175,7 +180,8 @@ struct Context::Impl {
         dump(o.dump_kernels || env_or("POTMAP_DUMP_KERNELS", "0") == "1"),
         disk(!o.disk_cache                ? std::string()
              : o.binary_cache_dir.empty() ? env_or("POTMAP_CACHE_DIR", "")
-                                          : o.binary_cache_dir) {}
+                                          : o.binary_cache_dir),
+        host_helper(o.host_helper) {}
 
   bc::program build(const std::string& label, const std::string& source,
                     const std::string& defines) {
@@ -375,6 +381,14 @@ KernelLease::~KernelLease() {
   } catch (...) {
     // Out of memory while keeping it: the kernel is released instead, nothing is lost.
   }
+}
+
+void Context::host_parallel_for(std::size_t n, const std::function<void(std::size_t)>& fn) {
+  std::call_once(impl_->team_once, [this] {
+    impl_->team = std::make_unique<detail::HostTeam>(impl_->host_helper &&
+                                                     std::thread::hardware_concurrency() > 1);
+  });
+  impl_->team->run(n, fn);
 }
 
 std::size_t Context::builds_from_source() const {

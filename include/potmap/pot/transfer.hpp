@@ -274,11 +274,14 @@ struct PreparedTransfer {
 /// Cuts and assembles (host only, thread-safe for a shared dictionary). Arguments as for
 /// transfer_scan(); `warm_atoms`: atoms chosen for recent scans (ScanTransfer::sectors[].atom),
 /// added to every sector's candidates by the indexed ranking when PotOptions::warm_candidates
-/// is set (ignored otherwise; indices outside the dictionary are ignored too).
+/// is set (ignored otherwise; indices outside the dictionary are ignored too). `ctx`: its host
+/// helper assembles the indexed ranking's sectors beside this thread (Context::
+/// host_parallel_for; the device is not used); null (the default): this thread alone. The
+/// result is the same either way.
 PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
                                   const std::array<double, 3>& sensor, double heading,
                                   std::int64_t scan_index, const PotOptions& options = {},
-                                  const std::vector<long>& warm_atoms = {});
+                                  const std::vector<long>& warm_atoms = {}, Context* ctx = nullptr);
 
 /// The atoms a transfer chose, for the next scans' prepare_transfer(): one per sector that got
 /// one, in sector order.

@@ -14,6 +14,7 @@
 #include <boost/compute/kernel.hpp>
 #include <boost/compute/program.hpp>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -58,6 +59,11 @@ struct ContextOptions {
   std::string tuning_dir;
   /// false: read no tuning file (the built-in defaults, then the overrides). Default true.
   bool tuning_file = true;
+  /// A second host thread for host work that splits into independent items (POT's per-sector
+  /// preparation and placement, host_parallel_for()). Default true: with the device idle
+  /// between launches, one scan's host stages otherwise leave a core idle. Ignored on a
+  /// single-core machine. The thread starts on first use and sleeps when there is no work.
+  bool host_helper = true;
 };
 
 /// Names of one OpenCL device as potmap sees it.
@@ -168,6 +174,12 @@ class Context {
   /// Builds arbitrary source text (cached like embedded ones). `label` names it in errors.
   boost::compute::program program_from_source(const std::string& label, const std::string& source,
                                               const std::string& defines = "");
+
+  /// Runs fn(i) for every i in [0, n), each once, on this thread and the context's host helper
+  /// (ContextOptions::host_helper), and returns when all are done; items must be independent.
+  /// The first exception an item throws is rethrown here, after the other items ran. When
+  /// another thread is using the helper, this thread runs every item itself.
+  void host_parallel_for(std::size_t n, const std::function<void(std::size_t)>& fn);
 
   /// Number of programs built from source (not loaded from the memory or disk cache). For tests.
   std::size_t builds_from_source() const;

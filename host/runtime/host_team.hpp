@@ -1,0 +1,57 @@
+#pragma once
+// A fork-join team for host work split into independent items (a scan's sectors): the calling
+// thread and one helper thread take items in turn. A Context owns one
+// (Context::host_parallel_for).
+//
+// Why not OpenMP: its idle workers spin for milliseconds after a region, on the cores PoCL's
+// workers need for the launch that follows (docs/pot-scale.md, "One scan at a time"). The
+// helper here looks for the next region for 50 microseconds, then sleeps.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstddef>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+namespace potmap {
+class Context;
+}
+
+namespace potmap::detail {
+
+class HostTeam {
+ public:
+  /// `helper` false: every item runs on the calling thread.
+  explicit HostTeam(bool helper);
+  ~HostTeam();
+  HostTeam(const HostTeam&) = delete;
+  HostTeam& operator=(const HostTeam&) = delete;
+
+  /// fn(i) for every i in [0, n), each once, on this thread and the helper; returns when all
+  /// are done. The first exception an item throws is rethrown here (the other items still
+  /// run). While another thread's run holds the helper, this thread runs every item itself.
+  void run(std::size_t n, const std::function<void(std::size_t)>& fn);
+
+ private:
+  void helper_loop();
+  void take_items();
+
+  std::mutex run_mutex_;  // held by the run that has the helper
+  std::mutex m_;
+  std::condition_variable wake_, done_;
+  const std::function<void(std::size_t)>* fn_ = nullptr;
+  std::size_t n_ = 0;
+  std::atomic<std::size_t> next_{0}, finished_{0};
+  std::atomic<unsigned> generation_{0};
+  bool open_ = false;  // a run is taking items (the helper may join it)
+  bool helper_busy_ = false, stop_ = false;
+  std::exception_ptr error_;
+  std::thread helper_;
+};
+
+/// ctx->host_parallel_for(n, fn), or every item on this thread when ctx is null.
+void for_each_item(Context* ctx, std::size_t n, const std::function<void(std::size_t)>& fn);
+
+}  // namespace potmap::detail

@@ -1,0 +1,109 @@
+// Context::host_parallel_for: the host helper that works beside the scan's thread.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "potmap/runtime/context.hpp"
+#include "test_support.hpp"
+
+using namespace potmap;
+
+namespace {
+
+// Keeps a thread busy for about `us` microseconds, so that a run lasts long enough for the
+// helper to wake and take items.
+void busy_for(int us) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::microseconds(us);
+  while (std::chrono::steady_clock::now() < until) {
+  }
+}
+
+}  // namespace
+
+// Every item runs exactly once, and with the helper on (and a second core) some run on a
+// thread other than the caller's.
+TEST(HostParallel, EveryItemOnceAndTheHelperTakesPart) {
+  Context& ctx = test::context();
+  const auto caller = std::this_thread::get_id();
+  std::set<std::thread::id> threads;
+  std::mutex m;
+  for (int run = 0; run < 50; ++run) {
+    std::vector<std::atomic<int>> count(16);
+    ctx.host_parallel_for(count.size(), [&](std::size_t i) {
+      busy_for(100);
+      count[i].fetch_add(1);
+      std::lock_guard<std::mutex> lock(m);
+      threads.insert(std::this_thread::get_id());
+    });
+    for (std::size_t i = 0; i < count.size(); ++i) ASSERT_EQ(count[i].load(), 1) << "item " << i;
+  }
+  EXPECT_EQ(threads.count(caller), 1u);
+  if (std::thread::hardware_concurrency() > 1)
+    EXPECT_EQ(threads.size(), 2u) << "the helper never took an item";
+  else
+    EXPECT_EQ(threads.size(), 1u);
+  ctx.host_parallel_for(0, [](std::size_t) { FAIL() << "no item to run"; });
+}
+
+TEST(HostParallel, HelperOffRunsEveryItemOnTheCaller) {
+  ContextOptions o;
+  o.host_helper = false;
+  Context ctx(o);
+  const auto caller = std::this_thread::get_id();
+  std::vector<std::size_t> order;
+  ctx.host_parallel_for(8, [&](std::size_t i) {
+    busy_for(50);
+    EXPECT_EQ(std::this_thread::get_id(), caller);
+    order.push_back(i);
+  });
+  EXPECT_EQ(order, (std::vector<std::size_t>{0, 1, 2, 3, 4, 5, 6, 7}));
+}
+
+// An item's exception reaches the caller after every other item ran, and the helper is free
+// for the next run.
+TEST(HostParallel, AnItemsExceptionIsRethrownAfterTheOthersRan) {
+  Context& ctx = test::context();
+  for (int run = 0; run < 20; ++run) {
+    std::vector<std::atomic<int>> count(10);
+    try {
+      ctx.host_parallel_for(count.size(), [&](std::size_t i) {
+        busy_for(50);
+        count[i].fetch_add(1);
+        if (i == 3 || i == 7) throw std::runtime_error("item " + std::to_string(i));
+      });
+      FAIL() << "expected the item's exception";
+    } catch (const std::runtime_error& e) {
+      const std::string what = e.what();
+      EXPECT_TRUE(what == "item 3" || what == "item 7") << what;
+    }
+    for (std::size_t i = 0; i < count.size(); ++i) EXPECT_EQ(count[i].load(), 1) << "item " << i;
+  }
+  std::atomic<int> after{0};
+  ctx.host_parallel_for(4, [&](std::size_t) { after.fetch_add(1); });
+  EXPECT_EQ(after.load(), 4);
+}
+
+// Two threads sharing a context (as a mapper's pipeline does): one has the helper, the other
+// runs its items itself; neither waits on the other, and every item of both runs once.
+TEST(HostParallel, TwoCallersAtOnceEachFinishEveryItem) {
+  Context& ctx = test::context();
+  std::atomic<long> total{0};
+  auto caller = [&] {
+    for (int run = 0; run < 200; ++run)
+      ctx.host_parallel_for(5, [&](std::size_t i) {
+        busy_for(20);
+        total.fetch_add(long(i) + 1);
+      });
+  };
+  std::thread a(caller), b(caller);
+  a.join();
+  b.join();
+  EXPECT_EQ(total.load(), 2L * 200 * 15);
+}
