@@ -215,19 +215,23 @@ std::vector<RotationEstimate> AtomIndex::rotations(const SectorSignature& t, std
   // c(k) = sum over classes, rings and bins of atom[b] * target[b + k]: the atom rotated by
   // k bins laid over the target. The target's rows are doubled so that b + k needs no modulo.
   std::vector<double> corr(B, 0.0);
-  std::vector<float> twice(2 * B);
+  std::vector<float> twice(2 * B), sum(B);
   auto add = [&](const float* a, const std::vector<float>& tp) {
     for (int r = 0; r < options_.rings; ++r) {
       const float* ar = a + static_cast<std::size_t>(r) * B;
       const float* tr = tp.data() + static_cast<std::size_t>(r) * B;
       std::copy(tr, tr + B, twice.begin());
       std::copy(tr, tr + B, twice.begin() + B);
-      for (int k = 0; k < B; ++k) {
-        float s = 0;
-        const float* tk = twice.data() + k;
-        for (int b = 0; b < B; ++b) s += ar[b] * tk[b];
-        corr[k] += s;
+      // Every shift k at once, bin by bin: each sum[k] adds its terms in bin order (the same
+      // float sums as one shift at a time), and the loop over k vectorises.
+      std::fill(sum.begin(), sum.end(), 0.0f);
+      float* __restrict sk = sum.data();
+      for (int b = 0; b < B; ++b) {
+        const float ab = ar[b];
+        const float* tb = twice.data() + b;
+        for (int k = 0; k < B; ++k) sk[k] += ab * tb[k];
       }
+      for (int k = 0; k < B; ++k) corr[k] += sum[k];
     }
   };
   if (t.hits && hits_[atom]) add(&hit_polar_[atom * hist], t.hit_polar);

@@ -67,10 +67,12 @@ std::vector<std::size_t> even_indices(const std::vector<double>& pts, int dim, s
     std::size_t slots = 1;
     while (slots < 2 * n) slots <<= 1;
     std::vector<std::uint64_t> table(slots);
-    auto cells = [&](double cell, std::vector<std::size_t>* firsts) {
+    // Stops counting past `stop` cells: the bisection only asks whether a size leaves more
+    // than the cap.
+    auto cells = [&](double cell, std::vector<std::size_t>* firsts, std::size_t stop) {
       std::fill(table.begin(), table.end(), 0);
       std::size_t count = 0;
-      for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t i = 0; i < n && count <= stop; ++i) {
         std::uint64_t key = 1;  // 0 marks an empty slot
         for (int d = 0; d < dim; ++d)
           key = (key << 21) | static_cast<std::uint64_t>((pts[i * dim + d] - lo[d]) / cell);
@@ -90,9 +92,9 @@ std::vector<std::size_t> even_indices(const std::vector<double>& pts, int dim, s
     if (extent > 0) {
       for (int round = 0; round < 24 && large / small > 1.03; ++round) {
         const double mid = std::sqrt(small * large);
-        (cells(mid, nullptr) > cap ? small : large) = mid;
+        (cells(mid, nullptr, cap) > cap ? small : large) = mid;
       }
-      cells(large, &keep);
+      cells(large, &keep, n);
     } else {
       keep.push_back(0);  // every point at the same place
     }
