@@ -46,6 +46,20 @@ PotOptions small_options() {
   return o;
 }
 
+// The same kernels bit for bit, and the same atoms and kernel counts in every sector.
+void expect_same_transfer(const ScanTransfer& got, const ScanTransfer& want) {
+  EXPECT_EQ(got.map.position, want.map.position);
+  EXPECT_EQ(got.map.w_mean, want.map.w_mean);
+  EXPECT_EQ(got.map.w_var, want.map.w_var);
+  EXPECT_EQ(got.map.gamma, want.map.gamma);
+  ASSERT_EQ(got.sectors.size(), want.sectors.size());
+  for (std::size_t s = 0; s < want.sectors.size(); ++s) {
+    EXPECT_EQ(got.sectors[s].atom, want.sectors[s].atom) << "sector " << s;
+    EXPECT_EQ(got.sectors[s].kernels_placed, want.sectors[s].kernels_placed) << "sector " << s;
+    EXPECT_EQ(got.sectors[s].kernels_dropped, want.sectors[s].kernels_dropped) << "sector " << s;
+  }
+}
+
 // 0: kernels follow hits only (SPEC step 4). 1: free samples are transported too, all of them
 // (the cap is above a sector's count) so that both sides of the self-transport hold the same
 // points; kernels in free space then follow free samples, which lie farther apart than hits,
@@ -168,15 +182,7 @@ TEST(Pot, SolvedTransferPlacedBesideAnotherSolveIsFinishTransfer) {
   const SolvedTransfer next = solve_transfer(&ctx, dict, prepared(2), o);
   const ScanTransfer split = placed.get();
   EXPECT_FALSE(next.plans.empty());
-  EXPECT_EQ(split.map.position, whole.map.position);
-  EXPECT_EQ(split.map.w_mean, whole.map.w_mean);
-  EXPECT_EQ(split.map.w_var, whole.map.w_var);
-  EXPECT_EQ(split.map.gamma, whole.map.gamma);
-  ASSERT_EQ(split.sectors.size(), whole.sectors.size());
-  for (std::size_t s = 0; s < split.sectors.size(); ++s) {
-    EXPECT_EQ(split.sectors[s].atom, whole.sectors[s].atom);
-    EXPECT_EQ(split.sectors[s].kernels_placed, whole.sectors[s].kernels_placed);
-  }
+  expect_same_transfer(split, whole);
 
   SolvedTransfer broken = solve_transfer(&ctx, dict, prepared(1), o);
   ASSERT_FALSE(broken.plans.empty());
@@ -234,15 +240,7 @@ TEST(Pot, HostHelperChangesNothingInATransfer) {
     const ScanTransfer one = place_transfer(nullptr, dict, std::move(copy), o);
     const ScanTransfer two = place_transfer(&ctx, dict, std::move(solved), o);
     ASSERT_GT(one.map.size(), 0u);
-    EXPECT_EQ(two.map.position, one.map.position);
-    EXPECT_EQ(two.map.w_mean, one.map.w_mean);
-    EXPECT_EQ(two.map.w_var, one.map.w_var);
-    EXPECT_EQ(two.map.gamma, one.map.gamma);
-    ASSERT_EQ(two.sectors.size(), one.sectors.size());
-    for (std::size_t s = 0; s < one.sectors.size(); ++s) {
-      EXPECT_EQ(two.sectors[s].kernels_placed, one.sectors[s].kernels_placed);
-      EXPECT_EQ(two.sectors[s].kernels_dropped, one.sectors[s].kernels_dropped);
-    }
+    expect_same_transfer(two, one);
   }
 }
 
