@@ -35,6 +35,21 @@ KernelMap tagged_grid(const std::array<double, 3>& c, double half, double step) 
   return map;
 }
 
+// Three town1 scans 12 m apart and the atoms of a tagged grid around the middle one.
+struct TownAtoms {
+  std::vector<Scan> scans;
+  Dictionary dict;
+};
+TownAtoms town_atoms() {
+  SimOptions so;
+  so.scans = 3;
+  so.spacing = 12;
+  TownAtoms t;
+  t.scans = simulate(Town::builtin("town1"), so).scans;
+  build_dictionary(t.scans, tagged_grid(t.scans[1].origin(), 40, 2), {}, t.dict);
+  return t;
+}
+
 // Small problems so that the CPU reference stays quick.
 PotOptions small_options() {
   PotOptions o;
@@ -159,12 +174,9 @@ TEST(Pot, PreselectionRanksOnlyKAtomsAndKeepsTheOwnAtom) {
 // another scan's solve, a scan's map is finish_transfer()'s bit for bit. Parts that disagree
 // are refused.
 TEST(Pot, SolvedTransferPlacedBesideAnotherSolveIsFinishTransfer) {
-  SimOptions so;
-  so.scans = 3;
-  so.spacing = 12;
-  const std::vector<Scan> scans = simulate(Town::builtin("town1"), so).scans;
-  Dictionary dict;
-  build_dictionary(scans, tagged_grid(scans[1].origin(), 40, 2), {}, dict);
+  const TownAtoms town = town_atoms();
+  const std::vector<Scan>& scans = town.scans;
+  const Dictionary& dict = town.dict;
   const PotOptions o = small_options();
   auto prepared = [&](std::size_t i) {
     return prepare_transfer(dict, training_samples(scans[i], i), scans[i].origin(),
@@ -194,12 +206,9 @@ TEST(Pot, SolvedTransferPlacedBesideAnotherSolveIsFinishTransfer) {
 // beside the scan's thread (Context::host_parallel_for); the transfer is the one this thread
 // alone makes, bit for bit: the same problems in the same order, the same map.
 TEST(Pot, HostHelperChangesNothingInATransfer) {
-  SimOptions so;
-  so.scans = 3;
-  so.spacing = 12;
-  const std::vector<Scan> scans = simulate(Town::builtin("town1"), so).scans;
-  Dictionary dict;
-  build_dictionary(scans, tagged_grid(scans[1].origin(), 40, 2), {}, dict);
+  const TownAtoms town = town_atoms();
+  const std::vector<Scan>& scans = town.scans;
+  const Dictionary& dict = town.dict;
   PotOptions o = small_options();
   o.ranking = PotRanking::indexed;
   o.index = std::make_shared<const AtomIndex>(dict);
