@@ -138,7 +138,7 @@ class Context:
     Every object built on a Context (Evaluator, Mapper) keeps it alive. Device
     work releases the GIL; a Context may be shared by threads (its queue
     serialises their device work)."""
-    def __init__(self, device: str = '', cache_dir: str = '', disk_cache: bool = True, build_options: str = '', dump_kernels: bool = False) -> None:
+    def __init__(self, device: str = '', cache_dir: str = '', disk_cache: bool = True, build_options: str = '', dump_kernels: bool = False, host_helper: bool = True) -> None:
         """Picks a device and sets it up.
         
         device: case-insensitive substring of the platform or device name ('pocl',
@@ -148,7 +148,9 @@ class Context:
             else none (an unwritable folder is ignored with one warning).
         disk_cache: False turns the binary cache off whatever cache_dir says (default True).
         build_options: appended to every kernel build, e.g. '-cl-fast-relaxed-math'.
-        dump_kernels: print each kernel's source to stderr when built (default False)."""
+        dump_kernels: print each kernel's source to stderr when built (default False).
+        host_helper: a second host thread for a scan's per-sector host work (default True;
+            it sleeps when there is none; the maps are the same either way)."""
         ...
     @property
     def device(self) -> DeviceInfo:
@@ -1569,6 +1571,15 @@ def label_scan(scan: Scan, index: int = 0, free_per_metre: float = 1.0, holdout:
 
 def out_of_sample_map(problem: SinkhornProblem, barycentric: numpy.typing.ArrayLike, points: numpy.typing.ArrayLike) -> numpy.ndarray:
     """SPEC step 4's map: each row h of points goes to T_k + R (h - x_k), x_k the nearest source sample."""
+    ...
+
+def pin_pocl_workers() -> bool:
+    """Asks PoCL's CPU device to keep each worker thread on a core of its own
+    (POCL_AFFINITY=1 in this process's environment, as the C library sees it) unless it
+    names a value already (POCL_AFFINITY=0 turns it off). PoCL reads it once, at the first
+    OpenCL call of the process: call it before the first Context. Returns True when it
+    set it. One scan at a time on a virtual machine's CPU, pinned workers rank and
+    transport about a quarter faster (README, 'Choosing the device')."""
     ...
 
 def probit_probability(mean: float, var: float) -> float:

@@ -95,6 +95,28 @@ def test_transfer_scan_matches_the_mapper_instantaneous_map(source, ctx):
     np.testing.assert_allclose(t.map.w_mean, first.map.w_mean, atol=1e-9)
 
 
+def test_host_helper_changes_no_map(source):
+    """A context's host helper (the sectors' host work beside the scan's thread) maps as one
+    thread does, bit for bit, with the settings that use it (indexed ranking, kernels on the
+    scan's samples)."""
+    d = potmap.Dictionary.load(str(source / "town1.potdict"))
+    scans = list(potmap.read_dataset(str(source / "dst" / "scans.log")))
+    o = mapper_options()
+    o.pot.ranking = "indexed"
+    o.pot.placement = "target_samples"
+    o.pot.wall_clearance = 0.5
+    o.average_overall = True
+    maps = []
+    for helper in (True, False):
+        mapper = potmap.Mapper(potmap.Context(disk_cache=False, host_helper=helper), d, options=o)
+        for s in scans:
+            mapper.add_scan(s)
+        maps.append(mapper.overall_map())
+    assert len(maps[0]) == len(maps[1]) > 0
+    for field in ("positions", "gamma", "w_mean", "w_var"):
+        np.testing.assert_array_equal(getattr(maps[0], field), getattr(maps[1], field))
+
+
 @pytest.mark.parametrize("refine", [False, True])
 def test_async_merge_gives_the_same_map(source, ctx, refine):
     d = potmap.Dictionary.load(str(source / "town1.potdict"))
