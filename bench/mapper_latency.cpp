@@ -102,6 +102,14 @@ double cpu_ms() {
          1e-3 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
+// to += weight * t, stage by stage (the transfer's stages; RePOT's refinement is in the merge).
+void add_stages(PotTiming& to, const PotTiming& t, double weight) {
+  to.prepare_ms += weight * t.prepare_ms;
+  to.ranking_ms += weight * t.ranking_ms;
+  to.transport_ms += weight * t.transport_ms;
+  to.placement_ms += weight * t.placement_ms;
+}
+
 struct Run {
   double ms_per_scan = 0, merge_ms = 0, cpu_ms_per_scan = 0;
   PotTiming stages;  // the transfer's stages, ms a scan (sync runs)
@@ -120,19 +128,13 @@ Run run(Context& ctx, const std::shared_ptr<const Dictionary>& dict, const std::
     if (async) continue;
     const PotTiming& t = m.last().transfer.timing;
     r.merge_ms += m.last_merge().merge_ms + t.refine_ms;
-    r.stages.prepare_ms += t.prepare_ms;
-    r.stages.ranking_ms += t.ranking_ms;
-    r.stages.transport_ms += t.transport_ms;
-    r.stages.placement_ms += t.placement_ms;
+    add_stages(r.stages, t, 1.0 / double(scans.size()));
   }
   r.map = m.overall_map();  // waits for the last merge
   r.cpu_ms_per_scan = (cpu_ms() - c0) / double(scans.size());
   r.ms_per_scan =
       std::chrono::duration<double, std::milli>(Clock::now() - t0).count() / double(scans.size());
   r.merge_ms /= double(scans.size());
-  for (double* x :
-       {&r.stages.prepare_ms, &r.stages.ranking_ms, &r.stages.transport_ms, &r.stages.placement_ms})
-    *x /= double(scans.size());
   return r;
 }
 
@@ -181,10 +183,7 @@ int main(int argc, char** argv) {
         async_ms.push_back(as.ms_per_scan);
         merge_ms += s.merge_ms / double(a.repeat);
         sync_cpu_ms += s.cpu_ms_per_scan / double(a.repeat);
-        stages.prepare_ms += s.stages.prepare_ms / double(a.repeat);
-        stages.ranking_ms += s.stages.ranking_ms / double(a.repeat);
-        stages.transport_ms += s.stages.transport_ms / double(a.repeat);
-        stages.placement_ms += s.stages.placement_ms / double(a.repeat);
+        add_stages(stages, s.stages, 1.0 / double(a.repeat));
         identical = identical && same(s.map, as.map) && same(s.map, one.map);
       }
       const double sm = *std::min_element(sync_ms.begin(), sync_ms.end());
@@ -192,8 +191,7 @@ int main(int argc, char** argv) {
       const double om = *std::min_element(serial_ms.begin(), serial_ms.end());
       const char* method = refine ? "RePOT" : "POT";
       // The instantaneous map's latency: the sync runs' stages before the merge.
-      const double transfer_ms =
-          stages.prepare_ms + stages.ranking_ms + stages.transport_ms + stages.placement_ms;
+      const double transfer_ms = stages.total_ms();
       std::printf("%-6s %6zu %5zu %13.2f %13.2f %14.2f %9.2f %12.2f %12.2f %9s\n", method,
                   dict->size(), scans.size(), sm, om, am, merge_ms, transfer_ms, sync_cpu_ms,
                   identical ? "yes" : "NO");

@@ -185,7 +185,6 @@ void place_sector(const Dictionary& dict, const Sector& sec, const Transport& t,
   }
 }
 
-// RePOT (SPEC step 7): the transported weights refined on the scan's own training samples.
 // The anchors of sector s on the target's samples (PotPlacement::target_samples), its
 // transport's convergence and counts into st.
 void anchor_sector(const Dictionary& dict, const Sector& sec, const Transport& transport,
@@ -217,6 +216,7 @@ void anchor_sector(const Dictionary& dict, const Sector& sec, const Transport& t
   st.kernels_placed += anchors.size();
 }
 
+// RePOT (SPEC step 7): the transported weights refined on the scan's own training samples.
 void refine_weights(Context* ctx, const LabelledPoints& train, const PotOptions& o,
                     KernelMap& map) {
   for (double& v : map.w_var) v = std::max(v, o.refine_min_variance);

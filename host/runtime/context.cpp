@@ -122,7 +122,8 @@ std::string DeviceInfo::summary() const {
 bool pin_pocl_workers() {
   const char* v = std::getenv("POCL_AFFINITY");
   if (v && *v) return false;
-  return setenv("POCL_AFFINITY", "1", 0) == 0;
+  // Overwrites only an empty value (the check above keeps any other).
+  return setenv("POCL_AFFINITY", "1", 1) == 0;
 }
 
 std::vector<DeviceInfo> list_devices() {
