@@ -2,8 +2,11 @@
 // support-weighted average of the scans that saw it, never their sum.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
+#include <random>
 #include <set>
 
 #include "potmap/error.hpp"
@@ -199,6 +202,108 @@ TEST(AveragedMap, AMapMovedAcrossBlocksSolvesTheSame) {
   expect_moved_map_is_the_same(2, by2b);
   const double by3[3] = {-21 * h, 13 * h, -9 * h};
   expect_moved_map_is_the_same(3, by3);
+}
+
+// The first scan's solve written plainly: every cell's sums by one exp per kernel and cell,
+// every neighbour by its distance, the Gauss-Seidel sweeps in cell order (z, then y, then x).
+// AveragedMap sums along runs, pairs mirrored neighbours and walks Gaussian factors by
+// recurrence; each is exact in arithmetic, so the two agree to rounding.
+KernelMap plain_first_scan(const KernelMap& inst, const AveragedMapOptions& o) {
+  const int dim = inst.dim;
+  const double h = o.spacing;
+  const double gmin = *std::min_element(inst.gamma.begin(), inst.gamma.end());
+  const long reach = long(std::ceil(std::sqrt(16.0 / gmin) / h));
+  struct Cell {
+    double m = 0, v = 0, sup = 0, sg = 0;
+  };
+  std::map<std::array<long, 3>, Cell> cells;  // ordered by z, y, x as the box is
+  for (std::size_t k = 0; k < inst.size(); ++k) {
+    long c0[3] = {0, 0, 0};
+    for (int a = 0; a < dim; ++a) c0[a] = long(std::floor(inst.position[k * dim + a] / h));
+    for (long dz = dim == 3 ? -reach : 0; dz <= (dim == 3 ? reach : 0); ++dz)
+      for (long dy = -reach; dy <= reach; ++dy)
+        for (long dx = -reach; dx <= reach; ++dx) {
+          const long c[3] = {c0[0] + dx, c0[1] + dy, c0[2] + dz};
+          double r2 = 0;
+          for (int a = 0; a < dim; ++a) {
+            const double t = (c[a] + 0.5) * h - inst.position[k * dim + a];
+            r2 += t * t;
+          }
+          if (inst.gamma[k] * r2 > 16.0) continue;
+          const double phi = std::exp(-inst.gamma[k] * r2);
+          Cell& cell = cells[{c[2], c[1], c[0]}];
+          cell.m += inst.w_mean[k] * phi;
+          cell.v += inst.w_var[k] * phi * phi;
+          cell.sup += phi;
+          cell.sg += inst.gamma[k] * phi;
+        }
+  }
+  KernelMap out;
+  out.dim = dim;
+  std::vector<std::array<long, 3>> at;  // each anchor's cell (z, y, x)
+  std::vector<double> average;
+  for (const auto& [c, cell] : cells) {
+    if (cell.sup < o.min_support) continue;
+    const double x[3] = {(c[2] + 0.5) * h, (c[1] + 0.5) * h, (c[0] + 0.5) * h};
+    // The scan's logit and variance at the cell are its average there (support-weighted over
+    // one scan).
+    out.push_back(x, cell.sg / cell.sup, 0.0, cell.v);
+    at.push_back(c);
+    average.push_back(cell.m);
+  }
+  const long ws = std::min(reach, long(std::floor(std::sqrt(9.0 / (gmin * h * h)))));
+  const std::size_t n = at.size();
+  std::vector<std::vector<std::pair<std::size_t, long>>> near(n);  // (anchor, squared cells)
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = 0; b < n; ++b) {
+      long q = 0;
+      for (int i = 0; i < 3; ++i) q += (at[a][i] - at[b][i]) * (at[a][i] - at[b][i]);
+      if (b != a && q <= ws * ws) near[a].push_back({b, q});
+    }
+  auto gram = [&](std::size_t a, long q) { return std::exp(-out.gamma[a] * h * h * double(q)); };
+  for (std::size_t a = 0; a < n; ++a) {
+    double part = 1, part2 = 1;
+    for (const auto& [b, q] : near[a]) {
+      part += gram(a, q);
+      part2 += gram(a, q) * gram(a, q);
+    }
+    out.w_mean[a] = average[a] / part;
+    out.w_var[a] /= part2;
+  }
+  for (int sweep = 0; sweep < o.sweeps; ++sweep)
+    for (std::size_t a = 0; a < n; ++a) {
+      double r = average[a];
+      for (const auto& [b, q] : near[a]) r -= gram(a, q) * out.w_mean[b];
+      const double w = r / (1.0 + o.ridge);
+      out.w_mean[a] = average[a] >= 0 ? std::max(w, 0.0) : std::min(w, 0.0);
+    }
+  return out;
+}
+
+TEST(AveragedMap, OneScanSolvesAsThePlainSolve) {
+  for (int dim : {2, 3}) {
+    // Scattered kernels of three widths and both signs, at negative and positive coordinates.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-2.5, 2.5), w(-2, 2);
+    KernelMap inst;
+    inst.dim = dim;
+    for (int k = 0; k < (dim == 3 ? 120 : 200); ++k) {
+      const double p[3] = {u(rng), u(rng), 0.4 * u(rng)};
+      inst.push_back(p, kGamma * (1 + 0.25 * (k % 3)), w(rng), 0.2 + 0.1 * (k % 4));
+    }
+    AveragedMap avg(dim);
+    avg.add(inst);
+    const KernelMap want = plain_first_scan(inst, avg.options());
+    ASSERT_EQ(avg.size(), want.size()) << dim << "D";
+    ASSERT_GT(avg.size(), 300u);
+    for (std::size_t k = 0; k < want.size(); ++k) {
+      for (int a = 0; a < dim; ++a)
+        ASSERT_NEAR(avg.map().position[k * dim + a], want.position[k * dim + a], 1e-12) << k;
+      EXPECT_NEAR(avg.map().gamma[k], want.gamma[k], 1e-12 * want.gamma[k]) << dim << "D " << k;
+      EXPECT_NEAR(avg.map().w_mean[k], want.w_mean[k], 1e-9) << dim << "D anchor " << k;
+      EXPECT_NEAR(avg.map().w_var[k], want.w_var[k], 1e-9) << dim << "D anchor " << k;
+    }
+  }
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <string>
 
 #include "cell_key.hpp"
@@ -125,8 +126,11 @@ void AveragedMap::add(const KernelMap& inst) {
   std::vector<double>&m = work.m, &v = work.v, &sup = work.sup, &sg = work.sg;
   const std::int64_t zs = d == 3 ? span : 0;
   double x[3] = {0, 0, 0};
-  // On the grid a Gaussian is the product of one factor an axis: 3 (2 span + 1) exponentials a
-  // kernel instead of one a cell. The cut stays on the whole exponent, as one exp would take it.
+  // On the grid a Gaussian is the product of one factor an axis, and along an axis each factor
+  // is the last times a ratio that itself shrinks by exp(-2 g h^2) a cell: 3 d + 1 exponentials
+  // a kernel instead of 2 span + 1 an axis (the product drifts by a few ulp over a span). The
+  // walk starts at the kernel's own cell, so the factors only fall and underflow only where
+  // they are negligible. The cut stays on the whole exponent, as one exp would take it.
   const std::size_t side = std::size_t(2 * span + 1);
   work.t2.assign(3 * side, 0);
   work.f.assign(3 * side, 0);
@@ -135,12 +139,22 @@ void AveragedMap::add(const KernelMap& inst) {
     const double* p = &inst.position[k * d];
     const double g = inst.gamma[k];
     std::int64_t c0[3] = {0, 0, 0};
+    const double shrink = std::exp(-2 * g * h * h);
     for (int a = 0; a < d; ++a) {
       c0[a] = cell(p[a]) - lo[a];
       for (std::int64_t o = -span; o <= span; ++o) {
         const double t = (lo[a] + c0[a] + o + 0.5) * h - p[a];
         t2[a * side + std::size_t(o + span)] = t * t;
-        f[a * side + std::size_t(o + span)] = std::exp(-g * t * t);
+      }
+      const double tc = (lo[a] + c0[a] + 0.5) * h - p[a];  // from the kernel to its cell's centre
+      double* fc = &f[a * side + std::size_t(span)];
+      fc[0] = std::exp(-g * tc * tc);
+      double up = std::exp(-g * (h * h + 2 * tc * h)), down = std::exp(-g * (h * h - 2 * tc * h));
+      for (std::int64_t o = 1; o <= span; ++o) {
+        fc[o] = fc[o - 1] * up;
+        fc[-o] = fc[1 - o] * down;
+        up *= shrink;
+        down *= shrink;
       }
     }
     const double wm = inst.w_mean[k], wv = inst.w_var[k];
@@ -152,9 +166,9 @@ void AveragedMap::add(const KernelMap& inst) {
       for (std::int64_t dy = -span; dy <= span; ++dy) {
         const double yz2 = z2 + t2[side + std::size_t(dy + span)];
         const double fyz = fz * f[side + std::size_t(dy + span)];
-        // The row's cells within the cut (a run: t2 falls then rises along the row), then one
-        // branch-free pass over the run that the compiler vectorises; a cell of the run the cut
-        // still excludes adds exact zeros, so the sums are those of the cell-by-cell test.
+        // The row's cells within the cut: a run, since t2 falls then rises along the row, so
+        // every cell between its ends is within the cut too and the pass over it has no test
+        // (which kept the compiler from vectorising it).
         std::size_t a = 0, b = side;
         while (a < b && g * (yz2 + tx[a]) > kCut) ++a;
         while (b > a && g * (yz2 + tx[b - 1]) > kCut) --b;
@@ -166,7 +180,7 @@ void AveragedMap::add(const KernelMap& inst) {
         double* __restrict ps = sup.data() + row;
         double* __restrict pg = sg.data() + row;
         for (std::size_t x = a; x < b; ++x) {
-          const double phi = g * (yz2 + tx[x]) > kCut ? 0.0 : fyz * fx[x];
+          const double phi = fyz * fx[x];
           pm[x] += wm * phi;
           pv[x] += wv * phi * phi;
           ps[x] += phi;
@@ -219,28 +233,39 @@ void AveragedMap::add(const KernelMap& inst) {
   // Weights: Gauss-Seidel on (Phi + ridge I) w = v over the footprint, neighbours outside it
   // held. On the grid Phi depends on the offset and the width only; the row's own width stands
   // for its neighbours' (equal wherever the atoms share one width, as BHM atoms do). The
-  // stencil (offsets within the solve's cut) is a set of runs along x, walked over dense copies
-  // of the box's weights (0 where no anchor) and of where anchors are: contiguous loads, no
-  // per-neighbour lists to build.
+  // stencil (offsets within the solve's cut) is walked over dense copies of the box's weights
+  // (0 where no anchor) and of where anchors are: contiguous loads, no per-neighbour lists.
+  //  - Phi is even, so each run of the stencil along x is paired with its mirror image through
+  //    the centre and the pair summed before one multiply; runs are padded with a zero entry to
+  //    whole pairs of doubles, so a dot has half the multiplies and no scalar tails.
+  //  - The centre's own row is summed apart, one double at a time and its nearest cells last:
+  //    the sweep has just written the cell before, and its weight is the one term that waits
+  //    for the last update, so it enters after the rest of the sum (a pair load over the fresh
+  //    store would also wait for the store to reach the cache).
   const std::int64_t ws =
       std::min<std::int64_t>(span, std::int64_t(std::floor(std::sqrt(kSolveCut / (gmin * h * h)))));
   struct Run {
     std::int64_t offset;  // box offset of the run's first cell from the centre cell
+    std::int64_t mirror;  // its mirror image's first cell
     std::size_t first;    // its first entry in the weights
-    std::size_t length;
+    std::size_t length;   // 2 hx + 1 cells and one entry of padding
   };
-  std::vector<Run> runs;
-  std::vector<std::int64_t> q2;  // squared grid distance of each stencil entry
-  for (std::int64_t dz = -(d == 3 ? ws : 0); dz <= (d == 3 ? ws : 0); ++dz)
-    for (std::int64_t dy = -ws; dy <= ws; ++dy) {
+  std::vector<Run> runs;         // the rows off the centre's, one of each mirrored pair
+  std::vector<std::int64_t> q2;  // squared grid distance of each entry, -1 for padding
+  for (std::int64_t dz = 0; dz <= (d == 3 ? ws : 0); ++dz)
+    for (std::int64_t dy = dz == 0 ? 1 : -ws; dy <= ws; ++dy) {
       const std::int64_t q = dy * dy + dz * dz;
       if (q > ws * ws) continue;
       const auto hx = std::int64_t(std::floor(std::sqrt(double(ws * ws - q))));
-      runs.push_back({-hx + n[0] * (dy + n[1] * dz), q2.size(), std::size_t(2 * hx + 1)});
+      runs.push_back({-hx + n[0] * (dy + n[1] * dz), -hx - n[0] * (dy + n[1] * dz), q2.size(),
+                      std::size_t(2 * hx + 2)});
       for (std::int64_t dx = -hx; dx <= hx; ++dx) q2.push_back(dx * dx + q);
+      q2.push_back(-1);
     }
-  // Gram entries of the stencil, the centre's set to 0 (the sweep leaves it out), and squared.
+  // Gram entries of the runs and their squares; row[k], row2[k]: the centre row's at k cells
+  // (k from 1 to ws; row[1] is 0 when ws is).
   std::vector<double> gram(q2.size()), gram2(q2.size());
+  std::vector<double> row(std::size_t(std::max<std::int64_t>(ws, 1) + 1), 0.0), row2(row);
   double table_gamma = -1;
   auto weights_of = [&](double gamma) {
     // An anchor's width is an average of equal widths, equal to the last up to rounding: a
@@ -248,59 +273,98 @@ void AveragedMap::add(const KernelMap& inst) {
     // less than 1e-8 of itself.
     if (std::abs(gamma - table_gamma) <= 1e-9 * gamma) return;
     for (std::size_t e = 0; e < q2.size(); ++e) {
-      gram[e] = q2[e] == 0 ? 0.0 : std::exp(-gamma * h * h * double(q2[e]));
+      gram[e] = q2[e] < 0 ? 0.0 : std::exp(-gamma * h * h * double(q2[e]));
       gram2[e] = gram[e] * gram[e];
+    }
+    for (std::int64_t k = 1; k <= ws; ++k) {
+      row[std::size_t(k)] = std::exp(-gamma * h * h * double(k * k));
+      row2[std::size_t(k)] = row[std::size_t(k)] * row[std::size_t(k)];
     }
     table_gamma = gamma;
   };
-  // sum over the stencil of box[i + offset] * wt; four partial sums, so that the adds do not
-  // wait on each other.
-  auto stencil_dot = [&](const double* box, std::size_t i, const std::vector<double>& wt) {
-    double r4[4] = {0, 0, 0, 0};
+  // Two doubles at a time (GCC's and Clang's vector extension: SSE2 on x86-64, NEON on arm64,
+  // without naming an instruction set).
+  typedef double Pair __attribute__((vector_size(16)));
+  const auto load = [](const double* p) {
+    Pair v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  };
+  // The sum over the runs of box[i + offset] * wt: two pairs of partial sums, so that the adds
+  // do not wait on each other.
+  auto runs_dot = [&](const double* box, std::size_t i, const std::vector<double>& wt) {
+    Pair s0 = {0, 0}, s1 = {0, 0};
     for (const Run& run : runs) {
       const double* b = box + std::int64_t(i) + run.offset;
+      const double* m = box + std::int64_t(i) + run.mirror;
       const double* w = wt.data() + run.first;
       std::size_t e = 0;
-      for (; e + 4 <= run.length; e += 4)
-        for (int u = 0; u < 4; ++u) r4[u] += b[e + u] * w[e + u];
-      for (; e < run.length; ++e) r4[0] += b[e] * w[e];
+      for (; e + 4 <= run.length; e += 4) {
+        s0 += (load(b + e) + load(m + e)) * load(w + e);
+        s1 += (load(b + e + 2) + load(m + e + 2)) * load(w + e + 2);
+      }
+      if (e < run.length) s0 += (load(b + e) + load(m + e)) * load(w + e);
     }
-    return (r4[0] + r4[1]) + (r4[2] + r4[3]);
+    const Pair s = s0 + s1;
+    return s[0] + s[1];
   };
-  work.has.resize(cells);
-  work.w.resize(cells);
+  // The centre row's sum from ws cells out in to 2 (the caller adds the nearest two, last).
+  auto row_dot = [&](const double* box, std::size_t i, const std::vector<double>& wt) {
+    double r = 0;
+    for (std::int64_t k = ws; k >= 2; --k) r += wt[std::size_t(k)] * (box[i - k] + box[i + k]);
+    return r;
+  };
+  // The box arrays end in two zeros: a run's padding may read one cell past the last.
+  work.has.resize(cells + 2);
+  work.w.resize(cells + 2);
   std::vector<double>&has = work.has, &wbox = work.w;
   for (std::size_t i = 0; i < cells; ++i) has[i] = slot[i] >= 0 ? 1.0 : 0.0;
-  // Each anchor's partition (sum of the Gram row over cells with anchors) and its squares.
+  has[cells] = has[cells + 1] = wbox[cells] = wbox[cells + 1] = 0.0;
+  // Each anchor's partition (sum of the Gram row over cells with anchors) and its squares, in
+  // one pass over the runs.
   work.part.resize(active.size());
   work.s2.resize(active.size());
   std::vector<double>&part = work.part, &s2 = work.s2;
   for (std::size_t t = 0; t < active.size(); ++t) {
     const std::size_t i = active[t];
     weights_of(map_.gamma[std::size_t(slot[i])]);
-    part[t] = 1.0 + stencil_dot(has.data(), i, gram);
-    s2[t] = 1.0 + stencil_dot(has.data(), i, gram2);
+    Pair p = {0, 0}, p2 = {0, 0};
+    for (const Run& run : runs) {
+      const double* b = has.data() + std::int64_t(i) + run.offset;
+      const double* m = has.data() + std::int64_t(i) + run.mirror;
+      for (std::size_t e = 0; e < run.length; e += 2) {
+        const Pair both = load(b + e) + load(m + e);
+        p += both * load(gram.data() + run.first + e);
+        p2 += both * load(gram2.data() + run.first + e);
+      }
+    }
+    const double near = has[i - 1] + has[i + 1];
+    part[t] = 1.0 + (p[0] + p[1]) + row_dot(has.data(), i, row) + row[1] * near;
+    s2[t] = 1.0 + (p2[0] + p2[1]) + row_dot(has.data(), i, row2) + row2[1] * near;
   }
   // Start the sweeps from the weights moved by each average's change over its partition (the
   // Nadaraya-Watson step): Gauss-Seidel alone removes smooth errors slowly, and a scan's change
   // is mostly smooth, so five sweeps from the old weights left broad areas reading short.
+  std::vector<double>& target = change;  // from here on each anchor's average
   for (std::size_t t = 0; t < active.size(); ++t) {
     const std::size_t a = std::size_t(slot[active[t]]);
-    const double delta = change[t] + sum_sm_[a] / sum_s_[a];
-    map_.w_mean[a] += delta / part[t];
+    const double average = sum_sm_[a] / sum_s_[a];
+    map_.w_mean[a] += (change[t] + average) / part[t];
+    target[t] = average;
   }
   for (std::size_t i = 0; i < cells; ++i)
     wbox[i] = slot[i] >= 0 ? map_.w_mean[std::size_t(slot[i])] : 0.0;
+  const double shrink_ridge = 1.0 / (1.0 + opt_.ridge);
   for (int sweep = 0; sweep < opt_.sweeps; ++sweep)
     for (std::size_t t = 0; t < active.size(); ++t) {
       const std::size_t i = active[t];
-      const std::size_t a = std::size_t(slot[i]);
-      weights_of(map_.gamma[a]);
-      const double va = sum_sm_[a] / sum_s_[a];
-      const double r = va - stencil_dot(wbox.data(), i, gram);
+      weights_of(map_.gamma[std::size_t(slot[i])]);
+      const double va = target[t];
+      const double rest = va - (runs_dot(wbox.data(), i, gram) + row_dot(wbox.data(), i, row));
+      const double r = rest - row[1] * (wbox[i - 1] + wbox[i + 1]);
       // Projected onto the average's sign: a weight of the other sign would only cancel its
       // neighbours' tails, and past the last anchors it rings into space no scan saw.
-      const double wa = r / (1.0 + opt_.ridge);
+      const double wa = r * shrink_ridge;
       wbox[i] = va >= 0 ? std::max(wa, 0.0) : std::min(wa, 0.0);
     }
   for (std::size_t i : active) map_.w_mean[std::size_t(slot[i])] = wbox[i];
