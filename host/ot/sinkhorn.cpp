@@ -394,10 +394,19 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
       for (int j = 0; j < m; ++j) r.g(j) = (gh(ts + j) - lb[ts + j]) * pr.epsilon;
     }
     if (opt.want_coupling) {
+      // The device's plan is row-major, Eigen's column-major: copied in 16 x 16 tiles, so that
+      // neither the reads nor the writes stride across a whole plan.
       r.coupling.resize(n, m);
-      const long o = L.result.coupling_offset[p];
-      for (int i = 0; i < n; ++i)
-        for (int j = 0; j < m; ++j) r.coupling(i, j) = plan[o + static_cast<long>(i) * m + j];
+      const float* src = plan.data() + L.result.coupling_offset[p];
+      double* dst = r.coupling.data();
+      constexpr int kTile = 16;
+      for (int i0 = 0; i0 < n; i0 += kTile)
+        for (int j0 = 0; j0 < m; j0 += kTile) {
+          const int i1 = std::min(n, i0 + kTile), j1 = std::min(m, j0 + kTile);
+          for (int j = j0; j < j1; ++j)
+            for (int i = i0; i < i1; ++i)
+              dst[static_cast<long>(j) * n + i] = src[static_cast<long>(i) * m + j];
+        }
     }
     if (opt.want_barycentric) {
       r.barycentric.resize(n, dim);
