@@ -103,6 +103,31 @@ TEST(AtomIndex, RotatedCopyAmongThousandsIsNearestAndItsRotationIsFound) {
   EXPECT_GE(checked, 15);
 }
 
+// The rotation estimate at bin counts other than the default (a fine and a coarse one): within
+// a bin of the turn.
+TEST(AtomIndex, RotationsAreFoundWhateverTheBinCount) {
+  const Dictionary dict = town_atoms(12, 5);
+  for (int bins : {64, 72, 12}) {
+    AtomIndexOptions o;
+    o.bins = bins;
+    const AtomIndex index(dict, o);
+    int checked = 0;
+    for (std::size_t j = 3; j < dict.size(); j += 7) {
+      if (dict.atoms[j].sector.num_hits() < 20) continue;
+      for (double angle : {0.7, 2.6, 5.1}) {
+        const SectorSignature sig =
+            index.signature(test::rotated_sector(dict.atoms[j].sector, angle));
+        const std::vector<RotationEstimate> r = index.rotations(sig, j, 1);
+        ASSERT_FALSE(r.empty());
+        EXPECT_LT(angle_gap(r[0].angle, angle), 2 * test::kPi / bins + 1e-9)
+            << bins << " bins, atom " << j << " turned " << angle << " got " << r[0].angle;
+        ++checked;
+      }
+    }
+    EXPECT_GE(checked, 12) << bins << " bins";
+  }
+}
+
 // The per-atom cache gives what the transfer would compute afresh: the same thinned samples
 // (for the cap it first saw, and for another), the same kernel classes, from two threads at once.
 TEST(AtomIndex, TransportCacheGivesWhatTheTransferComputes) {
