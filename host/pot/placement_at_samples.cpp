@@ -60,6 +60,12 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
     for (Eigen::Index j = 0; j < Y.rows(); ++j)
       for (int d = 0; d < dim; ++d) ypts[std::size_t(j) * dim + d] = Y(j, d);
     const PointGrid targets(ypts, dim);
+    // The source samples turned by the plan's angle, once (each column's read walks them all).
+    Eigen::MatrixXd turned = X;
+    for (Eigen::Index i = 0; i < X.rows(); ++i) {
+      turned(i, 0) = c * X(i, 0) - sn * X(i, 1);
+      turned(i, 1) = sn * X(i, 0) + c * X(i, 1);
+    }
     // What an anchor reads depends only on the plan's column it reads (the target point of the
     // plan nearest it); several anchors share a column, so each column is read once.
     struct Column {
@@ -78,7 +84,7 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
       double spread = 0, moved = 0;
       for (Eigen::Index i = 0; i < X.rows(); ++i) {
         spread += col(i) * (L(i) - mean) * (L(i) - mean);
-        const double rx = c * X(i, 0) - sn * X(i, 1), ry = sn * X(i, 0) + c * X(i, 1);
+        const double rx = turned(i, 0), ry = turned(i, 1);
         double m2 = (rx - Y(j, 0)) * (rx - Y(j, 0)) + (ry - Y(j, 1)) * (ry - Y(j, 1));
         if (dim == 3) m2 += (X(i, 2) - Y(j, 2)) * (X(i, 2) - Y(j, 2));
         moved += col(i) * m2;

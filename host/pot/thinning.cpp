@@ -5,8 +5,6 @@
 #include <cmath>
 #include <numeric>
 
-#include <unordered_set>
-
 #include "cell_key.hpp"
 #include "data/sim_rng.hpp"
 
@@ -19,13 +17,26 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b, std::uint64_t c) {
 }
 
 std::vector<std::size_t> thin_to_cells(const std::vector<double>& pts, int dim, double cell) {
-  std::unordered_set<std::uint64_t> seen;
+  // The cells seen, in an open-addressing table (a node-based set allocated once per point,
+  // and the placement thins every sector's samples every scan). pack_cell leaves the top bit
+  // clear, so a key with it set is never 0, the empty slot.
+  const std::size_t n = pts.size() / std::size_t(dim);
+  int bits = 4;
+  while ((std::size_t(1) << bits) < 2 * n) ++bits;
+  std::vector<std::uint64_t> table(std::size_t(1) << bits, 0);
+  const std::size_t mask = table.size() - 1;
   std::vector<std::size_t> out;
-  for (std::size_t i = 0; i * dim < pts.size(); ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     std::int64_t c[3] = {0, 0, 0};
     for (int d = 0; d < dim; ++d)
       c[d] = static_cast<std::int64_t>(std::floor(pts[i * dim + d] / cell));
-    if (seen.insert(pack_cell(c)).second) out.push_back(i);
+    const std::uint64_t key = pack_cell(c) | (std::uint64_t(1) << 63);
+    std::size_t h = std::size_t((key * 0x9e3779b97f4a7c15ULL) >> (64 - bits));
+    while (table[h] != 0 && table[h] != key) h = (h + 1) & mask;
+    if (table[h] == 0) {
+      table[h] = key;
+      out.push_back(i);
+    }
   }
   return out;
 }
