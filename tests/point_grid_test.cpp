@@ -1,4 +1,4 @@
-// PointGrid (host/pot/point_grid.hpp) against a scan of every point: the placement on the
+// PointGrid (host/spatial/point_grid.hpp) against a scan of every point: the placement on the
 // target's samples asks it for nearest points and neighbourhoods, and its anchors must be the
 // ones a plain scan would give.
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 #include <random>
 #include <set>
 
-#include "pot/point_grid.hpp"
+#include "spatial/point_grid.hpp"
 
 using potmap::detail::PointGrid;
 

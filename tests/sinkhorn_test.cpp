@@ -335,6 +335,51 @@ TEST(Sinkhorn, OutOfSampleMap) {
   }
 }
 
+// The out-of-sample map finds each point's nearest source sample through a grid: the same
+// sample as a scan of every source (the first of equally near ones), in 2D and 3D, for points
+// inside the sources, on them, and far outside.
+TEST(Sinkhorn, OutOfSampleMapTakesTheNearestSourceSample) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-3, 3);
+  for (int dim : {2, 3}) {
+    SinkhornProblem q;
+    q.source.resize(300, dim);
+    for (Eigen::Index i = 0; i < q.source.rows(); ++i)
+      for (int d = 0; d < dim; ++d) q.source(i, d) = i % 5 == 0 ? std::round(u(rng)) : u(rng);
+    q.angle = 0.7;
+    Eigen::MatrixXd bary = q.source * 0.5;
+    bary.col(0).array() += 1.0;
+    Eigen::MatrixXd points(500, dim);
+    for (Eigen::Index e = 0; e < points.rows(); ++e)
+      for (int d = 0; d < dim; ++d)
+        points(e, d) = e % 7 == 0 ? q.source(e % 300, d) : (e % 11 == 0 ? 40 : 1) * u(rng);
+    const Eigen::MatrixXd got = out_of_sample_map(q, bary, points);
+    const double c = std::cos(q.angle), s = std::sin(q.angle);
+    for (Eigen::Index e = 0; e < points.rows(); ++e) {
+      Eigen::Index k = 0;
+      double best = HUGE_VAL;
+      for (Eigen::Index i = 0; i < q.source.rows(); ++i) {
+        const double d2 = (q.source.row(i) - points.row(e)).squaredNorm();
+        if (d2 < best) {
+          best = d2;
+          k = i;
+        }
+      }
+      const Eigen::RowVectorXd off = points.row(e) - q.source.row(k);
+      Eigen::RowVectorXd want = bary.row(k);
+      want(0) += c * off(0) - s * off(1);
+      want(1) += s * off(0) + c * off(1);
+      if (dim == 3) want(2) += off(2);
+      ASSERT_EQ(got.row(e), want) << dim << "D point " << e;
+    }
+  }
+  SinkhornProblem q;
+  q.source = Eigen::MatrixXd::Zero(2, 2);
+  Eigen::MatrixXd nan = Eigen::MatrixXd::Zero(1, 2);
+  nan(0, 1) = std::nan("");
+  EXPECT_THROW(out_of_sample_map(q, q.source, nan), ArgumentError);
+}
+
 TEST(Sinkhorn, StabilisedSchemeMatchesReference) {
   SinkhornOptions o = full();
   o.stabilised = true;

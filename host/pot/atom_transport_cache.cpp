@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "point_grid.hpp"
+#include "spatial/point_grid.hpp"
 #include "thinning.hpp"
 
 namespace potmap {

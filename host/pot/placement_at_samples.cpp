@@ -12,7 +12,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "point_grid.hpp"
+#include "spatial/point_grid.hpp"
 #include "point_proximity.hpp"
 #include "thinning.hpp"
 

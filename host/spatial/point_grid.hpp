@@ -1,8 +1,8 @@
 #pragma once
 // Nearest-point and fixed-radius queries over one small cloud (a sector's samples, an atom's
-// kernels): a dense grid over the cloud's bounding box, about two points a cell. The placement
-// asks thousands of such questions a sector; a scan of every point per question was most of its
-// time at 360 beams.
+// kernels, a transport's source samples): a dense grid over the cloud's bounding box, about two
+// points a cell. POT's placements and the out-of-sample map ask thousands of such questions a
+// sector; a scan of every point per question was most of their time at 360 beams.
 
 #include <cstdint>
 #include <vector>
