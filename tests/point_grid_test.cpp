@@ -6,6 +6,8 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <stdexcept>
+#include <utility>
 
 #include "spatial/point_grid.hpp"
 
@@ -77,14 +79,39 @@ TEST(PointGrid, WithinFindsExactlyThePointsInTheRadius) {
         std::multiset<std::size_t> want, got;
         for (std::size_t i = 0; i < pts.size() / std::size_t(dim); ++i) {
           double d2 = 0;
-          for (int d = 0; d < dim; ++d)
-            d2 += (pts[i * dim + d] - q[d]) * (pts[i * dim + d] - q[d]);
+          for (int d = 0; d < dim; ++d) d2 += (pts[i * dim + d] - q[d]) * (pts[i * dim + d] - q[d]);
           if (d2 <= r * r) want.insert(i);
         }
         grid.for_each_within(q, r, [&](std::size_t i, double) { got.insert(i); });
         ASSERT_EQ(want, got) << "dim " << dim << " cell " << cell << " query " << k;
       }
     }
+  }
+}
+
+TEST(PointGrid, PairsWithinARadiusAreEachMetOnce) {
+  for (int dim : {2, 3}) {
+    std::mt19937 rng(17 + dim);
+    const std::vector<double> pts = cloud(dim, rng);
+    const std::size_t n = pts.size() / std::size_t(dim);
+    for (double r : {0.04, 0.3}) {
+      const PointGrid grid(pts, dim, r);
+      std::multiset<std::pair<std::size_t, std::size_t>> want, got;
+      for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = i + 1; j < n; ++j) {
+          double d2 = 0;
+          for (int d = 0; d < dim; ++d)
+            d2 += (pts[i * dim + d] - pts[j * dim + d]) * (pts[i * dim + d] - pts[j * dim + d]);
+          if (d2 <= r * r) want.insert({i, j});
+        }
+      grid.for_each_pair_within(r, [&](std::size_t i, std::size_t j, double) {
+        got.insert({std::min(i, j), std::max(i, j)});
+      });
+      ASSERT_EQ(want, got) << "dim " << dim << " r " << r;
+    }
+    const PointGrid coarse(pts, dim, 0.1);
+    EXPECT_THROW(coarse.for_each_pair_within(0.5, [](std::size_t, std::size_t, double) {}),
+                 std::invalid_argument);
   }
 }
 

@@ -8,12 +8,10 @@
 #include "placement_at_samples.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstdint>
 
-#include "spatial/point_grid.hpp"
 #include "point_proximity.hpp"
+#include "spatial/point_grid.hpp"
 #include "thinning.hpp"
 
 namespace potmap::detail {
@@ -127,88 +125,29 @@ void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map)
   const double reach = std::sqrt(16.0 / gmin);
   std::vector<double> sum(n, 1.0), sum2(n, 1.0);  // each anchor's own phi = 1
   // Each pair once: phi is symmetric where the two share a width (every pair of a class within
-  // a sector), which halves the exps. The anchors of each class are binned in cells of the
-  // reach and each cell is paired with itself and the half of its neighbours that come after it
-  // in the bins' order: every pair within reach is met once, and only a class's own anchors
-  // are looked at (pairs across classes are not summed).
+  // a sector), which halves the exps. Each class on a grid of its own, in cells of the reach:
+  // pairs across classes are not summed, and are not looked at.
   std::vector<std::size_t> members;
+  std::vector<double> pts;
   for (const bool hit : {true, false}) {
     members.clear();
+    pts.clear();
     for (std::size_t i = 0; i < n; ++i)
-      if (anchors[i].hit == hit) members.push_back(i);
-    if (members.empty()) continue;
-    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-    for (int d = 0; d < dim; ++d) {
-      lo[d] = hi[d] = anchors[members[0]].position[d];
-      for (std::size_t i : members) {
-        lo[d] = std::min(lo[d], anchors[i].position[d]);
-        hi[d] = std::max(hi[d], anchors[i].position[d]);
+      if (anchors[i].hit == hit) {
+        members.push_back(i);
+        pts.insert(pts.end(), anchors[i].position.begin(), anchors[i].position.begin() + dim);
       }
-    }
-    // Cells no smaller than the reach (so one ring of neighbours holds every partner), and no
-    // more of them than a few a member (a scan along a line would ask for a sparse grid).
-    double cell = reach;
-    std::int64_t ext[3] = {1, 1, 1};
-    for (;; cell *= 2) {
-      double cells = 1;
-      for (int d = 0; d < dim; ++d) {
-        ext[d] = std::int64_t(std::floor((hi[d] - lo[d]) / cell)) + 1;
-        cells *= double(ext[d]);
-      }
-      if (cells <= 4.0 * double(members.size()) + 64) break;
-    }
-    auto cell_of = [&](std::size_t i) {
-      std::int64_t c = 0;
-      for (int d = dim - 1; d >= 0; --d)
-        c = c * ext[d] +
-            std::min(ext[d] - 1, std::int64_t((anchors[i].position[d] - lo[d]) / cell));
-      return std::size_t(c);
-    };
-    // Members by cell (CSR), in index order within a cell.
-    std::vector<std::uint32_t> start(std::size_t(ext[0] * ext[1] * ext[2]) + 1, 0);
-    for (std::size_t i : members) ++start[cell_of(i) + 1];
-    for (std::size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
-    std::vector<std::size_t> binned(members.size());
-    {
-      std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-      for (std::size_t i : members) binned[fill[cell_of(i)]++] = i;
-    }
-    auto pair = [&](std::size_t i, std::size_t j) {
-      const Anchor &ai = anchors[i], &aj = anchors[j];
-      double d2 = 0;
-      for (int d = 0; d < dim; ++d)
-        d2 += (ai.position[d] - aj.position[d]) * (ai.position[d] - aj.position[d]);
-      if (d2 > reach * reach) return;
-      const double gj = aj.gamma * d2, gi = ai.gamma * d2;
+    const PointGrid grid(pts, dim, reach);
+    grid.for_each_pair_within(reach, [&](std::size_t a, std::size_t b, double d2) {
+      const std::size_t i = members[a], j = members[b];
+      const double gj = anchors[j].gamma * d2, gi = anchors[i].gamma * d2;
       const double phi_j = gj <= 16 ? std::exp(-gj) : 0.0;  // anchor j's kernel at i
       const double phi_i = gi == gj ? phi_j : gi <= 16 ? std::exp(-gi) : 0.0;
       sum[i] += phi_j;
       sum2[i] += phi_j * phi_j;
       sum[j] += phi_i;
       sum2[j] += phi_i * phi_i;
-    };
-    // The neighbour offsets after a cell in (z, y, x) order: 4 in 2D, 13 in 3D.
-    std::vector<std::array<std::int64_t, 3>> after;
-    for (std::int64_t dz = dim == 3 ? -1 : 0; dz <= (dim == 3 ? 1 : 0); ++dz)
-      for (std::int64_t dy = -1; dy <= 1; ++dy)
-        for (std::int64_t dx = -1; dx <= 1; ++dx)
-          if (dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx > 0)))) after.push_back({dx, dy, dz});
-    for (std::int64_t z = 0; z < ext[2]; ++z)
-      for (std::int64_t y = 0; y < ext[1]; ++y)
-        for (std::int64_t x = 0; x < ext[0]; ++x) {
-          const std::size_t c = std::size_t((z * ext[1] + y) * ext[0] + x);
-          for (std::uint32_t k = start[c]; k < start[c + 1]; ++k) {
-            const std::size_t i = binned[k];
-            for (std::uint32_t l = k + 1; l < start[c + 1]; ++l) pair(i, binned[l]);
-            for (const auto& o : after) {
-              const std::int64_t nx = x + o[0], ny = y + o[1], nz = z + o[2];
-              if (nx < 0 || nx >= ext[0] || ny < 0 || ny >= ext[1] || nz < 0 || nz >= ext[2])
-                continue;
-              const std::size_t e = std::size_t((nz * ext[1] + ny) * ext[0] + nx);
-              for (std::uint32_t l = start[e]; l < start[e + 1]; ++l) pair(i, binned[l]);
-            }
-          }
-        }
+    });
   }
   for (std::size_t i = 0; i < n; ++i)
     map.push_back(anchors[i].position.data(), anchors[i].gamma, anchors[i].value / sum[i],

@@ -16,27 +16,45 @@ std::uint64_t mix(std::uint64_t a, std::uint64_t b, std::uint64_t c) {
   return r.next();
 }
 
+namespace {
+
+// A set of non-zero 64-bit cell keys in an open-addressing table of at least 2 n slots: the
+// thinnings count a sector's occupied cells many times a scan, and a node-based set allocated
+// once a point.
+class CellSet {
+ public:
+  explicit CellSet(std::size_t n) {
+    while ((std::size_t(1) << bits_) < 2 * n) ++bits_;
+    table_.assign(std::size_t(1) << bits_, 0);
+  }
+  void clear() { std::fill(table_.begin(), table_.end(), 0); }
+  /// True when `key` (not 0) was not in the set yet.
+  bool insert(std::uint64_t key) {
+    const std::size_t mask = table_.size() - 1;
+    std::size_t h = std::size_t((key * 0x9e3779b97f4a7c15ULL) >> (64 - bits_));
+    while (table_[h] != 0 && table_[h] != key) h = (h + 1) & mask;
+    if (table_[h] != 0) return false;
+    table_[h] = key;
+    return true;
+  }
+
+ private:
+  int bits_ = 4;
+  std::vector<std::uint64_t> table_;
+};
+
+}  // namespace
+
 std::vector<std::size_t> thin_to_cells(const std::vector<double>& pts, int dim, double cell) {
-  // The cells seen, in an open-addressing table (a node-based set allocated once per point,
-  // and the placement thins every sector's samples every scan). pack_cell leaves the top bit
-  // clear, so a key with it set is never 0, the empty slot.
   const std::size_t n = pts.size() / std::size_t(dim);
-  int bits = 4;
-  while ((std::size_t(1) << bits) < 2 * n) ++bits;
-  std::vector<std::uint64_t> table(std::size_t(1) << bits, 0);
-  const std::size_t mask = table.size() - 1;
+  CellSet seen(n);
   std::vector<std::size_t> out;
   for (std::size_t i = 0; i < n; ++i) {
     std::int64_t c[3] = {0, 0, 0};
     for (int d = 0; d < dim; ++d)
       c[d] = static_cast<std::int64_t>(std::floor(pts[i * dim + d] / cell));
-    const std::uint64_t key = pack_cell(c) | (std::uint64_t(1) << 63);
-    std::size_t h = std::size_t((key * 0x9e3779b97f4a7c15ULL) >> (64 - bits));
-    while (table[h] != 0 && table[h] != key) h = (h + 1) & mask;
-    if (table[h] == 0) {
-      table[h] = key;
-      out.push_back(i);
-    }
+    // pack_cell leaves the top bit clear: with it set, no key is 0.
+    if (seen.insert(pack_cell(c) | (std::uint64_t(1) << 63))) out.push_back(i);
   }
   return out;
 }
@@ -73,24 +91,19 @@ std::vector<std::size_t> even_indices(const std::vector<double>& pts, int dim, s
       }
     double extent = 0;
     for (int d = 0; d < dim; ++d) extent = std::max(extent, hi[d] - lo[d]);
-    // Occupied cells (and the first point of each, in input order) for a cell size, counted in
-    // an open-addressing table: this runs a dozen times per call, twice per sector and scan.
-    std::size_t slots = 1;
-    while (slots < 2 * n) slots <<= 1;
-    std::vector<std::uint64_t> table(slots);
+    // Occupied cells (and the first point of each, in input order) for a cell size: this runs
+    // a dozen times per call, twice per sector and scan.
+    CellSet table(n);
     // Stops counting past `stop` cells: the bisection only asks whether a size leaves more
     // than the cap.
     auto cells = [&](double cell, std::vector<std::size_t>* firsts, std::size_t stop) {
-      std::fill(table.begin(), table.end(), 0);
+      table.clear();
       std::size_t count = 0;
       for (std::size_t i = 0; i < n && count <= stop; ++i) {
-        std::uint64_t key = 1;  // 0 marks an empty slot
+        std::uint64_t key = 1;  // never 0
         for (int d = 0; d < dim; ++d)
           key = (key << 21) | static_cast<std::uint64_t>((pts[i * dim + d] - lo[d]) / cell);
-        std::size_t h = static_cast<std::size_t>((key * 0x9e3779b97f4a7c15ULL) >> 20) & (slots - 1);
-        while (table[h] != 0 && table[h] != key) h = (h + 1) & (slots - 1);
-        if (table[h] == 0) {
-          table[h] = key;
+        if (table.insert(key)) {
           ++count;
           if (firsts) firsts->push_back(i);
         }
