@@ -3,8 +3,9 @@
 // builds without the noise of the rest of the pipeline. Prints ms per scan by stage and writes
 // the final maps (means, variances, scores) to compare builds' results.
 //
-// Target: a Radish log, scans [first, first + scans) cut at 20 m, 20 % of every scan's beams
-// held out (as bench/pot_scale and `potmap experiment intra`). POT runs once (the atoms of the
+// Target: a Radish log or a built-in town (town2: simulated, 360 beams), scans [first, first +
+// scans) cut at 20 m, 20 % of every scan's beams held out (as bench/pot_scale and `potmap
+// experiment intra`). POT runs once (the atoms of the
 // first `first` scans) and its transported maps are kept; then, `reps` times each:
 //   BHM:   a fresh joint BHM (the experiments' BhmSetup), update() per scan, then map();
 //   RePOT: a fresh joint BHM (pot_method's persistent map), seed_unreached() with the scan's
@@ -27,6 +28,7 @@
 #include <vector>
 
 #include "potmap/data/scan.hpp"
+#include "potmap/data/simulator.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/runtime/context.hpp"
@@ -118,7 +120,15 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  std::vector<Scan> all = read_dataset(data + "/" + target + "-corrected.log.gz").scans;
+  // A built-in town is simulated as bench/pot_scale and bench/mapper_latency do (360 beams).
+  std::vector<Scan> all;
+  if (target.rfind("town", 0) == 0) {
+    SimOptions so;
+    so.scans = first + scans;
+    all = simulate(Town::builtin(target), so).scans;
+  } else {
+    all = read_dataset(data + "/" + target + "-corrected.log.gz").scans;
+  }
   std::vector<Scan> src, dst;
   for (std::size_t i = 0; i < all.size() && i < first + scans; ++i)
     (i < first ? src : dst).push_back(ex::limit_range(all[i], 20.0));

@@ -45,28 +45,41 @@ LabelledPoints wall_scan(std::uint32_t seed, std::int64_t t, double y0 = -1.5, d
   return s;
 }
 
+// A wall at x = 2 (a plane in 3D, |z| <= 1) seen from the origin: hits on it, free samples
+// before it.
+LabelledPoints wall_scan_3d(std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  LabelledPoints s;
+  s.dim = 3;
+  for (int b = 0; b < 60; ++b) {
+    const double y = -1.5 + 3 * u(rng), z = -1 + 2 * u(rng);
+    s.position.insert(s.position.end(), {2.0, y, z});
+    s.label.push_back(1);
+    for (int f = 0; f < 2; ++f) {
+      const double q = u(rng) * 0.9;
+      s.position.insert(s.position.end(), {2.0 * q, y * q, z * q});
+      s.label.push_back(0);
+    }
+  }
+  return s;
+}
+
 // One scan, one EM iteration: the posterior is the closed form of the Jaakkola-Jordan bound
 // with xi from the prior, P = I / v0 + 2 Phi^T Lambda Phi, mean = P^-1 Phi^T (y - 1/2); built
-// here densely from the kernel positions alone.
-TEST(JointBhm, OneScanMatchesTheDenseClosedForm) {
-  const double lo[3] = {-1, -2, 0}, hi[3] = {3, 2, 0};
-  JointBhmOptions o;
-  o.em_iterations = 1;
-  o.bias = false;
-  o.cg_tolerance = 1e-12;
-  o.cg_max_iterations = 2000;
-  JointBhm learner(2, lo, hi, o);
-  const LabelledPoints s = wall_scan(3, 0);
-  learner.update(s);
-  const KernelMap map = learner.map();
-  const std::size_t m = map.size(), n = s.size();
-  ASSERT_EQ(m, 9u * 9u);
+// here densely from the kernel positions alone. Returns the largest difference of the map's
+// means from it, relative to their scale (at least 1), and checks the data moved the weights.
+double closed_form_error(const KernelMap& map, const LabelledPoints& s, const JointBhmOptions& o) {
+  const std::size_t m = map.size(), n = s.size(), dim = std::size_t(s.dim);
   Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(Eigen::Index(n), Eigen::Index(m));
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t k = 0; k < m; ++k) {
-      const double dx = s.position[2 * i] - map.position[2 * k];
-      const double dy = s.position[2 * i + 1] - map.position[2 * k + 1];
-      const double g = map.gamma[k] * (dx * dx + dy * dy);
+      double d2 = 0;
+      for (std::size_t d = 0; d < dim; ++d) {
+        const double e = s.position[dim * i + d] - map.position[dim * k + d];
+        d2 += e * e;
+      }
+      const double g = map.gamma[k] * d2;
       if (g <= o.tau) phi(Eigen::Index(i), Eigen::Index(k)) = std::exp(-g);
     }
   Eigen::MatrixXd P = Eigen::MatrixXd::Identity(Eigen::Index(m), Eigen::Index(m)) / o.prior_var;
@@ -82,8 +95,41 @@ TEST(JointBhm, OneScanMatchesTheDenseClosedForm) {
   double max_err = 0;
   for (std::size_t k = 0; k < m; ++k)
     max_err = std::max(max_err, std::abs(mean[Eigen::Index(k)] - map.w_mean[k]));
-  EXPECT_LT(max_err, 1e-6 * std::max(1.0, mean.cwiseAbs().maxCoeff()));
   EXPECT_GT(mean.cwiseAbs().maxCoeff(), 0.5);  // the data moved the weights
+  return max_err / std::max(1.0, mean.cwiseAbs().maxCoeff());
+}
+
+JointBhmOptions closed_form_options() {
+  JointBhmOptions o;
+  o.em_iterations = 1;
+  o.bias = false;
+  o.cg_tolerance = 1e-12;
+  o.cg_max_iterations = 2000;
+  return o;
+}
+
+TEST(JointBhm, OneScanMatchesTheDenseClosedForm) {
+  const double lo[3] = {-1, -2, 0}, hi[3] = {3, 2, 0};
+  const JointBhmOptions o = closed_form_options();
+  JointBhm learner(2, lo, hi, o);
+  const LabelledPoints s = wall_scan(3, 0);
+  learner.update(s);
+  const KernelMap map = learner.map();
+  ASSERT_EQ(map.size(), 9u * 9u);
+  EXPECT_LT(closed_form_error(map, s, o), 1e-6);
+}
+
+// The same in 3D, where a kernel stores the couplings of the layers above it and of the rows
+// after it in its own layer (the half stencil), and the products mirror them.
+TEST(JointBhm, OneScanMatchesTheDenseClosedForm3D) {
+  const double lo[3] = {-1, -2, -1.5}, hi[3] = {3, 2, 1.5};
+  const JointBhmOptions o = closed_form_options();
+  JointBhm learner(3, lo, hi, o);
+  const LabelledPoints s = wall_scan_3d(5);
+  learner.update(s);
+  const KernelMap map = learner.map();
+  ASSERT_EQ(map.size(), 9u * 9u * 7u);
+  EXPECT_LT(closed_form_error(map, s, o), 1e-6);
 }
 
 // The exported map against the learner's own posterior (its features cut at its tau),
@@ -303,6 +349,26 @@ TEST(JointBhm, GrowableMatchesItsExactPosterior) {
   }
 }
 
+// Samples of one update far apart (the same walls 300 m apart): a box of cells around the
+// solve's rows would be mostly empty, so the products find each coupling through the tiles
+// instead. The same posterior as its exact solve, at both places.
+TEST(JointBhm, FarApartSamplesMatchTheExactPosterior) {
+  JointBhm grow(2);
+  for (int t = 0; t < 3; ++t) {
+    LabelledPoints s = long_wall_scan(50 + t, t, -4 + 2 * t, 4 + 2 * t);
+    const std::size_t n = s.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      s.position.insert(s.position.end(), {s.position[2 * i] + 300, s.position[2 * i + 1] + 300});
+      s.label.push_back(s.label[i]);
+      s.scan.push_back(s.scan[i]);
+    }
+    grow.update(s);
+  }
+  const double tau = grow.options().tau;
+  expect_export_is_posterior(check_export(grow, -2.5, 3, -4, 8), tau);
+  expect_export_is_posterior(check_export(grow, 297.5, 303, 296, 308), tau);
+}
+
 // Driving back and forth along one corridor allocates its tiles on the first pass and nothing
 // after: memory follows the area, not the number of scans. A new place grows it again.
 TEST(JointBhm, MemoryGrowsWithAreaNotScans) {
@@ -320,10 +386,19 @@ TEST(JointBhm, MemoryGrowsWithAreaNotScans) {
   }
   const std::size_t tiles = grow.tiles();
   EXPECT_GT(tiles, 1u);
-  // The stencils are counted: (2 ceil(2 sqrt(tau / gamma) / spacing) + 1)^2 doubles a kernel.
+  // The stencils are counted: a kernel stores its diagonal and its couplings to the kernels
+  // after it within 2 sqrt(tau / gamma) (the half of the disc's grid points, P being
+  // symmetric), well under the stencil's whole box.
   const JointBhmOptions& o = grow.options();
-  const double box = 2 * std::ceil(2 * std::sqrt(o.tau / grow.gamma()) / o.spacing) + 1;
-  EXPECT_GT(after_pass[0], tiles * 1024 * std::size_t(box * box) * sizeof(double));
+  const double reach = 2 * std::sqrt(o.tau / grow.gamma()) / o.spacing;
+  const auto pad = static_cast<int>(std::ceil(reach));
+  std::size_t disc = 0;
+  for (int dy = -pad; dy <= pad; ++dy)
+    for (int dx = -pad; dx <= pad; ++dx) disc += dx * dx + dy * dy <= reach * reach ? 1 : 0;
+  const std::size_t half = (disc - 1) / 2 + 1, box = std::size_t(2 * pad + 1) * (2 * pad + 1);
+  EXPECT_GT(after_pass[0], tiles * 1024 * half * sizeof(double));
+  EXPECT_LT(after_pass[0], tiles * 1024 * box * sizeof(double));
+  EXPECT_LT(half * 3, box);
   EXPECT_EQ(after_pass[1], after_pass[0]);
   EXPECT_EQ(after_pass[2], after_pass[0]);
   // Exporting does not grow it either (its cache is part of the tiles).

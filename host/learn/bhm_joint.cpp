@@ -65,15 +65,15 @@ void JointBhm::init(int dim, const JointBhmOptions& o) {
     tile_cells_ *= tile_;
     slots_ *= box_;
   }
-  ghost_ = tile_ + 2 * pad_;
   // The stencil's slots that can hold a coupling: two kernels couple only through a sample
   // within rcut of both, so at most 2 rcut apart (a relative margin for the rounding of the
-  // features' cut-off; a slot inside the margin that stays zero costs one product). Per stencil
-  // row (dy, dz) they form one run of dx, contiguous both in a row of prec_ and in the halo
-  // block, so multiply() streams them and skips the slots that are zero by construction (a
-  // third of the box in 2D, more in 3D).
-  runs_.clear();
+  // features' cut-off). Per stencil row (dy, dz) they form one run of dx; a kernel stores the
+  // diagonal and the runs after it in raster order (P is symmetric: the rest mirrors them),
+  // a third of the box in 2D, less in 3D, and the products stream them.
   half_.clear();
+  half_at_.assign(static_cast<std::size_t>(slots_), -1);
+  half_slots_ = 1;
+  half_at_[static_cast<std::size_t>(slots_ / 2)] = 0;
   const double reach2 = 4 * rcut_ * rcut_ / (o.spacing * o.spacing) * (1 + 1e-6);
   const std::int64_t rz = dim == 3 ? pad_ : 0;
   for (std::int64_t dz = -rz; dz <= rz; ++dz)
@@ -81,27 +81,22 @@ void JointBhm::init(int dim, const JointBhmOptions& o) {
       std::int64_t m = -1;
       for (std::int64_t dx = 0; dx <= pad_; ++dx)
         if (double(dx * dx + dy * dy + dz * dz) <= reach2) m = dx;
-      if (m < 0) continue;
-      Run r;
-      const std::int64_t slot0 = ((dz + (dim == 3 ? pad_ : 0)) * box_ + (dy + pad_)) * box_ + pad_;
-      r.slot = static_cast<std::int32_t>(slot0 - m);
-      r.goff = (dz * ghost_ + dy) * ghost_ - m;
-      r.len = static_cast<std::int32_t>(2 * m + 1);
-      runs_.push_back(r);
-      // The half after the centre in raster order (the rest mirrors it: P is symmetric).
       const bool after = dz > 0 || (dz == 0 && dy > 0);
-      if (!after && !(dz == 0 && dy == 0 && m > 0)) continue;
+      if (m < 0 || (!after && !(dz == 0 && dy == 0 && m > 0))) continue;
+      const std::int64_t slot0 = ((dz + (dim == 3 ? pad_ : 0)) * box_ + (dy + pad_)) * box_ + pad_;
       HalfRun h;
       const std::int64_t first = after ? -m : 1;
       h.slot = static_cast<std::int32_t>(slot0 + first);
       h.len = static_cast<std::int32_t>(m - first + 1);
+      h.at = static_cast<std::int32_t>(half_slots_);
       h.d[0] = static_cast<std::int32_t>(first);
       h.d[1] = static_cast<std::int32_t>(dy);
       h.d[2] = static_cast<std::int32_t>(dz);
+      for (std::int32_t j = 0; j < h.len; ++j)
+        half_at_[static_cast<std::size_t>(h.slot + j)] = h.at + j;
       half_.push_back(h);
+      half_slots_ += h.len;
     }
-  half_slots_ = 1;
-  for (const HalfRun& h : half_) half_slots_ += h.len;
   centre_lin_ = 0;
   for (int d = 0; d < dim; ++d) centre_lin_ = centre_lin_ * box_ + pad_;
   grid_sum_ = grid_sum2_ = sum_phi2_ = 0;
@@ -149,9 +144,9 @@ std::size_t JointBhm::size() const {
 
 std::size_t JointBhm::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  std::size_t b = sizeof(*this) + bytes(runs_) + bytes(tiles_) + bytes(prec_) + bytes(eta_) +
-                  bytes(mean_) + bytes(bcoup_) + bytes(touched_) + bytes(seeded_) + bytes(mark_) +
-                  bytes(var_) + bytes(tile_dirty_) + scratch_.bytes();
+  std::size_t b = sizeof(*this) + bytes(half_) + bytes(half_at_) + bytes(tiles_) + bytes(prec_) +
+                  bytes(eta_) + bytes(mean_) + bytes(bcoup_) + bytes(touched_) + bytes(seeded_) +
+                  bytes(mark_) + bytes(var_) + bytes(tile_dirty_) + scratch_.bytes();
   // The hash map: its buckets and one node per tile (key, value, next pointer, hash).
   b += tile_index_.bucket_count() * sizeof(void*) +
        tile_index_.size() * (sizeof(std::uint64_t) + sizeof(std::uint32_t) + 2 * sizeof(void*));
@@ -160,9 +155,9 @@ std::size_t JointBhm::memory_bytes() const {
 
 std::size_t JointBhm::Scratch::bytes() const {
   auto b = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return b(r) + b(z) + b(p) + b(q) + b(ghost) + b(kernel) + b(start) + b(runs) + b(run_start) +
-         b(reached) + b(rows) + b(phi) + b(yc) + b(lambda) + b(next) + b(lin) + b(feature) +
-         b(bits) + b(bits_tmp) + b(packed) + b(pbox) + b(qbox) + b(box_at) + b(box_off);
+  return b(r) + b(z) + b(p) + b(q) + b(kernel) + b(start) + b(runs) + b(run_start) + b(reached) +
+         b(rows) + b(phi) + b(yc) + b(lambda) + b(next) + b(lin) + b(feature) + b(bits) +
+         b(bits_tmp) + b(pbox) + b(qbox) + b(box_at) + b(box_off) + b(around_at) + b(around);
 }
 
 std::uint64_t JointBhm::tile_key(const std::int64_t t[3]) {
@@ -214,7 +209,7 @@ std::uint32_t JointBhm::make_tile(const std::int64_t t[3]) {
     v.resize(cells * per, value);
   };
   const std::size_t first = std::size_t(id) * static_cast<std::size_t>(tile_cells_);
-  grow(prec_, static_cast<std::size_t>(slots_), 0.0);
+  grow(prec_, static_cast<std::size_t>(half_slots_), 0.0);
   grow(eta_, 1, 0.0);
   grow(mean_, 1, 0.0);
   grow(bcoup_, 1, 0.0);
@@ -222,9 +217,8 @@ std::uint32_t JointBhm::make_tile(const std::int64_t t[3]) {
   grow(seeded_, 1, std::uint8_t(0));
   grow(mark_, 1, std::uint8_t(0));
   grow(var_, 1, o_.prior_var);
-  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
   for (std::size_t s = first; s < cells; ++s)
-    prec_[s * static_cast<std::size_t>(slots_) + centre] = 1.0 / o_.prior_var;
+    prec_[s * static_cast<std::size_t>(half_slots_)] = 1.0 / o_.prior_var;  // the diagonal
   return id;
 }
 
@@ -364,20 +358,37 @@ void JointBhm::features(const double* x, std::vector<Feature>& out) const {
 }
 
 void JointBhm::add_outer(const Scratch& f, std::size_t i, double c) {
-  // slot(b - a) = lin(b) - lin(a) + lin(pad, pad, pad): a run of features with consecutive
-  // lin lands on consecutive slots of every row it is added to.
+  // The sample's features are in raster order, in runs of consecutive cells along x. Each
+  // feature u adds its products with itself and the features after it to its own half stencil:
+  // slot(v - u) = lin(v) - lin(u) + lin(pad, pad, pad), and a run of features with
+  // consecutive lin lands on consecutive indices of the half (one of its runs along x).
   const std::uint32_t f0 = f.start[i], f1 = f.start[i + 1];
-  const std::uint32_t r0 = f.run_start[i], r1 = f.run_start[i + 1];
+  const std::uint32_t r1 = f.run_start[i + 1];
   const double* phi = f.phi.data();
   const std::int64_t* lin = f.lin.data();
   const std::uint32_t* run = f.runs.data();
+  const std::int32_t* half_at = half_at_.data() + centre_lin_;
+  const auto hs = static_cast<std::size_t>(half_slots_);
+  std::uint32_t ru = f.run_start[i];  // u's run
   for (std::uint32_t u = f0; u < f1; ++u) {
+    if (u >= run[2 * ru] + run[2 * ru + 1]) ++ru;
     const std::uint32_t ku = f.kernel[u];
-    double* row = &prec_[std::size_t(ku) * slots_] + (centre_lin_ - lin[u]);
+    double* row = &prec_[std::size_t(ku) * hs];
     const double ca = c * phi[u];
-    for (std::uint32_t r = r0; r < r1; ++r) {
+    row[0] += ca * phi[u];
+    // The rest of u's own run: dx = 1, 2, ... on the centre row.
+    const std::uint32_t rest = run[2 * ru] + run[2 * ru + 1] - u - 1;
+    if (rest > 0) {
+      double* dst = row + half_at[1];
+      const double* src = phi + u + 1;
+      for (std::uint32_t k = 0; k < rest; ++k) dst[k] += ca * src[k];
+    }
+    for (std::uint32_t r = ru + 1; r < r1; ++r) {
       const std::uint32_t v0 = run[2 * r], len = run[2 * r + 1];
-      double* dst = row + lin[v0];
+      const std::int32_t at = half_at[lin[v0] - lin[u]];
+      // Beyond 2 rcut: the features' cut-off rules it out (a guard, never taken).
+      if (at < 0 || half_at[lin[v0 + len - 1] - lin[u]] < 0) continue;
+      double* dst = row + at;
       const double* src = phi + v0;
       for (std::uint32_t k = 0; k < len; ++k) dst[k] += ca * src[k];
     }
@@ -389,7 +400,7 @@ void JointBhm::add_outer(const Scratch& f, std::size_t i, double c) {
 void JointBhm::yield_seed(std::uint32_t k, bool with_mean) {
   // A seeded kernel no sample reached holds the seed alone: resetting its precision and eta
   // gives the prior it had before the seed, exactly.
-  prec_[std::size_t(k) * slots_ + std::size_t(slots_ / 2)] = 1.0 / o_.prior_var;
+  prec_[std::size_t(k) * static_cast<std::size_t>(half_slots_)] = 1.0 / o_.prior_var;
   eta_[k] = 0;
   if (with_mean) mean_[k] = 0;
 }
@@ -501,173 +512,200 @@ void JointBhm::mark_dirty(std::uint32_t s) {
       }
 }
 
-void JointBhm::gather(std::uint32_t tile, const double* x, std::vector<double>& ghost) const {
-  // The tile's values with a halo of pad_ cells from its neighbours (0 where none is stored),
-  // laid out ghost_ cells per axis (one layer in z for 2D).
-  const Tile& t = tiles_[tile];
-  const std::int64_t gz = dim_ == 3 ? ghost_ : 1, pz = dim_ == 3 ? pad_ : 0;
-  ghost.resize(static_cast<std::size_t>(ghost_ * ghost_ * gz));
-  double* out = ghost.data();
-  for (std::int64_t k = 0; k < gz; ++k) {
-    const std::int64_t lz = k - pz;
-    const std::int64_t dz = lz < 0 ? -1 : (lz >= (dim_ == 3 ? tile_ : 1) ? 1 : 0);
-    const std::int64_t sz = lz - dz * tile_;
-    for (std::int64_t j = 0; j < ghost_; ++j) {
-      const std::int64_t ly = j - pad_;
-      const std::int64_t dy = ly < 0 ? -1 : (ly >= tile_ ? 1 : 0);
-      const std::int64_t sy = ly - dy * tile_;
-      for (std::int64_t dx = -1; dx <= 1; ++dx) {
-        // x segment of this neighbour: ghost columns [c0, c1)
-        const std::int64_t c0 = dx < 0 ? 0 : (dx == 0 ? pad_ : pad_ + tile_);
-        const std::int64_t c1 = dx < 0 ? pad_ : (dx == 0 ? pad_ + tile_ : ghost_);
-        const std::int64_t dt[3] = {dx, dy, dz};
-        const std::int32_t n = t.nb[nb_slot(dt)];
-        double* dst = out + c0;
-        if (n < 0) {
-          std::fill(dst, dst + (c1 - c0), 0.0);
-          continue;
-        }
-        const std::int64_t sx = (c0 - pad_) - dx * tile_;
-        const std::int64_t base = std::int64_t(n) * tile_cells_ + (sz * tile_ + sy) * tile_ + sx;
-        std::memcpy(dst, x + base, sizeof(double) * std::size_t(c1 - c0));
-      }
-      out += ghost_;
-    }
+template <class F>
+void JointBhm::for_each_stored_line(const std::int64_t a[3], const std::int64_t b[3], F f) const {
+  std::int64_t ta[3] = {0, 0, 0}, tb[3] = {0, 0, 0};
+  for (int d = 0; d < dim_; ++d) {
+    ta[d] = floor_div(a[d], tile_);
+    tb[d] = floor_div(b[d], tile_);
   }
+  for (std::int64_t tz = ta[2]; tz <= tb[2]; ++tz)
+    for (std::int64_t ty = ta[1]; ty <= tb[1]; ++ty)
+      for (std::int64_t tx = ta[0]; tx <= tb[0]; ++tx) {
+        const std::int64_t t[3] = {tx, ty, tz};
+        const std::int64_t id = find_tile(t);
+        if (id < 0) continue;
+        std::int64_t ca[3] = {0, 0, 0}, cb[3] = {0, 0, 0};
+        for (int d = 0; d < dim_; ++d) {
+          ca[d] = std::max(a[d], t[d] * tile_);
+          cb[d] = std::min(b[d], t[d] * tile_ + tile_ - 1);
+        }
+        for (std::int64_t k = ca[2]; k <= cb[2]; ++k)
+          for (std::int64_t j = ca[1]; j <= cb[1]; ++j) {
+            const std::int64_t local =
+                ((k - tz * tile_) * tile_ + (j - ty * tile_)) * tile_ + (ca[0] - tx * tile_);
+            const std::int64_t g[3] = {ca[0], j, k};
+            f(id * tile_cells_ + local, g, cb[0] - ca[0] + 1);
+          }
+      }
 }
 
-void JointBhm::multiply(const std::vector<double>& x, double xb,
-                        const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
-                        std::vector<double>& ghost) const {
-  yb = o_.bias ? pbb_ * xb : 0.0;
-  const std::int64_t pz = dim_ == 3 ? pad_ : 0;
-  const auto tc = static_cast<std::uint32_t>(tile_cells_);
-  const Run* runs = runs_.data();
-  const std::size_t nruns = runs_.size();
-  std::size_t i = 0;
-  while (i < rows.size()) {
-    const std::uint32_t tile = rows[i] / tc;
-    gather(tile, x.data(), ghost);
-    const double* gh = ghost.data();
-    for (; i < rows.size() && rows[i] / tc == tile; ++i) {
-      const std::uint32_t a = rows[i];
-      std::int64_t l = a - tile * tc;
-      const std::int64_t lx = l % tile_;
-      l /= tile_;
-      const std::int64_t ly = l % tile_;
-      const std::int64_t lz = l / tile_;
-      const double* xa = gh + ((lz + pz) * ghost_ + (ly + pad_)) * ghost_ + (lx + pad_);
-      const double* row = &prec_[std::size_t(a) * slots_];
-      double s0 = 0, s1 = 0;
-      for (std::size_t k = 0; k < nruns; ++k) {
-        const double* pr = row + runs[k].slot;
-        const double* px = xa + runs[k].goff;
-        const std::int32_t n = runs[k].len;
-        std::int32_t j = 0;
-        for (; j + 1 < n; j += 2) {
-          s0 += pr[j] * px[j];
-          s1 += pr[j + 1] * px[j + 1];
-        }
-        if (j < n) s0 += pr[j] * px[j];
-      }
-      double v = s0 + s1;
-      if (o_.bias) {
-        v += bcoup_[a] * xb;
-        yb += bcoup_[a] * x[a];
-      }
-      y[a] = v;
-    }
-  }
+double JointBhm::coupling(std::int64_t a, std::int64_t b, const std::int64_t o[3]) const {
+  if (b < 0) return 0.0;  // a kernel no sample reached couples to nothing
+  std::int64_t slot = 0;
+  for (int d = dim_ - 1; d >= 0; --d) slot = slot * box_ + o[d];
+  if (slot == 0) return prec_[std::size_t(a) * static_cast<std::size_t>(half_slots_)];
+  const std::int64_t first = slot > 0 ? a : b;
+  const std::int32_t at =
+      half_at_[static_cast<std::size_t>(centre_lin_ + (slot > 0 ? slot : -slot))];
+  return at < 0
+             ? 0.0
+             : prec_[std::size_t(first) * static_cast<std::size_t>(half_slots_) + std::size_t(at)];
 }
 
-bool JointBhm::pack(const std::vector<std::uint32_t>& rows, Scratch& sc) const {
-  // The rows' couplings among themselves, the diagonal and the half of the stencil after it
-  // (about 0.3 of the stored box in 2D), packed row after row, with the rows placed in a dense
-  // box of cells around them: the conjugate-gradient iterations multiply only vectors that are
-  // zero outside the rows, and streaming the packed half reads a third of the bytes the stencils
-  // hold (the solve is bound by those reads). False (not packed) when the box would be much
-  // larger than the rows.
+bool JointBhm::box_rows(const std::vector<std::uint32_t>& rows, Scratch& sc) const {
+  // A dense box of cells around the rows: the rows' bounds grown by the stencil's reach twice,
+  // so that every kernel whose stencil reaches a row (within pad) has its own stencil inside.
+  // The products then stream each kernel's half stencil against x and y in the box (the solve
+  // is bound by those reads). False when the box would be much larger than the rows.
+  if (rows.empty()) return false;
   std::int64_t lo[3], hi[3];
   cell_bounds(rows, lo, hi);
-  std::int64_t n[3] = {1, 1, 1}, volume = 1;
-  for (int d = 0; d < dim_; ++d) {
-    lo[d] -= pad_;
-    hi[d] += pad_;
-    n[d] = hi[d] - lo[d] + 1;
-    volume *= n[d];
+  std::int64_t volume = 1;
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t r = d < dim_ ? 2 * pad_ : 0;
+    sc.box_lo[d] = lo[d] - r;
+    sc.box_n[d] = hi[d] - lo[d] + 1 + 2 * r;
+    volume *= sc.box_n[d];
   }
-  if (rows.empty() || volume > 64 * std::int64_t(rows.size()) + 65536) return false;
+  if (volume > 64 * std::int64_t(rows.size()) + 65536) return false;
+  const std::int64_t* n = sc.box_n;
   sc.box_at.resize(rows.size());
   for (std::size_t u = 0; u < rows.size(); ++u) {
     std::int64_t c[3];
     cell_of(rows[u], c);
-    sc.box_at[u] = ((c[2] - lo[2]) * n[1] + (c[1] - lo[1])) * n[0] + (c[0] - lo[0]);
+    sc.box_at[u] =
+        ((c[2] - sc.box_lo[2]) * n[1] + (c[1] - sc.box_lo[1])) * n[0] + (c[0] - sc.box_lo[0]);
   }
   sc.box_off.resize(half_.size());
-  for (std::size_t h = 0; h < half_.size(); ++h)
+  sc.box_len.resize(half_.size());
+  for (std::size_t h = 0; h < half_.size(); ++h) {
     sc.box_off[h] = (std::int64_t(half_[h].d[2]) * n[1] + half_[h].d[1]) * n[0] + half_[h].d[0];
+    sc.box_len[h] = half_[h].len;
+  }
   sc.pbox.assign(std::size_t(volume), 0.0);
   sc.qbox.assign(std::size_t(volume), 0.0);
-  const auto k = static_cast<std::size_t>(half_slots_);
-  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
-  sc.packed.resize(rows.size() * k);
-  for (std::size_t u = 0; u < rows.size(); ++u) {
-    const double* row = &prec_[std::size_t(rows[u]) * slots_];
-    double* out = &sc.packed[u * k];
-    *out++ = row[centre];
-    for (const HalfRun& h : half_) {
-      std::memcpy(out, row + h.slot, sizeof(double) * std::size_t(h.len));
-      out += h.len;
-    }
-  }
   return true;
 }
 
-void JointBhm::multiply_packed(const std::vector<double>& x, double xb,
-                               const std::vector<std::uint32_t>& rows, std::vector<double>& y,
-                               double& yb, Scratch& sc) const {
-  // y = P x on the rows, for x zero outside them (see pack()): each row's half gives its own
-  // products and, mirrored, those of the kernels after it.
-  double* xbx = sc.pbox.data();
-  double* ybx = sc.qbox.data();
-  const std::size_t m = rows.size();
-  for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = x[rows[u]];
-  // Entries of y outside the rows receive mirrored products too; they are cleared after.
-  const std::size_t nh = half_.size();
-  const auto k = static_cast<std::size_t>(half_slots_);
+namespace {
+
+// ybox += P xbox over the listed kernels' half stencils (`hs` doubles each, from `prec`): each
+// gives its own row's products with the kernels after it and, mirrored, theirs with it.
+void half_products(const double* prec, std::size_t hs, const std::int32_t* len,
+                   const std::int64_t* off, std::size_t nh, const std::uint32_t* kernel,
+                   const std::int64_t* at, std::size_t m, const double* xbox, double* ybox) {
   for (std::size_t u = 0; u < m; ++u) {
-    const double* v = &sc.packed[u * k];
-    const std::int64_t at = sc.box_at[u];
-    const double xa = xbx[at];
+    const double* v = prec + std::size_t(kernel[u]) * hs;
+    const std::int64_t a = at[u];
+    const double xa = xbox[a];
     double s0 = v[0] * xa, s1 = 0;
     ++v;
     for (std::size_t h = 0; h < nh; ++h) {
-      const std::int64_t o = at + sc.box_off[h];
-      const double* __restrict px = xbx + o;
-      double* __restrict py = ybx + o;
-      const std::int32_t len = half_[h].len;
-      for (std::int32_t j = 0; j < len; ++j) {
+      const double* __restrict px = xbox + a + off[h];
+      double* __restrict py = ybox + a + off[h];
+      const std::int32_t n = len[h];
+      for (std::int32_t j = 0; j < n; ++j) {
         s1 += v[j] * px[j];
         py[j] += v[j] * xa;
       }
-      v += len;
+      v += n;
     }
-    ybx[at] += s0 + s1;
+    ybox[a] += s0 + s1;
   }
-  yb = o_.bias ? pbb_ * xb : 0.0;
+}
+
+}  // namespace
+
+void JointBhm::multiply_box(const std::vector<double>& x, double xb, bool x_outside,
+                            const std::vector<std::uint32_t>& rows, std::vector<double>& y,
+                            double& yb, Scratch& sc) const {
+  double* xbx = sc.pbox.data();
+  double* ybx = sc.qbox.data();
+  const std::size_t m = rows.size();
+  const std::int64_t* n = sc.box_n;
+  const std::int64_t* lo = sc.box_lo;
+  const auto hs = static_cast<std::size_t>(half_slots_);
+  if (x_outside) {
+    // x over the whole box, and every stored kernel within pad of the rows' bounds: their
+    // stencils may reach a row.
+    const std::int64_t hi[3] = {lo[0] + n[0] - 1, lo[1] + n[1] - 1, lo[2] + n[2] - 1};
+    for_each_stored_line(lo, hi, [&](std::int64_t s, const std::int64_t g[3], std::int64_t l) {
+      const std::int64_t at = ((g[2] - lo[2]) * n[1] + (g[1] - lo[1])) * n[0] + (g[0] - lo[0]);
+      std::memcpy(xbx + at, x.data() + s, sizeof(double) * std::size_t(l));
+    });
+    std::int64_t a[3], b[3];
+    for (int d = 0; d < 3; ++d) {
+      const std::int64_t r = d < dim_ ? pad_ : 0;
+      a[d] = lo[d] + r;
+      b[d] = lo[d] + n[d] - 1 - r;
+    }
+    sc.around.clear();
+    sc.around_at.clear();
+    for_each_stored_line(a, b, [&](std::int64_t s, const std::int64_t g[3], std::int64_t l) {
+      const std::int64_t at = ((g[2] - lo[2]) * n[1] + (g[1] - lo[1])) * n[0] + (g[0] - lo[0]);
+      for (std::int64_t i = 0; i < l; ++i) {
+        sc.around.push_back(static_cast<std::uint32_t>(s + i));
+        sc.around_at.push_back(at + i);
+      }
+    });
+    half_products(prec_.data(), hs, sc.box_len.data(), sc.box_off.data(), half_.size(),
+                  sc.around.data(), sc.around_at.data(), sc.around.size(), xbx, ybx);
+  } else {
+    for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = x[rows[u]];
+    half_products(prec_.data(), hs, sc.box_len.data(), sc.box_off.data(), half_.size(), rows.data(),
+                  sc.box_at.data(), m, xbx, ybx);
+  }
+  // The bias row summed in a local: through the reference, every term would be a store and a
+  // load in one dependent chain.
+  double sb = o_.bias ? pbb_ * xb : 0.0;
   for (std::size_t u = 0; u < m; ++u) {
     const std::uint32_t a = rows[u];
     double v = ybx[sc.box_at[u]];
     if (o_.bias) {
       v += bcoup_[a] * xb;
-      yb += bcoup_[a] * x[a];
+      sb += bcoup_[a] * x[a];
     }
     y[a] = v;
   }
-  // Leave both boxes zero for the next product (y's box is small: clearing it whole is cheaper
-  // than finding the cells the halves reached).
-  for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = 0;
+  yb = sb;
+  // Leave both boxes zero for the next product (y's whole: cheaper than finding the cells the
+  // halves reached).
+  if (x_outside)
+    std::fill(sc.pbox.begin(), sc.pbox.end(), 0.0);
+  else
+    for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = 0;
   std::fill(sc.qbox.begin(), sc.qbox.end(), 0.0);
+}
+
+void JointBhm::multiply_sparse(const std::vector<double>& x, double xb,
+                               const std::vector<std::uint32_t>& rows, std::vector<double>& y,
+                               double& yb) const {
+  double sb = o_.bias ? pbb_ * xb : 0.0;
+  const auto hs = static_cast<std::size_t>(half_slots_);
+  for (const std::uint32_t a : rows) {
+    std::int64_t g[3];
+    cell_of(a, g);
+    const std::int64_t home = a / tile_cells_;
+    const double* row = &prec_[std::size_t(a) * hs];
+    double v = row[0] * x[a];
+    for (const HalfRun& h : half_)
+      for (std::int32_t j = 0; j < h.len; ++j) {
+        const std::int64_t o[3] = {h.d[0] + j, h.d[1], h.d[2]};
+        const std::int64_t after[3] = {g[0] + o[0], g[1] + o[1], g[2] + o[2]};
+        const std::int64_t before[3] = {g[0] - o[0], g[1] - o[1], g[2] - o[2]};
+        const std::int64_t b = in_grid(after) ? find_cell(after, home) : -1;
+        if (b >= 0) v += row[h.at + j] * x[std::size_t(b)];
+        const std::int64_t c = in_grid(before) ? find_cell(before, home) : -1;
+        if (c >= 0) v += prec_[std::size_t(c) * hs + std::size_t(h.at + j)] * x[std::size_t(c)];
+      }
+    if (o_.bias) {
+      v += bcoup_[a] * xb;
+      sb += bcoup_[a] * x[a];
+    }
+    y[a] = v;
+  }
+  yb = sb;
 }
 
 double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
@@ -675,13 +713,17 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   // Conjugate gradients on the rows `rows` (and the bias), the other means held fixed, from
   // the current x. Jacobi preconditioner. sc.p is zero outside `rows` on entry and on exit.
   const std::size_t st = x.size();
-  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
+  const auto hs = static_cast<std::size_t>(half_slots_);
   for (std::vector<double>* v : {&sc.r, &sc.z, &sc.p, &sc.q})
     if (v->size() < st) v->resize(st, 0.0);
   std::vector<double>&r = sc.r, &z = sc.z, &p = sc.p, &q = sc.q;
   double rb = 0, zb = 0, pb = 0, qb = 0;
   double yb = 0;
-  multiply(x, xb, rows, q, yb, sc.ghost);
+  const bool boxed = box_rows(rows, sc);
+  if (boxed)
+    multiply_box(x, xb, true, rows, q, yb, sc);
+  else
+    multiply_sparse(x, xb, rows, q, yb);
   // The bias row reads every mean, not only those of `rows`.
   if (o_.bias) {
     yb = pbb_ * xb;
@@ -695,11 +737,10 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
     ee += eta_[a] * eta_[a];
   }
   const double stop = tol * tol * std::max(ee, 1e-300);
-  const bool packed = rr > stop && pack(rows, sc);
   auto precondition = [&] {
     double rz = 0;
     for (std::uint32_t a : rows) {
-      z[a] = r[a] / prec_[std::size_t(a) * slots_ + centre];
+      z[a] = r[a] / prec_[std::size_t(a) * hs];
       rz += r[a] * z[a];
     }
     if (o_.bias) {
@@ -713,10 +754,10 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   pb = zb;
   int it = 0;
   for (; it < max_it && rr > stop; ++it) {
-    if (packed)
-      multiply_packed(p, pb, rows, q, qb, sc);
+    if (boxed)
+      multiply_box(p, pb, false, rows, q, qb, sc);
     else
-      multiply(p, pb, rows, q, qb, sc.ghost);
+      multiply_sparse(p, pb, rows, q, qb);
     double pq = pb * qb;
     for (std::uint32_t a : rows) pq += p[a] * q[a];
     if (!(pq > 0)) break;
@@ -751,7 +792,7 @@ void JointBhm::update(const LabelledPoints& samples) {
     throw ArgumentError("joint BHM: sample positions and labels disagree in number");
   stats_ = {};
   if (samples.empty()) return;
-  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
+  const auto hs = static_cast<std::size_t>(half_slots_);
   // The scan's features, flat: each sample's kernels, phi and stencil-linear cells, and its
   // runs of consecutive cells (add_outer()). Computed once for every EM iteration.
   Scratch& sc = scratch_;
@@ -772,9 +813,18 @@ void JointBhm::update(const LabelledPoints& samples) {
     if (!finite) continue;
     features(x, f, true);
     if (f.empty()) continue;
-    for (std::size_t u = 0; u < f.size(); ++u) {
+    // Raster order (add_outer() adds each pair once, to the first of the two); features()
+    // lists them tile by tile.
+    auto lin_of = [&](const Feature& e) {
       std::int64_t l = 0;
-      for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + f[u].cell[d];
+      for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + e.cell[d];
+      return l;
+    };
+    for (std::size_t u = 1; u < f.size(); ++u)
+      for (std::size_t v = u; v > 0 && lin_of(f[v]) < lin_of(f[v - 1]); --v)
+        std::swap(f[v], f[v - 1]);
+    for (std::size_t u = 0; u < f.size(); ++u) {
+      const std::int64_t l = lin_of(f[u]);
       const auto at = static_cast<std::uint32_t>(sc.kernel.size());
       if (u > 0 && l == sc.lin.back() + 1)
         ++sc.runs.back();
@@ -836,7 +886,7 @@ void JointBhm::update(const LabelledPoints& samples) {
     for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u) {
       const double phi = sc.phi[u];
       mu += mean_[sc.kernel[u]] * phi;
-      s2 += phi * phi / prec_[std::size_t(sc.kernel[u]) * slots_ + centre];
+      s2 += phi * phi / prec_[std::size_t(sc.kernel[u]) * hs];
     }
     return std::sqrt(mu * mu + s2);
   };
@@ -917,12 +967,10 @@ double JointBhm::predictive_var_at(const std::int64_t g[3], std::int64_t hint,
       A(Eigen::Index(u), Eigen::Index(u)) = 1.0 / o_.prior_var;
       continue;
     }
-    const double* row = &prec_[std::size_t(block[u]) * slots_];
     for (std::size_t v = 0; v < b; ++v) {
-      std::int64_t slot = 0;
-      for (int d = dim_ - 1; d >= 0; --d)
-        slot = slot * box_ + (cells[3 * v + d] - cells[3 * u + d] + pad_);
-      A(Eigen::Index(u), Eigen::Index(v)) = row[slot];
+      const std::int64_t o[3] = {cells[3 * v] - cells[3 * u], cells[3 * v + 1] - cells[3 * u + 1],
+                                 cells[3 * v + 2] - cells[3 * u + 2]};
+      A(Eigen::Index(u), Eigen::Index(v)) = coupling(block[u], block[v], o);
     }
   }
   Eigen::Map<const Eigen::VectorXd> ph(phi.data(), Eigen::Index(b));
@@ -958,7 +1006,6 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
     a[d] = static_cast<std::int64_t>(ua);
     b[d] = static_cast<std::int64_t>(ub);
   }
-  const std::size_t centre = static_cast<std::size_t>(slots_ / 2);
   const double floor_var = std::min(std::max(min_var, 1e-12), o_.prior_var);
   std::vector<std::uint32_t> near;
   std::size_t seeded = 0;
@@ -988,7 +1035,7 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
         const double m0 = mu / grid_sum_;
         const double v0 = std::min(o_.prior_var, std::max(floor_var, s2 / grid_sum2_));
         // Replace the prior's part of the natural parameters: precision 1/v0, eta m0/v0.
-        prec_[su * slots_ + centre] += 1.0 / v0 - 1.0 / o_.prior_var;
+        prec_[su * static_cast<std::size_t>(half_slots_)] += 1.0 / v0 - 1.0 / o_.prior_var;
         eta_[su] += m0 / v0;
         mean_[su] = m0;
         seeded_[su] = 1;
@@ -1081,19 +1128,19 @@ void JointBhm::predict_exact(const double* points, std::size_t n, double* mean, 
     const std::uint32_t a = stored[std::size_t(u)];
     std::int64_t g[3];
     cell_of(a, g);
-    const double* row = &prec_[std::size_t(a) * slots_];
+    const double* row = &prec_[std::size_t(a) * static_cast<std::size_t>(half_slots_)];
     const std::int64_t home = a / tile_cells_;
-    for (std::int64_t s = 0; s < slots_; ++s) {
-      if (row[s] == 0) continue;
-      std::int64_t rest = s, c[3] = {g[0], g[1], g[2]};
-      for (int d = 0; d < dim_; ++d) {
-        c[d] += rest % box_ - pad_;
-        rest /= box_;
+    t.emplace_back(u, u, row[0]);
+    for (const HalfRun& h : half_)
+      for (std::int32_t j = 0; j < h.len; ++j) {
+        const double p = row[h.at + j];
+        if (p == 0) continue;
+        const std::int64_t c[3] = {g[0] + h.d[0] + j, g[1] + h.d[1], g[2] + h.d[2]};
+        const std::int64_t b = in_grid(c) ? find_cell(c, home) : -1;
+        if (b < 0 || index[std::size_t(b)] < 0) continue;
+        t.emplace_back(u, Eigen::Index(index[std::size_t(b)]), p);
+        t.emplace_back(Eigen::Index(index[std::size_t(b)]), u, p);
       }
-      const std::int64_t b = find_cell(c, home);
-      if (b >= 0 && index[std::size_t(b)] >= 0)
-        t.emplace_back(u, Eigen::Index(index[std::size_t(b)]), row[s]);
-    }
     if (o_.bias && bcoup_[a] != 0) {
       t.emplace_back(u, m, bcoup_[a]);
       t.emplace_back(m, u, bcoup_[a]);

@@ -1,8 +1,10 @@
 #include "learn/bhm_joint_state.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <vector>
 
 namespace potmap::detail {
 
@@ -41,8 +43,9 @@ void expect_size(ContainerCursor& c, std::size_t at, const char* what, const V& 
 
 }  // namespace
 
-void JointBhmState::write(ContainerWriter& w, const JointBhm& m) {
-  put_shape(w, m.dim_, m.bounded_, m.lo_, m.n_, m.gamma_, m.tile_, m.slots_);
+void JointBhmState::write(ContainerWriter& w, const JointBhm& m, bool full_stencil) {
+  put_shape(w, m.dim_, m.bounded_, m.lo_, m.n_, m.gamma_, m.tile_,
+            full_stencil ? m.slots_ : m.half_slots_);
   std::vector<std::uint32_t> tiles;
   tiles.reserve(m.tiles_.size() * 30);
   for (const JointBhm::Tile& t : m.tiles_) {
@@ -51,7 +54,28 @@ void JointBhmState::write(ContainerWriter& w, const JointBhm& m) {
   }
   put_uints(w, tiles);
   // var_ and tile_dirty_ are mutable caches: spell the pointer type out.
-  const std::vector<double>* doubles[] = {&m.prec_, &m.eta_, &m.mean_, &m.bcoup_, &m.var_};
+  std::vector<double> full;
+  if (full_stencil) {
+    // Every slot of the box, the mirrored half read from the kernel it couples to.
+    const std::size_t cells = m.mean_.size(), slots = static_cast<std::size_t>(m.slots_);
+    full.assign(cells * slots, 0.0);
+    for (std::size_t a = 0; a < cells; ++a) {
+      std::int64_t g[3];
+      m.cell_of(static_cast<std::uint32_t>(a), g);
+      for (std::size_t s = 0; s < slots; ++s) {
+        std::int64_t rest = std::int64_t(s), o[3] = {0, 0, 0}, c[3] = {g[0], g[1], g[2]};
+        for (int d = 0; d < m.dim_; ++d) {
+          o[d] = rest % m.box_ - m.pad_;
+          rest /= m.box_;
+          c[d] += o[d];
+        }
+        const std::int64_t b = m.in_grid(c) ? m.find_cell(c, -1) : -1;
+        full[a * slots + s] = m.coupling(std::int64_t(a), b, o);
+      }
+    }
+  }
+  const std::vector<double>* doubles[] = {full_stencil ? &full : &m.prec_, &m.eta_, &m.mean_,
+                                          &m.bcoup_, &m.var_};
   for (const std::vector<double>* v : doubles) put_f64s(w, *v);
   const std::vector<std::uint8_t>* flags[] = {&m.touched_, &m.seeded_, &m.tile_dirty_};
   for (const std::vector<std::uint8_t>* v : flags) put_uints(w, *v);
@@ -81,7 +105,12 @@ void JointBhmState::read(ContainerCursor& c, JointBhm& m) {
   at = c.at();
   expect_same<std::uint64_t>(c, at, "tile edge", c.u64(), static_cast<std::uint64_t>(m.tile_));
   at = c.at();
-  expect_same<std::uint64_t>(c, at, "stencil slots", c.u64(), static_cast<std::uint64_t>(m.slots_));
+  // The half stencil, or the whole one of states saved before it.
+  const std::uint64_t slots = c.u64();
+  const bool full = slots == static_cast<std::uint64_t>(m.slots_);
+  if (!full)
+    expect_same<std::uint64_t>(c, at, "stencil slots", slots,
+                               static_cast<std::uint64_t>(m.half_slots_));
 
   at = c.at();
   const std::vector<std::uint32_t> tiles = c.uints<std::uint32_t>("joint BHM tiles");
@@ -107,12 +136,23 @@ void JointBhmState::read(ContainerCursor& c, JointBhm& m) {
   }
   std::vector<double>* doubles[] = {&m.prec_, &m.eta_, &m.mean_, &m.bcoup_, &m.var_};
   const char* names[] = {"precision", "eta", "means", "bias coupling", "variances"};
-  const std::size_t want[] = {cells * static_cast<std::size_t>(m.slots_), cells, cells, cells,
-                              cells};
+  const std::size_t want[] = {cells * static_cast<std::size_t>(slots), cells, cells, cells, cells};
   for (int k = 0; k < 5; ++k) {
     at = c.at();
     *doubles[k] = c.f64s(names[k]);
     expect_size(c, at, names[k], *doubles[k], want[k]);
+  }
+  if (full) {
+    const auto hs = static_cast<std::size_t>(m.half_slots_);
+    const std::vector<double> whole = std::move(m.prec_);
+    m.prec_.assign(cells * hs, 0.0);
+    for (std::size_t a = 0; a < cells; ++a) {
+      const double* in = &whole[a * static_cast<std::size_t>(slots)];
+      double* out = &m.prec_[a * hs];
+      out[0] = in[m.slots_ / 2];
+      for (const JointBhm::HalfRun& h : m.half_)
+        std::copy(in + h.slot, in + h.slot + h.len, out + h.at);
+    }
   }
   std::vector<std::uint8_t>* flags[] = {&m.touched_, &m.seeded_, &m.tile_dirty_};
   const char* flag_names[] = {"touched flags", "seeded flags", "dirty tiles"};

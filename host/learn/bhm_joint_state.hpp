@@ -8,10 +8,13 @@
 namespace potmap::detail {
 
 struct JointBhmState {
-  static void write(ContainerWriter& w, const JointBhm& m);
+  /// Writes each kernel's half stencil (JointBhm::HalfRun). `full_stencil`: the whole stencil's
+  /// box instead, as states were saved before the half (a test's way to check they still read).
+  static void write(ContainerWriter& w, const JointBhm& m, bool full_stencil = false);
   /// Reads into `m`, which must have been built with the saved learner's options (the grid,
   /// kernel width and tile size are checked: a mismatch fails naming the value found). Only
-  /// scratch space is not saved; the rest, caches included, comes back as it was.
+  /// scratch space is not saved; the rest, caches included, comes back as it was. A state with
+  /// the whole stencil (saved before the half) reads too: its half is taken (P is symmetric).
   static void read(ContainerCursor& c, JointBhm& m);
 };
 

@@ -13,16 +13,18 @@
 // and adds each scan to P and eta (the posterior of one scan is the prior of the next, exactly,
 // for the xi of that scan). Each scan runs a few EM iterations over its own xi_n; the means are
 // solved by conjugate gradients warm-started from the previous scan, on the kernels the scan
-// reaches plus a margin. P is stored per kernel as a stencil of its grid neighbours.
+// reaches plus a margin. P is stored per kernel as the half of a stencil of its grid neighbours:
+// its diagonal and its couplings to the kernels after it in raster order within two cut-off
+// radii (P is symmetric; the products mirror them), 23 doubles in 2D and 126 in 3D at the
+// default width and cut-off instead of the stencil's whole box of 9^2 and 9^3.
 //
 // Storage is in tiles of kernels (32 x 32 in 2D, 8 x 8 x 8 in 3D, larger when the stencil is
-// wider than a tile; a 3D kernel's stencil holds 9^3 doubles at the default width and cut-off, so
-// 3D tiles are kept small), allocated when a sample or a seed first reaches them and found through
-// a hash map of tile coordinates: memory grows with the area the samples cover, never with the
-// number of scans (driving over the same place again allocates nothing). A kernel no sample or
-// seed reached is never stored; it holds its prior (mean 0, variance prior_var) exactly, which
-// is what an allocated but unreached kernel holds too. The grid may be unbounded (the
-// growable constructor: kernels at integer multiples of the spacing) or clipped to bounds
+// wider than a tile, so 3D tiles are kept small), allocated when a sample or a seed first reaches
+// them and found through a hash map of tile coordinates: memory grows with the area the samples
+// cover, never with the number of scans (driving over the same place again allocates nothing). A
+// kernel no sample or seed reached is never stored; it holds its prior (mean 0, variance prior_var)
+// exactly, which is what an allocated but unreached kernel holds too. The grid may be unbounded
+// (the growable constructor: kernels at integer multiples of the spacing) or clipped to bounds
 // known in advance (kernels from lo to hi, as a dense grid over them would be).
 //
 // A KernelMap carries one variance per kernel, so the exported w_var is chosen to reproduce the
@@ -102,7 +104,8 @@ struct JointBhmOptions {
   bool seeds_yield_fully = true;
   /// At most this many stored kernels (default 2^26, the most the storage can address): a
   /// guard against runaway input (samples scattered over a huge area). Each stored kernel
-  /// holds its precision stencil, (2 ceil(2 sqrt(tau / gamma) / spacing) + 1)^dim doubles.
+  /// holds its half precision stencil: 1 + (m - 1) / 2 doubles, m the grid points within
+  /// 2 sqrt(tau / gamma) of a kernel (23 in 2D, 126 in 3D at the defaults), and 4 more.
   std::size_t max_kernels = std::size_t(1) << 26;
 };
 
@@ -191,7 +194,7 @@ class JointBhm {
   };
   // Buffers kept across scans (no state: a copy or a restore may start them empty).
   struct Scratch {
-    std::vector<double> r, z, p, q, ghost;
+    std::vector<double> r, z, p, q;
     // update(): the scan's features, flat (per feature; per sample its first feature and its
     // first run of features with consecutive cells, (first feature, length) pairs).
     std::vector<std::uint32_t> kernel, start, runs, run_start, reached, rows;
@@ -199,9 +202,13 @@ class JointBhm {
     std::vector<std::int64_t> lin;
     std::vector<Feature> feature;
     std::vector<std::uint8_t> bits, bits_tmp;  // dilate_rows()
-    // solve(): the rows' packed half stencils, in a box of cells (pack()).
-    std::vector<double> packed, pbox, qbox;
-    std::vector<std::int64_t> box_at, box_off;
+    // solve(): a box of cells around the rows (box_rows()), x and y in it, the rows' places
+    // in it, the offsets of the stencil's half runs, and the kernels around the rows.
+    std::vector<double> pbox, qbox;
+    std::vector<std::int64_t> box_at, box_off, around_at;
+    std::vector<std::int32_t> box_len;
+    std::vector<std::uint32_t> around;
+    std::int64_t box_lo[3] = {0, 0, 0}, box_n[3] = {1, 1, 1};
     std::size_t bytes() const;
   };
   void init(int dim, const JointBhmOptions& o);
@@ -227,15 +234,26 @@ class JointBhm {
   void dilate_rows(std::vector<std::uint32_t>& rows, const std::vector<std::uint32_t>& reached,
                    std::int64_t mg, std::int64_t mz, Scratch& sc);
   void mark_dirty(std::uint32_t s);
-  void gather(std::uint32_t tile, const double* x, std::vector<double>& ghost) const;
-  // y = P x on the rows `rows` (sorted storage indices); the bias row when with bias.
-  void multiply(const std::vector<double>& x, double xb, const std::vector<std::uint32_t>& rows,
-                std::vector<double>& y, double& yb, std::vector<double>& ghost) const;
-  bool pack(const std::vector<std::uint32_t>& rows, Scratch& sc) const;
-  // multiply() for x zero outside the rows, on what pack() packed.
-  void multiply_packed(const std::vector<double>& x, double xb,
-                       const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
-                       Scratch& sc) const;
+  // f(first storage index, first cell, length) for every run along x of stored cells in the
+  // box of cells [a, b].
+  template <class F>
+  void for_each_stored_line(const std::int64_t a[3], const std::int64_t b[3], F f) const;
+  // P(a, b) for stored kernel a and kernel b (storage index, -1: not stored) at cell offset o
+  // from a, read from the half stencil of whichever comes first in raster order.
+  double coupling(std::int64_t a, std::int64_t b, const std::int64_t o[3]) const;
+  // Places the rows `rows` (sorted storage indices) in a box of cells around them (the products
+  // below); false when the box would be much larger than the rows.
+  bool box_rows(const std::vector<std::uint32_t>& rows, Scratch& sc) const;
+  // y = P x on the rows, and the bias row when with bias, in the box of box_rows();
+  // `x_outside`: x may be non-zero outside the rows (otherwise it is zero there).
+  void multiply_box(const std::vector<double>& x, double xb, bool x_outside,
+                    const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
+                    Scratch& sc) const;
+  // The same without a box, each coupling found through the tiles: for rows scattered far
+  // apart, where box_rows() declines.
+  void multiply_sparse(const std::vector<double>& x, double xb,
+                       const std::vector<std::uint32_t>& rows, std::vector<double>& y,
+                       double& yb) const;
   double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
                double tol, int max_it, std::size_t* its, Scratch& s) const;
   bool near_data(const std::int64_t g[3], std::int64_t hint) const;
@@ -251,26 +269,24 @@ class JointBhm {
   std::int64_t n_[3] = {1, 1, 1};  // bounded: kernels per axis, cells 0 .. n-1
   std::int64_t pad_ = 0;           // stencil half-width, in cells
   std::int64_t box_ = 0;           // 2 * pad + 1
-  std::int64_t slots_ = 0;         // box^dim
+  std::int64_t slots_ = 0;         // box^dim: the stencil's whole box
   std::int64_t hb_ = 0;            // half-width of the exported variance's block
   std::int64_t tile_ = 32;         // cells per tile axis
   std::int64_t tile_cells_ = 1;    // tile^dim
   std::int64_t centre_lin_ = 0;    // sum_d pad box^d: the stencil's centre slot
-  std::int64_t ghost_ = 0;         // tile + 2 pad: cells per axis of a tile with its halo
-  struct Run {
-    std::int32_t slot, len;  // first slot of the run in a stencil, and its length
-    std::int64_t goff;       // the first slot's index difference in the halo block
-  };
-  std::vector<Run> runs_;  // the slots that can be non-zero, in runs along x
+  // P is symmetric, so a kernel stores only its diagonal and the couplings to the kernels after
+  // it in raster order (z, y, x) that can be non-zero: runs along x of its stencil's box, each
+  // starting at a cell offset d and at index `at` of the kernel's stored half.
   struct HalfRun {
-    std::int32_t slot, len;
-    std::int32_t d[3];  // the first slot's cell offset
+    std::int32_t slot, len, at;  // first slot in the box, length, first index in the half
+    std::int32_t d[3];           // the first slot's cell offset
   };
-  std::vector<HalfRun> half_;    // runs_ after the centre slot in raster order
-  std::int64_t half_slots_ = 1;  // the centre and half_'s slots
+  std::vector<HalfRun> half_;
+  std::int64_t half_slots_ = 1;        // doubles a kernel stores: the diagonal and half_'s slots
+  std::vector<std::int32_t> half_at_;  // per slot of the box: its index in the half, or -1
   std::vector<Tile> tiles_;
   std::unordered_map<std::uint64_t, std::uint32_t> tile_index_;
-  std::vector<double> prec_;                      // storage x stencil
+  std::vector<double> prec_;                      // storage x half_slots_ (the half stencil)
   std::vector<double> eta_;                       // storage
   std::vector<double> mean_;                      // storage
   std::vector<double> bcoup_;                     // storage: P(bias, k)
