@@ -84,6 +84,8 @@ TEST(PointGrid, WithinFindsExactlyThePointsInTheRadius) {
         }
         grid.for_each_within(q, r, [&](std::size_t i, double) { got.insert(i); });
         ASSERT_EQ(want, got) << "dim " << dim << " cell " << cell << " query " << k;
+        // What the wall clearance and the sample distance ask: is any point that near?
+        ASSERT_EQ(grid.any_within(q, r), !want.empty()) << "dim " << dim << " query " << k;
       }
     }
   }

@@ -63,12 +63,28 @@ class PointGrid {
   /// Calls f(index, squared distance) for every point within `r` of p (any order).
   template <class F>
   void for_each_within(const double* p, double r, F&& f) const {
-    if (n_ == 0) return;
+    find_within(p, r, [&f](std::size_t i, double d2) {
+      f(i, d2);
+      return false;
+    });
+  }
+
+  /// Whether any point lies within `r` of p (it stops at the first one found).
+  bool any_within(const double* p, double r) const {
+    return find_within(p, r, [](std::size_t, double) { return true; });
+  }
+
+ private:
+  // Calls f(index, squared distance) for the points within `r` of p until f returns true;
+  // whether one did.
+  template <class F>
+  bool find_within(const double* p, double r, F&& f) const {
+    if (n_ == 0) return false;
     std::int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     for (int d = 0; d < dim_; ++d) {
       lo[d] = clamp_cell(d, (p[d] - r - min_[d]) / cell_);
       hi[d] = clamp_cell(d, (p[d] + r - min_[d]) / cell_);
-      if ((p[d] + r) < min_[d] || (p[d] - r) > min_[d] + cell_ * double(extent_[d])) return;
+      if ((p[d] + r) < min_[d] || (p[d] - r) > min_[d] + cell_ * double(extent_[d])) return false;
     }
     const double r2 = r * r;
     for (std::int64_t z = lo[2]; z <= hi[2]; ++z)
@@ -78,12 +94,11 @@ class PointGrid {
           for (std::uint32_t k = start_[c]; k < start_[c + 1]; ++k) {
             const std::uint32_t i = order_[k];
             const double d2 = dist2(p, i);
-            if (d2 <= r2) f(std::size_t(i), d2);
+            if (d2 <= r2 && f(std::size_t(i), d2)) return true;
           }
         }
+    return false;
   }
-
- private:
   double dist2(const double* p, std::uint32_t i) const {
     double s = 0;
     for (int d = 0; d < dim_; ++d) {
