@@ -56,14 +56,6 @@ void restore(const std::string& path, JointBhm& m) {
   c.finish();
 }
 
-void expect_same_map(const KernelMap& a, const KernelMap& b) {
-  EXPECT_EQ(a.position, b.position);
-  EXPECT_EQ(a.w_mean, b.w_mean);
-  EXPECT_EQ(a.w_var, b.w_var);
-  EXPECT_EQ(a.bias_mean, b.bias_mean);
-  EXPECT_EQ(a.bias_var, b.bias_var);
-}
-
 TEST(JointBhmState, RestoresBitForBitFromEitherStencilLayout) {
   const std::string dir = test::temp_dir("joint-bhm-state");
   JointBhm whole(2);
@@ -76,9 +68,9 @@ TEST(JointBhmState, RestoresBitForBitFromEitherStencilLayout) {
     save(first, path, full);
     JointBhm resumed(2);
     restore(path, resumed);
-    expect_same_map(resumed.map(), first.map());
+    test::expect_same_map(resumed.map(), first.map());
     for (int t = 3; t < 6; ++t) resumed.update(corridor_scan(std::uint32_t(t), 2.0 * t));
-    expect_same_map(resumed.map(), whole.map());
+    test::expect_same_map(resumed.map(), whole.map());
   }
 }
 

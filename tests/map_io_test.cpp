@@ -38,19 +38,6 @@ KernelMap random_map(int dim, bool bias, std::size_t m, unsigned seed) {
   return map;
 }
 
-void expect_same(const KernelMap& a, const KernelMap& b) {
-  EXPECT_EQ(a.dim, b.dim);
-  EXPECT_EQ(a.position, b.position);
-  EXPECT_EQ(a.gamma, b.gamma);
-  EXPECT_EQ(a.w_mean, b.w_mean);
-  EXPECT_EQ(a.w_var, b.w_var);
-  EXPECT_EQ(a.has_bias, b.has_bias);
-  if (a.has_bias && b.has_bias) {
-    EXPECT_EQ(a.bias_mean, b.bias_mean);
-    EXPECT_EQ(a.bias_var, b.bias_var);
-  }
-}
-
 void write_text(const std::string& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
 }
@@ -122,7 +109,7 @@ TEST_P(MapRoundTrip, IsExact) {
   const KernelMap map = random_map(dim, bias, 257, 7 + dim);
   const std::string path = dir + "/map" + ext;
   write_map(map, path);
-  expect_same(map, read_map(path));
+  test::expect_same_map(map, read_map(path));
   // Empty maps keep their dimension too.
   KernelMap empty;
   empty.dim = dim;

@@ -46,17 +46,6 @@ const StateScene& state_scene() {
   return s;
 }
 
-void expect_bitwise(const KernelMap& a, const KernelMap& b) {
-  ASSERT_EQ(a.size(), b.size());
-  EXPECT_EQ(a.position, b.position);  // operator== on doubles: exact
-  EXPECT_EQ(a.gamma, b.gamma);
-  EXPECT_EQ(a.w_mean, b.w_mean);
-  EXPECT_EQ(a.w_var, b.w_var);
-  EXPECT_EQ(a.has_bias, b.has_bias);
-  EXPECT_EQ(a.bias_mean, b.bias_mean);
-  EXPECT_EQ(a.bias_var, b.bias_var);
-}
-
 OverallMapOptions capped() {
   OverallMapOptions o;
   o.max_kernels = 250;  // retirements too (225 kernels kept), so counts and ages must come back
@@ -82,10 +71,10 @@ TEST(MapperState, RestoredMapperContinuesBitForBit) {
     EXPECT_EQ(resumed.load_state(path), std::string("caller\0bytes", 12));
     EXPECT_EQ(resumed.scans(), k);
     EXPECT_EQ(resumed.last().index, k - 1);
-    expect_bitwise(resumed.overall_map(), first.overall_map());
+    test::expect_same_map(resumed.overall_map(), first.overall_map());
     for (std::size_t i = k; i < s.targets.size(); ++i) resumed.add_scan(s.targets[i]);
     EXPECT_EQ(resumed.scans(), whole.scans());
-    expect_bitwise(resumed.overall_map(), whole.overall_map());
+    test::expect_same_map(resumed.overall_map(), whole.overall_map());
     EXPECT_EQ(resumed.overall().counts(), whole.overall().counts());
     EXPECT_EQ(resumed.overall_kernels(), whole.overall_kernels());
     if (!refine) EXPECT_GT(whole.overall().size(), 0u);
@@ -112,9 +101,9 @@ TEST(MapperState, AveragedOverallMapContinuesBitForBit) {
   first.save_state(path);
   Mapper resumed(&test::context(), s.dict, o);
   resumed.load_state(path);
-  expect_bitwise(resumed.overall_map(), first.overall_map());
+  test::expect_same_map(resumed.overall_map(), first.overall_map());
   for (std::size_t i = k; i < s.targets.size(); ++i) resumed.add_scan(s.targets[i]);
-  expect_bitwise(resumed.overall_map(), whole.overall_map());
+  test::expect_same_map(resumed.overall_map(), whole.overall_map());
   EXPECT_GT(resumed.overall_memory_bytes(), 0u);
 
   MapperOptions summed = o;
@@ -156,7 +145,7 @@ TEST(MapperState, MapScansContinuesARestoredRun) {
         },
         start);
     EXPECT_EQ(indices, (std::vector<std::size_t>{4, 5}));
-    expect_bitwise(resumed.overall_map(), whole.overall_map());
+    test::expect_same_map(resumed.overall_map(), whole.overall_map());
     // A scan out of order is refused.
     MappedScan stray;
     stray.index = 9;
@@ -232,7 +221,7 @@ TEST(MapperState, RefusesOtherInputsAndBrokenFilesNamingThem) {
   // And the mapper still works: the good file restores it.
   fresh.load_state(path);
   EXPECT_EQ(fresh.scans(), 2u);
-  expect_bitwise(fresh.overall_map(), saved.overall_map());
+  test::expect_same_map(fresh.overall_map(), saved.overall_map());
 }
 
 }  // namespace

@@ -146,4 +146,16 @@ Sector rotated_sector(const Sector& s, double angle) {
   return r;
 }
 
+void expect_same_map(const KernelMap& a, const KernelMap& b) {
+  EXPECT_EQ(a.dim, b.dim);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(a.position, b.position);  // operator== on doubles: exact
+  EXPECT_EQ(a.gamma, b.gamma);
+  EXPECT_EQ(a.w_mean, b.w_mean);
+  EXPECT_EQ(a.w_var, b.w_var);
+  EXPECT_EQ(a.has_bias, b.has_bias);
+  EXPECT_EQ(a.bias_mean, b.bias_mean);
+  EXPECT_EQ(a.bias_var, b.bias_var);
+}
+
 }  // namespace potmap::test

@@ -26,6 +26,9 @@ std::string temp_dir(const std::string& name);
 /// Writes `body` to dir/name (bytes as given) and returns the path.
 std::string write_file(const std::string& dir, const std::string& name, const std::string& body);
 
+/// Expects two maps equal in every field, bit for bit (a restored or re-read map).
+void expect_same_map(const KernelMap& a, const KernelMap& b);
+
 /// Runs f, expects a potmap::InputError whose message contains every needle.
 template <class F>
 void expect_input_error(F f, std::initializer_list<std::string> needles) {

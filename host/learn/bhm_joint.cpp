@@ -282,6 +282,26 @@ std::int64_t JointBhm::find_cell(const std::int64_t g[3], std::int64_t hint) con
   return id < 0 ? -1 : id * tile_cells_ + local;
 }
 
+template <class F>
+void JointBhm::for_each_tile_part(const std::int64_t a[3], const std::int64_t b[3], F f) const {
+  std::int64_t ta[3] = {0, 0, 0}, tb[3] = {0, 0, 0};
+  for (int d = 0; d < dim_; ++d) {
+    ta[d] = floor_div(a[d], tile_);
+    tb[d] = floor_div(b[d], tile_);
+  }
+  for (std::int64_t tz = ta[2]; tz <= tb[2]; ++tz)
+    for (std::int64_t ty = ta[1]; ty <= tb[1]; ++ty)
+      for (std::int64_t tx = ta[0]; tx <= tb[0]; ++tx) {
+        const std::int64_t t[3] = {tx, ty, tz};
+        std::int64_t ca[3] = {0, 0, 0}, cb[3] = {0, 0, 0};
+        for (int d = 0; d < dim_; ++d) {
+          ca[d] = std::max(a[d], t[d] * tile_);
+          cb[d] = std::min(b[d], t[d] * tile_ + tile_ - 1);
+        }
+        f(t, ca, cb);
+      }
+}
+
 void JointBhm::features(const double* x, std::vector<Feature>& out, bool create) {
   out.clear();
   std::int64_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
@@ -305,26 +325,16 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
       const double sd = d < dim_ ? x[d] - (lo_[d] + double(a[d] + c) * o_.spacing) : 0.0;
       ex[d][c] = std::exp(-gamma_ * (sd * sd));
     }
-  std::int64_t ta[3] = {0, 0, 0}, tb[3] = {0, 0, 0};
-  for (int d = 0; d < dim_; ++d) {
-    ta[d] = floor_div(a[d], tile_);
-    tb[d] = floor_div(b[d], tile_);
-  }
-  for (std::int64_t tz = ta[2]; tz <= tb[2]; ++tz)
-    for (std::int64_t ty = ta[1]; ty <= tb[1]; ++ty)
-      for (std::int64_t tx = ta[0]; tx <= tb[0]; ++tx) {
-        const std::int64_t t[3] = {tx, ty, tz};
-        std::int64_t ca[3] = {0, 0, 0}, cb[3] = {0, 0, 0};
+  for_each_tile_part(
+      a, b, [&](const std::int64_t t[3], const std::int64_t ca[3], const std::int64_t cb[3]) {
         double d2min = 0;  // from x to the nearest kernel of the tile within [a, b]
         for (int d = 0; d < dim_; ++d) {
-          ca[d] = std::max(a[d], t[d] * tile_);
-          cb[d] = std::min(b[d], t[d] * tile_ + tile_ - 1);
           const double pa = lo_[d] + double(ca[d]) * o_.spacing;
           const double pb = lo_[d] + double(cb[d]) * o_.spacing;
           const double e = x[d] < pa ? pa - x[d] : (x[d] > pb ? x[d] - pb : 0.0);
           d2min += e * e;
         }
-        if (gamma_ * d2min > o_.tau) continue;
+        if (gamma_ * d2min > o_.tau) return;
         std::int64_t id = find_tile(t);
         if (id < 0 && create) id = make_tile(t);
         for (std::int64_t k = ca[2]; k <= cb[2]; ++k)
@@ -350,7 +360,7 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
               f.phi = ex[0][i - a[0]] * ex[1][j - a[1]] * ex[2][k - a[2]];
               out.push_back(f);
             }
-      }
+      });
 }
 
 void JointBhm::features(const double* x, std::vector<Feature>& out) const {
@@ -514,30 +524,18 @@ void JointBhm::mark_dirty(std::uint32_t s) {
 
 template <class F>
 void JointBhm::for_each_stored_line(const std::int64_t a[3], const std::int64_t b[3], F f) const {
-  std::int64_t ta[3] = {0, 0, 0}, tb[3] = {0, 0, 0};
-  for (int d = 0; d < dim_; ++d) {
-    ta[d] = floor_div(a[d], tile_);
-    tb[d] = floor_div(b[d], tile_);
-  }
-  for (std::int64_t tz = ta[2]; tz <= tb[2]; ++tz)
-    for (std::int64_t ty = ta[1]; ty <= tb[1]; ++ty)
-      for (std::int64_t tx = ta[0]; tx <= tb[0]; ++tx) {
-        const std::int64_t t[3] = {tx, ty, tz};
+  for_each_tile_part(
+      a, b, [&](const std::int64_t t[3], const std::int64_t ca[3], const std::int64_t cb[3]) {
         const std::int64_t id = find_tile(t);
-        if (id < 0) continue;
-        std::int64_t ca[3] = {0, 0, 0}, cb[3] = {0, 0, 0};
-        for (int d = 0; d < dim_; ++d) {
-          ca[d] = std::max(a[d], t[d] * tile_);
-          cb[d] = std::min(b[d], t[d] * tile_ + tile_ - 1);
-        }
+        if (id < 0) return;
         for (std::int64_t k = ca[2]; k <= cb[2]; ++k)
           for (std::int64_t j = ca[1]; j <= cb[1]; ++j) {
             const std::int64_t local =
-                ((k - tz * tile_) * tile_ + (j - ty * tile_)) * tile_ + (ca[0] - tx * tile_);
+                ((k - t[2] * tile_) * tile_ + (j - t[1] * tile_)) * tile_ + (ca[0] - t[0] * tile_);
             const std::int64_t g[3] = {ca[0], j, k};
             f(id * tile_cells_ + local, g, cb[0] - ca[0] + 1);
           }
-      }
+      });
 }
 
 double JointBhm::coupling(std::int64_t a, std::int64_t b, const std::int64_t o[3]) const {

@@ -234,6 +234,10 @@ class JointBhm {
   void dilate_rows(std::vector<std::uint32_t>& rows, const std::vector<std::uint32_t>& reached,
                    std::int64_t mg, std::int64_t mz, Scratch& sc);
   void mark_dirty(std::uint32_t s);
+  // f(tile coordinates, first cell, last cell) for every tile the box of cells [a, b] overlaps
+  // (stored or not), with the part of the box inside it.
+  template <class F>
+  void for_each_tile_part(const std::int64_t a[3], const std::int64_t b[3], F f) const;
   // f(first storage index, first cell, length) for every run along x of stored cells in the
   // box of cells [a, b].
   template <class F>
