@@ -45,8 +45,8 @@ struct FrameSetup {
 ///    free samples are 90 % of the data and the joint BHM's cost is in them);
 ///  - BHM: joint posterior, kernels 1 m apart, gamma -ln(0.19) (neighbours overlap as in 2D);
 ///    1 m is the vertical resolution of the rings at 10 m (2 degrees: 0.35 m on the 32-beam
-///    nuScenes sensor, 1.4 degrees on the simulated one); 0.5 m costs 8 times the kernels
-///    and (2 pad + 1)^3 stencil entries each;
+///    nuScenes sensor, 1.4 degrees on the simulated one); 0.5 m costs 8 times the kernels,
+///    each with its half precision stencil (126 doubles);
 ///  - POT: atoms with kernels at their own samples thinned to the BHM spacing, wall clearance
 ///    of one spacing, RePOT's persistent map the frame's BHM.
 FrameSetup frame_setup_3d();

@@ -71,8 +71,9 @@ struct MapperOptions {
   /// instead of accumulating the evidence of every scan (as the experiments' RePOT,
   /// experiment::PotSetup::persistent_refine). false: every scan refined on its own
   /// (PotOptions::refine_bhm) and merged into an OverallMap, as POT's. In 3D every stored
-  /// kernel of the persistent map holds its precision stencil, 15^3 doubles (27 KB) at the
-  /// default width: a long 3D drive may want a coarser refine_map.spacing or false here.
+  /// kernel of the persistent map holds the half of its precision stencil, 126 doubles (1 KB)
+  /// at the default width and cut-off, in tiles of 512 kernels: a long 3D drive may want a
+  /// coarser refine_map.spacing or false here.
   bool persistent_refine = true;
   /// The persistent map's grid and prior (default JointBhmOptions{}: kernels 0.5 m apart,
   /// prior variance 10; unbounded, tiles allocated as the drive reaches them).
