@@ -325,8 +325,18 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
       const double sd = d < dim_ ? x[d] - (lo_[d] + double(a[d] + c) * o_.spacing) : 0.0;
       ex[d][c] = std::exp(-gamma_ * (sd * sd));
     }
+  // The tiles the span reaches (at most two an axis: a span is at most pad + 1 cells, a tile at
+  // least pad), each found, or made, only when the cut-off reaches a kernel position of it.
+  std::int64_t ta[3] = {0, 0, 0};
+  for (int d = 0; d < dim_; ++d) ta[d] = floor_div(a[d], tile_);
+  std::int64_t tile_id[27];
+  auto at_tile = [&ta](std::int64_t tx, std::int64_t ty, std::int64_t tz) {
+    return std::size_t(((tz - ta[2]) * 3 + (ty - ta[1])) * 3 + (tx - ta[0]));
+  };
   for_each_tile_part(
       a, b, [&](const std::int64_t t[3], const std::int64_t ca[3], const std::int64_t cb[3]) {
+        std::int64_t& id = tile_id[at_tile(t[0], t[1], t[2])];
+        id = -1;
         double d2min = 0;  // from x to the nearest kernel of the tile within [a, b]
         for (int d = 0; d < dim_; ++d) {
           const double pa = lo_[d] + double(ca[d]) * o_.spacing;
@@ -334,33 +344,37 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
           const double e = x[d] < pa ? pa - x[d] : (x[d] > pb ? x[d] - pb : 0.0);
           d2min += e * e;
         }
-        if (gamma_ * d2min > o_.tau) return;
-        std::int64_t id = find_tile(t);
+        if (gamma_ * d2min > o_.tau) return;  // no kernel of it within the cut-off
+        id = find_tile(t);
         if (id < 0 && create) id = make_tile(t);
-        for (std::int64_t k = ca[2]; k <= cb[2]; ++k)
-          for (std::int64_t j = ca[1]; j <= cb[1]; ++j)
-            for (std::int64_t i = ca[0]; i <= cb[0]; ++i) {
-              const std::int64_t g[3] = {i, j, k};
-              double d2 = 0;
-              for (int d = 0; d < dim_; ++d) {
-                const double s = x[d] - (lo_[d] + double(g[d]) * o_.spacing);
-                d2 += s * s;
-              }
-              if (gamma_ * d2 > o_.tau) continue;
-              Feature f;
-              std::int64_t local = 0, stride = 1;
-              for (int d = 0; d < 3; ++d) {
-                f.cell[d] = static_cast<std::int32_t>(g[d]);
-                if (d < dim_) {
-                  local += (g[d] - t[d] * tile_) * stride;
-                  stride *= tile_;
-                }
-              }
-              f.kernel = id < 0 ? kNone : static_cast<std::uint32_t>(id * tile_cells_ + local);
-              f.phi = ex[0][i - a[0]] * ex[1][j - a[1]] * ex[2][k - a[2]];
-              out.push_back(f);
-            }
       });
+  // The kernels within the cut-off in raster order (z, y, x): add_outer() adds each pair of a
+  // sample's features once, to the first of the two.
+  for (std::int64_t k = a[2]; k <= b[2]; ++k) {
+    const std::int64_t tz = dim_ == 3 ? floor_div(k, tile_) : 0;
+    for (std::int64_t j = a[1]; j <= b[1]; ++j) {
+      const std::int64_t ty = floor_div(j, tile_);
+      for (std::int64_t tx = ta[0]; tx * tile_ <= b[0]; ++tx) {
+        const std::int64_t id = tile_id[at_tile(tx, ty, tz)];
+        const std::int64_t row = ((k - tz * tile_) * tile_ + (j - ty * tile_)) * tile_ - tx * tile_;
+        for (std::int64_t i = std::max(a[0], tx * tile_);
+             i <= std::min(b[0], tx * tile_ + tile_ - 1); ++i) {
+          const std::int64_t g[3] = {i, j, k};
+          double d2 = 0;
+          for (int d = 0; d < dim_; ++d) {
+            const double sd = x[d] - (lo_[d] + double(g[d]) * o_.spacing);
+            d2 += sd * sd;
+          }
+          if (gamma_ * d2 > o_.tau) continue;
+          Feature f;
+          for (int d = 0; d < 3; ++d) f.cell[d] = static_cast<std::int32_t>(g[d]);
+          f.kernel = id < 0 ? kNone : static_cast<std::uint32_t>(id * tile_cells_ + row + i);
+          f.phi = ex[0][i - a[0]] * ex[1][j - a[1]] * ex[2][k - a[2]];
+          out.push_back(f);
+        }
+      }
+    }
+  }
 }
 
 void JointBhm::features(const double* x, std::vector<Feature>& out) const {
@@ -811,18 +825,10 @@ void JointBhm::update(const LabelledPoints& samples) {
     if (!finite) continue;
     features(x, f, true);
     if (f.empty()) continue;
-    // Raster order (add_outer() adds each pair once, to the first of the two); features()
-    // lists them tile by tile.
-    auto lin_of = [&](const Feature& e) {
-      std::int64_t l = 0;
-      for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + e.cell[d];
-      return l;
-    };
-    for (std::size_t u = 1; u < f.size(); ++u)
-      for (std::size_t v = u; v > 0 && lin_of(f[v]) < lin_of(f[v - 1]); --v)
-        std::swap(f[v], f[v - 1]);
     for (std::size_t u = 0; u < f.size(); ++u) {
-      const std::int64_t l = lin_of(f[u]);
+      // features() lists them in raster order: a stencil-linear cell each.
+      std::int64_t l = 0;
+      for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + f[u].cell[d];
       const auto at = static_cast<std::uint32_t>(sc.kernel.size());
       if (u > 0 && l == sc.lin.back() + 1)
         ++sc.runs.back();
