@@ -103,7 +103,7 @@ TEST(BenchCli, SweepsPotScansInFlight) {
   EXPECT_EQ(pot["default"], def);
   EXPECT_EQ(r.out.substr(at + 6, pot["best"].get<std::string>().size()), pot["best"]);
   const auto& points = pot["points"];
-  ASSERT_EQ(points.size(), 6u);  // work-groups 2, 4, 8 x pipeline off, on
+  ASSERT_EQ(points.size(), 6u);  // work-groups 1, 2, 4 x pipeline off, on
   std::set<std::pair<long long, long long>> seen;
   int defaults = 0;
   bool best_found = false;

@@ -112,7 +112,7 @@ TEST(Tuning, PoclCpuDeviceGetsItsShippedDefaults) {
   EXPECT_FALSE(is_pocl_cpu(gpu));
 
   const Tuning p = default_tuning(pocl), c = default_tuning(other_cpu);
-  EXPECT_EQ(p.sinkhorn.work_group, 2);
+  EXPECT_EQ(p.sinkhorn.work_group, 1);
   EXPECT_EQ(c.sinkhorn.work_group, 4);
   EXPECT_EQ(c.raster.tile, 64);
   EXPECT_EQ(to_string(c), to_string(Tuning{}));  // the generic CPU values
@@ -138,7 +138,7 @@ TEST(Tuning, FileEnvironmentAndOptionStillOverrideTheDevicesDefaults) {
   {
     Context c(o);
     EXPECT_EQ(to_string(c.tuning()), to_string(default_tuning(info)));
-    if (is_pocl_cpu(info)) EXPECT_EQ(c.tuning().sinkhorn.work_group, 2);
+    if (is_pocl_cpu(info)) EXPECT_EQ(c.tuning().sinkhorn.work_group, 1);
   }
   const std::string dir = test::temp_dir("tuning-over-defaults");
   write_tuning_file(tuning_file_path(dir, info), info,

@@ -281,7 +281,7 @@ RoutineSweep sweep_sinkhorn(Context& ctx, int side, const SweepOptions& o, int r
   const std::size_t default_per_launch =
       std::min(problems, (base.sinkhorn.chunk_slots + slots_per_problem - 1) / slots_per_problem);
   const std::vector<int> groups =
-      o.quick ? std::vector<int>{2, 4, 8, 16} : std::vector<int>{1, 2, 4, 8, 16, 32};
+      o.quick ? std::vector<int>{1, 2, 4, 8} : std::vector<int>{1, 2, 4, 8, 16, 32};
   for (int wg : groups)
     for (long long k : per_launch) {
       Tuning t = base;
@@ -368,7 +368,7 @@ RoutineSweep sweep_pot(Context& ctx, const SimSource& src, const SweepOptions& o
             std::to_string(scans.size()) + " scans of town2 3 m apart, default PotOptions";
   const MapperOptions defaults;
   const std::vector<int> groups =
-      o.quick ? std::vector<int>{2, 4, 8} : std::vector<int>{1, 2, 4, 8, 16};
+      o.quick ? std::vector<int>{1, 2, 4} : std::vector<int>{1, 2, 4, 8, 16};
   for (int wg : groups)
     for (const bool pipeline : {false, true}) {
       Tuning t = base;

@@ -260,7 +260,7 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   // PoCL 3.1 quirk: its kernel compiler aborts the process building the log-domain kernel
   // (sinkhorn_solve) with WG 1 or 2 (assertion "Incoming edges to non-entry block!" in
   // ParallelRegion::Verify); the stabilised kernel builds and runs. PoCL's CPU device's tuned
-  // sinkhorn.work_group is 2 (default_tuning), so the log-domain scheme takes 4 there, its value
+  // sinkhorn.work_group is 1 (default_tuning), so the log-domain scheme takes 4 there, its value
   // before that tuning. An explicit SinkhornOptions::work_group is used as given.
   if (!opt.stabilised && opt.work_group <= 0 && wg < 4 && is_pocl_cpu(ctx.info())) wg = 4;
   if (wg & (wg - 1)) throw ArgumentError("SinkhornOptions::work_group must be a power of two");

@@ -74,7 +74,7 @@ Tuning default_tuning(const DeviceInfo& device) {
   } else if (is_pocl_cpu(device)) {
     // Measured end to end on PoCL's CPU device (docs/tuning.md); other CPU drivers keep the
     // generic CPU values above.
-    t.sinkhorn.work_group = 2;
+    t.sinkhorn.work_group = 1;
   }
   return t;
 }

@@ -88,14 +88,15 @@ bool is_pocl_cpu(const DeviceInfo& device);
 /// The built-in choices for `device`: the defaults above on a CPU, GPU values where it is not a
 /// CPU, and on PoCL's CPU device (is_pocl_cpu) the CPU values with the fields below changed.
 ///
-/// PoCL's CPU device (sinkhorn.work_group 2): PoCL runs a work-group on one core as loops over
+/// PoCL's CPU device (sinkhorn.work_group 1): PoCL runs a work-group on one core as loops over
 /// its work-items, one loop per stretch between barriers, so a group's work-items add no
-/// parallelism there, only loop overhead and the work-group reductions' log2(work_group)
-/// barrier steps; the cores are kept busy by the many problems of a launch instead. POT's
-/// problems are small (by default at most 200 hits and 50 free samples a side: a dozen vectors
-/// or fewer), so with 2 work-items a reduction takes one step and fewer work-items idle in the
-/// strided loops. The log-domain scheme (SinkhornOptions::stabilised = false) keeps 4 there:
-/// PoCL 3.1's compiler cannot build its kernel with 1 or 2 work-items (host/ot/sinkhorn.cpp).
+/// parallelism there, only loop overhead and the work-group reductions' barrier steps; the
+/// cores are kept busy by the many problems of a launch instead, and each work-item already
+/// works in 16-wide vectors. With one work-item a problem's strided loops and reductions are
+/// plain loops (POT's coarse ranking, hundreds of problems of a few dozen points a side, runs
+/// 1.14x faster than with 2, its transport 1.06x; docs/tuning.md). The log-domain scheme
+/// (SinkhornOptions::stabilised = false) keeps 4 there: PoCL 3.1's compiler cannot build its
+/// kernel with 1 or 2 work-items (host/ot/sinkhorn.cpp).
 /// Only PoCL was measured: another CPU driver (Intel's vectorises across the work-items of a
 /// group) compiles a work-group differently, so it keeps the generic CPU values until it is
 /// measured (`potmap tune` writes a tuning file for it). The raster's tile stays 64 on PoCL
