@@ -315,17 +315,38 @@ std::size_t SinkhornBatch::add(SinkhornProblem problem) {
 
 namespace {
 
-// One launch over problems [first, first + np) of `all`.
+// The launch order of problems [first, first + np) of `all`: the largest first (padded source
+// times target points, ties in batch order). The device's work-groups take problems in launch
+// order as they free up, so a large problem taken last would run alone while the other cores
+// idle (POT's transport: five 200 x 200 plans among small ones, 0.94x the time largest first).
+// Each problem is solved alone, so the order changes no result.
+std::vector<std::size_t> largest_first(const std::vector<SinkhornProblem>& all, std::size_t first,
+                                       std::size_t np) {
+  std::vector<std::size_t> order(np);
+  std::vector<long> size(np);
+  for (std::size_t p = 0; p < np; ++p) {
+    order[p] = first + p;
+    const SinkhornProblem& pr = all[first + p];
+    size[p] = long(pr.source.rows() + 15) / 16 * (long(pr.target.rows() + 15) / 16);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return size[a - first] > size[b - first];
+  });
+  return order;
+}
+
+// One launch over problems [first, first + np) of `all`, results in batch order.
 std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornProblem>& all,
                                       std::size_t first, std::size_t np, int dim,
                                       const SinkhornOptions& opt) {
-  const SinkhornProblem* chunk = all.data() + first;
+  // Problem p of this function is the order[p]-th of `all`; its result goes to out[order[p]].
+  const std::vector<std::size_t> order = largest_first(all, first, np);
   auto& q = ctx.queue();
   std::vector<int> soff(np), scnt(np), toff(np), tcnt(np);
   std::vector<const SinkhornProblem*> par(np);
   std::vector<float> src, tgt;
   for (std::size_t p = 0; p < np; ++p) {
-    const auto& pr = chunk[p];
+    const auto& pr = all[order[p]];
     par[p] = &pr;
     soff[p] = static_cast<int>(src.size() / dim);
     toff[p] = static_cast<int>(tgt.size() / dim);
@@ -379,8 +400,8 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
 
   std::vector<SinkhornResult> out(np);
   for (std::size_t p = 0; p < np; ++p) {
-    auto& r = out[p];
-    const auto& pr = chunk[p];
+    auto& r = out[order[p] - first];
+    const auto& pr = all[order[p]];
     r.cost = stats[p].cost;
     r.iterations = static_cast<int>(stats[p].iterations);
     r.marginal_error = stats[p].marginal_error;
