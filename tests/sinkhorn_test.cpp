@@ -177,6 +177,7 @@ TEST(Sinkhorn, KernelRotationEqualsHostRotation) {
   EXPECT_NEAR(r.cost, h.cost, 1e-4 * h.cost);
 }
 
+// Problems of different sizes in one launch (launched largest first) give what each gives alone.
 TEST(Sinkhorn, RaggedBatchEqualsOneByOne) {
   SinkhornBatch batch;
   std::vector<SinkhornProblem> qs;
@@ -195,6 +196,12 @@ TEST(Sinkhorn, RaggedBatchEqualsOneByOne) {
     EXPECT_EQ(all[p].converged, one.converged) << p;
     EXPECT_FLOAT_EQ(all[p].cost, one.cost) << p;
     EXPECT_EQ((all[p].coupling - one.coupling).cwiseAbs().maxCoeff(), 0.0) << p;
+    // The launch solves the largest first; every output must come back to its own problem.
+    EXPECT_EQ((all[p].barycentric - one.barycentric).cwiseAbs().maxCoeff(), 0.0) << p;
+    ASSERT_EQ(all[p].f.size(), one.f.size()) << p;
+    ASSERT_EQ(all[p].g.size(), one.g.size()) << p;
+    EXPECT_EQ((all[p].f - one.f).cwiseAbs().maxCoeff(), 0.0) << p;
+    EXPECT_EQ((all[p].g - one.g).cwiseAbs().maxCoeff(), 0.0) << p;
   }
 }
 
