@@ -246,10 +246,16 @@ TEST(Pot, HostHelperChangesNothingInATransfer) {
 
     SolvedTransfer solved = solve_transfer(&ctx, dict, prepared(&ctx), o);
     SolvedTransfer copy = solved;
+    // The anchors' sites found beside the transport's solve, or by the placement itself.
+    ASSERT_EQ(solved.anchor_sites.size(), solved.prepared.sectors.size());
+    SolvedTransfer unfound = solved;
+    unfound.anchor_sites.clear();
     const ScanTransfer one = place_transfer(nullptr, dict, std::move(copy), o);
+    const ScanTransfer three = place_transfer(nullptr, dict, std::move(unfound), o);
     const ScanTransfer two = place_transfer(&ctx, dict, std::move(solved), o);
     ASSERT_GT(one.map.size(), 0u);
     expect_same_transfer(two, one);
+    expect_same_transfer(three, one);
   }
 }
 

@@ -8,6 +8,7 @@
 #include "potmap/error.hpp"
 #include "potmap/ot/sinkhorn.hpp"
 #include "test_support.hpp"
+#include "tuned_context.hpp"
 
 using namespace potmap;
 
@@ -251,6 +252,42 @@ TEST(Sinkhorn, BatchSplitIntoLaunchesEqualsSmallBatches) {
       EXPECT_FLOAT_EQ(all[p].cost, part[k].cost) << p;
       EXPECT_EQ((all[p].barycentric - part[k].barycentric).cwiseAbs().maxCoeff(), 0.0) << p;
     }
+  }
+}
+
+// A started solve hands back what run() does, after the caller's own work; once only. Started
+// and dropped unwaited, it must not free what the device still uses (ASan runs this too). A
+// batch of several launches (chunk_slots small) runs its later launches in wait().
+TEST(Sinkhorn, StartedSolveEqualsRun) {
+  SinkhornBatch batch;
+  unsigned seed = 70;
+  for (int n : {40, 9, 25, 61}) batch.add(problem(n, n + 3, 2, seed++, 0.04));
+  const auto ran = batch.run(test::context(), full());
+  SinkhornRun pending = batch.start(test::context(), full());
+  SinkhornBatch other;  // the host working meanwhile, on another batch
+  other.add(problem(12, 12, 2, 90, 0.05));
+  const auto other_result = other.run(test::context());
+  EXPECT_TRUE(other_result[0].converged);
+  SinkhornRun moved = std::move(pending);
+  const auto started = moved.wait();
+  ASSERT_EQ(started.size(), ran.size());
+  for (std::size_t p = 0; p < ran.size(); ++p) {
+    EXPECT_EQ(started[p].cost, ran[p].cost) << p;
+    EXPECT_EQ(started[p].iterations, ran[p].iterations) << p;
+    EXPECT_EQ((started[p].coupling - ran[p].coupling).cwiseAbs().maxCoeff(), 0.0) << p;
+    EXPECT_EQ((started[p].barycentric - ran[p].barycentric).cwiseAbs().maxCoeff(), 0.0) << p;
+  }
+  EXPECT_THROW(moved.wait(), ArgumentError);
+  EXPECT_THROW(pending.wait(), ArgumentError);  // moved from
+  { SinkhornRun dropped = batch.start(test::context(), full()); }
+
+  const auto tuned = test::tuned_context("sinkhorn.chunk_slots=100");
+  SinkhornRun c = batch.start(*tuned, full());
+  const auto parts = c.wait();
+  ASSERT_EQ(parts.size(), ran.size());
+  for (std::size_t p = 0; p < ran.size(); ++p) {
+    EXPECT_EQ(parts[p].cost, ran[p].cost) << p;
+    EXPECT_EQ((parts[p].coupling - ran[p].coupling).cwiseAbs().maxCoeff(), 0.0) << p;
   }
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <string>
 
 #include "../../kernels/common/sinkhorn_launch.h"
@@ -77,6 +78,7 @@ void validate(const SinkhornProblem& q, std::size_t p) {
 struct Launch {
   SinkhornDeviceResult result;
   bc::buffer fh, gh, loga, logb;
+  std::vector<bc::buffer> inputs;  // the problem table, parameters and work buffers
   std::vector<bc::buffer> scratch;
   std::vector<SinkhornLaunchInts> ints;
   bool weights_double = false;  // loga, logb hold doubles
@@ -241,13 +243,19 @@ Launch launch_typed(Context& ctx, int dim, const bc::buffer& source, const bc::b
   else
     upload_log_weights<float>(ctx, t, lp, L);
   L.ints = t.ints;
-  auto ib = detail::to_device(ctx, t.ints, "Sinkhorn: problem table");
-  auto pb = detail::to_device(ctx, t.params, "Sinkhorn: problem parameters");
-  auto sx = detail::device_buffer(cx, t.sslots * dim * sizeof(R), "Sinkhorn: scaled source points");
-  auto tx = detail::device_buffer(cx, t.tslots * dim * sizeof(R), "Sinkhorn: scaled target points");
+  // Held by the Launch (`inputs`) until it is waited for: the kernel reads them after this
+  // returns, and the caller works meanwhile.
+  const bc::buffer ib = detail::to_device(ctx, t.ints, "Sinkhorn: problem table");
+  const bc::buffer pb = detail::to_device(ctx, t.params, "Sinkhorn: problem parameters");
+  const bc::buffer sx =
+      detail::device_buffer(cx, t.sslots * dim * sizeof(R), "Sinkhorn: scaled source points");
+  const bc::buffer tx =
+      detail::device_buffer(cx, t.tslots * dim * sizeof(R), "Sinkhorn: scaled target points");
   L.fh = detail::device_buffer(cx, t.sslots * sizeof(R), "Sinkhorn: source duals");
   L.gh = detail::device_buffer(cx, t.tslots * sizeof(R), "Sinkhorn: target duals");
-  auto fn = detail::device_buffer(cx, t.sslots * sizeof(R), "Sinkhorn: next source duals");
+  const bc::buffer fn =
+      detail::device_buffer(cx, t.sslots * sizeof(R), "Sinkhorn: next source duals");
+  L.inputs = {ib, pb, sx, tx, fn};
   L.result.stats =
       detail::device_buffer(cx, np * sizeof(SinkhornLaunchStats), "Sinkhorn: statistics");
   L.result.coupling = detail::device_buffer(cx, static_cast<std::size_t>(t.plan) * sizeof(float),
@@ -329,84 +337,113 @@ std::vector<std::size_t> largest_first(const std::vector<SinkhornProblem>& all, 
     const SinkhornProblem& pr = all[first + p];
     size[p] = long(pr.source.rows() + 15) / 16 * (long(pr.target.rows() + 15) / 16);
   }
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return size[a - first] > size[b - first];
-  });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return size[a - first] > size[b - first]; });
   return order;
 }
 
-// One launch over problems [first, first + np) of `all`, results in batch order.
-std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornProblem>& all,
+// One launch over problems [first, first + np) of `all`, queued with its reads: the host is
+// free until finish_chunk(). Destroyed unfinished, it waits for the queue first (`reads` is
+// declared last, so it goes first), so nothing the device still writes is freed under it.
+struct ChunkRun {
+  std::size_t first = 0, np = 0;
+  // Problem p of the launch is the order[p]-th of the batch; its result goes to order[p].
+  std::vector<std::size_t> order;
+  std::vector<int> soff, scnt, toff, tcnt;
+  std::size_t source_points = 0;
+  bc::buffer source, target;  // the points, read by the launch
+  Launch L;
+  std::vector<SinkhornLaunchStats> stats;
+  std::vector<float> fh32, gh32, plan, bary;
+  std::vector<double> fh64, gh64;
+  std::unique_ptr<detail::BatchedReads> reads;
+};
+
+std::unique_ptr<ChunkRun> start_chunk(Context& ctx, const std::vector<SinkhornProblem>& all,
                                       std::size_t first, std::size_t np, int dim,
                                       const SinkhornOptions& opt) {
-  // Problem p of this function is the order[p]-th of `all`; its result goes to out[order[p]].
-  const std::vector<std::size_t> order = largest_first(all, first, np);
-  auto& q = ctx.queue();
-  std::vector<int> soff(np), scnt(np), toff(np), tcnt(np);
+  auto c = std::make_unique<ChunkRun>();
+  c->first = first;
+  c->np = np;
+  c->order = largest_first(all, first, np);
+  c->soff.resize(np);
+  c->scnt.resize(np);
+  c->toff.resize(np);
+  c->tcnt.resize(np);
   std::vector<const SinkhornProblem*> par(np);
   std::vector<float> src, tgt;
   for (std::size_t p = 0; p < np; ++p) {
-    const auto& pr = all[order[p]];
+    const auto& pr = all[c->order[p]];
     par[p] = &pr;
-    soff[p] = static_cast<int>(src.size() / dim);
-    toff[p] = static_cast<int>(tgt.size() / dim);
-    scnt[p] = static_cast<int>(pr.source.rows());
-    tcnt[p] = static_cast<int>(pr.target.rows());
+    c->soff[p] = static_cast<int>(src.size() / dim);
+    c->toff[p] = static_cast<int>(tgt.size() / dim);
+    c->scnt[p] = static_cast<int>(pr.source.rows());
+    c->tcnt[p] = static_cast<int>(pr.target.rows());
     for (Eigen::Index i = 0; i < pr.source.rows(); ++i)
       for (int d = 0; d < dim; ++d) src.push_back(static_cast<float>(pr.source(i, d)));
     for (Eigen::Index j = 0; j < pr.target.rows(); ++j)
       for (int d = 0; d < dim; ++d) tgt.push_back(static_cast<float>(pr.target(j, d)));
   }
-  auto sb = detail::to_device(ctx, src, "Sinkhorn: source points");
-  auto tb = detail::to_device(ctx, tgt, "Sinkhorn: target points");
-  Launch L = launch(ctx, dim, sb, tb, src.size() / dim, soff, scnt, toff, tcnt, par, opt);
+  c->source_points = src.size() / dim;
+  c->source = detail::to_device(ctx, src, "Sinkhorn: source points");
+  c->target = detail::to_device(ctx, tgt, "Sinkhorn: target points");
+  c->L = launch(ctx, dim, c->source, c->target, c->source_points, c->soff, c->scnt, c->toff,
+                c->tcnt, par, opt);
 
   // Every buffer the caller asked for, read in one wait (detail::BatchedReads).
+  Launch& L = c->L;
   const SinkhornLaunchInts& last = L.ints[np - 1];
   const std::size_t sslots = last.src_slot + last.npad, tslots = last.tgt_slot + last.mpad;
-  std::vector<SinkhornLaunchStats> stats(np);
-  std::vector<float> fh32, gh32;
-  std::vector<double> fh64, gh64;
-  std::vector<float> plan, bary;
-  detail::BatchedReads reads(q);
-  reads.read(L.result.stats, stats);
+  c->stats.resize(np);
+  c->reads = std::make_unique<detail::BatchedReads>(ctx.queue());
+  detail::BatchedReads& reads = *c->reads;
+  reads.read(L.result.stats, c->stats);
   if (opt.want_duals) {
     if (L.dbl) {
-      fh64.resize(sslots);
-      gh64.resize(tslots);
-      reads.read(L.fh, fh64);
-      reads.read(L.gh, gh64);
+      c->fh64.resize(sslots);
+      c->gh64.resize(tslots);
+      reads.read(L.fh, c->fh64);
+      reads.read(L.gh, c->gh64);
     } else {
-      fh32.resize(sslots);
-      gh32.resize(tslots);
-      reads.read(L.fh, fh32);
-      reads.read(L.gh, gh32);
+      c->fh32.resize(sslots);
+      c->gh32.resize(tslots);
+      reads.read(L.fh, c->fh32);
+      reads.read(L.gh, c->gh32);
     }
   }
   if (opt.want_coupling) {
     const long total =
-        L.result.coupling_offset[np - 1] + static_cast<long>(scnt[np - 1]) * tcnt[np - 1];
-    plan.resize(static_cast<std::size_t>(total));
-    reads.read(L.result.coupling, plan);
+        L.result.coupling_offset[np - 1] + static_cast<long>(c->scnt[np - 1]) * c->tcnt[np - 1];
+    c->plan.resize(static_cast<std::size_t>(total));
+    reads.read(L.result.coupling, c->plan);
   }
   if (opt.want_barycentric) {
-    bary.resize(src.size());
-    reads.read(L.result.barycentric, bary);
+    c->bary.resize(src.size());
+    reads.read(L.result.barycentric, c->bary);
   }
-  reads.wait();
-  auto fh = [&](std::size_t i) { return L.dbl ? fh64[i] : double(fh32[i]); };
-  auto gh = [&](std::size_t j) { return L.dbl ? gh64[j] : double(gh32[j]); };
+  // Submitted now, not at the wait: the device works while the caller does.
+  detail::cl_call("clFlush", [&] { ctx.queue().flush(); });
+  return c;
+}
+
+// Waits for a started chunk and unpacks its results, in batch order.
+std::vector<SinkhornResult> finish_chunk(ChunkRun& c, const std::vector<SinkhornProblem>& all,
+                                         int dim, const SinkhornOptions& opt) {
+  c.reads->wait();
+  const Launch& L = c.L;
+  auto fh = [&](std::size_t i) { return L.dbl ? c.fh64[i] : double(c.fh32[i]); };
+  auto gh = [&](std::size_t j) { return L.dbl ? c.gh64[j] : double(c.gh32[j]); };
   const std::vector<double>&la = L.host_loga, &lb = L.host_logb;
 
-  std::vector<SinkhornResult> out(np);
-  for (std::size_t p = 0; p < np; ++p) {
-    auto& r = out[order[p] - first];
-    const auto& pr = all[order[p]];
-    r.cost = stats[p].cost;
-    r.iterations = static_cast<int>(stats[p].iterations);
-    r.marginal_error = stats[p].marginal_error;
-    r.converged = stats[p].converged != 0;
-    const int n = scnt[p], m = tcnt[p];
+  std::vector<SinkhornResult> out(c.np);
+  for (std::size_t p = 0; p < c.np; ++p) {
+    auto& r = out[c.order[p] - c.first];
+    const auto& pr = all[c.order[p]];
+    r.cost = c.stats[p].cost;
+    r.iterations = static_cast<int>(c.stats[p].iterations);
+    r.marginal_error = c.stats[p].marginal_error;
+    r.converged = c.stats[p].converged != 0;
+    const int n = c.scnt[p], m = c.tcnt[p];
     const int ss = L.ints[p].src_slot, ts = L.ints[p].tgt_slot;
     if (opt.want_duals) {
       r.f.resize(n);
@@ -418,7 +455,7 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
       // The device's plan is row-major, Eigen's column-major: copied in 16 x 16 tiles, so that
       // neither the reads nor the writes stride across a whole plan.
       r.coupling.resize(n, m);
-      const float* src = plan.data() + L.result.coupling_offset[p];
+      const float* src = c.plan.data() + L.result.coupling_offset[p];
       double* dst = r.coupling.data();
       constexpr int kTile = 16;
       for (int i0 = 0; i0 < n; i0 += kTile)
@@ -432,36 +469,79 @@ std::vector<SinkhornResult> run_chunk(Context& ctx, const std::vector<SinkhornPr
     if (opt.want_barycentric) {
       r.barycentric.resize(n, dim);
       for (int i = 0; i < n; ++i)
-        for (int d = 0; d < dim; ++d) r.barycentric(i, d) = bary[(soff[p] + i) * dim + d];
+        for (int d = 0; d < dim; ++d) r.barycentric(i, d) = c.bary[(c.soff[p] + i) * dim + d];
       r.extra_mapped = out_of_sample_map(pr, r.barycentric, pr.extra_points);
     }
   }
   return out;
 }
 
+// The end of the launch that starts at problem `first`: at most about chunk_slots padded
+// points (source and target) each. The device scratch (duals, scalings, transformed points:
+// about 100 bytes a slot) grows with a launch, and a scan ranked against thousands of atoms
+// holds 10^5 problems (measured with 2000 atoms: 2.1 GB resident in one launch). Results do
+// not depend on the chunking.
+std::size_t chunk_end(const std::vector<SinkhornProblem>& all, std::size_t first,
+                      std::size_t chunk_slots) {
+  std::size_t end = first, slots = 0;
+  while (end < all.size() && (end == first || slots < chunk_slots)) {
+    slots += static_cast<std::size_t>(all[end].source.rows() + 16) +
+             static_cast<std::size_t>(all[end].target.rows() + 16);
+    ++end;
+  }
+  return end;
+}
+
 }  // namespace
 
-std::vector<SinkhornResult> SinkhornBatch::run(Context& ctx, const SinkhornOptions& opt) const {
-  // Launches of at most about chunk_slots padded points (source and target) each: the device
-  // scratch (duals, scalings, transformed points: about 100 bytes a slot) grows with the batch,
-  // and a scan ranked against thousands of atoms holds 10^5 problems (measured with 2000 atoms:
-  // 2.1 GB resident in one launch). Results do not depend on the chunking.
-  const std::size_t chunk_slots = ctx.tuning().sinkhorn.chunk_slots;  // SinkhornTuning
+struct SinkhornRun::State {
+  Context* ctx = nullptr;
+  const std::vector<SinkhornProblem>* problems = nullptr;
+  int dim = 0;
+  SinkhornOptions options;
+  std::unique_ptr<ChunkRun> first;  // the launch in flight; the later ones start at wait()
+};
+
+SinkhornRun::SinkhornRun() = default;
+SinkhornRun::SinkhornRun(SinkhornRun&&) noexcept = default;
+SinkhornRun& SinkhornRun::operator=(SinkhornRun&&) noexcept = default;
+SinkhornRun::~SinkhornRun() = default;
+
+std::vector<SinkhornResult> SinkhornRun::wait() {
+  if (!state_) throw ArgumentError("SinkhornRun::wait: nothing started, or already waited for");
+  const std::unique_ptr<State> st = std::move(state_);
+  const std::vector<SinkhornProblem>& all = *st->problems;
   std::vector<SinkhornResult> out;
-  out.reserve(problems_.size());
-  std::size_t first = 0;
-  while (first < problems_.size()) {
-    std::size_t end = first, slots = 0;
-    while (end < problems_.size() && (end == first || slots < chunk_slots)) {
-      slots += static_cast<std::size_t>(problems_[end].source.rows() + 16) +
-               static_cast<std::size_t>(problems_[end].target.rows() + 16);
-      ++end;
-    }
-    std::vector<SinkhornResult> part = run_chunk(ctx, problems_, first, end - first, dim_, opt);
-    for (auto& r : part) out.push_back(std::move(r));
-    first = end;
+  out.reserve(all.size());
+  std::unique_ptr<ChunkRun> run = std::move(st->first);
+  const std::size_t chunk_slots = st->ctx->tuning().sinkhorn.chunk_slots;  // SinkhornTuning
+  while (run) {
+    for (auto& r : finish_chunk(*run, all, st->dim, st->options)) out.push_back(std::move(r));
+    const std::size_t first = run->first + run->np;
+    run.reset();  // one launch's device scratch at a time
+    if (first < all.size())
+      run = start_chunk(*st->ctx, all, first, chunk_end(all, first, chunk_slots) - first, st->dim,
+                        st->options);
   }
   return out;
+}
+
+SinkhornRun SinkhornBatch::start(Context& ctx, const SinkhornOptions& opt) const {
+  SinkhornRun r;
+  r.state_ = std::make_unique<SinkhornRun::State>();
+  SinkhornRun::State& st = *r.state_;
+  st.ctx = &ctx;
+  st.problems = &problems_;
+  st.dim = dim_;
+  st.options = opt;
+  if (!problems_.empty())
+    st.first = start_chunk(ctx, problems_, 0,
+                           chunk_end(problems_, 0, ctx.tuning().sinkhorn.chunk_slots), dim_, opt);
+  return r;
+}
+
+std::vector<SinkhornResult> SinkhornBatch::run(Context& ctx, const SinkhornOptions& opt) const {
+  return start(ctx, opt).wait();
 }
 
 SinkhornDeviceResult sinkhorn_device(Context& ctx, const SinkhornDeviceBatch& batch,
@@ -503,7 +583,10 @@ SinkhornDeviceResult sinkhorn_device(Context& ctx, const SinkhornDeviceBatch& ba
   }
   Launch L = launch(ctx, batch.dim, batch.source, batch.target, src_end, batch.source_offset,
                     batch.source_count, batch.target_offset, batch.target_count, par, options);
-  return L.result;
+  L.result.working = L.inputs;
+  for (const bc::buffer* b : {&L.fh, &L.gh, &L.loga, &L.logb}) L.result.working.push_back(*b);
+  L.result.working.insert(L.result.working.end(), L.scratch.begin(), L.scratch.end());
+  return std::move(L.result);
 }
 
 }  // namespace potmap

@@ -11,14 +11,48 @@
 #include <cmath>
 
 #include "point_proximity.hpp"
+#include "potmap/error.hpp"
 #include "spatial/point_grid.hpp"
 #include "thinning.hpp"
 
 namespace potmap::detail {
 
+AnchorSites anchor_sites(const Sector& sec, const std::array<const Eigen::MatrixXd*, 2>& targets,
+                         const PotOptions& o) {
+  const int dim = sec.dim;
+  const double s = sec.scale;
+  AnchorSites sites;
+  std::unique_ptr<PointProximity> on_wall;
+  if (o.wall_clearance > 0 && sec.num_hits() > 0 && targets[1])
+    on_wall = std::make_unique<PointProximity>(sec.hits, dim, o.wall_clearance * s);
+  for (int q = 0; q < 2; ++q) {
+    if (!targets[q] || targets[q]->rows() == 0) continue;
+    const Eigen::MatrixXd& Y = *targets[q];
+    const std::vector<double>& pts = q == 0 ? sec.hits : sec.free;
+    sites.sample[q] = thin_to_cells(pts, dim, o.anchor_spacing * s);
+    std::vector<double> ypts(std::size_t(Y.rows()) * dim);
+    for (Eigen::Index j = 0; j < Y.rows(); ++j)
+      for (int d = 0; d < dim; ++d) ypts[std::size_t(j) * dim + d] = Y(j, d);
+    const PointGrid grid(ypts, dim);
+    std::vector<long>& column = sites.column[q];
+    column.reserve(sites.sample[q].size());
+    for (std::size_t a : sites.sample[q]) {
+      const double* y = &pts[a * dim];
+      if (q == 1 && on_wall && on_wall->near(y)) {
+        column.push_back(AnchorSites::kDroppedByWall);
+        continue;
+      }
+      double bd = 0;
+      const long j = grid.nearest(y, bd);
+      column.push_back(j >= 0 ? j : AnchorSites::kNoColumn);
+    }
+  }
+  return sites;
+}
+
 std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const SectorPlans& plans,
-                               const PotOptions& o, std::vector<Anchor>& out,
-                               const KernelClasses* classes) {
+                               const AnchorSites& sites, const PotOptions& o,
+                               std::vector<Anchor>& out, const KernelClasses* classes) {
   const int dim = sec.dim;
   const double s = sec.scale;
   // Each atom kernel's class is its nearest atom sample's: kernels at samples sit on one, and a
@@ -30,9 +64,6 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
   }
   const double* gsum = classes->gamma_sum.data();
   const double* gcnt = classes->count.data();
-  std::unique_ptr<PointProximity> on_wall;
-  if (o.wall_clearance > 0 && sec.num_hits() > 0)
-    on_wall = std::make_unique<PointProximity>(sec.hits, dim, o.wall_clearance * s);
   const double c = std::cos(plans.angle), sn = std::sin(plans.angle);
   std::size_t dropped = 0;
   for (int q = 0; q < 2; ++q) {
@@ -53,11 +84,6 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
     const Eigen::VectorXd& L = map->mean;
     const Eigen::VectorXd& V = map->variance;
     const std::vector<double>& pts = q == 0 ? sec.hits : sec.free;
-    const std::vector<std::size_t> keep = thin_to_cells(pts, dim, o.anchor_spacing * s);
-    std::vector<double> ypts(std::size_t(Y.rows()) * dim);
-    for (Eigen::Index j = 0; j < Y.rows(); ++j)
-      for (int d = 0; d < dim; ++d) ypts[std::size_t(j) * dim + d] = Y(j, d);
-    const PointGrid targets(ypts, dim);
     // The source samples turned by the plan's angle, once (each column's read walks them all).
     Eigen::MatrixXd turned = X;
     for (Eigen::Index i = 0; i < X.rows(); ++i) {
@@ -93,17 +119,19 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
           col.dot(V) / mass + spread / mass + o.displacement_variance * (moved / mass) / (s * s);
       return out;
     };
-    for (std::size_t a : keep) {
-      const double* y = &pts[a * dim];
-      if (q == 1 && on_wall && on_wall->near(y)) {
+    const std::vector<std::size_t>& keep = sites.sample[q];
+    const std::vector<long>& column = sites.column[q];
+    if (column.size() != keep.size())
+      throw ArgumentError("anchors_at_samples: the sites' samples and columns differ in number");
+    for (std::size_t k = 0; k < keep.size(); ++k) {
+      if (column[k] == AnchorSites::kDroppedByWall) {
         ++dropped;
         continue;
       }
-      double bd = 0;
-      const long best = targets.nearest(y, bd);
-      if (best < 0) continue;
-      const Column& col = read_column(best);
+      if (column[k] < 0 || column[k] >= Y.rows()) continue;
+      const Column& col = read_column(column[k]);
       if (!col.valid) continue;
+      const double* y = &pts[keep[k] * dim];
       Anchor an;
       for (int d = 0; d < dim; ++d) an.position[d] = y[d] / s + sec.centre[d];
       an.gamma = gamma;

@@ -37,12 +37,19 @@ struct SectorPlans {
   double angle = 0;
 };
 
-/// Appends the anchors of `sec` (the target sector) transported from `atom` by `plans`.
-/// `classes`: the atom's kernel classes if already known (AtomTransportCache), else null.
-/// Returns how many anchors it dropped (free anchors within the wall clearance of a hit).
+/// The anchor sites of `sec` (the target sector) for the transport targets `targets[q]` of
+/// class q (0 hits, 1 free samples; null: the class is not transported), in the problems'
+/// frame (centred, scaled): each kept sample's nearest target (AnchorSites).
+AnchorSites anchor_sites(const Sector& sec, const std::array<const Eigen::MatrixXd*, 2>& targets,
+                         const PotOptions& o);
+
+/// Appends the anchors of `sec` (the target sector) transported from `atom` by `plans`, at
+/// `sites` (anchor_sites() of the plans' targets). `classes`: the atom's kernel classes if
+/// already known (AtomTransportCache), else null. Returns how many anchors it dropped (free
+/// anchors within the wall clearance of a hit).
 std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const SectorPlans& plans,
-                               const PotOptions& o, std::vector<Anchor>& out,
-                               const KernelClasses* classes = nullptr);
+                               const AnchorSites& sites, const PotOptions& o,
+                               std::vector<Anchor>& out, const KernelClasses* classes = nullptr);
 
 /// The instantaneous map of a scan's anchors: each class's kernels weighted so that, alone,
 /// they reproduce the anchors' values at the anchors (a Nadaraya-Watson partition, as atoms'

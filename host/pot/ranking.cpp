@@ -270,9 +270,12 @@ void assemble_indexed(Context* ctx, const Dictionary& dict, const PotOptions& o,
   }
 }
 
-std::vector<Winner> rank_exhaustive(Context* ctx, const PreparedTransfer& pt, PotTiming& timing) {
+std::vector<Winner> rank_exhaustive(Context* ctx, const PreparedTransfer& pt, PotTiming& timing,
+                                    const std::function<void()>& beside) {
   auto t0 = Clock::now();
-  const std::vector<SinkhornResult> ranked = solve(ctx, pt.ranking, costs_only());
+  PendingSolve pending(ctx, pt.ranking, costs_only());
+  if (beside) beside();
+  const std::vector<SinkhornResult> ranked = pending.wait();
   timing.ranking_ms += ms_since(t0);
   std::vector<Winner> out(pt.sectors.size());
   for (std::size_t s = 0; s < pt.sectors.size(); ++s)
@@ -282,11 +285,14 @@ std::vector<Winner> rank_exhaustive(Context* ctx, const PreparedTransfer& pt, Po
 }
 
 std::vector<Winner> rank_indexed(Context* ctx, const Dictionary& dict, const PreparedTransfer& pt,
-                                 const PotOptions& o, PotTiming& timing) {
+                                 const PotOptions& o, PotTiming& timing,
+                                 const std::function<void()>& beside) {
   auto t0 = Clock::now();
   SinkhornOptions coarse_options = costs_only();
   coarse_options.double_sums = !single_sums_reach(o.coarse_tolerance);
-  const std::vector<SinkhornResult> coarse = solve(ctx, pt.ranking, coarse_options);
+  PendingSolve pending(ctx, pt.ranking, coarse_options);
+  if (beside) beside();
+  const std::vector<SinkhornResult> coarse = pending.wait();
   timing.ranking_ms += ms_since(t0);
   const std::size_t ns = pt.sectors.size();
   std::vector<Winner> out(ns);
@@ -361,12 +367,20 @@ std::vector<Winner> rank_indexed(Context* ctx, const Dictionary& dict, const Pre
 
 std::vector<SinkhornResult> solve(Context* ctx, const SinkhornBatch& batch,
                                   const SinkhornOptions& opt) {
-  if (batch.size() == 0) return {};
-  if (ctx) return batch.run(*ctx, opt);
+  return PendingSolve(ctx, batch, opt).wait();
+}
+
+PendingSolve::PendingSolve(Context* ctx, const SinkhornBatch& batch, const SinkhornOptions& opt)
+    : batch_(batch), on_device_(ctx && batch.size() > 0) {
+  if (on_device_) run_ = batch.start(*ctx, opt);
+}
+
+std::vector<SinkhornResult> PendingSolve::wait() {
+  if (on_device_) return run_.wait();
   std::vector<SinkhornResult> out;
-  out.reserve(batch.size());
-  for (std::size_t i = 0; i < batch.size(); ++i)
-    out.push_back(sinkhorn_reference(batch.problem(i)));
+  out.reserve(batch_.size());
+  for (std::size_t i = 0; i < batch_.size(); ++i)
+    out.push_back(sinkhorn_reference(batch_.problem(i)));
   return out;
 }
 
@@ -381,9 +395,10 @@ void assemble_ranking(Context* ctx, const Dictionary& dict, const PotOptions& o,
 }
 
 std::vector<Winner> rank_sectors(Context* ctx, const Dictionary& dict, const PreparedTransfer& pt,
-                                 const PotOptions& o, PotTiming& timing) {
-  if (pt.ranking_mode == PotRanking::indexed) return rank_indexed(ctx, dict, pt, o, timing);
-  return rank_exhaustive(ctx, pt, timing);
+                                 const PotOptions& o, PotTiming& timing,
+                                 const std::function<void()>& beside) {
+  if (pt.ranking_mode == PotRanking::indexed) return rank_indexed(ctx, dict, pt, o, timing, beside);
+  return rank_exhaustive(ctx, pt, timing, beside);
 }
 
 }  // namespace potmap::detail

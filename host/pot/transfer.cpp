@@ -74,10 +74,29 @@ struct Transport {
   std::vector<std::array<long, 2>> of;
 };
 
+// Per sector and class (0 hits, 1 free samples) the target's samples of the high-quality
+// transport, thinned evenly to its caps (empty where the sector has none). They depend on the
+// scan alone, so they are thinned while the device ranks.
+using TransportTargets = std::vector<std::array<Eigen::MatrixXd, 2>>;
+
+TransportTargets transport_targets(const std::vector<Sector>& sectors, int dim,
+                                   const PotOptions& o) {
+  TransportTargets t(sectors.size());
+  for (std::size_t s = 0; s < sectors.size(); ++s) {
+    if (sectors[s].num_hits() > 0)
+      t[s][0] = detail::subsample_even(sectors[s].hits, dim, o.transport_points);
+    if (sectors[s].num_free() > 0)
+      t[s][1] = detail::subsample_even(sectors[s].free, dim, o.transport_free_points);
+  }
+  return t;
+}
+
 // High-quality transport between hits and, with transport_free, between free samples too (free
-// samples alone where either side has no hits).
+// samples alone where either side has no hits). `targets`: transport_targets(sectors), moved
+// into the problems.
 Transport assemble_transport(const Dictionary& dict, const std::vector<Sector>& sectors,
-                             const std::vector<detail::Winner>& winners, const PotOptions& o) {
+                             const std::vector<detail::Winner>& winners, const PotOptions& o,
+                             TransportTargets&& targets) {
   Transport t;
   t.of.assign(sectors.size(), {-1, -1});
   AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
@@ -88,13 +107,13 @@ Transport assemble_transport(const Dictionary& dict, const std::vector<Sector>& 
     if (atom.kernels.empty()) continue;
     const bool hits = sec.num_hits() > 0 && atom.sector.num_hits() > 0;
     const bool frees = sec.num_free() > 0 && atom.sector.num_free() > 0;
-    auto add = [&](int cls, const std::vector<double>& tgt_pts, std::size_t cap, double tolerance) {
+    auto add = [&](int cls, std::size_t cap, double tolerance) {
       SinkhornProblem p;
       const std::size_t a = static_cast<std::size_t>(winners[s].atom);
       p.source = cache ? cache->thinned(atom, a, cls, cap)
                        : detail::subsample_even(cls == 0 ? atom.sector.hits : atom.sector.free,
                                                 dict.dim, cap);
-      p.target = detail::subsample_even(tgt_pts, dict.dim, cap);
+      p.target = std::move(targets[s][cls]);
       p.angle = winners[s].angle;
       p.epsilon = o.transport_epsilon;
       p.max_iterations = o.transport_max_iterations;
@@ -102,9 +121,9 @@ Transport assemble_transport(const Dictionary& dict, const std::vector<Sector>& 
       p.normalise_cost = true;
       return static_cast<long>(t.batch.add(std::move(p)));
     };
-    if (hits) t.of[s][0] = add(0, sec.hits, o.transport_points, o.transport_tolerance);
+    if (hits) t.of[s][0] = add(0, o.transport_points, o.transport_tolerance);
     if (frees && (o.transport_free || !hits))
-      t.of[s][1] = add(1, sec.free, o.transport_free_points, o.transport_free_tolerance);
+      t.of[s][1] = add(1, o.transport_free_points, o.transport_free_tolerance);
   }
   return t;
 }
@@ -187,9 +206,18 @@ void place_sector(const Dictionary& dict, const Sector& sec, const Transport& t,
 
 // The anchors of sector s on the target's samples (PotPlacement::target_samples), its
 // transport's convergence and counts into st.
+// The anchor sites of sector s for its transport problems (none where it has none).
+AnchorSites sector_sites(const Sector& sec, const SinkhornBatch& batch,
+                         const std::array<long, 2>& of, const PotOptions& o) {
+  std::array<const Eigen::MatrixXd*, 2> targets{nullptr, nullptr};
+  for (int q = 0; q < 2; ++q)
+    if (of[q] >= 0) targets[q] = &batch.problem(of[q]).target;
+  return detail::anchor_sites(sec, targets, o);
+}
+
 void anchor_sector(const Dictionary& dict, const Sector& sec, const Transport& transport,
                    const std::vector<SinkhornResult>& moved, std::size_t s, const PotOptions& o,
-                   AtomTransportCache* cache, SectorTransfer& st,
+                   AtomTransportCache* cache, const AnchorSites* found, SectorTransfer& st,
                    std::vector<detail::Anchor>& anchors) {
   const auto& of = transport.of[s];
   if (of[0] < 0 && of[1] < 0) return;
@@ -212,7 +240,9 @@ void anchor_sector(const Dictionary& dict, const Sector& sec, const Transport& t
     if (of[q] >= 0)
       plans.source_map[q] = cache->sample_map(
           atom, a, q, q == 0 ? o.transport_points : o.transport_free_points, sec.scale);
-  st.kernels_dropped += detail::anchors_at_samples(atom, sec, plans, o, anchors, classes);
+  const AnchorSites sites = found ? AnchorSites{} : sector_sites(sec, transport.batch, of, o);
+  st.kernels_dropped +=
+      detail::anchors_at_samples(atom, sec, plans, found ? *found : sites, o, anchors, classes);
   st.kernels_placed += anchors.size();
 }
 
@@ -259,7 +289,9 @@ SolvedTransfer solve_transfer(Context* ctx, const Dictionary& dict, PreparedTran
   out.map.dim = dict.dim;
   out.timing = pt.timing;
   const std::vector<Sector>& sectors = pt.sectors;
-  const std::vector<detail::Winner> winners = detail::rank_sectors(ctx, dict, pt, o, out.timing);
+  TransportTargets targets;
+  const std::vector<detail::Winner> winners = detail::rank_sectors(
+      ctx, dict, pt, o, out.timing, [&] { targets = transport_targets(sectors, dict.dim, o); });
   for (std::size_t s = 0; s < sectors.size(); ++s) {
     SectorTransfer st;
     st.sector = sectors[s].index;
@@ -273,7 +305,7 @@ SolvedTransfer solve_transfer(Context* ctx, const Dictionary& dict, PreparedTran
   }
 
   auto t0 = Clock::now();
-  Transport transport = assemble_transport(dict, sectors, winners, o);
+  Transport transport = assemble_transport(dict, sectors, winners, o, std::move(targets));
   out.timing.prepare_ms += ms_since(t0);
   t0 = Clock::now();
   SinkhornOptions topt;
@@ -283,7 +315,12 @@ SolvedTransfer solve_transfer(Context* ctx, const Dictionary& dict, PreparedTran
   topt.want_duals = false;  // the placement reads the plans, never the potentials
   topt.double_sums =
       !single_sums_reach(std::min(o.transport_tolerance, o.transport_free_tolerance));
-  sv.plans = detail::solve(ctx, transport.batch, topt);
+  detail::PendingSolve moving(ctx, transport.batch, topt);
+  // Where the kernels will sit does not depend on the plans: found while the device solves.
+  if (at_samples)
+    for (std::size_t s = 0; s < sectors.size(); ++s)
+      sv.anchor_sites.push_back(sector_sites(sectors[s], transport.batch, transport.of[s], o));
+  sv.plans = moving.wait();
   out.timing.transport_ms = ms_since(t0);
   sv.transport = std::move(transport.batch);
   sv.problem_of = std::move(transport.of);
@@ -314,8 +351,10 @@ ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer
     // one sector after the other would give.
     std::vector<std::vector<detail::Anchor>> anchors(sectors.size());
     AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
+    const bool found = sv.anchor_sites.size() == sectors.size();
     detail::for_each_item(ctx, sectors.size(), [&](std::size_t s) {
-      anchor_sector(dict, sectors[s], transport, moved, s, o, cache, out.sectors[s], anchors[s]);
+      anchor_sector(dict, sectors[s], transport, moved, s, o, cache,
+                    found ? &sv.anchor_sites[s] : nullptr, out.sectors[s], anchors[s]);
     });
     std::vector<detail::Anchor> all;
     for (const auto& a : anchors) all.insert(all.end(), a.begin(), a.end());

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "potmap/export.h"
@@ -102,6 +103,27 @@ struct SinkhornResult {
   Eigen::MatrixXd extra_mapped;  ///< k x dim: out-of-sample images of extra_points
 };
 
+class SinkhornBatch;
+
+/// A batch's solve in flight on the device (SinkhornBatch::start): the caller's thread is free
+/// until wait(). The batch it came from must stay alive and unchanged until then. Destroyed
+/// without wait(), it blocks until the device is done with its buffers.
+class SinkhornRun {
+ public:
+  SinkhornRun();
+  SinkhornRun(SinkhornRun&&) noexcept;
+  SinkhornRun& operator=(SinkhornRun&&) noexcept;
+  ~SinkhornRun();
+  /// Blocks until every problem is solved and returns the results in problem order (as
+  /// SinkhornBatch::run). Once only: ArgumentError on a second call or a default-made run.
+  std::vector<SinkhornResult> wait();
+
+ private:
+  friend class SinkhornBatch;
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
 /// A batch of independent problems solved in one device launch.
 class SinkhornBatch {
  public:
@@ -112,6 +134,12 @@ class SinkhornBatch {
   const SinkhornProblem& problem(std::size_t i) const { return problems_[i]; }
   /// Solves every problem on the context's device; results in problem order.
   std::vector<SinkhornResult> run(Context& ctx, const SinkhornOptions& options = {}) const;
+  /// The same solve, started and not waited for: the host can prepare what does not depend on
+  /// the results while the device works (on a GPU that time is free; on a CPU device it fills
+  /// the cores the launch leaves idle). run(ctx, o) is start(ctx, o).wait(). A batch larger
+  /// than one launch (SinkhornTuning::chunk_slots) starts its first launch here and the rest in
+  /// wait(), one at a time.
+  SinkhornRun start(Context& ctx, const SinkhornOptions& options = {}) const;
 
  private:
   std::vector<SinkhornProblem> problems_;
@@ -138,10 +166,15 @@ struct SinkhornDeviceResult {
   boost::compute::buffer barycentric;  ///< float, dim per source point, same offsets as source
   boost::compute::buffer coupling;     ///< float, n*m per problem back to back (if asked)
   std::vector<long> coupling_offset;   ///< first element of each problem's plan
+  /// The launch's own working buffers (problem table, duals, scratch). The enqueued kernel
+  /// still uses them: keep this result alive until ctx.queue() has finished (PoCL frees a
+  /// released buffer under a queued kernel).
+  std::vector<boost::compute::buffer> working;
 };
 
 /// Enqueues the solve of a device batch; returns without waiting (results valid once
-/// ctx.queue() has finished). Uniform marginals; for given marginals use SinkhornBatch.
+/// ctx.queue() has finished; keep the result until then). Uniform marginals; for given
+/// marginals use SinkhornBatch.
 SinkhornDeviceResult sinkhorn_device(Context& ctx, const SinkhornDeviceBatch& batch,
                                      const SinkhornOptions& options = {});
 

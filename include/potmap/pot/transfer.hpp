@@ -227,9 +227,13 @@ struct SectorTransfer {
 
 /// Wall-clock time of each stage of one scan, milliseconds.
 struct PotTiming {
-  double prepare_ms = 0;    ///< cutting, subsampling, batch assembly
-  double ranking_ms = 0;    ///< the batched ranking solve
-  double transport_ms = 0;  ///< the batched high-quality transport
+  double prepare_ms = 0;  ///< cutting, subsampling, batch assembly
+  /// The batched ranking solves, with the transport's target samples thinned on the host
+  /// while the first of them runs on the device.
+  double ranking_ms = 0;
+  /// The batched high-quality transport, with the placement's anchor sites (AnchorSites)
+  /// found on the host while it runs.
+  double transport_ms = 0;
   double placement_ms = 0;  ///< out-of-sample map, filter, world frame
   double refine_ms = 0;     ///< RePOT's BHM update (0 for POT)
   double total_ms() const {
@@ -287,6 +291,22 @@ PreparedTransfer prepare_transfer(const Dictionary& dict, LabelledPoints train,
 /// one, in sector order.
 std::vector<long> chosen_atoms(const ScanTransfer& transfer);
 
+/// Where one target sector's kernels will sit under PotPlacement::target_samples, and which
+/// column of its plan each reads: what the placement needs that the winning atom does not
+/// change, so a transfer finds it while the device solves the transport. Per class (0 hits,
+/// 1 free samples; empty where the class is not transported).
+struct AnchorSites {
+  /// The sector samples that carry a kernel: indices into Sector::hits or Sector::free (in
+  /// points), thinned to PotOptions::anchor_spacing (the first sample of each cell).
+  std::array<std::vector<std::size_t>, 2> sample;
+  /// For each of them the plan column it reads: the index of the transport target sample
+  /// nearest it, kDroppedByWall (a free sample within wall_clearance of a hit: no kernel,
+  /// counted in SectorTransfer::kernels_dropped) or kNoColumn (no target: no kernel).
+  std::array<std::vector<long>, 2> column;
+  static constexpr long kDroppedByWall = -1;
+  static constexpr long kNoColumn = -2;
+};
+
 /// A transfer ranked and transported but not yet placed: the device half of
 /// finish_transfer(). Kept apart so that a mapper can place one scan's kernels on the host
 /// while the device ranks the next (map_scans() does). Plain data; place_transfer() consumes
@@ -303,6 +323,9 @@ struct SolvedTransfer {
   /// The solutions of `transport`, in order: their plans (couplings, or barycentric images for
   /// PotPlacement::barycentric) and statistics; the dual potentials are not read back.
   std::vector<SinkhornResult> plans;
+  /// PotPlacement::target_samples: per sector, its anchors' sites, found beside the transport's
+  /// solve. Empty (or another placement): place_transfer() finds them itself.
+  std::vector<AnchorSites> anchor_sites;
 };
 
 /// Ranks a prepared scan and solves its winners' transport. `ctx` null: the CPU reference, one
