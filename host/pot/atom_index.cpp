@@ -11,6 +11,7 @@
 #include "atom_transport_cache.hpp"
 #include "class_ranking.hpp"
 #include "potmap/error.hpp"
+#include "runtime/wider_vectors.hpp"
 #include "thinning.hpp"
 
 namespace potmap {
@@ -207,8 +208,9 @@ std::vector<std::size_t> AtomIndex::farthest(const SectorSignature& t) const {
   return out;
 }
 
-std::vector<RotationEstimate> AtomIndex::rotations(const SectorSignature& t, std::size_t atom,
-                                                   int count) const {
+POTMAP_WIDER_VECTORS std::vector<RotationEstimate> AtomIndex::rotations(const SectorSignature& t,
+                                                                        std::size_t atom,
+                                                                        int count) const {
   if (atom >= size()) throw ArgumentError("AtomIndex: no atom " + std::to_string(atom));
   const int B = options_.bins;
   const std::size_t hist = static_cast<std::size_t>(options_.rings) * B;

@@ -9,6 +9,7 @@
 
 #include "cell_key.hpp"
 #include "potmap/error.hpp"
+#include "runtime/wider_vectors.hpp"
 
 namespace potmap {
 
@@ -90,7 +91,7 @@ bool AveragedMap::set_slot(const std::int64_t c[3], std::uint32_t slot) {
   return true;
 }
 
-void AveragedMap::add(const KernelMap& inst) {
+POTMAP_WIDER_VECTORS void AveragedMap::add(const KernelMap& inst) {
   if (inst.dim != dim_)
     throw ArgumentError("AveragedMap::add: a " + std::to_string(inst.dim) + "D map added to a " +
                         std::to_string(dim_) + "D map");
