@@ -451,21 +451,10 @@ std::vector<SinkhornResult> finish_chunk(ChunkRun& c, const std::vector<Sinkhorn
       for (int i = 0; i < n; ++i) r.f(i) = (fh(ss + i) - la[ss + i]) * pr.epsilon;
       for (int j = 0; j < m; ++j) r.g(j) = (gh(ts + j) - lb[ts + j]) * pr.epsilon;
     }
-    if (opt.want_coupling) {
-      // The device's plan is row-major, Eigen's column-major: copied in 16 x 16 tiles, so that
-      // neither the reads nor the writes stride across a whole plan.
-      r.coupling.resize(n, m);
-      const float* src = c.plan.data() + L.result.coupling_offset[p];
-      double* dst = r.coupling.data();
-      constexpr int kTile = 16;
-      for (int i0 = 0; i0 < n; i0 += kTile)
-        for (int j0 = 0; j0 < m; j0 += kTile) {
-          const int i1 = std::min(n, i0 + kTile), j1 = std::min(m, j0 + kTile);
-          for (int j = j0; j < j1; ++j)
-            for (int i = i0; i < i1; ++i)
-              dst[static_cast<long>(j) * n + i] = src[static_cast<long>(i) * m + j];
-        }
-    }
+    if (opt.want_coupling)  // the device writes the plan column by column, as Eigen keeps it
+      r.coupling = Eigen::Map<const Eigen::MatrixXf>(c.plan.data() + L.result.coupling_offset[p],
+                                                     n, m)
+                       .cast<double>();
     if (opt.want_barycentric) {
       r.barycentric.resize(n, dim);
       for (int i = 0; i < n; ++i)

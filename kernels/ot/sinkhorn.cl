@@ -197,7 +197,7 @@ static REAL write_rows(__global const SinkhornLaunchInts* I, const REAL k, const
 #if DIM == 3
       bz += pij * Y[j * DIM + 2];
 #endif
-      if (plan0 >= 0) plan[plan0 + (long)i * m + j] = (float)pij;
+      if (plan0 >= 0) plan[plan0 + (long)j * n + i] = (float)pij;  // column-major
     }
     total += rc * cost_factor;
     if (want_bary) {

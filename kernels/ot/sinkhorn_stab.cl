@@ -324,7 +324,8 @@ static ACC plan_error(const int n, const int mpad, __global const REAL* K,
 // and the scaled duals fh = f/eps + log a in the log kernel's convention. Returns this
 // work-item's part of the cost <P, C>.
 static ACC write_rows(__global const SinkhornLaunchInts* I, __global const SinkhornLaunchParams* P,
-                      const REAL cost_factor, __global const REAL* K, __global const REAL* SX,
+                      const REAL cost_factor, __global const REAL* K,
+                      __global const REAL* KT, __global const REAL* SX,
                       __global const REAL* sz, __global const REAL* TX, __global const REAL* tz,
                       __global const ACC* EU, __global const ACC* EV, __global const ACC* AL,
                       __global const ACC* LUc, __global float* plan, __global float* bary,
@@ -357,8 +358,6 @@ static ACC write_rows(__global const SinkhornLaunchInts* I, __global const Sinkh
       bz = fma(pv, TO_ACCV(qz), bz);
 #endif
     }
-    const int pm = plan0 >= 0 ? m : 0;
-    for (int j = 0; j < pm; ++j) plan[plan0 + (long)i * m + j] = (float)(ui * Ki[j] * EV[j]);
     total += hsum_acc(rc) * cost_factor;
     if (want_bary) {
       // Target points are not rotated: TX / scale are the target points in their own units.
@@ -372,6 +371,16 @@ static ACC write_rows(__global const SinkhornLaunchInts* I, __global const Sinkh
 #endif
     }
     fh[ss + i] = (REAL)(AL[i] + LUc[i]);
+  }
+  // The plan column by column (host/ot/sinkhorn.cpp reads it as a column-major matrix, and the
+  // placement reads a target sample's column), from K's transposed copy, whose row j is K's
+  // column j: one contiguous read and write a column, the same products as by rows.
+  const int pm = plan0 >= 0 ? m : 0;
+  for (int j = get_local_id(0); j < pm; j += WG) {
+    __global const REAL* KTj = KT + (long)j * npad;
+    __global float* Pj = plan + plan0 + (long)j * n;
+    const ACC vj = EV[j];
+    for (int i = 0; i < n; ++i) Pj[i] = (float)(EU[i] * KTj[i] * vj);
   }
   return total;
 }
@@ -490,7 +499,7 @@ static void solve(
     converged = err < tol ? 1 : 0;
   }
 
-  const ACC total = write_rows(I, P, cost_factor, K, SX, sz, TX, tz, EU, EV, AL, LU + cur * npad,
+  const ACC total = write_rows(I, P, cost_factor, K, KT, SX, sz, TX, tz, EU, EV, AL, LU + cur * npad,
                                plan, bary, want_bary, fh);
   for (int j = lid; j < m; j += WG) gh[ts + j] = (REAL)(BE[j] + LV[cur * mpad + j]);
   red_e[par][lid] = total;

@@ -164,7 +164,9 @@ struct SinkhornDeviceBatch {
 struct SinkhornDeviceResult {
   boost::compute::buffer stats;        ///< float, 4 per problem: cost, iterations, error, converged
   boost::compute::buffer barycentric;  ///< float, dim per source point, same offsets as source
-  boost::compute::buffer coupling;     ///< float, n*m per problem back to back (if asked)
+  /// float, each problem's n x m plan column by column (column-major: P_ij at
+  /// coupling_offset + j n + i), back to back (if asked)
+  boost::compute::buffer coupling;
   std::vector<long> coupling_offset;   ///< first element of each problem's plan
   /// The launch's own working buffers (problem table, duals, scratch). The enqueued kernel
   /// still uses them: keep this result alive until ctx.queue() has finished (PoCL frees a
