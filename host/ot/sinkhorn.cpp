@@ -452,9 +452,9 @@ std::vector<SinkhornResult> finish_chunk(ChunkRun& c, const std::vector<Sinkhorn
       for (int j = 0; j < m; ++j) r.g(j) = (gh(ts + j) - lb[ts + j]) * pr.epsilon;
     }
     if (opt.want_coupling)  // the device writes the plan column by column, as Eigen keeps it
-      r.coupling = Eigen::Map<const Eigen::MatrixXf>(c.plan.data() + L.result.coupling_offset[p],
-                                                     n, m)
-                       .cast<double>();
+      r.coupling =
+          Eigen::Map<const Eigen::MatrixXf>(c.plan.data() + L.result.coupling_offset[p], n, m)
+              .cast<double>();
     if (opt.want_barycentric) {
       r.barycentric.resize(n, dim);
       for (int i = 0; i < n; ++i)

@@ -167,7 +167,7 @@ struct SinkhornDeviceResult {
   /// float, each problem's n x m plan column by column (column-major: P_ij at
   /// coupling_offset + j n + i), back to back (if asked)
   boost::compute::buffer coupling;
-  std::vector<long> coupling_offset;   ///< first element of each problem's plan
+  std::vector<long> coupling_offset;  ///< first element of each problem's plan
   /// The launch's own working buffers (problem table, duals, scratch). The enqueued kernel
   /// still uses them: keep this result alive until ctx.queue() has finished (PoCL frees a
   /// released buffer under a queued kernel).
