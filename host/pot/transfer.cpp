@@ -204,8 +204,6 @@ void place_sector(const Dictionary& dict, const Sector& sec, const Transport& t,
   }
 }
 
-// The anchors of sector s on the target's samples (PotPlacement::target_samples), its
-// transport's convergence and counts into st.
 // The anchor sites of sector s for its transport problems (none where it has none).
 AnchorSites sector_sites(const Sector& sec, const SinkhornBatch& batch,
                          const std::array<long, 2>& of, const PotOptions& o) {
@@ -215,9 +213,11 @@ AnchorSites sector_sites(const Sector& sec, const SinkhornBatch& batch,
   return detail::anchor_sites(sec, targets, o);
 }
 
+// The anchors of sector s on the target's samples (PotPlacement::target_samples) at `sites`,
+// its transport's convergence and counts into st.
 void anchor_sector(const Dictionary& dict, const Sector& sec, const Transport& transport,
                    const std::vector<SinkhornResult>& moved, std::size_t s, const PotOptions& o,
-                   AtomTransportCache* cache, const AnchorSites* found, SectorTransfer& st,
+                   AtomTransportCache* cache, const AnchorSites& sites, SectorTransfer& st,
                    std::vector<detail::Anchor>& anchors) {
   const auto& of = transport.of[s];
   if (of[0] < 0 && of[1] < 0) return;
@@ -240,9 +240,7 @@ void anchor_sector(const Dictionary& dict, const Sector& sec, const Transport& t
     if (of[q] >= 0)
       plans.source_map[q] = cache->sample_map(
           atom, a, q, q == 0 ? o.transport_points : o.transport_free_points, sec.scale);
-  const AnchorSites sites = found ? AnchorSites{} : sector_sites(sec, transport.batch, of, o);
-  st.kernels_dropped +=
-      detail::anchors_at_samples(atom, sec, plans, found ? *found : sites, o, anchors, classes);
+  st.kernels_dropped += detail::anchors_at_samples(atom, sec, plans, sites, o, anchors, classes);
   st.kernels_placed += anchors.size();
 }
 
@@ -351,10 +349,14 @@ ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer
     // one sector after the other would give.
     std::vector<std::vector<detail::Anchor>> anchors(sectors.size());
     AtomTransportCache* cache = o.index ? o.index->transport_cache() : nullptr;
+    // Sites not found beside the transport (a SolvedTransfer made elsewhere) are found here.
     const bool found = sv.anchor_sites.size() == sectors.size();
+    if (!found) sv.anchor_sites.assign(sectors.size(), AnchorSites{});
     detail::for_each_item(ctx, sectors.size(), [&](std::size_t s) {
-      anchor_sector(dict, sectors[s], transport, moved, s, o, cache,
-                    found ? &sv.anchor_sites[s] : nullptr, out.sectors[s], anchors[s]);
+      if (!found)
+        sv.anchor_sites[s] = sector_sites(sectors[s], transport.batch, transport.of[s], o);
+      anchor_sector(dict, sectors[s], transport, moved, s, o, cache, sv.anchor_sites[s],
+                    out.sectors[s], anchors[s]);
     });
     std::vector<detail::Anchor> all;
     for (const auto& a : anchors) all.insert(all.end(), a.begin(), a.end());
