@@ -464,6 +464,33 @@ TEST(Sinkhorn, StabilisedSchemeMatchesReference) {
   EXPECT_FALSE(rs[2].converged);
 }
 
+TEST(Sinkhorn, StabilisedSchemeInDoubleMatchesReference) {
+  // Double precision runs the kernels 8 lanes wide (float: 16), with their own tile transpose of
+  // K; sizes below, at and across the tile, small epsilon so that K is rebuilt many times.
+  if (!test::context().info().has_fp64) GTEST_SKIP() << "the device has no cl_khr_fp64";
+  SinkhornOptions o = full();
+  o.stabilised = true;
+  o.use_double = true;
+  SinkhornBatch b;
+  std::vector<SinkhornProblem> qs;
+  const int sizes[][2] = {{5, 9}, {8, 11}, {16, 8}, {37, 53}, {70, 41}};
+  unsigned seed = 90;
+  for (auto& s : sizes) {
+    qs.push_back(problem(s[0], s[1], 2, seed++, 0.002));
+    qs.back().normalise_cost = true;
+    qs.back().max_iterations = 20000;
+    b.add(qs.back());
+  }
+  const auto rs = b.run(test::context(), o);
+  for (std::size_t p = 0; p < qs.size(); ++p) {
+    const auto ref = sinkhorn_reference(qs[p]);
+    ASSERT_TRUE(rs[p].converged) << p;
+    // Both stop within the 1e-4 tolerance of the marginals, on either side of the plan.
+    EXPECT_NEAR(rs[p].cost, ref.cost, 1e-3 * ref.cost) << p;
+    EXPECT_LT((rs[p].coupling - ref.coupling).cwiseAbs().maxCoeff(), 2 * qs[p].tolerance) << p;
+  }
+}
+
 TEST(Sinkhorn, SmallSizesBothSchemesMatchReference) {
   // Fewer points than work-items per group: the case a PoCL 3.1 miscompilation broke (see
   // tests/pocl_quirks_test.cpp).

@@ -217,6 +217,37 @@ static void absorb_rows(const int cnt, const ACC ratio, __global ACC* AL, __glob
   }
 }
 
+// Transposes the VW x VW tile whose rows are t[0..VW): stage S swaps, in every 2S x 2S block,
+// the top-right S x S block with the bottom-left one; the stages together exchange the row and
+// column index bit by bit. Each is one two-source shuffle a row, where a scalar copy gathers.
+#define TILE_STAGE(S, LO, HI)              \
+  for (int r = 0; r < VW; ++r)              \
+    if ((r & (S)) == 0) {                   \
+      const REALV a = t[r], b = t[r + (S)]; \
+      t[r] = LO;                            \
+      t[r + (S)] = HI;                      \
+    }
+static void transpose_tile(REALV* t) {
+#if VW == 16
+  TILE_STAGE(8, (REALV)(a.lo, b.lo), (REALV)(a.hi, b.hi));
+  TILE_STAGE(4, (REALV)(a.s0123, b.s0123, a.s89ab, b.s89ab),
+             (REALV)(a.s4567, b.s4567, a.scdef, b.scdef));
+  TILE_STAGE(2, (REALV)(a.s01, b.s01, a.s45, b.s45, a.s89, b.s89, a.scd, b.scd),
+             (REALV)(a.s23, b.s23, a.s67, b.s67, a.sab, b.sab, a.sef, b.sef));
+  TILE_STAGE(1,
+             (REALV)(a.s0, b.s0, a.s2, b.s2, a.s4, b.s4, a.s6, b.s6, a.s8, b.s8, a.sa, b.sa, a.sc,
+                     b.sc, a.se, b.se),
+             (REALV)(a.s1, b.s1, a.s3, b.s3, a.s5, b.s5, a.s7, b.s7, a.s9, b.s9, a.sb, b.sb, a.sd,
+                     b.sd, a.sf, b.sf));
+#else
+  TILE_STAGE(4, (REALV)(a.lo, b.lo), (REALV)(a.hi, b.hi));
+  TILE_STAGE(2, (REALV)(a.s01, b.s01, a.s45, b.s45), (REALV)(a.s23, b.s23, a.s67, b.s67));
+  TILE_STAGE(1, (REALV)(a.s0, b.s0, a.s2, b.s2, a.s4, b.s4, a.s6, b.s6),
+             (REALV)(a.s1, b.s1, a.s3, b.s3, a.s5, b.s5, a.s7, b.s7));
+#endif
+}
+#undef TILE_STAGE
+
 // Rebuilds the first `icnt` rows of K (0: none) around the duals, and K^T from it. K by rows for
 // K^T u and its transpose by rows for K v: both products then stream rows with a broadcast
 // scalar into VW-wide sums, with no horizontal sum per row.
@@ -231,12 +262,19 @@ static void rebuild_kernel(const int icnt, const int jcnt, const int n, const in
       build_row(K + (long)(i0 + lid) * mpad, SX[i0 + lid], SX[npad + i0 + lid], sz[i0 + lid], TX,
                 tz, mpad, BE, AL[i0 + lid], k);
   barrier(CLK_GLOBAL_MEM_FENCE);
-  // K^T by copying, not by exps again (the exps of the rebuild dominate small problems).
-  // Pads of K^T rows (i >= n) must be 0 as build_row leaves them: exp(-PAD_LOGW) = 0.
-  for (int j = lid; j < jcnt; j += WG) {
-    __global REAL* KTj = KT + (long)j * npad;
-    for (int i = 0; i < n; ++i) KTj[i] = K[(long)i * mpad + j];
-    for (int i = n; i < npad; ++i) KTj[i] = 0;
+  // K^T by copying, not by exps again (the exps of the rebuild dominate small problems), a
+  // VW x VW tile at a time transposed in registers: a column of K read entry by entry takes
+  // each entry from another cache line, and that copy was a seventh of a transport's time
+  // (docs/pot-scale.md). Pads of K^T rows (i >= n) must be 0 as build_row leaves them.
+  for (int j0 = lid * VW; j0 < jcnt; j0 += WG * VW) {
+    const int jn = min(VW, jcnt - j0);
+    for (int i0 = 0; i0 < npad; i0 += VW) {
+      REALV t[VW];
+      for (int r = 0; r < VW; ++r)
+        t[r] = i0 + r < n ? VLOAD(0, K + (long)(i0 + r) * mpad + j0) : (REALV)(0);
+      transpose_tile(t);
+      for (int r = 0; r < jn; ++r) VSTORE(t[r], 0, KT + (long)(j0 + r) * npad + i0);
+    }
   }
   barrier(CLK_GLOBAL_MEM_FENCE);
 }
