@@ -59,10 +59,12 @@
 #define ACCLOAD vload8
 #define ACCSTORE vstore8
 #define LANES ((ACCV)(0, 1, 2, 3, 4, 5, 6, 7))
+#define REAL_LANES ((REALV)(0, 1, 2, 3, 4, 5, 6, 7))
 #else
 #define ACCLOAD vload16
 #define ACCSTORE vstore16
 #define LANES ((ACCV)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+#define REAL_LANES ((REALV)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 #endif
 
 #include "sinkhorn_launch.h"
