@@ -23,7 +23,18 @@ constexpr double kTwoPi = 6.283185307179586;
 struct Shape {
   int rings, bins, harmonics;
   double radius;
+  const std::complex<double>* phase;  ///< phase_table(): harmonics x bins
 };
+
+// The harmonics' phase factors e^(-2 pi i k b / bins), k = 1..harmonics: made once an index, not
+// once a signature (a thousand sines and cosines a sector of every scan).
+std::vector<std::complex<double>> phase_table(int harmonics, int bins) {
+  std::vector<std::complex<double>> phase(static_cast<std::size_t>(harmonics) * bins);
+  for (int k = 1; k <= harmonics; ++k)
+    for (int b = 0; b < bins; ++b)
+      phase[static_cast<std::size_t>(k - 1) * bins + b] = std::polar(1.0, -kTwoPi * k * b / bins);
+  return phase;
+}
 
 // Outer edge of ring r: rings of equal width up to the sector radius, the last one open.
 double ring_edge(const Shape& s, int r) {
@@ -88,16 +99,10 @@ std::vector<float> features(const std::array<float, AtomDescriptor::kQuantiles>&
   for (float q : radius) f.push_back(q * w);
   if (dim == 3)
     for (float q : z) f.push_back(q * w);
-  // The harmonics' phase factors, made once for every ring (and the same as made per term).
-  std::vector<std::complex<double>> phase(static_cast<std::size_t>(s.harmonics) * s.bins);
-  for (int k = 1; k <= s.harmonics; ++k)
-    for (int b = 0; b < s.bins; ++b)
-      phase[static_cast<std::size_t>(k - 1) * s.bins + b] =
-          std::polar(1.0, -kTwoPi * k * b / s.bins);
   for (int r = 0; r < s.rings; ++r) {
     const float* row = polar.data() + static_cast<std::size_t>(r) * s.bins;
     for (int k = 1; k <= s.harmonics; ++k) {
-      const std::complex<double>* ph = &phase[static_cast<std::size_t>(k - 1) * s.bins];
+      const std::complex<double>* ph = s.phase + static_cast<std::size_t>(k - 1) * s.bins;
       std::complex<double> c = 0;
       for (int b = 0; b < s.bins; ++b) c += double(row[b]) * ph[b];
       f.push_back(static_cast<float>(std::abs(c) * ring_mid(s, r)));
@@ -139,6 +144,7 @@ AtomIndex::AtomIndex(const Dictionary& dict, const AtomIndexOptions& o)
   if (!(radius_ > 0)) throw ArgumentError("AtomIndex: the dictionary's radius is not positive");
   features_ = static_cast<std::size_t>(AtomDescriptor::kQuantiles * (dim_ == 3 ? 2 : 1) +
                                        o.rings * o.harmonics);
+  phase_ = phase_table(o.harmonics, o.bins);
   const std::size_t n = dict.size(), hist = static_cast<std::size_t>(o.rings) * o.bins;
   transport_ = std::make_shared<AtomTransportCache>(n);
   hits_.resize(n);
@@ -165,7 +171,8 @@ SectorSignature AtomIndex::signature(const Sector& sector) const {
   if (sector.dim != dim_)
     throw ArgumentError("AtomIndex: a " + std::to_string(sector.dim) + "D sector for a " +
                         std::to_string(dim_) + "D dictionary");
-  return describe(sector, Shape{options_.rings, options_.bins, options_.harmonics, radius_});
+  return describe(sector,
+                  Shape{options_.rings, options_.bins, options_.harmonics, radius_, phase_.data()});
 }
 
 void AtomIndex::distances(const SectorSignature& t, std::vector<double>& dh,

@@ -20,6 +20,7 @@
 
 #include <Eigen/Core>
 
+#include <complex>
 #include <cstddef>
 #include <memory>
 #include <vector>
@@ -118,6 +119,7 @@ class AtomIndex {
   std::vector<std::size_t> hits_, free_;  ///< sample counts per atom
   std::vector<float> hit_features_, free_features_;  ///< atoms x features_
   std::vector<float> hit_polar_, free_polar_;        ///< atoms x rings x bins
+  std::vector<std::complex<double>> phase_;          ///< harmonics x bins phase factors
   std::vector<Eigen::MatrixXd> coarse_hits_, coarse_free_;
   std::shared_ptr<AtomTransportCache> transport_;
 };
