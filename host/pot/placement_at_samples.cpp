@@ -12,7 +12,6 @@
 
 #include "point_proximity.hpp"
 #include "potmap/error.hpp"
-#include "runtime/host_team.hpp"
 #include "spatial/point_grid.hpp"
 #include "thinning.hpp"
 
@@ -145,7 +144,7 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
   return dropped;
 }
 
-void anchors_to_map(Context* ctx, const std::vector<Anchor>& anchors, int dim, KernelMap& map) {
+void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map) {
   const std::size_t n = anchors.size();
   if (n == 0) return;
   double gmin = HUGE_VAL;
@@ -155,12 +154,12 @@ void anchors_to_map(Context* ctx, const std::vector<Anchor>& anchors, int dim, K
   std::vector<double> sum(n, 1.0), sum2(n, 1.0);  // each anchor's own phi = 1
   // Each pair once: phi is symmetric where the two share a width (every pair of a class within
   // a sector), which halves the exps. Each class on a grid of its own, in cells of the reach:
-  // pairs across classes are not summed, and are not looked at, so the two classes, which touch
-  // disjoint sums, run on the host team side by side.
-  for_each_item(ctx, 2, [&](std::size_t cls) {
-    const bool hit = cls == 0;
-    std::vector<std::size_t> members;
-    std::vector<double> pts;
+  // pairs across classes are not summed, and are not looked at.
+  std::vector<std::size_t> members;
+  std::vector<double> pts;
+  for (const bool hit : {true, false}) {
+    members.clear();
+    pts.clear();
     for (std::size_t i = 0; i < n; ++i)
       if (anchors[i].hit == hit) {
         members.push_back(i);
@@ -177,7 +176,7 @@ void anchors_to_map(Context* ctx, const std::vector<Anchor>& anchors, int dim, K
       sum[j] += phi_i;
       sum2[j] += phi_i * phi_i;
     });
-  });
+  }
   for (std::size_t i = 0; i < n; ++i)
     map.push_back(anchors[i].position.data(), anchors[i].gamma, anchors[i].value / sum[i],
                   anchors[i].variance / sum2[i]);

@@ -53,8 +53,7 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
 
 /// The instantaneous map of a scan's anchors: each class's kernels weighted so that, alone,
 /// they reproduce the anchors' values at the anchors (a Nadaraya-Watson partition, as atoms'
-/// kernels at samples are built), appended to `map`. The two classes on ctx's host team (every
-/// item on this thread when ctx is null), the same map either way.
-void anchors_to_map(Context* ctx, const std::vector<Anchor>& anchors, int dim, KernelMap& map);
+/// kernels at samples are built), appended to `map`.
+void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map);
 
 }  // namespace potmap::detail

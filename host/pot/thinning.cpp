@@ -7,6 +7,7 @@
 
 #include "cell_key.hpp"
 #include "data/sim_rng.hpp"
+#include "runtime/wider_vectors.hpp"
 
 namespace potmap::detail {
 
@@ -42,6 +43,20 @@ class CellSet {
   int bits_ = 4;
   std::vector<std::uint64_t> table_;
 };
+
+// Cell keys of m points (1 above the axes' 21-bit cell indices, so never 0) from their offsets
+// from the low corner, an axis at a time (`stride` apart): the divisions vectorise. The offsets
+// are >= 0 and at most 2^20 cells (the bisection's smallest cell), so the index through a 32-bit
+// integer is the one a direct conversion to 64 bits gives.
+POTMAP_WIDER_VECTORS void cell_keys(const double* rel, std::size_t stride, int dim, std::size_t m,
+                                    double cell, std::uint64_t* keys) {
+  for (std::size_t i = 0; i < m; ++i) keys[i] = 1;
+  for (int d = 0; d < dim; ++d) {
+    const double* r = rel + std::size_t(d) * stride;
+    for (std::size_t i = 0; i < m; ++i)
+      keys[i] = (keys[i] << 21) | std::uint64_t(std::uint32_t(std::int32_t(r[i] / cell)));
+  }
+}
 
 }  // namespace
 
@@ -91,22 +106,27 @@ std::vector<std::size_t> even_indices(const std::vector<double>& pts, int dim, s
       }
     double extent = 0;
     for (int d = 0; d < dim; ++d) extent = std::max(extent, hi[d] - lo[d]);
+    std::vector<double> rel(n * std::size_t(dim));
+    for (std::size_t i = 0; i < n; ++i)
+      for (int d = 0; d < dim; ++d) rel[std::size_t(d) * n + i] = pts[i * dim + d] - lo[d];
     // Occupied cells (and the first point of each, in input order) for a cell size: this runs
     // a dozen times per call, twice per sector and scan.
     CellSet table(n);
+    constexpr std::size_t kBlock = 128;
+    std::uint64_t keys[kBlock];
     // Stops counting past `stop` cells: the bisection only asks whether a size leaves more
-    // than the cap.
+    // than the cap. Keys are made a block at a time, so a stop wastes at most one block.
     auto cells = [&](double cell, std::vector<std::size_t>* firsts, std::size_t stop) {
       table.clear();
       std::size_t count = 0;
-      for (std::size_t i = 0; i < n && count <= stop; ++i) {
-        std::uint64_t key = 1;  // never 0
-        for (int d = 0; d < dim; ++d)
-          key = (key << 21) | static_cast<std::uint64_t>((pts[i * dim + d] - lo[d]) / cell);
-        if (table.insert(key)) {
-          ++count;
-          if (firsts) firsts->push_back(i);
-        }
+      for (std::size_t i0 = 0; i0 < n && count <= stop; i0 += kBlock) {
+        const std::size_t m = std::min(kBlock, n - i0);
+        cell_keys(rel.data() + i0, n, dim, m, cell, keys);
+        for (std::size_t k = 0; k < m && count <= stop; ++k)
+          if (table.insert(keys[k])) {
+            ++count;
+            if (firsts) firsts->push_back(i0 + k);
+          }
       }
       return count;
     };

@@ -360,7 +360,7 @@ ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer
     });
     std::vector<detail::Anchor> all;
     for (const auto& a : anchors) all.insert(all.end(), a.begin(), a.end());
-    detail::anchors_to_map(ctx, all, dict.dim, out.map);
+    detail::anchors_to_map(all, dict.dim, out.map);
   }
   out.timing.placement_ms = ms_since(t0);
 
