@@ -165,6 +165,7 @@ Run run_method(Context& ctx, const std::shared_ptr<const Dictionary>& dict,
   setup.pot.coarse_free = g_indexed.coarse_free;
   setup.pot.coarse_tolerance = g_indexed.coarse_tolerance;
   setup.pot.transport_free_tolerance = g_indexed.transport_free_tolerance;
+  setup.pot.transport_free_points = g_indexed.transport_free_points;
   setup.pot.transport_max_iterations = g_indexed.transport_max_iterations;
   setup.pot.fine_candidates = g_indexed.fine_candidates;
   setup.pot.warm_candidates = g_indexed.warm_candidates;
@@ -237,7 +238,8 @@ const char* const kUsage =
     "                 [--repot 1] [--cache pot_scale_cache] [--out pot_scale.json]\n"
     "                 [--pool N (atoms in the cached pool; default: the largest of --atoms)]\n"
     "                 [--neighbours N] [--rotations-per-atom N] [--coarse HITS,FREE]\n"
-    "                 [--coarse-tolerance 1e-5] [--free-tolerance 1e-2] [--fine N]\n"
+    "                 [--coarse-tolerance 1e-5] [--free-tolerance 1e-2] [--free-points 200] "
+    "[--fine N]\n"
     "                 [--transport-max-iterations 2000]\n"
     "                 [--warm 0|1] [--snap 0|1] [--anchors 0|1] [--pipeline 0|1]\n"
     "                 [--host-helper 0|1]\n"
@@ -299,6 +301,8 @@ bool parse_args(int argc, char** argv, ScaleArgs& a) {
         g_indexed.coarse_tolerance = std::stod(v);
       else if (k == "--free-tolerance")
         g_indexed.transport_free_tolerance = std::stod(v);
+      else if (k == "--free-points")
+        g_indexed.transport_free_points = std::stoul(v);
       else if (k == "--fine")
         g_indexed.fine_candidates = std::stoul(v);
       else if (k == "--transport-max-iterations")
@@ -432,6 +436,7 @@ int run(int argc, char** argv) {
               {"coarse_free", g_indexed.coarse_free},
               {"coarse_tolerance", g_indexed.coarse_tolerance},
               {"free_tolerance", g_indexed.transport_free_tolerance},
+              {"free_points", g_indexed.transport_free_points},
               {"fine_candidates", g_indexed.fine_candidates},
               {"warm_candidates", g_indexed.warm_candidates},
               {"snap_rotations", g_indexed.snap_rotations},

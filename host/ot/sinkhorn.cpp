@@ -371,18 +371,27 @@ std::unique_ptr<ChunkRun> start_chunk(Context& ctx, const std::vector<SinkhornPr
   c->toff.resize(np);
   c->tcnt.resize(np);
   std::vector<const SinkhornProblem*> par(np);
-  std::vector<float> src, tgt;
+  // Offsets first, then the points written in place (a ranking launch packs a few hundred
+  // problems: element-wise appends were a tenth of its host time).
+  std::size_t ns = 0, nt = 0;
   for (std::size_t p = 0; p < np; ++p) {
     const auto& pr = all[c->order[p]];
     par[p] = &pr;
-    c->soff[p] = static_cast<int>(src.size() / dim);
-    c->toff[p] = static_cast<int>(tgt.size() / dim);
+    c->soff[p] = static_cast<int>(ns);
+    c->toff[p] = static_cast<int>(nt);
     c->scnt[p] = static_cast<int>(pr.source.rows());
     c->tcnt[p] = static_cast<int>(pr.target.rows());
-    for (Eigen::Index i = 0; i < pr.source.rows(); ++i)
-      for (int d = 0; d < dim; ++d) src.push_back(static_cast<float>(pr.source(i, d)));
-    for (Eigen::Index j = 0; j < pr.target.rows(); ++j)
-      for (int d = 0; d < dim; ++d) tgt.push_back(static_cast<float>(pr.target(j, d)));
+    ns += static_cast<std::size_t>(pr.source.rows());
+    nt += static_cast<std::size_t>(pr.target.rows());
+  }
+  std::vector<float> src(ns * dim), tgt(nt * dim);
+  auto pack = [dim](const Eigen::MatrixXd& pts, float* out) {
+    for (Eigen::Index i = 0; i < pts.rows(); ++i)
+      for (int d = 0; d < dim; ++d) out[i * dim + d] = static_cast<float>(pts(i, d));
+  };
+  for (std::size_t p = 0; p < np; ++p) {
+    pack(par[p]->source, src.data() + std::size_t(c->soff[p]) * dim);
+    pack(par[p]->target, tgt.data() + std::size_t(c->toff[p]) * dim);
   }
   c->source_points = src.size() / dim;
   c->source = detail::to_device(ctx, src, "Sinkhorn: source points");
