@@ -18,6 +18,9 @@
 //   within the solver's tolerance: the scale against which to judge a build's differences);
 //   --dump: the final maps' means and variances (binary doubles, BHM then RePOT);
 //   --compare: the largest differences from a dump of another build.
+//   --team: both (default): every repetition runs the update on this thread alone, then with
+//   a Context's host team (JointBhm::update's ctx), and both are printed (the maps are the same
+//   bit for bit; the dump holds the team's); on or off: one of them.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -55,7 +58,7 @@ struct Replay {
 };
 
 Replay replay(const ex::MapTask& task, const JointBhmOptions& o,
-              const std::vector<KernelMap>* seeds, double seed_min_var) {
+              const std::vector<KernelMap>* seeds, double seed_min_var, Context* team) {
   JointBhm learner(task.dim, task.lo, task.hi, o);
   Replay r;
   const std::size_t n = task.train_scans.size();
@@ -68,7 +71,7 @@ Replay replay(const ex::MapTask& task, const JointBhmOptions& o,
       r.seed_ms += ms_since(t0);
     }
     const auto t1 = Clock::now();
-    learner.update(samples[i]);
+    learner.update(samples[i], team);
     r.update_ms += ms_since(t1);
     r.cg_its += double(learner.last_stats().cg_iterations);
     r.active += double(learner.last_stats().active);
@@ -94,7 +97,7 @@ std::vector<double> flatten(const KernelMap& m) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data = "../shared/data/radish", target = "intel", dump, compare;
+  std::string data = "../shared/data/radish", target = "intel", dump, compare, team = "both";
   std::size_t first = 10, scans = 100, reps = 5;
   double cg_tol = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -115,6 +118,8 @@ int main(int argc, char** argv) {
       dump = v;
     else if (k == "--compare")
       compare = v;
+    else if (k == "--team" && (v == "both" || v == "on" || v == "off"))
+      team = v;
     else {
       std::fprintf(stderr, "joint_update: unknown option %s\n", k.c_str());
       return 2;
@@ -149,32 +154,47 @@ int main(int argc, char** argv) {
   repot.seeds_yield = setup.seeds_yield;
   if (cg_tol > 0) bhm.cg_tolerance = repot.cg_tolerance = cg_tol;
 
-  std::vector<double> bu, bm, rs, ru, rf, rm;
+  // Per mode (0: this thread alone, 1: the host team), alternated within each repetition.
+  struct Times {
+    std::vector<double> bu, bm, rs, ru, rf, rm;
+  } times[2];
+  const bool modes[2] = {team != "on", team != "off"};
   Replay lb, lr;
-  for (std::size_t k = 0; k < reps; ++k) {
-    lb = replay(task, bhm, nullptr, 0);
-    lr = replay(task, repot, &seeds, setup.seed_min_variance);
-    bu.push_back(lb.update_ms);
-    bm.push_back(lb.map_ms);
-    rs.push_back(lr.seed_ms);
-    ru.push_back(lr.update_ms);
-    rf.push_back(lr.seed_ms + lr.update_ms);
-    rm.push_back(lr.map_ms);
-  }
+  for (std::size_t k = 0; k < reps; ++k)
+    for (int mode = 0; mode < 2; ++mode) {
+      if (!modes[mode]) continue;
+      Context* t = mode == 1 ? &ctx : nullptr;
+      lb = replay(task, bhm, nullptr, 0, t);
+      lr = replay(task, repot, &seeds, setup.seed_min_variance, t);
+      Times& m = times[mode];
+      m.bu.push_back(lb.update_ms);
+      m.bm.push_back(lb.map_ms);
+      m.rs.push_back(lr.seed_ms);
+      m.ru.push_back(lr.update_ms);
+      m.rf.push_back(lr.seed_ms + lr.update_ms);
+      m.rm.push_back(lr.map_ms);
+    }
   auto score = [&](const KernelMap& m) {
     return ex::score_map(ex::kernel_fitted_map(&ctx, std::make_shared<KernelMap>(m)), test);
   };
   const Scores sb = score(lb.map), sr = score(lr.map);
   std::printf("%s, %zu scans, %zu reps (median ms per scan)\n", target.c_str(),
               task.train_scans.size(), reps);
-  std::printf(
-      "BHM   update %.3f  map %.3f  (per scan: %.0f samples, %.0f active, %.1f CG its)"
-      "  AUC %.5f NLL %.5f ACC %.5f\n",
-      median(bu), median(bm), lb.samples, lb.active, lb.cg_its, sb.auc, sb.nll, sb.acc);
-  std::printf(
-      "RePOT seed %.3f  update %.3f  refine %.3f  map %.3f  (per scan: %.0f active, "
-      "%.1f CG its)  AUC %.5f NLL %.5f ACC %.5f\n",
-      median(rs), median(ru), median(rf), median(rm), lr.active, lr.cg_its, sr.auc, sr.nll, sr.acc);
+  for (int mode = 0; mode < 2; ++mode) {
+    if (!modes[mode]) continue;
+    const Times& m = times[mode];
+    std::printf("%s\n",
+                mode == 0 ? "one thread:" : "host team (two parts on this thread and the helper):");
+    std::printf(
+        "BHM   update %.3f  map %.3f  (per scan: %.0f samples, %.0f active, %.1f CG its)"
+        "  AUC %.5f NLL %.5f ACC %.5f\n",
+        median(m.bu), median(m.bm), lb.samples, lb.active, lb.cg_its, sb.auc, sb.nll, sb.acc);
+    std::printf(
+        "RePOT seed %.3f  update %.3f  refine %.3f  map %.3f  (per scan: %.0f active, "
+        "%.1f CG its)  AUC %.5f NLL %.5f ACC %.5f\n",
+        median(m.rs), median(m.ru), median(m.rf), median(m.rm), lr.active, lr.cg_its, sr.auc,
+        sr.nll, sr.acc);
+  }
 
   std::vector<double> v = flatten(lb.map), w = flatten(lr.map);
   v.insert(v.end(), w.begin(), w.end());

@@ -15,6 +15,7 @@
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
+#include "potmap/runtime/context.hpp"
 #include "test_support.hpp"
 
 namespace potmap {
@@ -334,6 +335,48 @@ TEST(JointBhm, GrowableEqualsBoundedAcrossTileBorders) {
   EXPECT_NEAR(a.bias_var, b.bias_var, 1e-7 * a.bias_var);
   std::printf("growable vs bounded: max mean difference %.3g (scale %.3g), variance %.3g\n",
               mean_err, scale, var_err);
+}
+
+// The update split in two parts on a context's host team gives the map of the update on this
+// thread alone, bit for bit (the parts are the same either way), on the Intel log's scans and
+// across the growable map's tile borders, bounded and growable.
+TEST(JointBhm, UpdateOnTheHostTeamIsTheSameBitForBit) {
+  Context& ctx = test::context();
+  Dataset ds = read_dataset(test::shared_data("radish/intel-corrected.log.gz"));
+  ASSERT_GE(ds.scans.size(), 16u);
+  std::vector<Scan> scans;
+  for (std::size_t i = 10; i < 16; ++i) scans.push_back(experiment::limit_range(ds.scans[i], 20));
+  LabelOptions lo;
+  LabelledPoints held_out;
+  const experiment::MapTask task = experiment::make_task(scans, lo, held_out, 5.0, 10);
+  auto expect_same = [](const KernelMap& a, const KernelMap& b, const char* what) {
+    ASSERT_EQ(a.size(), b.size()) << what;
+    ASSERT_GT(a.size(), 0u) << what;
+    EXPECT_TRUE(a.w_mean == b.w_mean) << what << ": means differ";
+    EXPECT_TRUE(a.w_var == b.w_var) << what << ": variances differ";
+    EXPECT_EQ(a.bias_mean, b.bias_mean) << what;
+    EXPECT_EQ(a.bias_var, b.bias_var) << what;
+  };
+  JointBhm alone(2), team(2);
+  for (std::size_t i = 0; i < task.train_scans.size(); ++i) {
+    const LabelledPoints s = experiment::scan_training_samples(task, i, 0);
+    alone.update(s);
+    team.update(s, &ctx);
+    EXPECT_EQ(team.last_stats().cg_iterations, alone.last_stats().cg_iterations) << "scan " << i;
+  }
+  expect_same(alone.map(), team.map(), "Intel, growable");
+
+  const double lo3[3] = {-9, -27, 0}, hi3[3] = {9, 27, 0};
+  JointBhm bounded_alone(2, lo3, hi3), bounded_team(2, lo3, hi3), grow_alone(2), grow_team(2);
+  for (int t = 0; t < 4; ++t) {
+    const LabelledPoints s = long_wall_scan(20 + t, t, -20 + 2 * t, 14 + 2 * t);
+    bounded_alone.update(s);
+    bounded_team.update(s, &ctx);
+    grow_alone.update(s);
+    grow_team.update(s, &ctx);
+  }
+  expect_same(bounded_alone.map(), bounded_team.map(), "wall, bounded");
+  expect_same(grow_alone.map(), grow_team.map(), "wall, growable");
 }
 
 // The growable map's means and variances against the exact posterior of its own precision

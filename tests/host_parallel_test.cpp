@@ -52,6 +52,72 @@ TEST(HostParallel, EveryItemOnceAndTheHelperTakesPart) {
   ctx.host_parallel_for(0, [](std::size_t) { FAIL() << "no item to run"; });
 }
 
+// The caller takes items from the front and the helper from the back, so each keeps its end
+// of the range from one run to the next (the joint BHM's two parts stay on their cores): the
+// caller's items are a prefix (empty when the helper took them all), the helper's the rest.
+TEST(HostParallel, TheCallerTakesTheFrontAndTheHelperTheBack) {
+  Context& ctx = test::context();
+  const auto caller = std::this_thread::get_id();
+  bool helper_seen = false;
+  for (int run = 0; run < 30; ++run) {
+    std::vector<std::thread::id> by(12);
+    ctx.host_parallel_for(by.size(), [&](std::size_t i) {
+      busy_for(100);
+      by[i] = std::this_thread::get_id();
+    });
+    // (On a loaded machine the helper may take every item before the caller takes one.)
+    std::size_t k = 0;
+    while (k < by.size() && by[k] == caller) ++k;
+    for (std::size_t i = k; i < by.size(); ++i) {
+      EXPECT_NE(by[i], caller) << "run " << run << ": item " << i << " after the helper's " << k;
+      helper_seen = true;
+    }
+  }
+  if (std::thread::hardware_concurrency() > 1) EXPECT_TRUE(helper_seen);
+}
+
+// A held helper keeps looking for runs (the joint BHM's update holds it through its fifty short
+// runs): runs go on as before, with and without the hold, nested holds included, and a context
+// without a helper ignores the hold.
+TEST(HostParallel, AHeldHelperStillRunsEveryItemOnce) {
+  Context& ctx = test::context();
+  const auto caller = std::this_thread::get_id();
+  bool helper_seen = false;
+  ctx.hold_host_helper(true);
+  ctx.hold_host_helper(true);
+  for (int run = 0; run < 200; ++run) {
+    std::vector<std::thread::id> by(2);
+    std::vector<std::atomic<int>> count(2);
+    ctx.host_parallel_for(2, [&](std::size_t i) {
+      busy_for(20);
+      count[i].fetch_add(1);
+      by[i] = std::this_thread::get_id();
+    });
+    ASSERT_EQ(count[0].load(), 1);
+    ASSERT_EQ(count[1].load(), 1);
+    helper_seen = helper_seen || by[1] != caller;
+    busy_for(100);  // host work between runs, longer than the helper's unheld look
+  }
+  ctx.hold_host_helper(false);
+  ctx.hold_host_helper(false);
+  if (std::thread::hardware_concurrency() > 1) EXPECT_TRUE(helper_seen);
+  std::atomic<int> after{0};
+  ctx.host_parallel_for(3, [&](std::size_t) { after.fetch_add(1); });
+  EXPECT_EQ(after.load(), 3);
+
+  ContextOptions o;
+  o.host_helper = false;
+  Context alone(o);
+  alone.hold_host_helper(true);
+  std::vector<std::size_t> order;
+  alone.host_parallel_for(3, [&](std::size_t i) {
+    EXPECT_EQ(std::this_thread::get_id(), caller);
+    order.push_back(i);
+  });
+  alone.hold_host_helper(false);
+  EXPECT_EQ(order, (std::vector<std::size_t>{0, 1, 2}));
+}
+
 TEST(HostParallel, HelperOffRunsEveryItemOnTheCaller) {
   ContextOptions o;
   o.host_helper = false;

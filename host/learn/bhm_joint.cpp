@@ -12,6 +12,7 @@
 #include "bhm_detail.hpp"
 #include "map/kernel_index.hpp"
 #include "potmap/error.hpp"
+#include "runtime/host_team.hpp"
 
 namespace potmap {
 
@@ -153,11 +154,18 @@ std::size_t JointBhm::memory_bytes() const {
   return b;
 }
 
+std::size_t JointBhm::FeatureList::bytes() const {
+  auto b = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return b(kernel) + b(start) + b(runs) + b(run_start) + b(phi) + b(yc) + b(lin);
+}
+
 std::size_t JointBhm::Scratch::bytes() const {
   auto b = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return b(r) + b(z) + b(p) + b(q) + b(kernel) + b(start) + b(runs) + b(run_start) + b(reached) +
-         b(rows) + b(phi) + b(yc) + b(lambda) + b(next) + b(lin) + b(feature) + b(bits) +
-         b(bits_tmp) + b(pbox) + b(qbox) + b(box_at) + b(box_off) + b(around_at) + b(around);
+  return FeatureList::bytes() + second.bytes() + b(sample_tiles) + b(r) + b(z) + b(p) + b(q) +
+         b(reached) + b(rows) + b(lambda) + b(next) + b(bits) + b(bits_tmp) + b(pbox) + b(box_off) +
+         b(box_len) + b(sample_parts) + b(ybox[0]) + b(ybox[1]) + b(part_rows[0]) +
+         b(part_rows[1]) + b(part_around[0]) + b(part_around[1]) + b(part_at[0]) + b(part_at[1]) +
+         b(part_around_at[0]) + b(part_around_at[1]);
 }
 
 std::uint64_t JointBhm::tile_key(const std::int64_t t[3]) {
@@ -302,20 +310,65 @@ void JointBhm::for_each_tile_part(const std::int64_t a[3], const std::int64_t b[
       }
 }
 
-void JointBhm::features(const double* x, std::vector<Feature>& out, bool create) {
-  out.clear();
-  std::int64_t a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
+bool JointBhm::feature_span(const double* x, std::int64_t a[3], std::int64_t b[3]) const {
+  for (int d = 0; d < 3; ++d) a[d] = b[d] = 0;
   for (int d = 0; d < dim_; ++d) {
     const double u = (x[d] - lo_[d]) / o_.spacing;
     const double r = rcut_ / o_.spacing;
     const double ua = std::ceil(u - r), ub = std::floor(u + r);
     const double lim_lo = bounded_ ? 0.0 : double(1 - kCellLimit);
     const double lim_hi = bounded_ ? double(n_[d] - 1) : double(kCellLimit - 1);
-    if (!(ua <= lim_hi && ub >= lim_lo)) return;  // also NaN
+    if (!(ua <= lim_hi && ub >= lim_lo)) return false;  // also NaN
     a[d] = static_cast<std::int64_t>(std::max(ua, lim_lo));
     b[d] = static_cast<std::int64_t>(std::min(ub, lim_hi));
-    if (a[d] > b[d]) return;
+    if (a[d] > b[d]) return false;
   }
+  return true;
+}
+
+void JointBhm::span_tiles(const double* x, const std::int64_t a[3], const std::int64_t b[3],
+                          bool create, std::int32_t tile_id[8]) {
+  // The tiles the span reaches (at most two an axis: a span is at most pad + 1 cells, a tile at
+  // least pad), each found, or made, only when the cut-off reaches a kernel position of it.
+  std::int64_t ta[3] = {0, 0, 0};
+  for (int d = 0; d < dim_; ++d) ta[d] = floor_div(a[d], tile_);
+  std::fill(tile_id, tile_id + 8, -1);
+  for_each_tile_part(
+      a, b, [&](const std::int64_t t[3], const std::int64_t ca[3], const std::int64_t cb[3]) {
+        double d2min = 0;  // from x to the nearest kernel of the tile within [a, b]
+        for (int d = 0; d < dim_; ++d) {
+          const double pa = lo_[d] + double(ca[d]) * o_.spacing;
+          const double pb = lo_[d] + double(cb[d]) * o_.spacing;
+          const double e = x[d] < pa ? pa - x[d] : (x[d] > pb ? x[d] - pb : 0.0);
+          d2min += e * e;
+        }
+        if (gamma_ * d2min > o_.tau) return;  // no kernel of it within the cut-off
+        // Consecutive samples mostly reach the tiles the last ones reached: those are
+        // remembered, and only a new one is hashed.
+        const std::uint64_t key = tile_key(t);
+        std::int64_t id = -1;
+        int hit = -1;
+        for (int c = 0; c < 4; ++c)
+          if (recent_key_[c] == key) hit = c;
+        if (hit >= 0) {
+          id = recent_id_[hit];
+        } else {
+          id = find_tile(t);
+          if (id < 0 && create) id = make_tile(t);
+          if (id >= 0) {
+            recent_key_[recent_next_] = key;
+            recent_id_[recent_next_] = id;
+            recent_next_ = (recent_next_ + 1) & 3;
+          }
+        }
+        tile_id[((t[2] - ta[2]) * 2 + (t[1] - ta[1])) * 2 + (t[0] - ta[0])] =
+            static_cast<std::int32_t>(id);
+      });
+}
+
+template <class Emit>
+void JointBhm::span_features(const double* x, const std::int64_t a[3], const std::int64_t b[3],
+                             const std::int32_t tile_id[8], Emit emit) const {
   // phi is separable, exp(-gamma d^2) = prod_d exp(-gamma s_d^2): one exp per cell and axis
   // instead of one per kernel (the cut-off test below stays on d^2).
   constexpr std::int64_t kSpan = 72;  // > 2 rcut / spacing + 1, as pad < 64
@@ -325,29 +378,8 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
       const double sd = d < dim_ ? x[d] - (lo_[d] + double(a[d] + c) * o_.spacing) : 0.0;
       ex[d][c] = std::exp(-gamma_ * (sd * sd));
     }
-  // The tiles the span reaches (at most two an axis: a span is at most pad + 1 cells, a tile at
-  // least pad), each found, or made, only when the cut-off reaches a kernel position of it.
   std::int64_t ta[3] = {0, 0, 0};
   for (int d = 0; d < dim_; ++d) ta[d] = floor_div(a[d], tile_);
-  std::int64_t tile_id[27];
-  auto at_tile = [&ta](std::int64_t tx, std::int64_t ty, std::int64_t tz) {
-    return std::size_t(((tz - ta[2]) * 3 + (ty - ta[1])) * 3 + (tx - ta[0]));
-  };
-  for_each_tile_part(
-      a, b, [&](const std::int64_t t[3], const std::int64_t ca[3], const std::int64_t cb[3]) {
-        std::int64_t& id = tile_id[at_tile(t[0], t[1], t[2])];
-        id = -1;
-        double d2min = 0;  // from x to the nearest kernel of the tile within [a, b]
-        for (int d = 0; d < dim_; ++d) {
-          const double pa = lo_[d] + double(ca[d]) * o_.spacing;
-          const double pb = lo_[d] + double(cb[d]) * o_.spacing;
-          const double e = x[d] < pa ? pa - x[d] : (x[d] > pb ? x[d] - pb : 0.0);
-          d2min += e * e;
-        }
-        if (gamma_ * d2min > o_.tau) return;  // no kernel of it within the cut-off
-        id = find_tile(t);
-        if (id < 0 && create) id = make_tile(t);
-      });
   // The kernels within the cut-off in raster order (z, y, x): add_outer() adds each pair of a
   // sample's features once, to the first of the two.
   for (std::int64_t k = a[2]; k <= b[2]; ++k) {
@@ -355,7 +387,7 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
     for (std::int64_t j = a[1]; j <= b[1]; ++j) {
       const std::int64_t ty = floor_div(j, tile_);
       for (std::int64_t tx = ta[0]; tx * tile_ <= b[0]; ++tx) {
-        const std::int64_t id = tile_id[at_tile(tx, ty, tz)];
+        const std::int64_t id = tile_id[((tz - ta[2]) * 2 + (ty - ta[1])) * 2 + (tx - ta[0])];
         const std::int64_t row = ((k - tz * tile_) * tile_ + (j - ty * tile_)) * tile_ - tx * tile_;
         for (std::int64_t i = std::max(a[0], tx * tile_);
              i <= std::min(b[0], tx * tile_ + tile_ - 1); ++i) {
@@ -366,22 +398,35 @@ void JointBhm::features(const double* x, std::vector<Feature>& out, bool create)
             d2 += sd * sd;
           }
           if (gamma_ * d2 > o_.tau) continue;
-          Feature f;
-          for (int d = 0; d < 3; ++d) f.cell[d] = static_cast<std::int32_t>(g[d]);
-          f.kernel = id < 0 ? kNone : static_cast<std::uint32_t>(id * tile_cells_ + row + i);
-          f.phi = ex[0][i - a[0]] * ex[1][j - a[1]] * ex[2][k - a[2]];
-          out.push_back(f);
+          emit(id < 0 ? kNone : static_cast<std::uint32_t>(id * tile_cells_ + row + i), g,
+               ex[0][i - a[0]] * ex[1][j - a[1]] * ex[2][k - a[2]]);
         }
       }
     }
   }
 }
 
+void JointBhm::features(const double* x, std::vector<Feature>& out, bool create) {
+  out.clear();
+  std::int64_t a[3], b[3];
+  if (!feature_span(x, a, b)) return;
+  std::int32_t tile_id[8];
+  span_tiles(x, a, b, create, tile_id);
+  span_features(x, a, b, tile_id,
+                [&out](std::uint32_t kernel, const std::int64_t g[3], double phi) {
+                  Feature f;
+                  for (int d = 0; d < 3; ++d) f.cell[d] = static_cast<std::int32_t>(g[d]);
+                  f.kernel = kernel;
+                  f.phi = phi;
+                  out.push_back(f);
+                });
+}
+
 void JointBhm::features(const double* x, std::vector<Feature>& out) const {
   const_cast<JointBhm*>(this)->features(x, out, false);  // creates nothing
 }
 
-void JointBhm::add_outer(const Scratch& f, std::size_t i, double c) {
+void JointBhm::add_outer(const Scratch& f, std::size_t i, double c, int part) {
   // The sample's features are in raster order, in runs of consecutive cells along x. Each
   // feature u adds its products with itself and the features after it to its own half stencil:
   // slot(v - u) = lin(v) - lin(u) + lin(pad, pad, pad), and a run of features with
@@ -397,6 +442,7 @@ void JointBhm::add_outer(const Scratch& f, std::size_t i, double c) {
   for (std::uint32_t u = f0; u < f1; ++u) {
     if (u >= run[2 * ru] + run[2 * ru + 1]) ++ru;
     const std::uint32_t ku = f.kernel[u];
+    if (part >= 0 && mark_[ku] != part) continue;
     double* row = &prec_[std::size_t(ku) * hs];
     const double ca = c * phi[u];
     row[0] += ca * phi[u];
@@ -418,7 +464,6 @@ void JointBhm::add_outer(const Scratch& f, std::size_t i, double c) {
     }
     bcoup_[ku] += ca;
   }
-  pbb_ += c;
 }
 
 void JointBhm::yield_seed(std::uint32_t k, bool with_mean) {
@@ -570,6 +615,7 @@ bool JointBhm::box_rows(const std::vector<std::uint32_t>& rows, Scratch& sc) con
   // so that every kernel whose stencil reaches a row (within pad) has its own stencil inside.
   // The products then stream each kernel's half stencil against x and y in the box (the solve
   // is bound by those reads). False when the box would be much larger than the rows.
+  sc.boxed = false;
   if (rows.empty()) return false;
   std::int64_t lo[3], hi[3];
   cell_bounds(rows, lo, hi);
@@ -582,21 +628,39 @@ bool JointBhm::box_rows(const std::vector<std::uint32_t>& rows, Scratch& sc) con
   }
   if (volume > 64 * std::int64_t(rows.size()) + 65536) return false;
   const std::int64_t* n = sc.box_n;
-  sc.box_at.resize(rows.size());
+  std::vector<std::int64_t>& at = sc.part_around_at[0];  // scratch here
+  at.resize(rows.size());
   for (std::size_t u = 0; u < rows.size(); ++u) {
     std::int64_t c[3];
     cell_of(rows[u], c);
-    sc.box_at[u] =
-        ((c[2] - sc.box_lo[2]) * n[1] + (c[1] - sc.box_lo[1])) * n[0] + (c[0] - sc.box_lo[0]);
+    at[u] = ((c[2] - sc.box_lo[2]) * n[1] + (c[1] - sc.box_lo[1])) * n[0] + (c[0] - sc.box_lo[0]);
   }
   sc.box_off.resize(half_.size());
   sc.box_len.resize(half_.size());
+  sc.box_reach = 1;
   for (std::size_t h = 0; h < half_.size(); ++h) {
     sc.box_off[h] = (std::int64_t(half_[h].d[2]) * n[1] + half_[h].d[1]) * n[0] + half_[h].d[0];
     sc.box_len[h] = half_[h].len;
+    sc.box_reach = std::max(sc.box_reach, sc.box_off[h] + half_[h].len);
+  }
+  // The parts: the rows before and after the median row's cell, each in storage order.
+  std::vector<std::int64_t>& sorted = sc.part_around_at[1];
+  sorted = at;
+  std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2),
+                   sorted.end());
+  sc.box_split = sorted[sorted.size() / 2];
+  for (int p = 0; p < 2; ++p) {
+    sc.part_rows[p].clear();
+    sc.part_at[p].clear();
+  }
+  for (std::size_t u = 0; u < rows.size(); ++u) {
+    const int p = at[u] < sc.box_split ? 0 : 1;
+    sc.part_rows[p].push_back(rows[u]);
+    sc.part_at[p].push_back(at[u]);
   }
   sc.pbox.assign(std::size_t(volume), 0.0);
-  sc.qbox.assign(std::size_t(volume), 0.0);
+  for (int p = 0; p < 2; ++p) sc.ybox[p].assign(std::size_t(volume), 0.0);
+  sc.boxed = true;
   return true;
 }
 
@@ -631,12 +695,14 @@ void half_products(const double* prec, std::size_t hs, const std::int32_t* len,
 
 void JointBhm::multiply_box(const std::vector<double>& x, double xb, bool x_outside,
                             const std::vector<std::uint32_t>& rows, std::vector<double>& y,
-                            double& yb, Scratch& sc) const {
+                            double& yb, Scratch& sc, Context* ctx) const {
+  (void)rows;  // the parts hold them
   double* xbx = sc.pbox.data();
-  double* ybx = sc.qbox.data();
-  const std::size_t m = rows.size();
   const std::int64_t* n = sc.box_n;
   const std::int64_t* lo = sc.box_lo;
+  const std::int64_t volume = n[0] * n[1] * n[2];
+  const std::int64_t split = sc.box_split;
+  const std::int64_t spill = std::min(volume, split + sc.box_reach);  // part 0's y ends here
   const auto hs = static_cast<std::size_t>(half_slots_);
   if (x_outside) {
     // x over the whole box, and every stored kernel within pad of the rows' bounds: their
@@ -652,42 +718,66 @@ void JointBhm::multiply_box(const std::vector<double>& x, double xb, bool x_outs
       a[d] = lo[d] + r;
       b[d] = lo[d] + n[d] - 1 - r;
     }
-    sc.around.clear();
-    sc.around_at.clear();
+    for (int p = 0; p < 2; ++p) {
+      sc.part_around[p].clear();
+      sc.part_around_at[p].clear();
+    }
     for_each_stored_line(a, b, [&](std::int64_t s, const std::int64_t g[3], std::int64_t l) {
       const std::int64_t at = ((g[2] - lo[2]) * n[1] + (g[1] - lo[1])) * n[0] + (g[0] - lo[0]);
       for (std::int64_t i = 0; i < l; ++i) {
-        sc.around.push_back(static_cast<std::uint32_t>(s + i));
-        sc.around_at.push_back(at + i);
+        const int p = at + i < split ? 0 : 1;
+        sc.part_around[p].push_back(static_cast<std::uint32_t>(s + i));
+        sc.part_around_at[p].push_back(at + i);
       }
     });
-    half_products(prec_.data(), hs, sc.box_len.data(), sc.box_off.data(), half_.size(),
-                  sc.around.data(), sc.around_at.data(), sc.around.size(), xbx, ybx);
   } else {
-    for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = x[rows[u]];
-    half_products(prec_.data(), hs, sc.box_len.data(), sc.box_off.data(), half_.size(), rows.data(),
-                  sc.box_at.data(), m, xbx, ybx);
+    for (int p = 0; p < 2; ++p)
+      for (std::size_t u = 0; u < sc.part_rows[p].size(); ++u)
+        xbx[sc.part_at[p][u]] = x[sc.part_rows[p][u]];
   }
-  // The bias row summed in a local: through the reference, every term would be a store and a
-  // load in one dependent chain.
-  double sb = o_.bias ? pbb_ * xb : 0.0;
-  for (std::size_t u = 0; u < m; ++u) {
-    const std::uint32_t a = rows[u];
-    double v = ybx[sc.box_at[u]];
-    if (o_.bias) {
-      v += bcoup_[a] * xb;
-      sb += bcoup_[a] * x[a];
+  // The parts' products, each into its own box of y (cleared first: part 0 writes cells before
+  // `spill`, part 1 cells from `split` on), then each part's rows gathered, part 1's adding
+  // part 0's spill. The same two parts with or without a helper: the sums do not depend on
+  // the threads.
+  double bias_part[2] = {0, 0};
+  detail::for_each_item(ctx, 2, [&](std::size_t p) {
+    double* ybx = sc.ybox[p].data();
+    const std::int64_t first = p == 0 ? 0 : split, last = p == 0 ? spill : volume;
+    std::fill(ybx + first, ybx + last, 0.0);
+    const std::vector<std::uint32_t>& k = x_outside ? sc.part_around[p] : sc.part_rows[p];
+    const std::vector<std::int64_t>& at = x_outside ? sc.part_around_at[p] : sc.part_at[p];
+    half_products(prec_.data(), hs, sc.box_len.data(), sc.box_off.data(), half_.size(), k.data(),
+                  at.data(), k.size(), xbx, ybx);
+  });
+  detail::for_each_item(ctx, 2, [&](std::size_t p) {
+    const double* y0 = sc.ybox[0].data();
+    const double* y1 = sc.ybox[1].data();
+    const std::uint32_t* k = sc.part_rows[p].data();
+    const std::int64_t* at = sc.part_at[p].data();
+    const std::size_t m = sc.part_rows[p].size();
+    // The bias row summed in a local: through the reference, every term would be a store and
+    // a load in one dependent chain.
+    double sb = 0;
+    for (std::size_t u = 0; u < m; ++u) {
+      const std::uint32_t a = k[u];
+      const std::int64_t c = at[u];
+      double v = p == 0 ? y0[c] : (c < spill ? y0[c] + y1[c] : y1[c]);
+      if (o_.bias) {
+        v += bcoup_[a] * xb;
+        sb += bcoup_[a] * x[a];
+      }
+      y[a] = v;
     }
-    y[a] = v;
-  }
-  yb = sb;
-  // Leave both boxes zero for the next product (y's whole: cheaper than finding the cells the
-  // halves reached).
-  if (x_outside)
-    std::fill(sc.pbox.begin(), sc.pbox.end(), 0.0);
-  else
-    for (std::size_t u = 0; u < m; ++u) xbx[sc.box_at[u]] = 0;
-  std::fill(sc.qbox.begin(), sc.qbox.end(), 0.0);
+    bias_part[p] = sb;
+    // Leave x's box zero for the next product.
+    if (x_outside) {
+      const std::int64_t half = volume / 2;
+      std::fill(xbx + (p == 0 ? 0 : half), xbx + (p == 0 ? half : volume), 0.0);
+    } else {
+      for (std::size_t u = 0; u < m; ++u) xbx[at[u]] = 0;
+    }
+  });
+  yb = (o_.bias ? pbb_ * xb : 0.0) + bias_part[0] + bias_part[1];
 }
 
 void JointBhm::multiply_sparse(const std::vector<double>& x, double xb,
@@ -721,7 +811,8 @@ void JointBhm::multiply_sparse(const std::vector<double>& x, double xb,
 }
 
 double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
-                       double tol, int max_it, std::size_t* its, Scratch& sc) const {
+                       double tol, int max_it, std::size_t* its, Scratch& sc, bool rows_boxed,
+                       Context* ctx) const {
   // Conjugate gradients on the rows `rows` (and the bias), the other means held fixed, from
   // the current x. Jacobi preconditioner. sc.p is zero outside `rows` on entry and on exit.
   const std::size_t st = x.size();
@@ -731,9 +822,9 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   std::vector<double>&r = sc.r, &z = sc.z, &p = sc.p, &q = sc.q;
   double rb = 0, zb = 0, pb = 0, qb = 0;
   double yb = 0;
-  const bool boxed = box_rows(rows, sc);
+  const bool boxed = rows_boxed ? sc.boxed : box_rows(rows, sc);
   if (boxed)
-    multiply_box(x, xb, true, rows, q, yb, sc);
+    multiply_box(x, xb, true, rows, q, yb, sc, ctx);
   else
     multiply_sparse(x, xb, rows, q, yb);
   // The bias row reads every mean, not only those of `rows`.
@@ -767,7 +858,7 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   int it = 0;
   for (; it < max_it && rr > stop; ++it) {
     if (boxed)
-      multiply_box(p, pb, false, rows, q, qb, sc);
+      multiply_box(p, pb, false, rows, q, qb, sc, ctx);
     else
       multiply_sparse(p, pb, rows, q, qb);
     double pq = pb * qb;
@@ -796,7 +887,7 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   return std::sqrt(rr / std::max(ee, 1e-300));
 }
 
-void JointBhm::update(const LabelledPoints& samples) {
+void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   if (samples.dim != dim_)
     throw ArgumentError("joint BHM: samples are " + std::to_string(samples.dim) + "D, the map " +
                         std::to_string(dim_) + "D");
@@ -808,39 +899,76 @@ void JointBhm::update(const LabelledPoints& samples) {
   // The scan's features, flat: each sample's kernels, phi and stencil-linear cells, and its
   // runs of consecutive cells (add_outer()). Computed once for every EM iteration.
   Scratch& sc = scratch_;
-  sc.kernel.clear();
-  sc.phi.clear();
-  sc.lin.clear();
-  sc.runs.clear();
-  sc.start.assign(1, 0);
-  sc.run_start.assign(1, 0);
-  sc.yc.clear();
-  std::vector<Feature>& f = sc.feature;
-  // Tiles are allocated here, before any change to the posterior: a new tile holds the prior,
-  // so a throw (too many kernels) leaves the model as it was.
-  for (std::size_t i = 0; i < samples.size(); ++i) {
+  // The update runs some fifty short parts on the helper, with host work between them.
+  const detail::HelperHold hold(ctx);
+  // The tiles first, on this thread in the order of the samples (the order tiles are made is
+  // their storage order), before any change to the posterior: a new tile holds the prior, so
+  // a throw (too many kernels) leaves the model as it was.
+  const std::size_t ns = samples.size();
+  constexpr std::int32_t kNoSpan = -2;
+  sc.sample_tiles.resize(ns * 8);
+  for (std::size_t i = 0; i < ns; ++i) {
     const double* x = &samples.position[i * dim_];
+    std::int32_t* tiles = &sc.sample_tiles[i * 8];
     bool finite = true;
     for (int d = 0; d < dim_; ++d) finite = finite && std::isfinite(x[d]);
-    if (!finite) continue;
-    features(x, f, true);
-    if (f.empty()) continue;
-    for (std::size_t u = 0; u < f.size(); ++u) {
-      // features() lists them in raster order: a stencil-linear cell each.
-      std::int64_t l = 0;
-      for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + f[u].cell[d];
-      const auto at = static_cast<std::uint32_t>(sc.kernel.size());
-      if (u > 0 && l == sc.lin.back() + 1)
-        ++sc.runs.back();
-      else
-        sc.runs.insert(sc.runs.end(), {at, 1u});
-      sc.kernel.push_back(f[u].kernel);
-      sc.phi.push_back(f[u].phi);
-      sc.lin.push_back(l);
+    std::int64_t a[3], b[3];
+    if (!finite || !feature_span(x, a, b)) {
+      tiles[0] = kNoSpan;
+      continue;
     }
-    sc.start.push_back(static_cast<std::uint32_t>(sc.kernel.size()));
-    sc.run_start.push_back(static_cast<std::uint32_t>(sc.runs.size() / 2));
-    sc.yc.push_back(samples.label[i] ? 0.5 : -0.5);
+    span_tiles(x, a, b, true, tiles);
+  }
+  // Then the features of each half of the samples into its own list, the second appended to
+  // the first: the lists of one pass over the samples, whoever listed which half.
+  detail::for_each_item(ctx, 2, [&](std::size_t h) {
+    FeatureList& out = h == 0 ? static_cast<FeatureList&>(sc) : sc.second;
+    out.kernel.clear();
+    out.phi.clear();
+    out.lin.clear();
+    out.runs.clear();
+    out.yc.clear();
+    out.start.assign(1, 0);
+    out.run_start.assign(1, 0);
+    for (std::size_t i = h * ns / 2; i < (h + 1) * ns / 2; ++i) {
+      const std::int32_t* tiles = &sc.sample_tiles[i * 8];
+      if (tiles[0] == kNoSpan) continue;
+      const double* x = &samples.position[i * dim_];
+      std::int64_t a[3], b[3];
+      feature_span(x, a, b);
+      const std::size_t first = out.kernel.size();
+      span_features(x, a, b, tiles, [&](std::uint32_t kernel, const std::int64_t g[3], double phi) {
+        // In raster order: a stencil-linear cell each.
+        std::int64_t l = 0;
+        for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + g[d];
+        const auto at = static_cast<std::uint32_t>(out.kernel.size());
+        if (at > first && l == out.lin.back() + 1)
+          ++out.runs.back();
+        else
+          out.runs.insert(out.runs.end(), {at, 1u});
+        out.kernel.push_back(kernel);
+        out.phi.push_back(phi);
+        out.lin.push_back(l);
+      });
+      if (out.kernel.size() == first) continue;
+      out.start.push_back(static_cast<std::uint32_t>(out.kernel.size()));
+      out.run_start.push_back(static_cast<std::uint32_t>(out.runs.size() / 2));
+      out.yc.push_back(samples.label[i] ? 0.5 : -0.5);
+    }
+  });
+  {
+    const FeatureList& s2 = sc.second;
+    const auto nf = static_cast<std::uint32_t>(sc.kernel.size());
+    const auto nr = static_cast<std::uint32_t>(sc.runs.size() / 2);
+    sc.kernel.insert(sc.kernel.end(), s2.kernel.begin(), s2.kernel.end());
+    sc.phi.insert(sc.phi.end(), s2.phi.begin(), s2.phi.end());
+    sc.lin.insert(sc.lin.end(), s2.lin.begin(), s2.lin.end());
+    sc.yc.insert(sc.yc.end(), s2.yc.begin(), s2.yc.end());
+    for (std::size_t k = 1; k < s2.start.size(); ++k) sc.start.push_back(s2.start[k] + nf);
+    for (std::size_t k = 1; k < s2.run_start.size(); ++k)
+      sc.run_start.push_back(s2.run_start[k] + nr);
+    for (std::size_t k = 0; k < s2.runs.size(); k += 2)
+      sc.runs.insert(sc.runs.end(), {s2.runs[k] + nf, s2.runs[k + 1]});
   }
   const std::size_t n = sc.yc.size();
   stats_.samples = n;
@@ -894,19 +1022,52 @@ void JointBhm::update(const LabelledPoints& samples) {
     }
     return std::sqrt(mu * mu + s2);
   };
+  // The box of the solves (the rows are those of every EM iteration), and its two parts: each
+  // row's part in mark_ (zero again at the end), and each sample's parts (the parts of its
+  // features' kernels: every one is a row). Each part adds the products to its own rows of P,
+  // each in the order of the samples, so the precision is the same whoever runs which part.
+  const bool boxed = box_rows(rows, sc);
+  std::vector<std::uint8_t>& parts = sc.sample_parts;
+  parts.assign(n, 1);
+  if (boxed) {
+    for (std::uint32_t k : sc.part_rows[1]) mark_[k] = 1;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint8_t m = 0;
+      for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)
+        m |= std::uint8_t(1u << mark_[sc.kernel[u]]);
+      parts[i] = m;
+    }
+  }
+  const int nparts = boxed ? 2 : 1;
   std::vector<double>&lambda = sc.lambda, &next = sc.next;
   lambda.assign(n, 0.0);
   next.resize(n);
-  for (int it = 0; it < o_.em_iterations; ++it) {
-    // Every xi from the same posterior, then the precision.
-    for (std::size_t i = 0; i < n; ++i) next[i] = detail::jj_lambda(xi_of(i));
-    for (std::size_t i = 0; i < n; ++i) {
-      add_outer(sc, i, 2.0 * (next[i] - lambda[i]));
-      lambda[i] = next[i];
+  try {
+    for (int it = 0; it < o_.em_iterations; ++it) {
+      // Every xi from the same posterior, then the precision.
+      detail::for_each_item(ctx, 2, [&](std::size_t h) {
+        for (std::size_t i = h * n / 2; i < (h + 1) * n / 2; ++i)
+          next[i] = detail::jj_lambda(xi_of(i));
+      });
+      detail::for_each_item(ctx, std::size_t(nparts), [&](std::size_t p) {
+        const auto bit = std::uint8_t(1u << p);
+        for (std::size_t i = 0; i < n; ++i)
+          if (parts[i] & bit)
+            add_outer(sc, i, 2.0 * (next[i] - lambda[i]), parts[i] == bit ? -1 : int(p));
+      });
+      for (std::size_t i = 0; i < n; ++i) {
+        pbb_ += 2.0 * (next[i] - lambda[i]);
+        lambda[i] = next[i];
+      }
+      stats_.residual = solve(rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
+                              &stats_.cg_iterations, sc, true, ctx);
     }
-    stats_.residual = solve(rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
-                            &stats_.cg_iterations, sc);
+  } catch (...) {
+    for (std::uint32_t k : sc.part_rows[1]) mark_[k] = 0;
+    throw;
   }
+  if (boxed)
+    for (std::uint32_t k : sc.part_rows[1]) mark_[k] = 0;
 }
 
 void JointBhm::update_by_scan(const LabelledPoints& samples) {

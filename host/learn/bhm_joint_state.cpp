@@ -171,6 +171,10 @@ void JointBhmState::read(ContainerCursor& c, JointBhm& m) {
   m.stats_.residual = c.f64();
   m.tiles_ = std::move(restored);
   m.tile_index_ = std::move(index);
+  for (int k = 0; k < 4; ++k) {  // the tiles span_tiles() last found were m's old ones
+    m.recent_key_[k] = ~0ull;
+    m.recent_id_[k] = -1;
+  }
   // Scratch: update() leaves mark_ zero and the solver's p zero outside its rows.
   m.mark_.assign(cells, 0);
   m.scratch_ = JointBhm::Scratch();

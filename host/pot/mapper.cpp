@@ -165,11 +165,11 @@ RepotMap::RepotMap(int dim, const MapperOptions& options)
     throw ArgumentError("RepotMap: seed_min_variance must be >= 0 and finite");
 }
 
-std::size_t RepotMap::add(const KernelMap& transported, const LabelledPoints& train) {
+std::size_t RepotMap::add(const KernelMap& transported, const LabelledPoints& train, Context* ctx) {
   export_.reset();
   std::size_t seeded = 0;
   if (!transported.empty()) seeded = learner_.seed_unreached(transported, seed_min_variance_);
-  learner_.update(train);
+  learner_.update(train, ctx);
   return seeded;
 }
 
@@ -237,7 +237,7 @@ void Mapper::settle() const {
 void Mapper::merge_scan(MappedScan& m, MapperMerge& merge, bool refine_into_scan) {
   const auto t1 = std::chrono::steady_clock::now();
   if (repot_) {
-    merge.seeded = repot_->add(m.transfer.map, m.train);
+    merge.seeded = repot_->add(m.transfer.map, m.train, ctx_);
     if (refine_into_scan)
       m.transfer.timing.refine_ms += ms_since(t1);
     else

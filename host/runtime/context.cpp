@@ -392,6 +392,14 @@ void Context::host_parallel_for(std::size_t n, const std::function<void(std::siz
   impl_->team->run(n, fn);
 }
 
+void Context::hold_host_helper(bool hold) {
+  std::call_once(impl_->team_once, [this] {
+    impl_->team = std::make_unique<detail::HostTeam>(impl_->host_helper &&
+                                                     std::thread::hardware_concurrency() > 1);
+  });
+  impl_->team->hold(hold);
+}
+
 std::size_t Context::builds_from_source() const {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   return impl_->source_builds;

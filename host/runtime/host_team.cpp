@@ -29,10 +29,18 @@ HostTeam::~HostTeam() {
   helper_.join();
 }
 
-void HostTeam::take_items() {
+void HostTeam::take_items(bool from_back) {
   for (;;) {
-    const std::size_t i = next_.fetch_add(1);
-    if (i >= n_) return;
+    std::uint64_t r = range_.load();
+    std::size_t i = 0;
+    for (;;) {
+      const std::uint64_t front = r >> 32, back = r & 0xffffffffu;
+      if (front >= back) return;
+      i = static_cast<std::size_t>(from_back ? back - 1 : front);
+      const std::uint64_t claimed =
+          from_back ? (front << 32) | (back - 1) : ((front + 1) << 32) | back;
+      if (range_.compare_exchange_weak(r, claimed)) break;
+    }
     try {
       (*fn_)(i);
     } catch (...) {
@@ -47,17 +55,20 @@ void HostTeam::helper_loop() {
   unsigned seen = 0;
   for (;;) {
     const auto until = std::chrono::steady_clock::now() + kSpin;
-    while (generation_.load(std::memory_order_acquire) == seen &&
-           std::chrono::steady_clock::now() < until) {
+    while (
+        generation_.load(std::memory_order_acquire) == seen &&
+        (holds_.load(std::memory_order_relaxed) > 0 || std::chrono::steady_clock::now() < until)) {
     }
     std::unique_lock<std::mutex> lock(m_);
-    wake_.wait(lock, [&] { return stop_ || generation_.load() != seen; });
+    wake_.wait(lock, [&] { return stop_ || generation_.load() != seen || holds_.load() > 0; });
     if (stop_) return;
-    seen = generation_.load();
+    const unsigned g = generation_.load();
+    if (g == seen) continue;  // woken by a hold: look for the next run
+    seen = g;
     if (!open_) continue;  // the caller finished that run alone
     helper_busy_ = true;
     lock.unlock();
-    take_items();
+    take_items(true);
     lock.lock();
     helper_busy_ = false;
     lock.unlock();
@@ -67,7 +78,7 @@ void HostTeam::helper_loop() {
 
 void HostTeam::run(std::size_t n, const std::function<void(std::size_t)>& fn) {
   std::unique_lock<std::mutex> mine(run_mutex_, std::try_to_lock);
-  if (!helper_.joinable() || n < 2 || !mine.owns_lock()) {
+  if (!helper_.joinable() || n < 2 || n > 0xffffffffu || !mine.owns_lock()) {
     for_each_item(nullptr, n, fn);
     return;
   }
@@ -75,14 +86,14 @@ void HostTeam::run(std::size_t n, const std::function<void(std::size_t)>& fn) {
     std::lock_guard<std::mutex> lock(m_);
     fn_ = &fn;
     n_ = n;
-    next_.store(0);
+    range_.store(std::uint64_t(n));
     finished_.store(0);
     error_ = nullptr;
     open_ = true;
     generation_.fetch_add(1, std::memory_order_release);
   }
   wake_.notify_one();
-  take_items();
+  take_items(false);
   std::unique_lock<std::mutex> lock(m_);
   // A helper that has not joined by now will not: the run closes under the lock it takes to
   // join.
@@ -93,6 +104,27 @@ void HostTeam::run(std::size_t n, const std::function<void(std::size_t)>& fn) {
   fn_ = nullptr;
   lock.unlock();
   if (e) std::rethrow_exception(e);
+}
+
+void HostTeam::hold(bool on) {
+  if (!helper_.joinable()) return;
+  if (on) {
+    // A sleeping helper wakes to look. Through m_: it tests holds_ under m_, so the notify
+    // cannot fall between its test and its sleep.
+    holds_.fetch_add(1);
+    { std::lock_guard<std::mutex> lock(m_); }
+    wake_.notify_one();
+  } else {
+    holds_.fetch_sub(1);
+  }
+}
+
+HelperHold::HelperHold(Context* ctx) : ctx_(ctx) {
+  if (ctx_) ctx_->hold_host_helper(true);
+}
+
+HelperHold::~HelperHold() {
+  if (ctx_) ctx_->hold_host_helper(false);
 }
 
 void for_each_item(Context* ctx, std::size_t n, const std::function<void(std::size_t)>& fn) {

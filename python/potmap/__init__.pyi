@@ -347,8 +347,10 @@ class JointBhm:
         allocated where samples arrive). Keyword arguments: JointBhmOptions fields
         (spacing=0.5 m, gamma=0 -> from neighbour_phi=0.19, prior_var=10, bias=True, ...)."""
         ...
-    def update(self, samples: LabelledPoints) -> None:
-        """Adds one scan's LabelledPoints (EM over its xi, conjugate gradients)."""
+    def update(self, samples: LabelledPoints, ctx: Context = None) -> None:
+        """Adds one scan's LabelledPoints (EM over its xi, conjugate gradients). ctx: a
+        Context whose host helper thread shares the work (default None: this thread
+        alone; the result is the same bit for bit)."""
         ...
     def update_by_scan(self, samples: LabelledPoints) -> None:
         """One update() per scan index, in increasing order."""

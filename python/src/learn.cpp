@@ -169,8 +169,10 @@ void bind_learn(py::module_& m) {
            "dim: 2 or 3. lo, hi: bounds of the grid, metres (default None: unbounded, tiles\n"
            "allocated where samples arrive). Keyword arguments: JointBhmOptions fields\n"
            "(spacing=0.5 m, gamma=0 -> from neighbour_phi=0.19, prior_var=10, bias=True, ...).")
-      .def("update", unlocked(&JointBhm::update), "samples"_a,
-           "Adds one scan's LabelledPoints (EM over its xi, conjugate gradients).")
+      .def("update", unlocked(&JointBhm::update), "samples"_a, "ctx"_a = nullptr,
+           "Adds one scan's LabelledPoints (EM over its xi, conjugate gradients). ctx: a\n"
+           "Context whose host helper thread shares the work (default None: this thread\n"
+           "alone; the result is the same bit for bit).")
       .def("update_by_scan", unlocked(&JointBhm::update_by_scan), "samples"_a,
            "One update() per scan index, in increasing order.")
       .def(

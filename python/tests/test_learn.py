@@ -44,6 +44,17 @@ def test_joint_bhm_scan_by_scan_equals_the_command(samples, cli, tmp_path):
     assert np.corrcoef(mean, exact.mean)[0, 1] > 0.99 and np.all(var > 0)
 
 
+def test_joint_bhm_with_the_host_helper_is_the_same_bit_for_bit(samples, ctx):
+    pts, _ = samples
+    alone, team = potmap.JointBhm(2), potmap.JointBhm(2)
+    for t in np.unique(pts.scan):
+        m = pts.scan == t
+        s = potmap.LabelledPoints(pts.positions[m], pts.labels[m], pts.scan[m])
+        alone.update(s)
+        team.update(s, ctx)
+    same_map(alone.map(), team.map())  # rtol = atol = 0
+
+
 def test_diagonal_bhm_on_the_device_equals_the_command(samples, cli, ctx, tmp_path):
     pts, path = samples
     cli("learn", "bhm", path, "-o", tmp_path / "d.potmap", "--model", "diagonal", "--sequential")

@@ -49,6 +49,8 @@ struct JointBhmState;
 POTMAP_CXX_API_BEGIN
 namespace potmap {
 
+class Context;
+
 struct JointBhmOptions {
   /// Grid spacing of the kernels, metres (default 0.5: the hinge spacing of the BHM authors'
   /// demo on the Intel log; about the thickness of an indoor wall, so walls come out as walls).
@@ -134,7 +136,12 @@ class JointBhm {
   /// farther than 2^22 spacings from the origin, are ignored). Empty input does nothing.
   /// Throws ArgumentError on a dimension mismatch or when the map would pass
   /// options.max_kernels stored kernels (the posterior is unchanged then).
-  void update(const LabelledPoints& samples);
+  ///
+  /// `ctx` (default null: this thread alone): the update's host work is split in two parts that
+  /// run on the calling thread and the context's host helper (Context::host_parallel_for); the
+  /// context's device is not used. The parts are the same with or without a context, so the
+  /// result is the same bit for bit either way.
+  void update(const LabelledPoints& samples, Context* ctx = nullptr);
 
   /// Adds the samples of every scan index in increasing order, one update() per scan.
   void update_by_scan(const LabelledPoints& samples);
@@ -192,23 +199,40 @@ class JointBhm {
     std::int32_t coord[3];  // tile coordinates: cells coord * tile_ .. coord * tile_ + tile_-1
     std::int32_t nb[27];    // neighbour tiles (dx+1) + 3 (dy+1) + 9 (dz+1); -1: not stored
   };
-  // Buffers kept across scans (no state: a copy or a restore may start them empty).
-  struct Scratch {
-    std::vector<double> r, z, p, q;
-    // update(): the scan's features, flat (per feature; per sample its first feature and its
-    // first run of features with consecutive cells, (first feature, length) pairs).
-    std::vector<std::uint32_t> kernel, start, runs, run_start, reached, rows;
-    std::vector<double> phi, yc, lambda, next;
+  // update(): a scan's features, flat (per feature: kernel, phi and stencil-linear cell; per
+  // sample: its first feature, its first run of features with consecutive cells, its label
+  // as +-1/2; the runs as (first feature, length) pairs).
+  struct FeatureList {
+    std::vector<std::uint32_t> kernel, start, runs, run_start;
+    std::vector<double> phi, yc;
     std::vector<std::int64_t> lin;
-    std::vector<Feature> feature;
+    std::size_t bytes() const;
+  };
+  // Buffers kept across scans (no state: a copy or a restore may start them empty). The
+  // scan's features are the Scratch's own list: the first half of the samples' is listed
+  // there, the second's in `second`, then appended.
+  struct Scratch : FeatureList {
+    std::vector<double> r, z, p, q;
+    std::vector<std::uint32_t> reached, rows;
+    std::vector<double> lambda, next;
+    FeatureList second;
+    std::vector<std::int32_t> sample_tiles;    // update(): 8 per sample (span_tiles())
     std::vector<std::uint8_t> bits, bits_tmp;  // dilate_rows()
-    // solve(): a box of cells around the rows (box_rows()), x and y in it, the rows' places
-    // in it, the offsets of the stencil's half runs, and the kernels around the rows.
-    std::vector<double> pbox, qbox;
-    std::vector<std::int64_t> box_at, box_off, around_at;
+    // solve(): a box of cells around the rows (box_rows()), x in it, the offsets of the
+    // stencil's half runs. The box is cut in two parts at cell `box_split` (raster order): a
+    // part's rows, and the kernels around them, with their places in the box, and the part's
+    // own box of y (a kernel's half stencil reaches only cells after its own, at most
+    // `box_reach` later, so part 0's y spills into part 1 by at most that much).
+    std::vector<double> pbox;
+    std::vector<double> ybox[2];
+    std::vector<std::int64_t> box_off;
     std::vector<std::int32_t> box_len;
-    std::vector<std::uint32_t> around;
+    std::vector<std::uint32_t> part_rows[2], part_around[2];
+    std::vector<std::int64_t> part_at[2], part_around_at[2];
+    std::vector<std::uint8_t> sample_parts;  // update(): per sample, bit p: a feature in part p
     std::int64_t box_lo[3] = {0, 0, 0}, box_n[3] = {1, 1, 1};
+    std::int64_t box_split = 0, box_reach = 1;
+    bool boxed = false;  // box_rows() accepted the rows
     std::size_t bytes() const;
   };
   void init(int dim, const JointBhmOptions& o);
@@ -223,10 +247,22 @@ class JointBhm {
   void cell_bounds(const std::vector<std::uint32_t>& kernels, std::int64_t lo[3],
                    std::int64_t hi[3]) const;
   bool in_grid(const std::int64_t g[3]) const;
+  // A sample's features: the span of cells within its cut-off (false: none in the grid), the
+  // tiles of the span that the cut-off reaches (made when `create`; -1: not stored; at most
+  // two an axis, indexed ((tz - ta_z) * 2 + ty - ta_y) * 2 + tx - ta_x from the span's first
+  // tile), and emit(kernel, cell, phi) for each kernel within the cut-off, in raster order.
+  bool feature_span(const double* x, std::int64_t a[3], std::int64_t b[3]) const;
+  void span_tiles(const double* x, const std::int64_t a[3], const std::int64_t b[3], bool create,
+                  std::int32_t tile_id[8]);
+  template <class Emit>
+  void span_features(const double* x, const std::int64_t a[3], const std::int64_t b[3],
+                     const std::int32_t tile_id[8], Emit emit) const;
   void features(const double* x, std::vector<Feature>& out, bool create);
   void features(const double* x, std::vector<Feature>& out) const;
-  // P += c phi phi^T for sample i of the scan's features in `f`.
-  void add_outer(const Scratch& f, std::size_t i, double c);
+  // P += c phi phi^T for sample i of the scan's features in `f` (not the bias's own precision,
+  // pbb_); `part` >= 0: only the rows of the kernels of that part of the box (mark_ holds each
+  // row's part during update()).
+  void add_outer(const Scratch& f, std::size_t i, double c, int part);
   // Returns seeded kernel k, which no sample has reached, to its prior (its mean to 0 too
   // with `with_mean`).
   void yield_seed(std::uint32_t k, bool with_mean);
@@ -248,18 +284,22 @@ class JointBhm {
   // Places the rows `rows` (sorted storage indices) in a box of cells around them (the products
   // below); false when the box would be much larger than the rows.
   bool box_rows(const std::vector<std::uint32_t>& rows, Scratch& sc) const;
-  // y = P x on the rows, and the bias row when with bias, in the box of box_rows();
-  // `x_outside`: x may be non-zero outside the rows (otherwise it is zero there).
+  // y = P x on the rows, and the bias row when with bias, in the box of box_rows(), its two
+  // parts on ctx's host team; `x_outside`: x may be non-zero outside the rows (otherwise it
+  // is zero there).
   void multiply_box(const std::vector<double>& x, double xb, bool x_outside,
                     const std::vector<std::uint32_t>& rows, std::vector<double>& y, double& yb,
-                    Scratch& sc) const;
+                    Scratch& sc, Context* ctx) const;
   // The same without a box, each coupling found through the tiles: for rows scattered far
   // apart, where box_rows() declines.
   void multiply_sparse(const std::vector<double>& x, double xb,
                        const std::vector<std::uint32_t>& rows, std::vector<double>& y,
                        double& yb) const;
+  // `rows_boxed`: box_rows(rows, s) was called since the rows last changed (its answer is in
+  // s.boxed); otherwise solve() calls it.
   double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
-               double tol, int max_it, std::size_t* its, Scratch& s) const;
+               double tol, int max_it, std::size_t* its, Scratch& s, bool rows_boxed = false,
+               Context* ctx = nullptr) const;
   bool near_data(const std::int64_t g[3], std::int64_t hint) const;
   double predictive_var_at(const std::int64_t g[3], std::int64_t hint,
                            std::vector<double>& block_scratch) const;
@@ -304,6 +344,10 @@ class JointBhm {
   double pbb_ = 0, etab_ = 0, meanb_ = 0;
   Scratch scratch_;
   JointBhmStats stats_;
+  // span_tiles(): the last tiles it found (a tile's id never changes; none is ever removed).
+  std::uint64_t recent_key_[4] = {~0ull, ~0ull, ~0ull, ~0ull};
+  std::int64_t recent_id_[4] = {-1, -1, -1, -1};
+  int recent_next_ = 0;
 };
 
 }  // namespace potmap

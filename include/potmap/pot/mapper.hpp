@@ -142,8 +142,11 @@ class RepotMap {
   /// Throws ArgumentError for a dimension other than 2 or 3 or bad refine_map options.
   RepotMap(int dim, const MapperOptions& options);
   /// One scan: seeds from `transported` (may be empty), then learns `train`. Returns the
-  /// number of kernels seeded. Throws ArgumentError on a dimension mismatch.
-  std::size_t add(const KernelMap& transported, const LabelledPoints& train);
+  /// number of kernels seeded. Throws ArgumentError on a dimension mismatch. `ctx` (default
+  /// null: this thread alone): the update shares its work with the context's host helper
+  /// (JointBhm::update; the same map bit for bit either way).
+  std::size_t add(const KernelMap& transported, const LabelledPoints& train,
+                  Context* ctx = nullptr);
   /// The map (JointBhm::map(): kernels with a bias weight), exported on the first call after
   /// an add() and kept until the next one: call it when the map is needed, not every scan.
   const KernelMap& map() const;
