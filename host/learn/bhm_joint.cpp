@@ -691,6 +691,52 @@ void half_products(const double* prec, std::size_t hs, const std::int32_t* len,
   }
 }
 
+// One half run of compile-time length L: the same sums in the same order as half_products()'s
+// loop, unrolled.
+template <int L>
+inline void half_run(const double* __restrict v, const double* __restrict px, double* __restrict py,
+                     double xa, double& s1) {
+  for (int j = 0; j < L; ++j) {
+    s1 += v[j] * px[j];
+    py[j] += v[j] * xa;
+  }
+}
+
+// half_products() for a stencil whose half runs have the lengths L..., known when compiled: the
+// same result bit for bit. The runs are a few doubles long (3, 7, 7 and 5 at the 2D defaults), so
+// the general loop spends as much on its bounds as on its products.
+template <int... L>
+void half_products_fixed(const double* prec, std::size_t hs, const std::int64_t* off,
+                         const std::uint32_t* kernel, const std::int64_t* at, std::size_t m,
+                         const double* xbox, double* ybox) {
+  constexpr int lens[] = {L...};
+  constexpr int nh = sizeof...(L);
+  int first[nh] = {};
+  for (int h = 1; h < nh; ++h) first[h] = first[h - 1] + lens[h - 1];
+  for (std::size_t u = 0; u < m; ++u) {
+    const double* v = prec + std::size_t(kernel[u]) * hs;
+    const std::int64_t a = at[u];
+    const double xa = xbox[a];
+    const double s0 = v[0] * xa;
+    double s1 = 0;
+    ++v;
+    int h = 0;
+    ((half_run<L>(v + first[h], xbox + a + off[h], ybox + a + off[h], xa, s1), ++h), ...);
+    ybox[a] += s0 + s1;
+  }
+}
+
+// The products through half_products_fixed() where the stencil is one it was compiled for (the
+// 2D default), else half_products().
+void half_products_any(const double* prec, std::size_t hs, const std::int32_t* len,
+                       const std::int64_t* off, std::size_t nh, const std::uint32_t* kernel,
+                       const std::int64_t* at, std::size_t m, const double* xbox, double* ybox) {
+  if (nh == 4 && len[0] == 3 && len[1] == 7 && len[2] == 7 && len[3] == 5)
+    half_products_fixed<3, 7, 7, 5>(prec, hs, off, kernel, at, m, xbox, ybox);
+  else
+    half_products(prec, hs, len, off, nh, kernel, at, m, xbox, ybox);
+}
+
 }  // namespace
 
 void JointBhm::multiply_box(const std::vector<double>& x, double xb, bool x_outside,
@@ -746,8 +792,8 @@ void JointBhm::multiply_box(const std::vector<double>& x, double xb, bool x_outs
     std::fill(ybx + first, ybx + last, 0.0);
     const std::vector<std::uint32_t>& k = x_outside ? sc.part_around[p] : sc.part_rows[p];
     const std::vector<std::int64_t>& at = x_outside ? sc.part_around_at[p] : sc.part_at[p];
-    half_products(prec_.data(), hs, sc.box_len.data(), sc.box_off.data(), half_.size(), k.data(),
-                  at.data(), k.size(), xbx, ybx);
+    half_products_any(prec_.data(), hs, sc.box_len.data(), sc.box_off.data(), half_.size(),
+                      k.data(), at.data(), k.size(), xbx, ybx);
   });
   detail::for_each_item(ctx, 2, [&](std::size_t p) {
     const double* y0 = sc.ybox[0].data();
