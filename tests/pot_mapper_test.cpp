@@ -259,6 +259,28 @@ TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
   }
 }
 
+// MapperOptions::refine_on_host_team: RePOT's persistent update in two parts on the host helper
+// gives the persistent map of the update on the mapper's thread, bit for bit, synchronous and
+// with the merge behind add_scan.
+TEST(PotMapper, RepotUpdateOnTheHostTeamGivesTheSameMap) {
+  const MapperScene s;
+  const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
+  for (const bool async : {false, true}) {
+    SCOPED_TRACE(async ? "async merge" : "sync merge");
+    MapperOptions o = test::small_mapper_options(true);
+    o.async_merge = async;
+    Mapper alone(&test::context(), s.dict, o);
+    o.refine_on_host_team = true;
+    Mapper team(&test::context(), s.dict, o);
+    for (const Scan& t : targets) {
+      alone.add_scan(t);
+      team.add_scan(t);
+    }
+    EXPECT_GT(team.overall_kernels(), 0u);
+    expect_same_map(team.overall_map(), alone.overall_map());
+  }
+}
+
 TEST(PotMapper, RefusesBadDictionaryAndScanWithoutChange) {
   EXPECT_THROW(Mapper(&test::context(), nullptr), ArgumentError);
   EXPECT_THROW(Mapper(&test::context(), std::make_shared<Dictionary>()), ArgumentError);

@@ -237,7 +237,8 @@ void Mapper::settle() const {
 void Mapper::merge_scan(MappedScan& m, MapperMerge& merge, bool refine_into_scan) {
   const auto t1 = std::chrono::steady_clock::now();
   if (repot_) {
-    merge.seeded = repot_->add(m.transfer.map, m.train, ctx_);
+    merge.seeded =
+        repot_->add(m.transfer.map, m.train, options_.refine_on_host_team ? ctx_ : nullptr);
     if (refine_into_scan)
       m.transfer.timing.refine_ms += ms_since(t1);
     else

@@ -261,7 +261,10 @@ void bind_pot(py::module_& m) {
           "averaged overall map's grid, metres (0.25)")
       .def_readwrite("async_merge", &MapperOptions::async_merge,
                      "add_scan returns before the scan's merge into the overall map, which "
-                     "runs beside the next add_scan; reading the map waits for it (False)");
+                     "runs beside the next add_scan; reading the map waits for it (False)")
+      .def_readwrite("refine_on_host_team", &MapperOptions::refine_on_host_team,
+                     "RePOT's persistent update in two parts on the context's host helper, the "
+                     "same map either way (False: slower on a 2-core virtual machine)");
   add_fields_repr(mopt);
 
   py::class_<SectorTransfer>(m, "SectorTransfer", "What happened to one target sector.")
