@@ -858,7 +858,7 @@ void JointBhm::multiply_sparse(const std::vector<double>& x, double xb,
 
 double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
                        double tol, int max_it, std::size_t* its, Scratch& sc, bool rows_boxed,
-                       Context* ctx) const {
+                       Context* ctx, const double* bias_outside) const {
   // Conjugate gradients on the rows `rows` (and the bias), the other means held fixed, from
   // the current x. Jacobi preconditioner. sc.p is zero outside `rows` on entry and on exit.
   const std::size_t st = x.size();
@@ -876,7 +876,12 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   // The bias row reads every mean, not only those of `rows`.
   if (o_.bias) {
     yb = pbb_ * xb;
-    for (std::size_t a = 0; a < st; ++a) yb += bcoup_[a] * x[a];
+    if (bias_outside) {
+      yb += *bias_outside;
+      for (std::uint32_t a : rows) yb += bcoup_[a] * x[a];
+    } else {
+      for (std::size_t a = 0; a < st; ++a) yb += bcoup_[a] * x[a];
+    }
     rb = etab_ - yb;
   }
   double rr = rb * rb, ee = etab_ * etab_;
@@ -1072,6 +1077,15 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   // row's part in mark_ (zero again at the end), and each sample's parts (the parts of its
   // features' kernels: every one is a row). Each part adds the products to its own rows of P,
   // each in the order of the samples, so the precision is the same whoever runs which part.
+  // The bias row's products with the kernels outside the rows, whose means and couplings the
+  // scan leaves as they are: once, not once a solve (a pass over every stored kernel).
+  double bias_outside = 0;
+  if (o_.bias) {
+    for (std::uint32_t k : rows) mark_[k] = 1;
+    for (std::size_t a = 0; a < mean_.size(); ++a)
+      if (!mark_[a]) bias_outside += bcoup_[a] * mean_[a];
+    for (std::uint32_t k : rows) mark_[k] = 0;
+  }
   const bool boxed = box_rows(rows, sc);
   std::vector<std::uint8_t>& parts = sc.sample_parts;
   parts.assign(n, 1);
@@ -1106,7 +1120,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
         lambda[i] = next[i];
       }
       stats_.residual = solve(rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
-                              &stats_.cg_iterations, sc, true, ctx);
+                              &stats_.cg_iterations, sc, true, ctx, &bias_outside);
     }
   } catch (...) {
     for (std::uint32_t k : sc.part_rows[1]) mark_[k] = 0;

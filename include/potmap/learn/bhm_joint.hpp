@@ -296,10 +296,11 @@ class JointBhm {
                        const std::vector<std::uint32_t>& rows, std::vector<double>& y,
                        double& yb) const;
   // `rows_boxed`: box_rows(rows, s) was called since the rows last changed (its answer is in
-  // s.boxed); otherwise solve() calls it.
+  // s.boxed); otherwise solve() calls it. `bias_outside`: the sum of bcoup_ x over the kernels
+  // outside the rows, when known (otherwise summed here).
   double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
                double tol, int max_it, std::size_t* its, Scratch& s, bool rows_boxed = false,
-               Context* ctx = nullptr) const;
+               Context* ctx = nullptr, const double* bias_outside = nullptr) const;
   bool near_data(const std::int64_t g[3], std::int64_t hint) const;
   double predictive_var_at(const std::int64_t g[3], std::int64_t hint,
                            std::vector<double>& block_scratch) const;
