@@ -235,14 +235,20 @@ TEST(JointBhm, BadInput) {
 
 // The real Intel log, scans 10 to 29 cut at 20 m, 20 % of beams held out (SPEC section 7's
 // reference setting): the joint BHM beats the occupancy grid at 0.1 m on AUC and NLL.
-TEST(JointBhm, IntelLogBeatsTheOccupancyGrid) {
+// The Intel log's scans [10, last) cut at 20 m, 20 % of their beams held out into `held_out`.
+experiment::MapTask intel_task(std::size_t last, LabelledPoints& held_out) {
   Dataset ds = read_dataset(test::shared_data("radish/intel-corrected.log.gz"));
-  ASSERT_GE(ds.scans.size(), 30u);
+  EXPECT_GE(ds.scans.size(), last);
   std::vector<Scan> scans;
-  for (std::size_t i = 10; i < 30; ++i) scans.push_back(experiment::limit_range(ds.scans[i], 20));
+  for (std::size_t i = 10; i < std::min(last, ds.scans.size()); ++i)
+    scans.push_back(experiment::limit_range(ds.scans[i], 20));
   LabelOptions lo;
+  return experiment::make_task(scans, lo, held_out, 5.0, 10);
+}
+
+TEST(JointBhm, IntelLogBeatsTheOccupancyGrid) {
   LabelledPoints test;
-  const experiment::MapTask task = experiment::make_task(scans, lo, test, 5.0, 10);
+  const experiment::MapTask task = intel_task(30, test);
   const Scores bhm = experiment::score_map(
       experiment::bhm_method(experiment::BhmSetup{}).fit(nullptr, task), test);
   const Scores ogm = experiment::score_map(experiment::ogm_method(0.1).fit(nullptr, task), test);
@@ -342,13 +348,9 @@ TEST(JointBhm, GrowableEqualsBoundedAcrossTileBorders) {
 // across the growable map's tile borders, bounded and growable.
 TEST(JointBhm, UpdateOnTheHostTeamIsTheSameBitForBit) {
   Context& ctx = test::context();
-  Dataset ds = read_dataset(test::shared_data("radish/intel-corrected.log.gz"));
-  ASSERT_GE(ds.scans.size(), 16u);
-  std::vector<Scan> scans;
-  for (std::size_t i = 10; i < 16; ++i) scans.push_back(experiment::limit_range(ds.scans[i], 20));
-  LabelOptions lo;
   LabelledPoints held_out;
-  const experiment::MapTask task = experiment::make_task(scans, lo, held_out, 5.0, 10);
+  const experiment::MapTask task = intel_task(16, held_out);
+  ASSERT_EQ(task.train_scans.size(), 6u);
   auto expect_same = [](const KernelMap& a, const KernelMap& b, const char* what) {
     ASSERT_EQ(a.size(), b.size()) << what;
     ASSERT_GT(a.size(), 0u) << what;

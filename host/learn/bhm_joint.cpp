@@ -952,28 +952,8 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   Scratch& sc = scratch_;
   // The update runs some fifty short parts on the helper, with host work between them.
   const detail::HelperHold hold(ctx);
-  // The tiles first, on this thread in the order of the samples (the order tiles are made is
-  // their storage order), before any change to the posterior: a new tile holds the prior, so
-  // a throw (too many kernels) leaves the model as it was.
   const std::size_t ns = samples.size();
-  constexpr std::int32_t kNoSpan = -2;
-  sc.sample_tiles.resize(ns * 8);
-  for (std::size_t i = 0; i < ns; ++i) {
-    const double* x = &samples.position[i * dim_];
-    std::int32_t* tiles = &sc.sample_tiles[i * 8];
-    bool finite = true;
-    for (int d = 0; d < dim_; ++d) finite = finite && std::isfinite(x[d]);
-    std::int64_t a[3], b[3];
-    if (!finite || !feature_span(x, a, b)) {
-      tiles[0] = kNoSpan;
-      continue;
-    }
-    span_tiles(x, a, b, true, tiles);
-  }
-  // Then the features of each half of the samples into its own list, the second appended to
-  // the first: the lists of one pass over the samples, whoever listed which half.
-  detail::for_each_item(ctx, 2, [&](std::size_t h) {
-    FeatureList& out = h == 0 ? static_cast<FeatureList&>(sc) : sc.second;
+  auto clear = [](FeatureList& out) {
     out.kernel.clear();
     out.phi.clear();
     out.lin.clear();
@@ -981,33 +961,72 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
     out.yc.clear();
     out.start.assign(1, 0);
     out.run_start.assign(1, 0);
-    for (std::size_t i = h * ns / 2; i < (h + 1) * ns / 2; ++i) {
-      const std::int32_t* tiles = &sc.sample_tiles[i * 8];
-      if (tiles[0] == kNoSpan) continue;
-      const double* x = &samples.position[i * dim_];
+  };
+  // Sample i's features (span a, b; tiles from span_tiles()) appended to `out`.
+  auto list = [&](FeatureList& out, std::size_t i, const std::int64_t a[3], const std::int64_t b[3],
+                  const std::int32_t tiles[8]) {
+    const std::size_t first = out.kernel.size();
+    span_features(&samples.position[i * dim_], a, b, tiles,
+                  [&](std::uint32_t kernel, const std::int64_t g[3], double phi) {
+                    // In raster order: a stencil-linear cell each.
+                    std::int64_t l = 0;
+                    for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + g[d];
+                    const auto at = static_cast<std::uint32_t>(out.kernel.size());
+                    if (at > first && l == out.lin.back() + 1)
+                      ++out.runs.back();
+                    else
+                      out.runs.insert(out.runs.end(), {at, 1u});
+                    out.kernel.push_back(kernel);
+                    out.phi.push_back(phi);
+                    out.lin.push_back(l);
+                  });
+    if (out.kernel.size() == first) return;
+    out.start.push_back(static_cast<std::uint32_t>(out.kernel.size()));
+    out.run_start.push_back(static_cast<std::uint32_t>(out.runs.size() / 2));
+    out.yc.push_back(samples.label[i] ? 0.5 : -0.5);
+  };
+  auto span = [&](std::size_t i, std::int64_t a[3], std::int64_t b[3]) {
+    const double* x = &samples.position[i * dim_];
+    bool finite = true;
+    for (int d = 0; d < dim_; ++d) finite = finite && std::isfinite(x[d]);
+    return finite && feature_span(x, a, b);
+  };
+  // Tiles are made in the order of the samples (their storage order), before any change to the
+  // posterior: a new tile holds the prior, so a throw (too many kernels) leaves the model as it
+  // was.
+  if (!ctx) {
+    // One pass, each sample's tiles then its features: the lists of the two halves below.
+    clear(sc);
+    for (std::size_t i = 0; i < ns; ++i) {
       std::int64_t a[3], b[3];
-      feature_span(x, a, b);
-      const std::size_t first = out.kernel.size();
-      span_features(x, a, b, tiles, [&](std::uint32_t kernel, const std::int64_t g[3], double phi) {
-        // In raster order: a stencil-linear cell each.
-        std::int64_t l = 0;
-        for (int d = dim_ - 1; d >= 0; --d) l = l * box_ + g[d];
-        const auto at = static_cast<std::uint32_t>(out.kernel.size());
-        if (at > first && l == out.lin.back() + 1)
-          ++out.runs.back();
-        else
-          out.runs.insert(out.runs.end(), {at, 1u});
-        out.kernel.push_back(kernel);
-        out.phi.push_back(phi);
-        out.lin.push_back(l);
-      });
-      if (out.kernel.size() == first) continue;
-      out.start.push_back(static_cast<std::uint32_t>(out.kernel.size()));
-      out.run_start.push_back(static_cast<std::uint32_t>(out.runs.size() / 2));
-      out.yc.push_back(samples.label[i] ? 0.5 : -0.5);
+      std::int32_t tiles[8];
+      if (!span(i, a, b)) continue;
+      span_tiles(&samples.position[i * dim_], a, b, true, tiles);
+      list(sc, i, a, b, tiles);
     }
-  });
-  {
+  } else {
+    // The tiles first, on this thread; then the features of each half of the samples into its
+    // own list, the second appended to the first: the lists of one pass over the samples.
+    constexpr std::int32_t kNoSpan = -2;
+    sc.sample_tiles.resize(ns * 8);
+    for (std::size_t i = 0; i < ns; ++i) {
+      std::int32_t* tiles = &sc.sample_tiles[i * 8];
+      std::int64_t a[3], b[3];
+      if (!span(i, a, b))
+        tiles[0] = kNoSpan;
+      else
+        span_tiles(&samples.position[i * dim_], a, b, true, tiles);
+    }
+    detail::for_each_item(ctx, 2, [&](std::size_t h) {
+      FeatureList& out = h == 0 ? static_cast<FeatureList&>(sc) : sc.second;
+      clear(out);
+      for (std::size_t i = h * ns / 2; i < (h + 1) * ns / 2; ++i) {
+        const std::int32_t* tiles = &sc.sample_tiles[i * 8];
+        std::int64_t a[3], b[3];
+        if (tiles[0] == kNoSpan || !span(i, a, b)) continue;
+        list(out, i, a, b, tiles);
+      }
+    });
     const FeatureList& s2 = sc.second;
     const auto nf = static_cast<std::uint32_t>(sc.kernel.size());
     const auto nr = static_cast<std::uint32_t>(sc.runs.size() / 2);
@@ -1089,7 +1108,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   const bool boxed = box_rows(rows, sc);
   std::vector<std::uint8_t>& parts = sc.sample_parts;
   parts.assign(n, 1);
-  if (boxed) {
+  if (boxed && ctx) {  // (alone, the outer products take every sample in one pass)
     for (std::uint32_t k : sc.part_rows[1]) mark_[k] = 1;
     for (std::size_t i = 0; i < n; ++i) {
       std::uint8_t m = 0;
@@ -1109,12 +1128,16 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
         for (std::size_t i = h * n / 2; i < (h + 1) * n / 2; ++i)
           next[i] = detail::jj_lambda(xi_of(i));
       });
-      detail::for_each_item(ctx, std::size_t(nparts), [&](std::size_t p) {
-        const auto bit = std::uint8_t(1u << p);
-        for (std::size_t i = 0; i < n; ++i)
-          if (parts[i] & bit)
-            add_outer(sc, i, 2.0 * (next[i] - lambda[i]), parts[i] == bit ? -1 : int(p));
-      });
+      // Each entry of P sums the samples in their order either way.
+      if (!ctx)
+        for (std::size_t i = 0; i < n; ++i) add_outer(sc, i, 2.0 * (next[i] - lambda[i]), -1);
+      else
+        detail::for_each_item(ctx, std::size_t(nparts), [&](std::size_t p) {
+          const auto bit = std::uint8_t(1u << p);
+          for (std::size_t i = 0; i < n; ++i)
+            if (parts[i] & bit)
+              add_outer(sc, i, 2.0 * (next[i] - lambda[i]), parts[i] == bit ? -1 : int(p));
+        });
       for (std::size_t i = 0; i < n; ++i) {
         pbb_ += 2.0 * (next[i] - lambda[i]);
         lambda[i] = next[i];
