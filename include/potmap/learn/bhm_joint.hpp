@@ -209,8 +209,8 @@ class JointBhm {
     std::size_t bytes() const;
   };
   // Buffers kept across scans (no state: a copy or a restore may start them empty). The
-  // scan's features are the Scratch's own list: the first half of the samples' is listed
-  // there, the second's in `second`, then appended.
+  // scan's features are the Scratch's own list (on a host team the first half of the samples'
+  // is listed there, the second's in `second`, then appended).
   struct Scratch : FeatureList {
     std::vector<double> r, z, p, q;
     std::vector<std::uint32_t> reached, rows;
