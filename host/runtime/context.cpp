@@ -384,20 +384,25 @@ KernelLease::~KernelLease() {
   }
 }
 
-void Context::host_parallel_for(std::size_t n, const std::function<void(std::size_t)>& fn) {
-  std::call_once(impl_->team_once, [this] {
-    impl_->team = std::make_unique<detail::HostTeam>(impl_->host_helper &&
-                                                     std::thread::hardware_concurrency() > 1);
+namespace {
+
+// The context's host team, made on first use.
+detail::HostTeam& host_team(std::once_flag& once, std::unique_ptr<detail::HostTeam>& team,
+                            bool helper) {
+  std::call_once(once, [&] {
+    team = std::make_unique<detail::HostTeam>(helper && std::thread::hardware_concurrency() > 1);
   });
-  impl_->team->run(n, fn);
+  return *team;
+}
+
+}  // namespace
+
+void Context::host_parallel_for(std::size_t n, const std::function<void(std::size_t)>& fn) {
+  host_team(impl_->team_once, impl_->team, impl_->host_helper).run(n, fn);
 }
 
 void Context::hold_host_helper(bool hold) {
-  std::call_once(impl_->team_once, [this] {
-    impl_->team = std::make_unique<detail::HostTeam>(impl_->host_helper &&
-                                                     std::thread::hardware_concurrency() > 1);
-  });
-  impl_->team->hold(hold);
+  host_team(impl_->team_once, impl_->team, impl_->host_helper).hold(hold);
 }
 
 std::size_t Context::builds_from_source() const {
