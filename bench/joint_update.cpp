@@ -12,15 +12,6 @@
 //          transported map, then update() per scan, then map().
 // Times are the median over the repetitions of each stage's total, over the scans.
 //
-// Usage: joint_update [--data ../shared/data/radish] [--target intel] [--first 10]
-//                     [--scans 100] [--reps 5] [--cg-tol 1e-5] [--dump FILE] [--compare FILE]
-//   --cg-tol: JointBhmOptions::cg_tolerance (another tolerance shows how far the results move
-//   within the solver's tolerance: the scale against which to judge a build's differences);
-//   --dump: the final maps' means and variances (binary doubles, BHM then RePOT);
-//   --compare: the largest differences from a dump of another build.
-//   --team: both (default): every repetition runs the update on this thread alone, then with
-//   a Context's host team (JointBhm::update's ctx), and both are printed (the maps are the same
-//   bit for bit; the dump holds the team's); on or off: one of them.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -41,6 +32,20 @@ namespace ex = potmap::experiment;
 using Clock = std::chrono::steady_clock;
 
 namespace {
+
+constexpr const char* kUsage =
+    "Usage: joint_update [--data ../shared/data/radish] [--target intel] [--first 10]\n"
+    "                    [--scans 100] [--reps 5] [--cg-tol 1e-5] [--em 3] [--repot-em 3]\n"
+    "                    [--team both|on|off] [--dump FILE] [--compare FILE]\n"
+    "  --target: a Radish log's name (intel, fr079, ...) or a built-in town (town2)\n"
+    "  --cg-tol: JointBhmOptions::cg_tolerance (another tolerance shows how far the results\n"
+    "            move within the solver's tolerance: the scale to judge a build's differences)\n"
+    "  --em: EM iterations per scan of both models; --repot-em: of RePOT's alone\n"
+    "  --team: both (default): every repetition runs the update on this thread alone, then on\n"
+    "          a Context's host team (the maps are the same bit for bit; the dump holds the\n"
+    "          team's); on or off: one of them\n"
+    "  --dump: the final maps' means and variances (binary doubles, BHM then RePOT)\n"
+    "  --compare: the largest differences from a dump of another build\n";
 
 double ms_since(Clock::time_point t) {
   return 1e3 * std::chrono::duration<double>(Clock::now() - t).count();
@@ -100,6 +105,12 @@ int main(int argc, char** argv) {
   std::string data = "../shared/data/radish", target = "intel", dump, compare, team = "both";
   std::size_t first = 10, scans = 100, reps = 5;
   double cg_tol = 0;
+  int em = 0, repot_em = 0;
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::printf("%s", kUsage);
+      return 0;
+    }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--data")
@@ -114,6 +125,10 @@ int main(int argc, char** argv) {
       reps = std::stoul(v);
     else if (k == "--cg-tol")
       cg_tol = std::stod(v);
+    else if (k == "--em")
+      em = std::stoi(v);
+    else if (k == "--repot-em")
+      repot_em = std::stoi(v);
     else if (k == "--dump")
       dump = v;
     else if (k == "--compare")
@@ -153,6 +168,8 @@ int main(int argc, char** argv) {
   JointBhmOptions repot = ex::joint_bhm_options(setup.target_bhm);
   repot.seeds_yield = setup.seeds_yield;
   if (cg_tol > 0) bhm.cg_tolerance = repot.cg_tolerance = cg_tol;
+  if (em > 0) bhm.em_iterations = repot.em_iterations = em;
+  if (repot_em > 0) repot.em_iterations = repot_em;
 
   // Per mode (0: this thread alone, 1: the host team), alternated within each repetition.
   struct Times {
