@@ -543,19 +543,13 @@ void JointBhm::dilate_rows(std::vector<std::uint32_t>& rows,
       }
     bits.swap(tmp);
   }
-  std::int64_t hint = -1;
-  for (std::int64_t k = 0; k < n[2]; ++k)
-    for (std::int64_t j = 0; j < n[1]; ++j) {
-      const std::uint8_t* line = bits.data() + (k * n[1] + j) * n[0];
-      for (std::int64_t i = 0; i < n[0]; ++i) {
-        if (!line[i]) continue;
-        const std::int64_t g[3] = {lo[0] + i, lo[1] + j, lo[2] + k};
-        const std::int64_t s = find_cell(g, hint);
-        if (s < 0) continue;
-        hint = s / tile_cells_;
-        rows.push_back(static_cast<std::uint32_t>(s));
-      }
-    }
+  // The stored cells of the box, a run along x at a time (a tile found once, not per cell).
+  for_each_stored_line(lo, hi, [&](std::int64_t s, const std::int64_t g[3], std::int64_t l) {
+    const std::uint8_t* line =
+        bits.data() + ((g[2] - lo[2]) * n[1] + (g[1] - lo[1])) * n[0] + (g[0] - lo[0]);
+    for (std::int64_t i = 0; i < l; ++i)
+      if (line[i]) rows.push_back(static_cast<std::uint32_t>(s + i));
+  });
   std::sort(rows.begin(), rows.end());
 }
 
@@ -858,7 +852,7 @@ void JointBhm::multiply_sparse(const std::vector<double>& x, double xb,
 
 double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
                        double tol, int max_it, std::size_t* its, Scratch& sc, bool rows_boxed,
-                       Context* ctx, const double* bias_outside) const {
+                       Context* ctx, const double* bias_outside, bool residual_given) const {
   // Conjugate gradients on the rows `rows` (and the bias), the other means held fixed, from
   // the current x. Jacobi preconditioner. sc.p is zero outside `rows` on entry and on exit.
   const std::size_t st = x.size();
@@ -867,28 +861,38 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
     if (v->size() < st) v->resize(st, 0.0);
   std::vector<double>&r = sc.r, &z = sc.z, &p = sc.p, &q = sc.q;
   double rb = 0, zb = 0, pb = 0, qb = 0;
-  double yb = 0;
   const bool boxed = rows_boxed ? sc.boxed : box_rows(rows, sc);
-  if (boxed)
-    multiply_box(x, xb, true, rows, q, yb, sc, ctx);
-  else
-    multiply_sparse(x, xb, rows, q, yb);
-  // The bias row reads every mean, not only those of `rows`.
-  if (o_.bias) {
-    yb = pbb_ * xb;
-    if (bias_outside) {
-      yb += *bias_outside;
-      for (std::uint32_t a : rows) yb += bcoup_[a] * x[a];
-    } else {
-      for (std::size_t a = 0; a < st; ++a) yb += bcoup_[a] * x[a];
+  double rr = 0, ee = etab_ * etab_;
+  if (residual_given) {
+    rb = o_.bias ? sc.rb : 0.0;
+    rr = rb * rb;
+    for (std::uint32_t a : rows) {
+      rr += r[a] * r[a];
+      ee += eta_[a] * eta_[a];
     }
-    rb = etab_ - yb;
-  }
-  double rr = rb * rb, ee = etab_ * etab_;
-  for (std::uint32_t a : rows) {
-    r[a] = eta_[a] - q[a];
-    rr += r[a] * r[a];
-    ee += eta_[a] * eta_[a];
+  } else {
+    double yb = 0;
+    if (boxed)
+      multiply_box(x, xb, true, rows, q, yb, sc, ctx);
+    else
+      multiply_sparse(x, xb, rows, q, yb);
+    // The bias row reads every mean, not only those of `rows`.
+    if (o_.bias) {
+      yb = pbb_ * xb;
+      if (bias_outside) {
+        yb += *bias_outside;
+        for (std::uint32_t a : rows) yb += bcoup_[a] * x[a];
+      } else {
+        for (std::size_t a = 0; a < st; ++a) yb += bcoup_[a] * x[a];
+      }
+      rb = etab_ - yb;
+    }
+    rr = rb * rb;
+    for (std::uint32_t a : rows) {
+      r[a] = eta_[a] - q[a];
+      rr += r[a] * r[a];
+      ee += eta_[a] * eta_[a];
+    }
   }
   const double stop = tol * tol * std::max(ee, 1e-300);
   auto precondition = [&] {
@@ -934,6 +938,7 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
     pb = zb + beta * pb;
   }
   for (std::uint32_t a : rows) p[a] = 0;
+  sc.rb = rb;
   if (its) *its += static_cast<std::size_t>(it);
   return std::sqrt(rr / std::max(ee, 1e-300));
 }
@@ -1138,12 +1143,25 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
             if (parts[i] & bit)
               add_outer(sc, i, 2.0 * (next[i] - lambda[i]), parts[i] == bit ? -1 : int(p));
         });
+      // After the first solve its residual is carried: eta is the same, and P changed by
+      // sum_i c_i phi_i phi_i^T (the bias a feature of phi 1), so r -= c_i phi_i (phi_i . x)
+      // per sample, in place of a product over every kernel around the rows.
+      const bool carry = it > 0;
       for (std::size_t i = 0; i < n; ++i) {
-        pbb_ += 2.0 * (next[i] - lambda[i]);
+        const double c = 2.0 * (next[i] - lambda[i]);
+        pbb_ += c;
         lambda[i] = next[i];
+        if (!carry) continue;
+        double s = o_.bias ? meanb_ : 0.0;
+        for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)
+          s += sc.phi[u] * mean_[sc.kernel[u]];
+        const double cs = c * s;
+        for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)
+          sc.r[sc.kernel[u]] -= cs * sc.phi[u];
+        if (o_.bias) sc.rb -= cs;
       }
       stats_.residual = solve(rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
-                              &stats_.cg_iterations, sc, true, ctx, &bias_outside);
+                              &stats_.cg_iterations, sc, true, ctx, &bias_outside, carry);
     }
   } catch (...) {
     for (std::uint32_t k : sc.part_rows[1]) mark_[k] = 0;

@@ -213,6 +213,7 @@ class JointBhm {
   // is listed there, the second's in `second`, then appended).
   struct Scratch : FeatureList {
     std::vector<double> r, z, p, q;
+    double rb = 0;  // the bias row's residual, beside r's (solve())
     std::vector<std::uint32_t> reached, rows;
     std::vector<double> lambda, next;
     FeatureList second;
@@ -297,10 +298,13 @@ class JointBhm {
                        double& yb) const;
   // `rows_boxed`: box_rows(rows, s) was called since the rows last changed (its answer is in
   // s.boxed); otherwise solve() calls it. `bias_outside`: the sum of bcoup_ x over the kernels
-  // outside the rows, when known (otherwise summed here).
+  // outside the rows, when known (otherwise summed here). `residual_given`: s.r (on the rows)
+  // and s.rb already hold eta - P x (bias_outside is then unused); on return they hold the
+  // residual of the new x either way.
   double solve(const std::vector<std::uint32_t>& rows, std::vector<double>& x, double& xb,
                double tol, int max_it, std::size_t* its, Scratch& s, bool rows_boxed = false,
-               Context* ctx = nullptr, const double* bias_outside = nullptr) const;
+               Context* ctx = nullptr, const double* bias_outside = nullptr,
+               bool residual_given = false) const;
   bool near_data(const std::int64_t g[3], std::int64_t hint) const;
   double predictive_var_at(const std::int64_t g[3], std::int64_t hint,
                            std::vector<double>& block_scratch) const;
