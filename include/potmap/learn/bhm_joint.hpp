@@ -313,6 +313,7 @@ class JointBhm {
   JointBhmOptions o_;
   int dim_ = 2;
   double gamma_ = 0, rcut_ = 0;
+  double step_q_ = 1;  // exp(-2 gamma spacing^2): span_features()'s recurrence
   bool bounded_ = false;
   double lo_[3] = {0, 0, 0};       // position of grid cell (0, 0, 0)
   std::int64_t n_[3] = {1, 1, 1};  // bounded: kernels per axis, cells 0 .. n-1
