@@ -437,42 +437,42 @@ void JointBhm::features(const double* x, std::vector<Feature>& out) const {
 }
 
 void JointBhm::add_outer(const Scratch& f, std::size_t i, double c, int part) {
-  // The sample's features are in raster order, in runs of consecutive cells along x. Each
-  // feature u adds its products with itself and the features after it to its own half stencil:
-  // slot(v - u) = lin(v) - lin(u) + lin(pad, pad, pad), and a run of features with
-  // consecutive lin lands on consecutive indices of the half (one of its runs along x).
-  const std::uint32_t f0 = f.start[i], f1 = f.start[i + 1];
-  const std::uint32_t r1 = f.run_start[i + 1];
+  // The sample's features are in raster order, in runs of consecutive cells along x (a run a
+  // line of cells: the cut-off's span is far narrower than the stencil's box). Each feature u
+  // adds its products with itself and the features after it to its own half stencil:
+  // slot(v - u) = lin(v) - lin(u) + lin(pad, pad, pad). A later run lands on consecutive slots
+  // of one of the half's runs, and one cell further along u's run, one slot earlier: its slot
+  // is found once per run pair, not once per feature.
+  const std::uint32_t r0 = f.run_start[i], r1 = f.run_start[i + 1];
   const double* phi = f.phi.data();
   const std::int64_t* lin = f.lin.data();
   const std::uint32_t* run = f.runs.data();
   const std::int32_t* half_at = half_at_.data() + centre_lin_;
   const auto hs = static_cast<std::size_t>(half_slots_);
-  std::uint32_t ru = f.run_start[i];  // u's run
-  for (std::uint32_t u = f0; u < f1; ++u) {
-    if (u >= run[2 * ru] + run[2 * ru + 1]) ++ru;
-    const std::uint32_t ku = f.kernel[u];
-    if (part >= 0 && mark_[ku] != part) continue;
-    double* row = &prec_[std::size_t(ku) * hs];
-    const double ca = c * phi[u];
-    row[0] += ca * phi[u];
-    // The rest of u's own run: dx = 1, 2, ... on the centre row.
-    const std::uint32_t rest = run[2 * ru] + run[2 * ru + 1] - u - 1;
-    if (rest > 0) {
-      double* dst = row + half_at[1];
-      const double* src = phi + u + 1;
-      for (std::uint32_t k = 0; k < rest; ++k) dst[k] += ca * src[k];
+  const std::int32_t next_at = half_at[1];
+  for (std::uint32_t ra = r0; ra < r1; ++ra) {
+    const std::uint32_t u0 = run[2 * ra], la = run[2 * ra + 1];
+    for (std::uint32_t k = 0; k < la; ++k) {
+      const std::uint32_t u = u0 + k;
+      const std::uint32_t ku = f.kernel[u];
+      if (part >= 0 && mark_[ku] != part) continue;
+      double* row = &prec_[std::size_t(ku) * hs];
+      const double ca = c * phi[u];
+      row[0] += ca * phi[u];
+      // The rest of u's own run: dx = 1, 2, ... on the centre row.
+      {
+        double* dst = row + next_at;
+        const double* src = phi + u + 1;
+        for (std::uint32_t m = 0; m + k + 1 < la; ++m) dst[m] += ca * src[m];
+      }
+      for (std::uint32_t rb = ra + 1; rb < r1; ++rb) {
+        const std::uint32_t v0 = run[2 * rb], lb = run[2 * rb + 1];
+        double* dst = row + (half_at[lin[v0] - lin[u0]] - std::int32_t(k));
+        const double* src = phi + v0;
+        for (std::uint32_t m = 0; m < lb; ++m) dst[m] += ca * src[m];
+      }
+      bcoup_[ku] += ca;
     }
-    for (std::uint32_t r = ru + 1; r < r1; ++r) {
-      const std::uint32_t v0 = run[2 * r], len = run[2 * r + 1];
-      const std::int32_t at = half_at[lin[v0] - lin[u]];
-      // Beyond 2 rcut: the features' cut-off rules it out (a guard, never taken).
-      if (at < 0 || half_at[lin[v0 + len - 1] - lin[u]] < 0) continue;
-      double* dst = row + at;
-      const double* src = phi + v0;
-      for (std::uint32_t k = 0; k < len; ++k) dst[k] += ca * src[k];
-    }
-    bcoup_[ku] += ca;
   }
 }
 
