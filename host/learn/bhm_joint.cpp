@@ -163,10 +163,10 @@ std::size_t JointBhm::FeatureList::bytes() const {
 std::size_t JointBhm::Scratch::bytes() const {
   auto b = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   return FeatureList::bytes() + second.bytes() + b(sample_tiles) + b(r) + b(z) + b(p) + b(q) +
-         b(reached) + b(rows) + b(lambda) + b(next) + b(bits) + b(bits_tmp) + b(pbox) + b(box_off) +
-         b(box_len) + b(sample_parts) + b(ybox[0]) + b(ybox[1]) + b(part_rows[0]) +
-         b(part_rows[1]) + b(part_around[0]) + b(part_around[1]) + b(part_at[0]) + b(part_at[1]) +
-         b(part_around_at[0]) + b(part_around_at[1]);
+         b(rows_tmp) + b(reached) + b(rows) + b(lambda) + b(next) + b(bits) + b(bits_tmp) +
+         b(pbox) + b(box_off) + b(box_len) + b(sample_parts) + b(ybox[0]) + b(ybox[1]) +
+         b(part_rows[0]) + b(part_rows[1]) + b(part_around[0]) + b(part_around[1]) + b(part_at[0]) +
+         b(part_at[1]) + b(part_around_at[0]) + b(part_around_at[1]);
 }
 
 std::uint64_t JointBhm::tile_key(const std::int64_t t[3]) {
@@ -553,14 +553,33 @@ void JointBhm::dilate_rows(std::vector<std::uint32_t>& rows,
       }
     bits.swap(tmp);
   }
-  // The stored cells of the box, a run along x at a time (a tile found once, not per cell).
+  // The stored cells of the box, a run along x at a time (a tile found once, not per cell),
+  // tile by tile. A tile's rows come out in storage order and its storage is one range, so
+  // putting the tiles in order sorts the rows.
+  struct Chunk {
+    std::uint32_t tile;
+    std::size_t begin, end;
+  };
+  std::vector<Chunk> chunks;
+  const std::size_t base = rows.size();
   for_each_stored_line(lo, hi, [&](std::int64_t s, const std::int64_t g[3], std::int64_t l) {
+    const auto tile = static_cast<std::uint32_t>(s / tile_cells_);
+    if (chunks.empty() || chunks.back().tile != tile)
+      chunks.push_back({tile, rows.size(), rows.size()});
     const std::uint8_t* line =
         bits.data() + ((g[2] - lo[2]) * n[1] + (g[1] - lo[1])) * n[0] + (g[0] - lo[0]);
     for (std::int64_t i = 0; i < l; ++i)
       if (line[i]) rows.push_back(static_cast<std::uint32_t>(s + i));
+    chunks.back().end = rows.size();
   });
-  std::sort(rows.begin(), rows.end());
+  auto by_tile = [](const Chunk& x, const Chunk& y) { return x.tile < y.tile; };
+  if (std::is_sorted(chunks.begin(), chunks.end(), by_tile)) return;
+  std::sort(chunks.begin(), chunks.end(), by_tile);
+  std::vector<std::uint32_t>& tmp_rows = sc.rows_tmp;
+  tmp_rows.assign(rows.begin() + std::ptrdiff_t(base), rows.end());
+  std::size_t at = base;
+  for (const Chunk& c : chunks)
+    for (std::size_t k = c.begin; k < c.end; ++k) rows[at++] = tmp_rows[k - base];
 }
 
 void JointBhm::mark_dirty(std::uint32_t s) {

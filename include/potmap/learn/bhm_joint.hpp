@@ -219,6 +219,7 @@ class JointBhm {
     FeatureList second;
     std::vector<std::int32_t> sample_tiles;    // update(): 8 per sample (span_tiles())
     std::vector<std::uint8_t> bits, bits_tmp;  // dilate_rows()
+    std::vector<std::uint32_t> rows_tmp;       // dilate_rows()
     // solve(): a box of cells around the rows (box_rows()), x in it, the offsets of the
     // stencil's half runs. The box is cut in two parts at cell `box_split` (raster order): a
     // part's rows, and the kernels around them, with their places in the box, and the part's
