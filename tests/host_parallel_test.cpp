@@ -85,10 +85,23 @@ TEST(HostParallel, AHeldHelperStillRunsEveryItemOnce) {
   bool helper_seen = false;
   ctx.hold_host_helper(true);
   ctx.hold_host_helper(true);
-  for (int run = 0; run < 200; ++run) {
+  // Item 0 (the caller's: it takes the front) waits up to a millisecond for item 1 to be
+  // taken, which a looking helper does at once. On a loaded machine (the sanitizers' suite
+  // runs two tests at a time on two cores) the helper's thread may wait for a core for a
+  // while, so the runs go on until it has taken an item, for at most two seconds.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  for (int run = 0; run < 200 || (!helper_seen && std::chrono::steady_clock::now() < deadline);
+       ++run) {
     std::vector<std::thread::id> by(2);
     std::vector<std::atomic<int>> count(2);
+    std::atomic<bool> second_taken{false};
     ctx.host_parallel_for(2, [&](std::size_t i) {
+      if (i == 1) second_taken = true;
+      if (i == 0) {
+        const auto wait = std::chrono::steady_clock::now() + std::chrono::milliseconds(1);
+        while (!second_taken && std::chrono::steady_clock::now() < wait) {
+        }
+      }
       busy_for(20);
       count[i].fetch_add(1);
       by[i] = std::this_thread::get_id();
