@@ -163,7 +163,7 @@ std::size_t JointBhm::FeatureList::bytes() const {
 std::size_t JointBhm::Scratch::bytes() const {
   auto b = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   return FeatureList::bytes() + second.bytes() + b(sample_tiles) + b(r) + b(z) + b(p) + b(q) +
-         b(rows_tmp) + b(reached) + b(rows) + b(lambda) + b(next) + b(bits) + b(bits_tmp) +
+         b(rows_tmp) + b(mu) + b(reached) + b(rows) + b(lambda) + b(next) + b(bits) + b(bits_tmp) +
          b(pbox) + b(box_off) + b(box_len) + b(sample_parts) + b(ybox[0]) + b(ybox[1]) +
          b(part_rows[0]) + b(part_rows[1]) + b(part_around[0]) + b(part_around[1]) + b(part_at[0]) +
          b(part_at[1]) + b(part_around_at[0]) + b(part_around_at[1]);
@@ -891,14 +891,8 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   std::vector<double>&r = sc.r, &z = sc.z, &p = sc.p, &q = sc.q;
   double rb = 0, zb = 0, pb = 0, qb = 0;
   const bool boxed = rows_boxed ? sc.boxed : box_rows(rows, sc);
-  double rr = 0, ee = etab_ * etab_;
   if (residual_given) {
     rb = o_.bias ? sc.rb : 0.0;
-    rr = rb * rb;
-    for (std::uint32_t a : rows) {
-      rr += r[a] * r[a];
-      ee += eta_[a] * eta_[a];
-    }
   } else {
     double yb = 0;
     if (boxed)
@@ -916,12 +910,12 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
       }
       rb = etab_ - yb;
     }
-    rr = rb * rb;
-    for (std::uint32_t a : rows) {
-      r[a] = eta_[a] - q[a];
-      rr += r[a] * r[a];
-      ee += eta_[a] * eta_[a];
-    }
+    for (std::uint32_t a : rows) r[a] = eta_[a] - q[a];
+  }
+  double rr = rb * rb, ee = etab_ * etab_;
+  for (std::uint32_t a : rows) {
+    rr += r[a] * r[a];
+    ee += eta_[a] * eta_[a];
   }
   const double stop = tol * tol * std::max(ee, 1e-300);
   auto precondition = [&] {
@@ -1117,6 +1111,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   }
   // xi from the posterior before this scan; variances by the diagonal of the precision (a lower
   // bound of the marginal ones, cheap, and enough for the bound's curvature).
+  // (Sample i's mean logit phi_i . x is kept in sc.mu: the carried residual below needs it.)
   auto xi_of = [&](std::size_t i) {
     double mu = o_.bias ? meanb_ : 0.0, s2 = o_.bias ? 1.0 / pbb_ : 0.0;
     for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u) {
@@ -1124,6 +1119,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
       mu += mean_[sc.kernel[u]] * phi;
       s2 += phi * phi / prec_[std::size_t(sc.kernel[u]) * hs];
     }
+    sc.mu[i] = mu;
     return std::sqrt(mu * mu + s2);
   };
   // The box of the solves (the rows are those of every EM iteration), and its two parts: each
@@ -1155,6 +1151,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   std::vector<double>&lambda = sc.lambda, &next = sc.next;
   lambda.assign(n, 0.0);
   next.resize(n);
+  sc.mu.resize(n);
   try {
     for (int it = 0; it < o_.em_iterations; ++it) {
       // Every xi from the same posterior, then the precision.
@@ -1174,17 +1171,15 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
         });
       // After the first solve its residual is carried: eta is the same, and P changed by
       // sum_i c_i phi_i phi_i^T (the bias a feature of phi 1), so r -= c_i phi_i (phi_i . x)
-      // per sample, in place of a product over every kernel around the rows.
+      // per sample (phi_i . x from xi's pass: x has not changed since), in place of a product
+      // over every kernel around the rows.
       const bool carry = it > 0;
       for (std::size_t i = 0; i < n; ++i) {
         const double c = 2.0 * (next[i] - lambda[i]);
         pbb_ += c;
         lambda[i] = next[i];
         if (!carry) continue;
-        double s = o_.bias ? meanb_ : 0.0;
-        for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)
-          s += sc.phi[u] * mean_[sc.kernel[u]];
-        const double cs = c * s;
+        const double cs = c * sc.mu[i];
         for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)
           sc.r[sc.kernel[u]] -= cs * sc.phi[u];
         if (o_.bias) sc.rb -= cs;

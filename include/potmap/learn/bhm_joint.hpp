@@ -215,7 +215,7 @@ class JointBhm {
     std::vector<double> r, z, p, q;
     double rb = 0;  // the bias row's residual, beside r's (solve())
     std::vector<std::uint32_t> reached, rows;
-    std::vector<double> lambda, next;
+    std::vector<double> lambda, next, mu;  // update(): per sample (mu: phi . x, xi's pass)
     FeatureList second;
     std::vector<std::int32_t> sample_tiles;    // update(): 8 per sample (span_tiles())
     std::vector<std::uint8_t> bits, bits_tmp;  // dilate_rows()
