@@ -4,9 +4,11 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <sstream>
 
 #include "commands.hpp"
 #include "dataset_samples.hpp"
+#include "potmap/data/drive.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/scan.hpp"
@@ -17,7 +19,44 @@ namespace potmap::cli {
 
 namespace {
 
+// A drive is summarised from its index and its keyframes read one at a time (a long drive
+// does not fit in memory as one Dataset).
+int drive_info(const std::string& dir) {
+  const Drive d = open_drive(dir);
+  const DriveSummary s = summarise_drive(d);
+  auto fixed = [](double v, int p) {
+    std::ostringstream o;
+    o.setf(std::ios::fixed);
+    o.precision(p);
+    o << v;
+    return o.str();
+  };
+  std::cout << "drive: " << dir << " (" << (d.layout == "slam" ? "SLAM keyframes" : "KITTI sequence")
+            << ")\n";
+  std::cout << "poses: " << d.poses_file << "\n";
+  std::cout << "dimension: 3\n";
+  std::cout << "keyframes: " << s.keyframes << "\n";
+  std::cout << "points: " << s.points << " (" << s.min_points << " to " << s.max_points
+            << " a keyframe)\n";
+  std::cout << "path: " << fixed(s.path_length, 1) << " m (median step " << fixed(s.median_step, 2)
+            << " m, largest " << fixed(s.largest_step, 2) << " m)\n";
+  if (d.has_times)
+    std::cout << "duration: " << fixed(s.duration, 1) << " s\n";
+  else
+    std::cout << "duration: unknown (no times.txt; keyframe indices stand for time)\n";
+  std::cout << "field of view: " << fixed(s.azimuth_span, 0) << " deg azimuth, "
+            << fixed(s.elevation_min, 1) << " to " << fixed(s.elevation_max, 1)
+            << " deg elevation\n";
+  std::cout << "return ranges (m): median " << fixed(s.range_median, 1) << ", 99 % below "
+            << fixed(s.range_p99, 1) << "\n";
+  std::cout << "sensor positions (m): x [" << fixed(s.lo[0], 1) << ", " << fixed(s.hi[0], 1)
+            << "] y [" << fixed(s.lo[1], 1) << ", " << fixed(s.hi[1], 1) << "] z ["
+            << fixed(s.lo[2], 1) << ", " << fixed(s.hi[2], 1) << "]\n";
+  return 0;
+}
+
 int data_info(const std::string& file) {
+  if (is_drive(file)) return drive_info(file);
   const Dataset ds = read_dataset(file);
   std::size_t bmin = std::numeric_limits<std::size_t>::max(), bmax = 0, hits = 0, none = 0;
   double rmin = HUGE_VAL, rmax = 0, maxr_lo = HUGE_VAL, maxr_hi = 0;
@@ -70,8 +109,9 @@ void register_data(CLI::App& app, Runner& runner) {
 
   CLI::App* info = data->add_subcommand(
       "info",
-      "Summarise a dataset (CARMEN .log[.gz], KITTI/nuScenes .bin, a KITTI sequence folder or its "
-      "poses.txt, .npz, labelled .csv)");
+      "Summarise a dataset (CARMEN .log[.gz], KITTI/nuScenes .bin, a 3D drive folder: SLAM "
+      "keyframes Scans/*.pcd + odom_poses.txt or a KITTI sequence; .pcd/.ply, .npz, labelled "
+      ".csv)");
   auto file = std::make_shared<std::string>();
   info->add_option("FILE", *file, "dataset file")->required();
   info->callback([&runner, file] { runner.action = [file] { return data_info(*file); }; });

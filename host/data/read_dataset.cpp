@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "data/file_bytes.hpp"
+#include "potmap/data/drive.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
@@ -21,14 +22,17 @@ bool ends_with(const std::string& s, const std::string& e) {
 Dataset read_dataset(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) {
+    // A drive (SLAM keyframes or a KITTI sequence in the benchmark's layout).
+    if (is_drive(path)) return read_drive(open_drive(path));
     // A folder in KITTI odometry layout (as `potmap data simulate --3d` writes it) is its
     // sequence; any other folder is refused by name rather than read as an empty log.
     const std::filesystem::path poses = std::filesystem::path(path) / "poses.txt";
     if (std::filesystem::exists(poses, ec)) return read_dataset(poses.string());
     throw InputError(path +
-                     ": a folder without poses.txt (a KITTI sequence folder holds "
-                     "poses.txt, calib.txt and velodyne/NNNNNN.bin; a point-cloud sequence "
-                     "folder poses.txt naming its .pcd or .ply frames)");
+                     ": not a dataset folder (a SLAM keyframe folder holds Scans/NNNNNN.pcd and "
+                     "odom_poses.txt; a KITTI sequence velodyne/NNNNNN.bin, calib.txt and its "
+                     "poses; a point-cloud sequence folder a poses.txt naming its .pcd or .ply "
+                     "frames)");
   }
   std::string lower = path;
   std::transform(lower.begin(), lower.end(), lower.begin(), ::tolower);
