@@ -605,3 +605,71 @@ TEST(JointBhm, SeedsYieldToData) {
 
 }  // namespace
 }  // namespace potmap
+
+namespace potmap {
+namespace {
+
+// The wall scan with every sample repeated `copies` times, or weighing `copies` once.
+LabelledPoints repeated(const LabelledPoints& s, int copies, bool as_weight) {
+  LabelledPoints out;
+  out.dim = s.dim;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    for (int c = 0; c < (as_weight ? 1 : copies); ++c) {
+      for (int d = 0; d < s.dim; ++d) out.position.push_back(s.position[i * s.dim + d]);
+      out.label.push_back(s.label[i]);
+      if (as_weight) out.weight.push_back(copies);
+    }
+  return out;
+}
+
+}  // namespace
+
+// A sample of weight n is n samples at one place: the same bound, the same posterior (up to
+// the solver's tolerance), over three EM rounds and two scans.
+TEST(JointBhm, AWeightedSampleIsThatManySamplesAtOnePlace) {
+  for (int dim : {2, 3}) {
+    SCOPED_TRACE(dim);
+    JointBhmOptions o;
+    o.cg_tolerance = 1e-10;
+    o.cg_max_iterations = 2000;
+    JointBhm copies(dim, o), weighted(dim, o);
+    for (std::uint32_t t = 0; t < 2; ++t) {
+      const LabelledPoints s = dim == 2 ? wall_scan(7 + t, t) : wall_scan_3d(7 + t);
+      copies.update(repeated(s, 3, false));
+      weighted.update(repeated(s, 3, true));
+    }
+    const KernelMap a = copies.map(), b = weighted.map();
+    ASSERT_EQ(a.size(), b.size());
+    double scale = 0, diff = 0;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      scale = std::max(scale, std::abs(a.w_mean[k]));
+      diff = std::max(diff, std::abs(a.w_mean[k] - b.w_mean[k]));
+      EXPECT_NEAR(a.w_var[k], b.w_var[k], 1e-6 * a.w_var[k]);
+    }
+    EXPECT_GT(scale, 0.5);
+    EXPECT_LT(diff, 1e-6 * scale);
+    // And not the map of the scan taken once: the weights count.
+    JointBhm once(dim, o);
+    once.update(dim == 2 ? wall_scan(7, 0) : wall_scan_3d(7));
+    once.update(dim == 2 ? wall_scan(8, 1) : wall_scan_3d(8));
+    const KernelMap c = once.map();
+    double moved = 0;
+    for (std::size_t k = 0; k < c.size() && k < a.size(); ++k)
+      moved = std::max(moved, std::abs(c.w_var[k] - a.w_var[k]));
+    EXPECT_GT(moved, 1e-3);
+  }
+}
+
+TEST(JointBhm, RefusesBadWeights) {
+  JointBhm learner(2);
+  LabelledPoints s = wall_scan(1, 0);
+  s.weight.assign(s.size() - 1, 1.0);
+  EXPECT_THROW(learner.update(s), ArgumentError);
+  s.weight.assign(s.size(), 1.0);
+  s.weight[3] = -1;
+  EXPECT_THROW(learner.update(s), ArgumentError);
+  s.weight[3] = std::nan("");
+  EXPECT_THROW(learner.update(s), ArgumentError);
+}
+
+}  // namespace potmap

@@ -41,6 +41,21 @@ void add_common(CLI::App* cmd, Settings& s) {
   cmd->add_option("--bhm-prior-var", s.bhm.prior_var,
                   "BHM prior weight variance (0: the model's default, joint 10, diagonal 1e4)")
       ->capture_default_str();
+  cmd->add_option("--bhm-voxel", s.bhm.voxel,
+                  "Joint BHM: each scan's samples gathered per voxel of this edge, metres, one "
+                  "weighted sample each (0: every sample on its own)")
+      ->capture_default_str();
+  cmd->add_option("--bhm-tau", s.bhm.tau,
+                  "Joint BHM: feature cut-off exponent gamma d^2 (0: the learner's default, 6)")
+      ->capture_default_str();
+  cmd->add_option("--bhm-margin", s.bhm.solve_margin,
+                  "Joint BHM: rings of kernels solved around those a scan reaches (-1: the "
+                  "learner's default, 4)")
+      ->capture_default_str();
+  cmd->add_option("--bhm-cg-tol", s.bhm.cg_tolerance,
+                  "Joint BHM: relative residual that ends a scan's solve (0: the learner's "
+                  "default, 1e-5)")
+      ->capture_default_str();
   cmd->add_option("--bhm-em", s.bhm.options.em_iterations, "BHM E-steps per scan")
       ->capture_default_str();
   cmd->add_option("--bhm-bias", s.bhm.bias, "BHM bias weight (true/false)")->capture_default_str();

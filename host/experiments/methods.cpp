@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/learn/bhm_joint.hpp"
@@ -77,6 +78,9 @@ JointBhmOptions joint_bhm_options(const BhmSetup& setup) {
   if (setup.prior_var > 0) o.prior_var = setup.prior_var;
   o.bias = setup.bias;
   o.em_iterations = setup.options.em_iterations;
+  if (setup.tau > 0) o.tau = setup.tau;
+  if (setup.solve_margin >= 0) o.solve_margin = setup.solve_margin;
+  if (setup.cg_tolerance > 0) o.cg_tolerance = setup.cg_tolerance;
   return o;
 }
 
@@ -94,7 +98,7 @@ KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double l
     JointBhmOptions o = joint_bhm_options(setup);
     o.spacing = spacing;
     JointBhm learner(dim, lo, hi, o);
-    learner.update_by_scan(samples);
+    learner.update_by_scan(setup.voxel > 0 ? aggregate_voxels(samples, setup.voxel) : samples);
     if (gamma_out) *gamma_out = learner.gamma();
     return learner.map();
   }

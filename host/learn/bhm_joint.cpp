@@ -157,7 +157,7 @@ std::size_t JointBhm::memory_bytes() const {
 
 std::size_t JointBhm::FeatureList::bytes() const {
   auto b = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return b(kernel) + b(start) + b(runs) + b(run_start) + b(phi) + b(yc) + b(lin);
+  return b(kernel) + b(start) + b(runs) + b(run_start) + b(phi) + b(yc) + b(w) + b(lin);
 }
 
 std::size_t JointBhm::Scratch::bytes() const {
@@ -972,6 +972,14 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
                         std::to_string(dim_) + "D");
   if (samples.position.size() != samples.size() * std::size_t(dim_))
     throw ArgumentError("joint BHM: sample positions and labels disagree in number");
+  const bool weighted = !samples.weight.empty();
+  if (weighted && samples.weight.size() != samples.size())
+    throw ArgumentError("joint BHM: " + std::to_string(samples.weight.size()) + " weights for " +
+                        std::to_string(samples.size()) + " samples");
+  for (double w : samples.weight)
+    if (!(w >= 0) || !std::isfinite(w))
+      throw ArgumentError("joint BHM: a sample weight of " + std::to_string(w) +
+                          " (weights are finite and not negative)");
   stats_ = {};
   if (samples.empty()) return;
   const auto hs = static_cast<std::size_t>(half_slots_);
@@ -987,6 +995,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
     out.lin.clear();
     out.runs.clear();
     out.yc.clear();
+    out.w.clear();
     out.start.assign(1, 0);
     out.run_start.assign(1, 0);
   };
@@ -1011,7 +1020,9 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
     if (out.kernel.size() == first) return;
     out.start.push_back(static_cast<std::uint32_t>(out.kernel.size()));
     out.run_start.push_back(static_cast<std::uint32_t>(out.runs.size() / 2));
-    out.yc.push_back(samples.label[i] ? 0.5 : -0.5);
+    const double w = weighted ? samples.weight[i] : 1.0;
+    out.w.push_back(w);
+    out.yc.push_back(samples.label[i] ? 0.5 * w : -0.5 * w);
   };
   auto span = [&](std::size_t i, std::int64_t a[3], std::int64_t b[3]) {
     const double* x = &samples.position[i * dim_];
@@ -1062,6 +1073,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
     sc.phi.insert(sc.phi.end(), s2.phi.begin(), s2.phi.end());
     sc.lin.insert(sc.lin.end(), s2.lin.begin(), s2.lin.end());
     sc.yc.insert(sc.yc.end(), s2.yc.begin(), s2.yc.end());
+    sc.w.insert(sc.w.end(), s2.w.begin(), s2.w.end());
     for (std::size_t k = 1; k < s2.start.size(); ++k) sc.start.push_back(s2.start[k] + nf);
     for (std::size_t k = 1; k < s2.run_start.size(); ++k)
       sc.run_start.push_back(s2.run_start[k] + nr);
@@ -1161,13 +1173,15 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
       });
       // Each entry of P sums the samples in their order either way.
       if (!ctx)
-        for (std::size_t i = 0; i < n; ++i) add_outer(sc, i, 2.0 * (next[i] - lambda[i]), -1);
+        for (std::size_t i = 0; i < n; ++i)
+          add_outer(sc, i, 2.0 * sc.w[i] * (next[i] - lambda[i]), -1);
       else
         detail::for_each_item(ctx, std::size_t(nparts), [&](std::size_t p) {
           const auto bit = std::uint8_t(1u << p);
           for (std::size_t i = 0; i < n; ++i)
             if (parts[i] & bit)
-              add_outer(sc, i, 2.0 * (next[i] - lambda[i]), parts[i] == bit ? -1 : int(p));
+              add_outer(sc, i, 2.0 * sc.w[i] * (next[i] - lambda[i]),
+                        parts[i] == bit ? -1 : int(p));
         });
       // After the first solve its residual is carried: eta is the same, and P changed by
       // sum_i c_i phi_i phi_i^T (the bias a feature of phi 1), so r -= c_i phi_i (phi_i . x)
@@ -1175,7 +1189,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
       // over every kernel around the rows.
       const bool carry = it > 0;
       for (std::size_t i = 0; i < n; ++i) {
-        const double c = 2.0 * (next[i] - lambda[i]);
+        const double c = 2.0 * sc.w[i] * (next[i] - lambda[i]);
         pbb_ += c;
         lambda[i] = next[i];
         if (!carry) continue;
@@ -1206,9 +1220,11 @@ void JointBhm::update_by_scan(const LabelledPoints& samples) {
     s.position.clear();
     s.label.clear();
     s.scan.clear();
+    s.weight.clear();
     for (std::size_t i : idx) {
       for (int d = 0; d < s.dim; ++d) s.position.push_back(samples.position[i * s.dim + d]);
       s.label.push_back(samples.label[i]);
+      if (!samples.weight.empty()) s.weight.push_back(samples.weight[i]);
       s.scan.push_back(t);
     }
     update(s);

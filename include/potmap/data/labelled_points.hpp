@@ -19,6 +19,11 @@ struct LabelledPoints {
   std::vector<double> position;     ///< size() * dim coordinates, row-major, metres
   std::vector<std::uint8_t> label;  ///< 1 = occupied (hit), 0 = free
   std::vector<std::int64_t> scan;   ///< scan index t of each point (0 when the source has none)
+  /// How many samples each point stands for (empty, the default: one each). A point that
+  /// gathers the samples of a small voxel (aggregate_voxels) carries their number, so a
+  /// learner adds it once with that weight instead of once per sample: the Jaakkola-Jordan
+  /// bound of n samples at one place is n times one sample's.
+  std::vector<double> weight;
   std::size_t size() const { return label.size(); }
   bool empty() const { return label.empty(); }
   /// Smallest box holding every point, metres: lo[d] <= x_d <= hi[d] for d < dim; the unused

@@ -113,6 +113,15 @@ struct BhmSetup {
   /// A bias weight with the same prior (default true): it sets the level of unobserved space
   /// (without it the gaps between narrow kernels sit at p = 0.5 exactly).
   bool bias = true;
+  /// Joint model: each scan's samples gathered per voxel of this edge, metres, before they are
+  /// learned (aggregate_voxels; default 0: every sample on its own, as the 2D defaults). 3D
+  /// drives use half the kernel spacing (frame_setup_3d, drive defaults).
+  double voxel = 0;
+  /// Joint model: JointBhmOptions::tau, solve_margin and cg_tolerance where set (defaults 0,
+  /// -1 and 0: the learner's own, chosen on the 2D logs). See drive_bhm_setup() for 3D.
+  double tau = 0;
+  int solve_margin = -1;
+  double cg_tolerance = 0;
 };
 
 /// The joint learner's options of `setup` (spacing, width, prior variance when set, bias, EM

@@ -200,11 +200,11 @@ class JointBhm {
     std::int32_t nb[27];    // neighbour tiles (dx+1) + 3 (dy+1) + 9 (dz+1); -1: not stored
   };
   // update(): a scan's features, flat (per feature: kernel, phi and stencil-linear cell; per
-  // sample: its first feature, its first run of features with consecutive cells, its label
-  // as +-1/2; the runs as (first feature, length) pairs).
+  // sample: its first feature, its first run of features with consecutive cells, its weight
+  // and its label as +-1/2 times the weight; the runs as (first feature, length) pairs).
   struct FeatureList {
     std::vector<std::uint32_t> kernel, start, runs, run_start;
-    std::vector<double> phi, yc;
+    std::vector<double> phi, yc, w;
     std::vector<std::int64_t> lin;
     std::size_t bytes() const;
   };

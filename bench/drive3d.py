@@ -1,0 +1,91 @@
+#!/usr/bin/env python3
+"""3D drives: the continuous maps against OctoMap, keyframe by keyframe, in one run.
+
+Usage: bench/drive3d.py [--build build] [--drives riverside-a,hku-1] [--cuts 20,40]
+                        [--keyframes 30] [--source 10] [--methods ogm,bhm]
+                        [--out docs/drive3d-speed.json] [-- EXTRA potmap experiment options]
+
+For every drive of ../shared/data/drives3d and every cut (a horizontal range, metres, applied
+to every method alike), `potmap experiment intra` maps keyframes [source, keyframes) of the
+drive (the first `source` keyframes are POT's atoms) with OctoMap at 0.1 and 0.2 m and the
+joint BHM at the 3D drive defaults below, every method scored on the same held-out beams
+(20 % of each keyframe's). The table gives AUC / NLL and milliseconds per keyframe (the whole
+fit: BHM's gathering of samples per voxel, its updates and the map's export; OctoMap's ray
+casting of the training beams), and each method's time as a ratio to OctoMap 0.2 m's in the
+same run, so the ratio holds on a machine shared with other jobs. The JSON holds every run.
+"""
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
+
+# The 3D drive defaults of the joint BHM (include/potmap/experiments/experiment_frames.hpp,
+# drive_bhm_setup): kernels 1 m apart, 0.5 free samples a metre gathered per 0.5 m voxel,
+# feature cut-off 4.5, one ring of solve margin, two EM rounds, CG tolerance 1e-4.
+BHM_3D = ["--bhm-spacing", "1", "--free-per-metre", "0.5", "--bhm-voxel", "0.5",
+          "--bhm-tau", "4.5", "--bhm-margin", "1", "--bhm-em", "2", "--bhm-cg-tol", "1e-4"]
+
+
+def run(build, drive, cut, keyframes, source, methods, extra):
+    out = tempfile.mktemp(suffix=".json")
+    cmd = [os.path.join(build, "tools", "potmap"), "experiment", "intra",
+           os.path.join(DRIVES, drive), "--scans", str(keyframes), "--source-scans",
+           str(source), "--methods", methods, "--ogm-cells", "0.1", "0.2", "--seeds", "0",
+           "--max-range", str(cut), "--json", out] + BHM_3D + extra
+    print("bench/drive3d.py:", " ".join(cmd[1:]), file=sys.stderr, flush=True)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    with open(out) as f:
+        data = json.load(f)
+    os.unlink(out)
+    return data
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--build", default=os.path.join(HERE, "..", "build"))
+    ap.add_argument("--drives", default="riverside-a,hku-1")
+    ap.add_argument("--cuts", default="20,40")
+    ap.add_argument("--keyframes", type=int, default=30)
+    ap.add_argument("--source", type=int, default=10)
+    ap.add_argument("--methods", default="ogm,bhm")
+    ap.add_argument("--out", default="drive3d-speed.json")
+    ap.add_argument("extra", nargs="*", help="more potmap experiment intra options (after --)")
+    a = ap.parse_args()
+    rows, device = [], ""
+    for drive in a.drives.split(","):
+        for cut in a.cuts.split(","):
+            data = run(a.build, drive, cut, a.keyframes, a.source, a.methods, a.extra)
+            device = data.get("device", "")
+            runs = data["runs"]
+            base = next(r for r in runs if r["method"] == "OGM 0.2 m")["ms_per_scan"]
+            for r in runs:
+                rows.append({"drive": drive, "cut_m": float(cut), "method": r["method"],
+                             "auc": r["auc"], "nll": r["nll"], "acc": r["acc"],
+                             "ms_per_keyframe": r["ms_per_scan"],
+                             "ratio_to_octomap_0.2": r["ms_per_scan"] / base,
+                             "keyframes": r["scans"], "n_test": r["n_test"]})
+    head = "| drive | cut | method | AUC | NLL | ms / keyframe | x OctoMap 0.2 m |"
+    print(head)
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        print("| %s | %g m | %s | %.3f | %.3f | %.0f | %.2f |" % (
+            r["drive"], r["cut_m"], r["method"], r["auc"], r["nll"], r["ms_per_keyframe"],
+            r["ratio_to_octomap_0.2"]))
+    meta = {"command": "bench/drive3d.py " + " ".join(sys.argv[1:]), "device": device,
+            "machine": platform.processor() or platform.machine(),
+            "cpus": os.cpu_count(), "keyframes": a.keyframes, "source": a.source,
+            "bhm_options": BHM_3D, "rows": rows}
+    with open(a.out + ".tmp", "w") as f:
+        json.dump(meta, f, indent=1)
+    os.replace(a.out + ".tmp", a.out)
+    print("bench/drive3d.py: wrote", a.out, file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
