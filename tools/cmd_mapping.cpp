@@ -10,8 +10,10 @@
 #include "commands.hpp"
 #include "dataset_samples.hpp"
 #include "default_dictionary.hpp"
+#include "drive_mapping.hpp"
 #include "map_pictures.hpp"
 #include "map_pipeline.hpp"
+#include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/io/map_io.hpp"
@@ -26,12 +28,13 @@ namespace potmap::cli {
 namespace {
 
 struct MappingArgs {
-  std::string log, out, dict, method = "repot", json, ranking = "indexed";
-  double range_cut = 20, ros_res = 0.05;
+  std::string log, out, dict, method, json, ranking = "indexed";  // method "": by the input
+  double range_cut = -1, ros_res = 0.05;  // range_cut -1: 20 m in 2D, 40 m for a 3D drive
   std::size_t first = 0, max_scans = 0, picture_pixels = 1200;
   int rotations = 8;
   std::uint64_t seed = 0;
   bool quiet = false, seeds_yield_fully = true;
+  DriveMappingArgs drive;  // 3D drives: what differs
 };
 
 std::string default_out(const std::string& log) {
@@ -43,14 +46,36 @@ std::string default_out(const std::string& log) {
   return (fs::path("out") / "mapping" / stem).string();
 }
 
-int run_mapping(const MappingArgs& a, const std::string& device) {
+// A 3D drive goes to the joint BHM's drive job with the options it shares.
+int run_drive(const MappingArgs& a, const std::string& device) {
+  DriveMappingArgs d = a.drive;
+  d.drive = a.log;
+  d.out = a.out;
+  d.json = a.json;
+  d.range_cut = a.range_cut > 0 ? a.range_cut : 40;
+  d.first = a.first;
+  d.max_keyframes = a.max_scans;
+  d.seed = a.seed;
+  d.quiet = a.quiet;
+  if (!a.method.empty() && a.method != "bhm")
+    throw ArgumentError("mapping: a 3D drive is mapped with --method bhm (the joint BHM); POT and "
+                        "RePOT in 3D need a 3D dictionary, which is not built in: use potmap map "
+                        "--dict with one, not --method " + a.method);
+  return run_drive_mapping(d, device);
+}
+
+int run_mapping(const MappingArgs& args, const std::string& device) {
+  if (is_drive(args.log)) return run_drive(args, device);
+  MappingArgs a = args;
+  if (a.method.empty()) a.method = "repot";
   if (a.method != "pot" && a.method != "repot")
     throw ArgumentError("mapping: --method must be pot or repot, not '" + a.method + "'");
   const std::string dir = a.out.empty() ? default_out(a.log) : a.out;
   fs::create_directories(dir);
   std::FILE* human = a.json == "-" ? stderr : stdout;
 
-  std::vector<Scan> all = read_scans(a.log, a.range_cut);
+  const double range_cut = a.range_cut < 0 ? 20 : a.range_cut;
+  std::vector<Scan> all = read_scans(a.log, range_cut);
   if (a.first >= all.size())
     throw ArgumentError("mapping: --first " + std::to_string(a.first) + " but " + a.log + " has " +
                         std::to_string(all.size()) + " scans");
@@ -87,7 +112,7 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
 
   Context ctx = make_context(device);
   std::fprintf(human, "mapping        %zu scans of %s (cut at %g m), %s, %zu atoms of %s\n",
-               scans.size(), a.log.c_str(), a.range_cut, a.method == "repot" ? "RePOT" : "POT",
+               scans.size(), a.log.c_str(), range_cut, a.method == "repot" ? "RePOT" : "POT",
                dict.size(),
                a.dict.empty() ? ("the default dictionary " + dict_file).c_str() : a.dict.c_str());
   const MapJobResult r = run_map_job(&ctx, dict, scans, job);
@@ -127,7 +152,7 @@ int run_mapping(const MappingArgs& a, const std::string& device) {
   j["ranking"] = a.ranking;
   j["seed_rule"] = a.seeds_yield_fully ? "yield-fully" : "keep-start";
   j["dictionary"] = a.dict.empty() ? "default: " + default_dictionary_recipe() : a.dict;
-  j["range_cut"] = a.range_cut;
+  j["range_cut"] = range_cut;
   j["device"] = ctx.info().summary();
   const std::string scores = (fs::path(dir) / "scores.json").string();
   files.push_back(scores);
@@ -149,17 +174,43 @@ void register_mapping(CLI::App& app, Runner& runner) {
       "a ROS map DIR/map.yaml + map.pgm and DIR/scores.json (held-out beams)");
   auto a = std::make_shared<MappingArgs>();
   auto device = add_device_option(cmd);
-  cmd->add_option("LOG", a->log, "Any dataset potmap reads (CARMEN log, KITTI sequence folder)")
+  cmd->add_option("LOG", a->log,
+                  "Any dataset potmap reads: a 2D log (CARMEN), or a 3D drive folder (SLAM "
+                  "keyframes Scans/*.pcd + odom_poses.txt, or a KITTI sequence)")
       ->required();
   cmd->add_option("-o,--out", a->out, "Output folder (default out/mapping/<log name>)");
   cmd->add_option("--dict", a->dict, "Dictionary of atoms (default: the built-in one)");
-  cmd->add_option("--method", a->method, "repot (persistent joint BHM) or pot")
-      ->capture_default_str();
+  cmd->add_option("--method", a->method,
+                  "2D logs: repot (default: POT's transport refined by a persistent joint BHM) "
+                  "or pot; 3D drives: bhm (default: the joint BHM at the drive defaults)");
   cmd->add_option("--range-cut", a->range_cut,
-                  "Returns farther than this (metres) become no-returns: the towns' range, which "
-                  "the default dictionary's atoms are cut at (0: none)")
-      ->capture_default_str()
+                  "Returns farther than this (metres, horizontally in 3D) become no-returns "
+                  "(default: 20 for 2D logs, the towns' range, which the default dictionary's "
+                  "atoms are cut at; 40 for 3D drives, a car's road and the buildings beside it; "
+                  "0: none)")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--poses", a->drive.poses,
+                  "3D drives: odom (odom_poses.txt), optimized (optimized_poses.txt) or auto")
+      ->check(CLI::IsMember({"odom", "optimized", "auto"}))
+      ->capture_default_str();
+  cmd->add_option("--band", a->drive.band_low,
+                  "3D drives: the pictures' and ROS map's height band starts this many metres "
+                  "about the sensor's height")
+      ->capture_default_str();
+  cmd->add_option("--band-top", a->drive.band_high,
+                  "3D drives: and ends this many metres about it")
+      ->capture_default_str();
+  cmd->add_option("--voxel", a->drive.voxel_out,
+                  "3D drives: voxel edge of the OctoMap, point cloud and band, metres")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--checkpoint-every", a->drive.checkpoint_every,
+                  "3D drives: write DIR/map.ckpt after every N keyframes (0: never)")
+      ->capture_default_str();
+  cmd->add_flag("--resume", a->drive.resume,
+                "3D drives: continue from DIR/map.ckpt when it is there");
+  cmd->add_flag("--keep-checkpoint", a->drive.keep_checkpoint,
+                "3D drives: keep DIR/map.ckpt after the run");
   cmd->add_option("--first", a->first, "Skip this many scans")->capture_default_str();
   cmd->add_option("--max-scans", a->max_scans, "Map at most this many scans (0: all)")
       ->capture_default_str();

@@ -169,4 +169,30 @@ Scan slice_2d(const Scan& s, double z_min, double z_max) {
   return o;
 }
 
+Scan limit_range(const Scan& scan, double max_range) {
+  if (!(max_range > 0) || (scan.max_range > 0 && scan.max_range <= max_range)) return scan;
+  Scan out = scan;
+  out.max_range = max_range;
+  out.hits.clear();
+  const int d = scan.dim;
+  const auto o = scan.origin();
+  for (std::size_t i = 0; i < scan.num_hits(); ++i) {
+    const double* p = &scan.hits[i * d];
+    double v[3] = {0, 0, 0}, h2 = 0, n2 = 0;
+    for (int k = 0; k < d; ++k) {
+      v[k] = p[k] - o[k];
+      n2 += v[k] * v[k];
+      if (k < 2) h2 += v[k] * v[k];
+    }
+    // Beyond the range (or no direction to keep): the beam says only "free up to max_range".
+    if (h2 < max_range * max_range || !(n2 > 0)) {
+      out.hits.insert(out.hits.end(), p, p + d);
+      continue;
+    }
+    if (!std::isfinite(n2)) continue;
+    for (int k = 0; k < d; ++k) out.no_return.push_back(v[k] / std::sqrt(n2));
+  }
+  return out;
+}
+
 }  // namespace potmap

@@ -97,17 +97,28 @@ RosMapSummary write_ros_map(Context* ctx, const KernelMap& map, const std::strin
   const GridSpec g = window(map, o);
   const std::vector<double> pts = cell_points(g, map.dim, o.z);
   const KnownValues kv = known_values(ctx, map, pts, o.known);
+  const double origin[2] = {g.origin[0], g.origin[1]};
+  return write_ros_cells(kv.prob, kv.known, g.count[0], g.count[1], origin, yaml_path, o);
+}
 
+RosMapSummary write_ros_cells(const std::vector<double>& prob,
+                              const std::vector<std::uint8_t>& known, std::size_t nx,
+                              std::size_t ny, const double origin[2], const std::string& yaml_path,
+                              const RosMapOptions& o) {
+  check(o);
+  if (prob.size() != nx * ny || known.size() != nx * ny || nx == 0 || ny == 0)
+    throw ArgumentError("ROS map: " + std::to_string(prob.size()) + " probabilities and " +
+                        std::to_string(known.size()) + " known flags for " + std::to_string(nx) +
+                        " x " + std::to_string(ny) + " cells");
   // Cells [i0, i1) x [j0, j1) of the grid are written: all of a given window; without one,
   // the known cells' bounds widened by the margin (a persistent map's tiles reach far beyond
   // where the scans went).
-  const std::size_t nx = g.count[0], ny = g.count[1];
   std::size_t i0 = 0, i1 = nx, j0 = 0, j1 = ny;
   if (auto_window(o)) {
     std::size_t a0 = nx, a1 = 0, b0 = ny, b1 = 0;
     for (std::size_t j = 0; j < ny; ++j)
       for (std::size_t i = 0; i < nx; ++i)
-        if (kv.known[i + nx * j]) {
+        if (known[i + nx * j]) {
           a0 = std::min(a0, i);
           a1 = std::max(a1, i + 1);
           b0 = std::min(b0, j);
@@ -124,8 +135,8 @@ RosMapSummary write_ros_map(Context* ctx, const KernelMap& map, const std::strin
   RosMapSummary s;
   s.width = i1 - i0;
   s.height = j1 - j0;
-  s.origin[0] = g.origin[0] + double(i0) * o.resolution;
-  s.origin[1] = g.origin[1] + double(j0) * o.resolution;
+  s.origin[0] = origin[0] + double(i0) * o.resolution;
+  s.origin[1] = origin[1] + double(j0) * o.resolution;
   s.yaml = yaml_path;
   s.pgm = std::filesystem::path(yaml_path).replace_extension(".pgm").string();
   // PGM rows run from the top of the picture: the window's largest y first.
@@ -133,7 +144,7 @@ RosMapSummary write_ros_map(Context* ctx, const KernelMap& map, const std::strin
   for (std::size_t j = 0; j < s.height; ++j)
     for (std::size_t i = 0; i < s.width; ++i) {
       const std::size_t c = (i0 + i) + nx * (j0 + j);
-      const std::uint8_t v = ros_map_pixel(kv.prob[c], kv.known[c] != 0, o);
+      const std::uint8_t v = ros_map_pixel(prob[c], known[c] != 0, o);
       image[i + s.width * (s.height - 1 - j)] = v;
       const double occ = (255.0 - v) / 255.0;
       if (occ > o.occupied_thresh)

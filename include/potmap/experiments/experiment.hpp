@@ -62,12 +62,8 @@ struct MapTask {
 MapTask make_task(const std::vector<Scan>& scans, const LabelOptions& labels, LabelledPoints& test,
                   double area_margin = 5.0, std::int64_t first_index = 0);
 
-/// The scan with every return farther than `max_range` metres from the sensor (horizontally in
-/// 3D) turned into a no-return along the same direction, and max_range lowered to it; free
-/// space is then sampled up to max_range along those beams. A scan whose max_range is already
-/// at most `max_range` (or `max_range` <= 0) comes back unchanged. The experiments cut real logs
-/// (80 m lasers) at the towns' 20 m, the radius POT's sectors are cut with, for every method.
-Scan limit_range(const Scan& scan, double max_range);
+/// The range cut of data/labelling.hpp, where the experiments have always found it.
+using potmap::limit_range;
 
 /// A learned map as the evaluation sees it.
 struct FittedMap {

@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "potmap/export.h"
@@ -31,6 +32,22 @@ struct KnownRule {
 struct KnownValues {
   std::vector<double> prob;
   std::vector<std::uint8_t> known;  ///< 1 = known under the rule
+  std::vector<double> var;          ///< the logit's variance s2 (SPEC section 2)
+};
+
+/// known_values() for many batches of points over one map: the map and its support map are
+/// uploaded once (`ctx` null: the exact CPU sums). Keeps a pointer to ctx and a copy of the
+/// map's kernels.
+class KnownEvaluator {
+ public:
+  KnownEvaluator(Context* ctx, const KernelMap& map, const KnownRule& rule = {});
+  ~KnownEvaluator();
+  KnownEvaluator(KnownEvaluator&&) noexcept;
+  KnownValues values(const std::vector<double>& points);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 /// `ctx` null: the exact CPU sums (evaluate_exact); else the device evaluator. Throws

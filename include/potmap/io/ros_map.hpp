@@ -69,5 +69,15 @@ struct RosMapSummary {
 RosMapSummary write_ros_map(Context* ctx, const KernelMap& map, const std::string& yaml_path,
                             const RosMapOptions& options = {});
 
+/// The same files for cells already evaluated: `prob` and `known` of nx x ny cells in row-major
+/// order from the lower-left cell at `origin` (metres), options.resolution metres each (a 3D
+/// map's height band, say). The thresholds are write_ros_map's; the cells written are the known
+/// ones' bounds widened by options.margin (all of them when options name a window); options.z
+/// is not used. Throws ArgumentError for sizes that disagree.
+RosMapSummary write_ros_cells(const std::vector<double>& prob,
+                              const std::vector<std::uint8_t>& known, std::size_t nx,
+                              std::size_t ny, const double origin[2], const std::string& yaml_path,
+                              const RosMapOptions& options);
+
 }  // namespace potmap
 POTMAP_CXX_API_END

@@ -1,0 +1,73 @@
+// The joint BHM over a 3D drive, a keyframe at a time.
+#include "potmap/learn/drive_mapper.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "potmap/error.hpp"
+
+namespace potmap {
+
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+JointBhmOptions drive_bhm_options() {
+  JointBhmOptions o;
+  o.spacing = 1.0;
+  o.tau = 4.5;
+  o.solve_margin = 1;
+  o.em_iterations = 2;
+  o.cg_tolerance = 1e-4;
+  return o;
+}
+
+DriveMapper::DriveMapper(const DriveMapperOptions& options)
+    : o_(options), learner_(3, options.bhm) {
+  if (!(o_.range_cut > 0) || !std::isfinite(o_.range_cut))
+    throw ArgumentError("drive mapper: range cut must be positive, got " +
+                        std::to_string(o_.range_cut));
+  if (!(o_.voxel >= 0) || !std::isfinite(o_.voxel))
+    throw ArgumentError("drive mapper: voxel must be 0 or positive, got " +
+                        std::to_string(o_.voxel));
+  if (o_.test_stride == 0) throw ArgumentError("drive mapper: test_stride must be at least 1");
+  test_.dim = 3;
+}
+
+KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context* ctx) {
+  if (keyframe.dim != 3)
+    throw ArgumentError("drive mapper: keyframe " + std::to_string(index) + " is " +
+                        std::to_string(keyframe.dim) + "D, not 3D");
+  KeyframeStats st;
+  const auto t0 = std::chrono::steady_clock::now();
+  LabelledSplit split;
+  label_scan(limit_range(keyframe, o_.range_cut), index, o_.labels, split);
+  st.samples = split.train.size();
+  const LabelledPoints train =
+      o_.voxel > 0 ? aggregate_voxels(split.train, o_.voxel) : std::move(split.train);
+  st.gathered = train.size();
+  for (std::size_t i = 0; i < split.test.size(); i += o_.test_stride) {
+    for (int d = 0; d < 3; ++d) test_.position.push_back(split.test.position[3 * i + d]);
+    test_.label.push_back(split.test.label[i]);
+    test_.scan.push_back(index);
+    ++st.held_out;
+  }
+  st.label_ms = ms_since(t0);
+  const auto t1 = std::chrono::steady_clock::now();
+  learner_.update(train, ctx);
+  st.update_ms = ms_since(t1);
+  ++keyframes_;
+  st.memory_bytes = memory_bytes();
+  return st;
+}
+
+std::size_t DriveMapper::memory_bytes() const {
+  return learner_.memory_bytes() + test_.position.capacity() * sizeof(double) +
+         test_.label.capacity() + test_.scan.capacity() * sizeof(std::int64_t);
+}
+
+}  // namespace potmap

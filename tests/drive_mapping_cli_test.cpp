@@ -1,0 +1,126 @@
+// `potmap mapping DRIVE`: a real 3D drive to a map, an OctoMap, an occupied point cloud, band
+// pictures and a ROS map, and scores on held-out beams; a run stopped at a checkpoint and resumed
+// ends with the same map and scores as one that ran through.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <octomap/OcTree.h>
+
+#include <filesystem>
+#include <memory>
+
+#include "potmap/io/map_io.hpp"
+#include "test_support.hpp"
+
+namespace fs = std::filesystem;
+using namespace potmap;
+
+namespace {
+
+nlohmann::json scores_of(const std::string& dir) {
+  return nlohmann::json::parse(test::file_bytes(dir + "/scores.json"));
+}
+
+}  // namespace
+
+TEST(DriveMappingCli, LivoxDriveToMapOctomapCloudBandAndScores) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("drive-mapping-cli");
+  const test::CliResult r =
+      test::run_cli("mapping " + test::quoted(test::shared_data("drives3d/hku-1")) +
+                        " --max-scans 12 -q -o " + test::quoted(d) + " --json -",
+                    "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["method"], "BHM");
+  EXPECT_EQ(j["keyframes"], 12);
+  EXPECT_EQ(j["range_cut_m"], 40.0);
+  // Measured 0.991 / 0.083 on these keyframes (OctoMap at 0.2 m: about 0.96 / 0.22).
+  EXPECT_GT(j["scores"]["auc"].get<double>(), 0.98) << r.out;
+  EXPECT_LT(j["scores"]["nll"].get<double>(), 0.12) << r.out;
+  for (const char* f : {"map.potmap", "map.bt", "map_occupied.ply", "map_band_prob.png",
+                        "map_band_var.png", "map_band.yaml", "map_band.pgm", "scores.json"})
+    EXPECT_TRUE(fs::exists(fs::path(d) / f)) << f;
+  const KernelMap map = read_map(d + "/map.potmap");
+  EXPECT_EQ(map.dim, 3);
+  EXPECT_EQ(map.size(), j["kernels"].get<std::size_t>());
+  // OctoMap's own reader loads the tree, with occupied and free leaves.
+  std::unique_ptr<octomap::AbstractOcTree> any(octomap::AbstractOcTree::read(d + "/map.bt"));
+  if (!any) {
+    octomap::OcTree t(0.1);
+    ASSERT_TRUE(t.readBinary(d + "/map.bt"));
+    EXPECT_GT(t.getNumLeafNodes(), 1000u);
+  }
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary(d + "/map.bt"));
+  std::size_t occ = 0, fre = 0;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it)
+    ++(tree.isNodeOccupied(*it) ? occ : fre);
+  EXPECT_GT(occ, 100u);
+  EXPECT_GT(fre, 100u);
+  // The point cloud: a PLY header naming the vertex count the summary gives, and that many
+  // records of five floats after it.
+  const std::string ply = test::file_bytes(d + "/map_occupied.ply");
+  const std::size_t n = j["outputs"]["occupied_voxels"];
+  EXPECT_NE(ply.find("element vertex " + std::to_string(n) + "\n"), std::string::npos);
+  EXPECT_NE(ply.find("property float probability\nproperty float variance\n"), std::string::npos);
+  const std::size_t body = ply.find("end_header\n") + 11;
+  EXPECT_EQ(ply.size() - body, n * 5 * sizeof(float));
+  // The band's ROS map: free road, occupied sides, unknown beyond.
+  const std::string pgm = test::file_bytes(d + "/map_band.pgm");
+  std::size_t counts[256] = {0};
+  for (std::size_t i = pgm.find("\n255\n") + 5; i < pgm.size(); ++i)
+    ++counts[static_cast<unsigned char>(pgm[i])];
+  EXPECT_GT(counts[0], 500u);
+  EXPECT_GT(counts[254], 500u);
+  EXPECT_GT(counts[205], 500u);
+}
+
+TEST(DriveMappingCli, ResumedRunEndsAsAnUninterruptedOne) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string drive = test::quoted(test::shared_data("drives3d/hku-1"));
+  const std::string a = test::temp_dir("drive-resume-a"), b = test::temp_dir("drive-resume-b");
+  const std::string common = " --max-scans 8 -q --voxel 0.5";
+  ASSERT_EQ(test::run_cli("mapping " + drive + common + " -o " + test::quoted(a)).status, 0);
+  // A run that stops after keyframe 4 (its checkpoint kept), then a run resumed from it.
+  ASSERT_EQ(test::run_cli("mapping " + drive + " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
+                          "--keep-checkpoint -o " + test::quoted(b))
+                .status,
+            0);
+  ASSERT_TRUE(fs::exists(b + "/map.ckpt"));
+  const test::CliResult r =
+      test::run_cli("mapping " + drive + common + " --resume -o " + test::quoted(b));
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("resumed        at keyframe 2"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(b + "/map.ckpt"));  // removed once the run is done
+  EXPECT_EQ(scores_of(a)["scores"], scores_of(b)["scores"]);
+  test::expect_same_map(read_map(a + "/map.potmap"), read_map(b + "/map.potmap"));
+  // Another range cut is another run: refused, naming the option.
+  ASSERT_EQ(test::run_cli("mapping " + drive + " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
+                          "--keep-checkpoint -o " + test::quoted(b))
+                .status,
+            0);
+  const test::CliResult c = test::run_cli("mapping " + drive + common +
+                                          " --range-cut 30 --resume -o " + test::quoted(b));
+  EXPECT_NE(c.status, 0);
+  EXPECT_NE(c.out.find("--range-cut"), std::string::npos) << c.out;
+}
+
+TEST(DriveMappingCli, RefusesPotOnADriveAndNamesABadPoseLine) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const test::CliResult r = test::run_cli(
+      "mapping " + test::quoted(test::shared_data("drives3d/hku-1")) + " --method pot -q");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("--method bhm"), std::string::npos) << r.out;
+  // A copy of two keyframes with the second pose broken.
+  const std::string d = test::temp_dir("drive-bad-pose");
+  fs::create_directories(d + "/Scans");
+  for (const char* f : {"000000.pcd", "000001.pcd"})
+    fs::copy_file(test::shared_data("drives3d/hku-1/Scans/") + f, d + "/Scans/" + f);
+  test::write_file(d, "odom_poses.txt",
+                   "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 inf 0 0 1 0\n");
+  const test::CliResult bad = test::run_cli("mapping " + test::quoted(d) + " -q");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("odom_poses.txt: line 2: number 8: bad pose value: 'inf'"),
+            std::string::npos)
+      << bad.out;
+}

@@ -1,0 +1,71 @@
+#include "drive_checkpoint.hpp"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "map_checkpoint.hpp"
+#include "potmap/error.hpp"
+
+namespace potmap::cli {
+
+void DriveRun::add(const KeyframeStats& st, const std::array<double, 12>& pose) {
+  ++keyframes;
+  label_ms += st.label_ms;
+  update_ms += st.update_ms;
+  max_ms = std::max(max_ms, st.label_ms + st.update_ms);
+  peak_bytes = std::max(peak_bytes, st.memory_bytes);
+  positions.insert(positions.end(), {pose[3], pose[7], pose[11]});
+}
+
+nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive) {
+  std::error_code ec;
+  const auto poses_bytes = std::filesystem::file_size(drive.poses_file, ec);
+  return {{"drive", std::filesystem::absolute(a.drive).lexically_normal().string()},
+          {"poses", drive.poses_file},
+          {"poses_bytes", ec ? 0 : std::uint64_t(poses_bytes)},
+          {"keyframes_in_drive", drive.size()},
+          {"--first", a.first},
+          {"--range-cut", a.range_cut},
+          {"--seed", a.seed}};
+}
+
+void write_drive_checkpoint(const std::string& path, const DriveRun& run,
+                            const DriveMapper& mapper, std::size_t next) {
+  const nlohmann::json extra = {{"record", run.record},
+                                {"next", next},
+                                {"keyframes", run.keyframes},
+                                {"label_ms", run.label_ms},
+                                {"update_ms", run.update_ms},
+                                {"max_ms", run.max_ms},
+                                {"peak_bytes", run.peak_bytes},
+                                {"positions", run.positions}};
+  remove_stale_temporaries(path);
+  mapper.save_state(path, extra.dump());
+}
+
+std::size_t read_drive_checkpoint(const std::string& path, DriveRun& run, DriveMapper& mapper) {
+  nlohmann::json extra;
+  try {
+    // The run's record first: a changed option is named, not reported as a fingerprint.
+    extra = nlohmann::json::parse(DriveMapper::state_extra(path));
+    check_same_run(path, extra.at("record"), run.record);
+    DriveMapper restored(mapper.options());
+    restored.load_state(path);
+    DriveRun r;
+    r.record = run.record;
+    r.keyframes = extra.at("keyframes");
+    r.label_ms = extra.at("label_ms");
+    r.update_ms = extra.at("update_ms");
+    r.max_ms = extra.at("max_ms");
+    r.peak_bytes = extra.at("peak_bytes");
+    r.positions = extra.at("positions").get<std::vector<double>>();
+    const std::size_t next = extra.at("next");
+    run = std::move(r);
+    mapper = std::move(restored);
+    return next;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path + ": the run's record is damaged: " + e.what());
+  }
+}
+
+}  // namespace potmap::cli

@@ -1,0 +1,173 @@
+#include "drive_mapping.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "commands.hpp"
+#include "drive_checkpoint.hpp"
+#include "drive_outputs.hpp"
+#include "potmap/data/drive.hpp"
+#include "potmap/error.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/map/evaluate.hpp"
+#include "potmap/map/metrics.hpp"
+#include "progress.hpp"
+
+namespace fs = std::filesystem;
+
+namespace potmap::cli {
+
+namespace {
+
+std::string default_out(const std::string& drive) {
+  fs::path p = fs::path(drive).lexically_normal();
+  if (p.filename().empty()) p = p.parent_path();
+  return (fs::path("out") / "mapping" / p.filename()).string();
+}
+
+// Progress on stderr: a bar on a terminal, else a line every tenth of the drive, with the ETA.
+struct DriveProgress {
+  std::function<void(double)> bar;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  std::size_t done = 0, total = 0, next_line = 0;
+  bool quiet = false;
+  void step(std::size_t keyframe, const KeyframeStats& st) {
+    ++done;
+    const double f = double(done) / double(total);
+    if (bar) return bar(f);
+    if (quiet || done < next_line) return;
+    next_line = done + std::max<std::size_t>(1, total / 10);
+    const double el = seconds_since(start);
+    std::fprintf(stderr,
+                 "potmap: keyframe %zu (%zu of %zu, %.0f%%): %zu samples as %zu, %.0f ms, "
+                 "%.0f MB; elapsed %.0f s, ETA %.0f s\n",
+                 keyframe, done, total, 100 * f, st.samples, st.gathered,
+                 st.label_ms + st.update_ms, st.memory_bytes / 1e6, el, el * (1 - f) / f);
+  }
+};
+
+DriveMapperOptions mapper_options(const DriveMappingArgs& a) {
+  DriveMapperOptions o;
+  o.range_cut = a.range_cut;
+  o.labels.seed = a.seed;
+  return o;
+}
+
+}  // namespace
+
+int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
+  DriveOptions dopt;
+  dopt.poses = a.poses;
+  const Drive drive = open_drive(a.drive, dopt);
+  if (a.first >= drive.size())
+    throw ArgumentError("mapping: --first " + std::to_string(a.first) + " but " + a.drive +
+                        " has " + std::to_string(drive.size()) + " keyframes");
+  const std::size_t end =
+      a.max_keyframes ? std::min(drive.size(), a.first + a.max_keyframes) : drive.size();
+  const std::string dir = a.out.empty() ? default_out(a.drive) : a.out;
+  fs::create_directories(dir);
+  std::FILE* human = a.json == "-" ? stderr : stdout;
+  const auto t_run = std::chrono::steady_clock::now();
+
+  const DriveMapperOptions mo = mapper_options(a);
+  DriveMapper mapper(mo);
+  DriveRun run;
+  run.record = drive_run_record(a, drive);
+  const std::string ckpt = (fs::path(dir) / "map.ckpt").string();
+  std::size_t at = a.first;
+  if (a.resume && fs::exists(ckpt)) {
+    at = read_drive_checkpoint(ckpt, run, mapper);
+    std::fprintf(human, "resumed        at keyframe %zu from %s\n", at, ckpt.c_str());
+  }
+  Context ctx = make_context(device);
+  std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), joint BHM\n",
+               a.first, end - 1, a.drive.c_str(), drive.layout == "slam" ? "SLAM keyframes" : "KITTI",
+               a.range_cut);
+  DriveProgress progress;
+  progress.total = end - at;
+  progress.quiet = a.quiet;
+  progress.bar = terminal_progress("mapping");
+  for (std::size_t i = at; i < end; ++i) {
+    const Scan kf = read_keyframe(drive, i);
+    const KeyframeStats st = mapper.add(kf, std::int64_t(i), &ctx);
+    run.add(st, drive.poses[i]);
+    progress.step(i, st);
+    if (a.checkpoint_every && (i + 1 - a.first) % a.checkpoint_every == 0 && i + 1 < end)
+      write_drive_checkpoint(ckpt, run, mapper, i + 1);
+  }
+  const double mapping_s = seconds_since(t_run);
+
+  const auto t_out = std::chrono::steady_clock::now();
+  const KernelMap map = mapper.map();
+  if (map.empty()) throw InputError("mapping: " + a.drive + " gave an empty map");
+  const std::string map_file = (fs::path(dir) / "map.potmap").string();
+  write_map(map, map_file);
+  MapEvaluator ev(ctx, map);
+  const LabelledPoints& test = mapper.held_out();
+  std::vector<float> prob(test.size());
+  ev.evaluate(test.position.data(), test.size(), nullptr, nullptr, prob.data());
+  const Scores sc = score(prob, test.label);
+
+  DriveOutputOptions oo;
+  oo.band_low = a.band_low;
+  oo.band_high = a.band_high;
+  oo.picture_res = a.picture_res;
+  oo.picture_pixels = a.picture_pixels;
+  oo.ros_res = a.ros_res;
+  oo.voxel = a.voxel_out;
+  const DriveOutputs outs =
+      write_drive_outputs(ctx, map, run.positions, (fs::path(dir) / "map").string(), oo);
+  const double output_s = seconds_since(t_out);
+
+  const std::size_t n = run.keyframes;
+  std::fprintf(human,
+               "held-out beams ACC %.4f  AUC %.4f  NLL %.4f  (%zu samples: every %zu-th of 20 %% "
+               "of every keyframe's beams, never mapped)\n",
+               sc.acc, sc.auc, sc.nll, sc.n, mo.test_stride);
+  std::fprintf(human,
+               "map            %zu kernels, %.1f MB held; %.0f ms a keyframe (%.0f labelling and "
+               "gathering, %.0f update) -> %s\n",
+               map.size(), mapper.memory_bytes() / 1e6, (run.label_ms + run.update_ms) / double(n),
+               run.label_ms / double(n), run.update_ms / double(n), map_file.c_str());
+  std::fprintf(human, "%s", outs.summary.c_str());
+  std::vector<std::string> files = {map_file};
+  files.insert(files.end(), outs.files.begin(), outs.files.end());
+
+  nlohmann::json j;
+  j["drive"] = a.drive;
+  j["layout"] = drive.layout;
+  j["poses"] = drive.poses_file;
+  j["method"] = "BHM";
+  j["keyframes"] = n;
+  j["first"] = a.first;
+  j["range_cut_m"] = a.range_cut;
+  j["scores"] = {{"acc", sc.acc}, {"auc", sc.auc}, {"nll", sc.nll}, {"n", sc.n}};
+  j["ms_per_keyframe"] = (run.label_ms + run.update_ms) / double(n);
+  j["label_ms_per_keyframe"] = run.label_ms / double(n);
+  j["update_ms_per_keyframe"] = run.update_ms / double(n);
+  j["max_update_ms"] = run.max_ms;
+  j["kernels"] = map.size();
+  j["memory_mb"] = mapper.memory_bytes() / 1e6;
+  j["peak_memory_mb"] = run.peak_bytes / 1e6;
+  j["mapping_s"] = mapping_s;
+  j["outputs_s"] = output_s;
+  j["device"] = ctx.info().summary();
+  j["outputs"] = outs.json;
+  const std::string scores = (fs::path(dir) / "scores.json").string();
+  files.push_back(scores);
+  j["files"] = files;
+  write_text_atomically(scores, j.dump(1) + "\n");
+  if (a.json == "-") std::cout << j.dump(1) << "\n";
+  std::fprintf(human, "files:\n");
+  for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
+  std::error_code ec;
+  if (!a.keep_checkpoint) fs::remove(ckpt, ec);
+  return 0;
+}
+
+}  // namespace potmap::cli

@@ -1,0 +1,27 @@
+#pragma once
+// `potmap mapping DRIVE` for a 3D drive (a SLAM keyframe folder or a KITTI sequence): keyframes
+// read one at a time into the joint BHM at the drive defaults (learn/drive_mapper.hpp), with
+// progress and checkpoints, then the map and what robotics stacks load from it
+// (drive_outputs.hpp) and the scores on held-out beams.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace potmap::cli {
+
+struct DriveMappingArgs {
+  std::string drive, out, json, poses = "odom";
+  double range_cut = 40;          ///< metres
+  std::size_t first = 0, max_keyframes = 0;
+  std::uint64_t seed = 0;
+  double band_low = -1.0, band_high = 0.5;  ///< metres about the sensor's height
+  double picture_res = 0, ros_res = 0, voxel_out = 0.2;  ///< metres (0: automatic)
+  std::size_t picture_pixels = 1600;
+  std::size_t checkpoint_every = 25;  ///< keyframes (0: no checkpoints)
+  bool resume = false, keep_checkpoint = false, quiet = false;
+};
+
+/// Runs the job; prints a summary on stdout (stderr with --json -), returns the exit status.
+int run_drive_mapping(const DriveMappingArgs& a, const std::string& device);
+
+}  // namespace potmap::cli

@@ -1,0 +1,214 @@
+#include "drive_outputs.hpp"
+
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <sstream>
+
+#include "drive_band_picture.hpp"
+#include "potmap/error.hpp"
+#include "potmap/io/ros_map.hpp"
+#include "progress.hpp"
+
+namespace potmap::cli {
+
+namespace {
+
+constexpr double kBlock = 8.0;     // metres: the joint BHM's 3D tile at 1 m kernels
+constexpr double kClamp = 1e-3;    // OctoMap's stored probabilities within [kClamp, 1 - kClamp]
+constexpr std::size_t kBatch = 16;  // blocks evaluated at once (about a million voxels)
+
+using Block = std::array<long, 3>;
+
+// The blocks holding a kernel, in raster order (z, y, x).
+std::vector<Block> kernel_blocks(const KernelMap& map) {
+  std::vector<Block> b;
+  b.reserve(map.size() / 64 + 1);
+  for (std::size_t k = 0; k < map.size(); ++k) {
+    Block c;
+    for (int d = 0; d < 3; ++d) c[d] = long(std::floor(map.position[3 * k + d] / kBlock));
+    b.push_back({c[2], c[1], c[0]});
+  }
+  std::sort(b.begin(), b.end());
+  b.erase(std::unique(b.begin(), b.end()), b.end());
+  for (Block& c : b) std::swap(c[0], c[2]);  // back to x, y, z
+  return b;
+}
+
+// The band raster: per cell the band's largest probability (-1: nothing known there) and the
+// variance at that voxel.
+struct Band {
+  double origin[2] = {0, 0}, res = 0;
+  std::size_t nx = 0, ny = 0;
+  std::vector<float> prob, var;
+  void add(double x, double y, double p, double v) {
+    const long i = long(std::floor((x - origin[0]) / res)), j = long(std::floor((y - origin[1]) / res));
+    if (i < 0 || j < 0 || std::size_t(i) >= nx || std::size_t(j) >= ny) return;
+    const std::size_t c = std::size_t(i) + nx * std::size_t(j);
+    if (p > prob[c]) {
+      prob[c] = float(p);
+      var[c] = float(v);
+    }
+  }
+};
+
+// The sensor's height at (x, y): that of the nearest point of the path (the keyframes'
+// positions joined in order), so the band follows a road that climbs without steps.
+double path_height(const std::vector<double>& pos, double x, double y) {
+  const std::size_t n = pos.size() / 3;
+  double best = HUGE_VAL, z = n ? pos[2] : 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* a = &pos[3 * i];
+    const double* b = &pos[3 * std::min(i + 1, n - 1)];
+    const double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
+    const double t = l2 > 0 ? std::clamp(((x - a[0]) * dx + (y - a[1]) * dy) / l2, 0.0, 1.0) : 0;
+    const double px = a[0] + t * dx - x, py = a[1] + t * dy - y, d = px * px + py * py;
+    if (d < best) {
+      best = d;
+      z = a[2] + t * (b[2] - a[2]);
+    }
+  }
+  return z;
+}
+
+// path_height at the corners of the block columns, bilinear inside them: continuous across
+// blocks, and one path search per corner rather than per voxel.
+struct BandHeight {
+  const std::vector<double>& pos;
+  std::map<std::pair<long, long>, double> corner;
+  double at_corner(long i, long j) {
+    const auto it = corner.find({i, j});
+    if (it != corner.end()) return it->second;
+    return corner[{i, j}] = path_height(pos, double(i) * kBlock, double(j) * kBlock);
+  }
+  double operator()(double x, double y) {
+    const long i = long(std::floor(x / kBlock)), j = long(std::floor(y / kBlock));
+    const double u = x / kBlock - double(i), v = y / kBlock - double(j);
+    return (1 - u) * (1 - v) * at_corner(i, j) + u * (1 - v) * at_corner(i + 1, j) +
+           (1 - u) * v * at_corner(i, j + 1) + u * v * at_corner(i + 1, j + 1);
+  }
+};
+
+void write_ply(const std::string& path, const std::vector<float>& pts) {
+  const std::size_t n = pts.size() / 5;
+  std::ostringstream h;
+  h << "ply\nformat binary_little_endian 1.0\ncomment potmap occupied voxels: probability and "
+       "logit variance of the joint BHM\nelement vertex "
+    << n
+    << "\nproperty float x\nproperty float y\nproperty float z\nproperty float probability\n"
+       "property float variance\nend_header\n";
+  std::string out = h.str();
+  const std::size_t at = out.size();
+  out.resize(at + pts.size() * sizeof(float));
+  std::memcpy(&out[at], pts.data(), pts.size() * sizeof(float));  // the hosts are little-endian
+  write_text_atomically(path, out);
+}
+
+}  // namespace
+
+DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
+                                 const std::vector<double>& positions, const std::string& prefix,
+                                 const DriveOutputOptions& o) {
+  if (map.dim != 3) throw ArgumentError("drive outputs: the map is not 3D");
+  if (!(o.voxel > 0) || !(o.band_high > o.band_low) || o.ros_res < 0 || o.picture_res < 0)
+    throw ArgumentError("drive outputs: voxel must be positive, band_high above band_low");
+  const std::vector<Block> blocks = kernel_blocks(map);
+  if (blocks.empty()) throw ArgumentError("drive outputs: the map has no kernels");
+  // Voxels per block side, so that voxel centres tile every block alike.
+  const long per = std::max(1L, long(std::lround(kBlock / o.voxel)));
+  const double vox = kBlock / double(per);
+  Band band;
+  band.res = o.ros_res > 0 ? o.ros_res : vox;
+  double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+  for (const Block& b : blocks)
+    for (int d = 0; d < 2; ++d) {
+      lo[d] = std::min(lo[d], b[d] * kBlock);
+      hi[d] = std::max(hi[d], (b[d] + 1) * kBlock);
+    }
+  band.origin[0] = lo[0];
+  band.origin[1] = lo[1];
+  band.nx = std::size_t(std::ceil((hi[0] - lo[0]) / band.res));
+  band.ny = std::size_t(std::ceil((hi[1] - lo[1]) / band.res));
+  if (double(band.nx) * double(band.ny) > double(std::size_t(1) << 28))
+    throw ArgumentError("drive outputs: the band at " + std::to_string(band.res) + " m is " +
+                        std::to_string(band.nx) + " x " + std::to_string(band.ny) +
+                        " cells: choose a coarser --ros-res");
+  band.prob.assign(band.nx * band.ny, -1.0f);
+  band.var.assign(band.nx * band.ny, 0.0f);
+  BandHeight height{positions, {}};
+
+  octomap::OcTree tree(vox);
+  tree.setClampingThresMin(kClamp);
+  tree.setClampingThresMax(1 - kClamp);
+  KnownEvaluator ev(&ctx, map, o.known);
+  std::vector<float> occupied;  // x y z p var per point
+  std::size_t n_occ = 0, n_free = 0, n_unknown = 0;
+  auto progress = terminal_progress("outputs");
+  std::vector<double> pts;
+  for (std::size_t b0 = 0; b0 < blocks.size(); b0 += kBatch) {
+    const std::size_t b1 = std::min(blocks.size(), b0 + kBatch);
+    pts.clear();
+    for (std::size_t b = b0; b < b1; ++b)
+      for (long k = 0; k < per; ++k)
+        for (long j = 0; j < per; ++j)
+          for (long i = 0; i < per; ++i)
+            pts.insert(pts.end(), {blocks[b][0] * kBlock + (i + 0.5) * vox,
+                                   blocks[b][1] * kBlock + (j + 0.5) * vox,
+                                   blocks[b][2] * kBlock + (k + 0.5) * vox});
+    const KnownValues v = ev.values(pts);
+    for (std::size_t q = 0; q < v.prob.size(); ++q) {
+      if (!v.known[q]) {
+        ++n_unknown;
+        continue;
+      }
+      const double x = pts[3 * q], y = pts[3 * q + 1], z = pts[3 * q + 2], p = v.prob[q];
+      const double zr = height(x, y);
+      if (z >= zr + o.band_low && z <= zr + o.band_high) band.add(x, y, p, v.var[q]);
+      const double pc = std::min(std::max(p, kClamp), 1 - kClamp);
+      tree.setNodeValue(octomap::point3d(float(x), float(y), float(z)),
+                        float(std::log(pc / (1 - pc))), true);
+      if (p > 0.5) {
+        ++n_occ;
+        occupied.insert(occupied.end(), {float(x), float(y), float(z), float(p), float(v.var[q])});
+      } else {
+        ++n_free;
+      }
+    }
+    if (progress) progress(double(b1) / double(blocks.size()));
+  }
+  tree.updateInnerOccupancy();
+  tree.prune();
+  DriveOutputs out;
+  const std::string bt = prefix + ".bt";
+  {
+    std::ostringstream s;
+    if (!tree.writeBinary(s)) throw Error("OctoMap export: liboctomap could not write " + bt);
+    write_text_atomically(bt, s.str());
+  }
+  const std::string ply = prefix + "_occupied.ply";
+  write_ply(ply, occupied);
+  const BandFiles bf = write_band_files(band.prob, band.var, band.nx, band.ny, band.origin,
+                                        band.res, prefix, o.picture_res, o.picture_pixels);
+  out.files = {bt, ply};
+  out.files.insert(out.files.end(), bf.files.begin(), bf.files.end());
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "volume         %zu blocks of %g m at %g m: %zu occupied, %zu free, %zu unknown "
+                "voxels\nOctoMap        %zu leaves -> %s\npoint cloud    %zu occupied voxels "
+                "-> %s\n%s",
+                blocks.size(), kBlock, vox, n_occ, n_free, n_unknown,
+                std::size_t(tree.getNumLeafNodes()), bt.c_str(), n_occ, ply.c_str(),
+                bf.summary.c_str());
+  out.summary = line;
+  out.json = {{"voxel_m", vox},          {"blocks", blocks.size()},
+              {"occupied_voxels", n_occ}, {"free_voxels", n_free},
+              {"unknown_voxels", n_unknown}, {"octomap_leaves", tree.getNumLeafNodes()},
+              {"band_m", {o.band_low, o.band_high}}, {"band", bf.json}};
+  return out;
+}
+
+}  // namespace potmap::cli
