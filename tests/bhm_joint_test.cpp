@@ -673,3 +673,58 @@ TEST(JointBhm, RefusesBadWeights) {
 }
 
 }  // namespace potmap
+
+namespace potmap {
+
+// A corridor driven along x: tiles the scans have left are retired and keep their kernels'
+// means and variances; the map stays what the learner that never retired holds (up to the
+// couplings across the border), memory drops to the tiles near the scans, and driving back
+// revives the retired tiles and goes on learning there.
+TEST(JointBhm, RetiredTilesKeepTheMapAndComeBackWhenReached) {
+  auto corridor_scan = [](double x0, std::int64_t t) {
+    LabelledPoints s = wall_scan(std::uint32_t(t), t);
+    for (std::size_t i = 0; i < s.size(); ++i) s.position[2 * i] += x0;
+    return s;
+  };
+  JointBhm keep(2), retire(2);
+  std::int64_t t = 0;
+  for (int k = 0; k <= 40; ++k) {
+    const LabelledPoints s = corridor_scan(3.0 * k, t++);
+    keep.update(s);
+    retire.update(s);
+    const double at[3] = {3.0 * k + 1, 0, 0};
+    retire.retire_far(at, 40);
+  }
+  EXPECT_GT(retire.retired_tiles(), 2u);
+  EXPECT_EQ(retire.size(), keep.size());
+  EXPECT_LT(retire.memory_bytes() * 2, keep.memory_bytes());
+  // The maps agree wherever the scans went: probabilities along the corridor.
+  const KernelMap a = keep.map(), b = retire.map();
+  std::vector<double> pts;
+  for (double x = 0; x <= 120; x += 0.7)
+    for (double y : {-1.0, 0.0, 1.0}) pts.insert(pts.end(), {x, y});
+  pts.insert(pts.end(), {2.0, 0.3, 62.0, -0.4});  // on the wall
+  const MapValuesExact va = evaluate_exact(a, pts.data(), pts.size() / 2);
+  const MapValuesExact vb = evaluate_exact(b, pts.data(), pts.size() / 2);
+  double worst = 0;
+  for (std::size_t i = 0; i < va.prob.size(); ++i)
+    worst = std::max(worst, std::abs(va.prob[i] - vb.prob[i]));
+  EXPECT_LT(worst, 0.02);
+  // Back to the start: the first tiles come back and learn again.
+  const std::size_t retired = retire.retired_tiles();
+  for (int k = 0; k < 3; ++k) retire.update(corridor_scan(3.0 * k, t++));
+  EXPECT_LT(retire.retired_tiles(), retired);
+  EXPECT_GT(retire.last_stats().samples, 0u);
+  const MapValuesExact back = evaluate_exact(retire.map(), pts.data(), pts.size() / 2);
+  EXPECT_GT(back.prob[pts.size() / 2 - 2], 0.5);  // the wall at x = 2 still reads occupied
+  EXPECT_LT(back.prob[1], 0.5);                   // the corridor at x = 0 free
+  // Bounded maps and a radius of 0 retire nothing.
+  const double at[3] = {1e6, 0, 0};
+  EXPECT_EQ(keep.retire_far(at, 0), 0u);
+  const double lo[3] = {-5, -5, 0}, hi[3] = {5, 5, 0};
+  JointBhm bounded(2, lo, hi);
+  bounded.update(corridor_scan(0, 0));
+  EXPECT_EQ(bounded.retire_far(at, 1), 0u);
+}
+
+}  // namespace potmap

@@ -34,6 +34,19 @@ class ContainerCursor {
                          " bytes, " + std::to_string(r_.payload_end() - at_) + " are left");
     return static_cast<std::size_t>(n);
   }
+  /// `n` floats (little-endian, no count before them: ContainerWriter::f32s).
+  std::vector<float> f32s(std::size_t n, const char* what) {
+    if (n > (r_.payload_end() - at_) / 4)
+      r_.fail(at_, std::string(what) + ": " + std::to_string(n) + " floats need " +
+                       std::to_string(4 * n) + " bytes, " + std::to_string(r_.payload_end() - at_) +
+                       " are left");
+    std::vector<float> v(n);
+    for (float& x : v) {
+      const std::uint32_t bits = u32();
+      std::memcpy(&x, &bits, sizeof x);
+    }
+    return v;
+  }
   std::vector<double> f64s(const char* what) {
     std::vector<double> v(count(8, what));
     for (double& x : v) x = f64();

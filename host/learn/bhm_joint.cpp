@@ -138,7 +138,7 @@ JointBhm::JointBhm(int dim, const double lo[3], const double hi[3], const JointB
 }
 
 std::size_t JointBhm::size() const {
-  if (!bounded_) return tiles_.size() * static_cast<std::size_t>(tile_cells_);
+  if (!bounded_) return (tiles_.size() + retired_.size()) * static_cast<std::size_t>(tile_cells_);
   std::size_t m = 1;
   for (int d = 0; d < dim_; ++d) m *= static_cast<std::size_t>(n_[d]);
   return m;
@@ -152,6 +152,9 @@ std::size_t JointBhm::memory_bytes() const {
   // The hash map: its buckets and one node per tile (key, value, next pointer, hash).
   b += tile_index_.bucket_count() * sizeof(void*) +
        tile_index_.size() * (sizeof(std::uint64_t) + sizeof(std::uint32_t) + 2 * sizeof(void*));
+  b += bytes(retired_) + retired_index_.bucket_count() * sizeof(void*) +
+       retired_index_.size() * (sizeof(std::uint64_t) + sizeof(std::uint32_t) + 2 * sizeof(void*));
+  for (const RetiredTile& r : retired_) b += bytes(r.mean) + bytes(r.var);
   return b;
 }
 
@@ -228,6 +231,7 @@ std::uint32_t JointBhm::make_tile(const std::int64_t t[3]) {
   grow(var_, 1, o_.prior_var);
   for (std::size_t s = first; s < cells; ++s)
     prec_[s * static_cast<std::size_t>(half_slots_)] = 1.0 / o_.prior_var;  // the diagonal
+  if (!retired_.empty()) revive(id, tile_key(t));
   return id;
 }
 
@@ -1406,6 +1410,18 @@ KernelMap JointBhm::map() const {
       position(g, p);
       m.push_back(p, gamma_, mean[s], var_[s]);
     }
+    // Retired tiles, as they were left (retire_far()).
+    for (const RetiredTile& r : retired_)
+      for (std::int64_t l = 0; l < tile_cells_; ++l) {
+        std::int64_t g[3] = {0, 0, 0}, rest = l;
+        for (int d = 0; d < dim_; ++d) {
+          g[d] = std::int64_t(r.coord[d]) * tile_ + rest % tile_;
+          rest /= tile_;
+        }
+        double p[3];
+        position(g, p);
+        m.push_back(p, gamma_, r.mean[std::size_t(l)], r.var[std::size_t(l)]);
+      }
   }
   m.has_bias = o_.bias;
   if (o_.bias) {

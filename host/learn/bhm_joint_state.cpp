@@ -180,4 +180,33 @@ void JointBhmState::read(ContainerCursor& c, JointBhm& m) {
   m.scratch_ = JointBhm::Scratch();
 }
 
+void JointBhmState::write_retired(ContainerWriter& w, const JointBhm& m) {
+  w.u64(m.retired_.size());
+  for (const JointBhm::RetiredTile& r : m.retired_) {
+    for (int d = 0; d < 3; ++d) w.u32(static_cast<std::uint32_t>(r.coord[d]));
+    w.f32s(r.mean);
+    w.f32s(r.var);
+  }
+}
+
+void JointBhmState::read_retired(ContainerCursor& c, JointBhm& m) {
+  const std::size_t at = c.at();
+  const std::size_t cells = static_cast<std::size_t>(m.tile_cells_);
+  const std::size_t n = c.count(12 + 8 * cells, "retired tiles");
+  std::vector<JointBhm::RetiredTile> tiles(n);
+  std::unordered_map<std::uint64_t, std::uint32_t> index;
+  for (std::size_t t = 0; t < n; ++t) {
+    JointBhm::RetiredTile& r = tiles[t];
+    std::int64_t k[3];
+    for (int d = 0; d < 3; ++d) k[d] = r.coord[d] = static_cast<std::int32_t>(c.u32());
+    r.mean = c.f32s(cells, "retired means");
+    r.var = c.f32s(cells, "retired variances");
+    if (m.find_tile(k) >= 0 || !index.emplace(JointBhm::tile_key(k), std::uint32_t(t)).second)
+      c.reader().fail(at, "joint BHM state: retired tile " + std::to_string(t) +
+                              " is also stored or retired twice");
+  }
+  m.retired_ = std::move(tiles);
+  m.retired_index_ = std::move(index);
+}
+
 }  // namespace potmap::detail

@@ -16,6 +16,10 @@ struct JointBhmState {
   /// scratch space is not saved; the rest, caches included, comes back as it was. A state with
   /// the whole stencil (saved before the half) reads too: its half is taken (P is symmetric).
   static void read(ContainerCursor& c, JointBhm& m);
+  /// The retired tiles (JointBhm::retire_far()), which write() leaves out (the states of the
+  /// mappers that never retire keep their layout): coordinates, means and variances.
+  static void write_retired(ContainerWriter& w, const JointBhm& m);
+  static void read_retired(ContainerCursor& c, JointBhm& m);
 };
 
 }  // namespace potmap::detail

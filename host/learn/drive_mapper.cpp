@@ -59,6 +59,9 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
   st.label_ms = ms_since(t0);
   const auto t1 = std::chrono::steady_clock::now();
   learner_.update(train, ctx);
+  const double radius = o_.retire_radius < 0 ? o_.range_cut + 16 : o_.retire_radius;
+  const auto at = keyframe.origin();
+  st.retired = learner_.retire_far(at.data(), radius);
   st.update_ms = ms_since(t1);
   ++keyframes_;
   st.memory_bytes = memory_bytes();

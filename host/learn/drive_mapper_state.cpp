@@ -21,7 +21,7 @@ constexpr detail::ContainerLayout kLayout{"POTDRV\r\n", "a potmap drive mapper s
 
 std::uint64_t options_fingerprint(const DriveMapperOptions& o) {
   const JointBhmOptions& b = o.bhm;
-  const double v[] = {o.range_cut,   o.labels.free_per_metre, double(o.labels.max_free_per_beam),
+  const double v[] = {o.retire_radius, o.range_cut,   o.labels.free_per_metre, double(o.labels.max_free_per_beam),
                       o.labels.holdout_fraction, double(o.labels.seed), o.voxel,
                       double(o.test_stride), b.spacing, b.gamma, b.neighbour_phi, b.prior_var,
                       double(b.bias), double(b.em_iterations), b.tau, b.cg_tolerance,
@@ -46,6 +46,7 @@ void DriveMapper::save_state(const std::string& path, const std::string& extra) 
   std::vector<std::uint64_t> scans(test_.scan.begin(), test_.scan.end());
   detail::put_uints(w, scans);
   detail::JointBhmState::write(w, learner_);
+  detail::JointBhmState::write_retired(w, learner_);
   w.finish(path);
 }
 
@@ -79,6 +80,7 @@ std::string DriveMapper::load_state(const std::string& path) {
   test.scan.assign(scans.begin(), scans.end());
   JointBhm learner(3, o_.bhm);
   detail::JointBhmState::read(c, learner);
+  detail::JointBhmState::read_retired(c, learner);
   c.finish();
   learner_ = std::move(learner);
   test_ = std::move(test);

@@ -160,7 +160,8 @@ class JointBhm {
   /// The map: its kernels with their posterior means, and the variance that reproduces the
   /// predictive variance at each centre (the prior variance where no sample or seed reached
   /// its block); the bias weight with its posterior. Bounded: every grid kernel, in raster
-  /// order. Growable: every stored kernel (whole tiles, in storage order); unstored kernels
+  /// order. Growable: every stored kernel (whole tiles, in storage order), then the retired
+  /// tiles' as retire_far() left them; unstored kernels
   /// are at their prior mean 0 and left out. The means are polished by a solve over every
   /// reached kernel first (on a copy: the learner's state is unchanged, so when and how often
   /// a caller exports makes no difference to later updates). The variances, a small dense
@@ -174,7 +175,22 @@ class JointBhm {
   /// maps.
   void predict_exact(const double* points, std::size_t n, double* mean, double* var) const;
 
-  /// Kernels (without the bias): bounded, the grid's; growable, the stored ones.
+  /// Retires the stored tiles of a growable map whose centre lies farther than `radius` metres
+  /// from `centre` in x and y (a drive's sensor has left them): each keeps only what a query
+  /// needs, its kernels' posterior means and exported variances (map()), 8 bytes a kernel in
+  /// place of its precision stencil (about 650 bytes in 3D at the drive defaults). Before they
+  /// go, their means are held fixed in the posterior of the kernels that stay: each coupling
+  /// P_ab to a retired kernel b moves into eta_a as -P_ab mean_b (and into the bias's), which is
+  /// the stayed kernels' posterior given the retired means, exactly. A sample that later reaches
+  /// a retired tile revives it with a diagonal prior holding each kernel's mean and variance:
+  /// learning goes on there, without the couplings the tile had (its variances come out a
+  /// little larger than a map that never retired it). Returns the tiles retired. Bounded maps
+  /// and radius <= 0 retire nothing.
+  std::size_t retire_far(const double centre[3], double radius);
+  /// Tiles retired and not revived.
+  std::size_t retired_tiles() const { return retired_.size(); }
+
+  /// Kernels (without the bias): bounded, the grid's; growable, the stored and retired ones.
   std::size_t size() const;
   /// Stored tiles.
   std::size_t tiles() const { return tiles_.size(); }
@@ -351,7 +367,18 @@ class JointBhm {
   double pbb_ = 0, etab_ = 0, meanb_ = 0;
   Scratch scratch_;
   JointBhmStats stats_;
-  // span_tiles(): the last tiles it found (a tile's id never changes; none is ever removed).
+  // Retired tiles (retire_far()): coordinates, then per kernel its mean and exported variance.
+  struct RetiredTile {
+    std::int32_t coord[3];
+    std::vector<float> mean, var;
+  };
+  std::vector<RetiredTile> retired_;
+  std::unordered_map<std::uint64_t, std::uint32_t> retired_index_;
+  void fold_retiring(const std::vector<std::uint8_t>& going);
+  void compact(const std::vector<std::uint8_t>& going);
+  void revive(std::uint32_t id, std::uint64_t key);
+  // span_tiles(): the last tiles it found (a tile's id changes only when retire_far() removes
+  // tiles, which forgets these).
   std::uint64_t recent_key_[4] = {~0ull, ~0ull, ~0ull, ~0ull};
   std::int64_t recent_id_[4] = {-1, -1, -1, -1};
   int recent_next_ = 0;

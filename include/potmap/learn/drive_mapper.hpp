@@ -52,6 +52,11 @@ struct DriveMapperOptions {
   /// spacing; 0: every sample on its own).
   double voxel = 0.5;
   JointBhmOptions bhm = drive_bhm_options();
+  /// After each keyframe the learner's tiles farther than this from the sensor (metres, in x
+  /// and y) are retired (JointBhm::retire_far): memory follows the place, not the drive. -1
+  /// (default): the range cut plus 16 m (two 3D tiles: no sample of the next keyframe reaches a
+  /// tile retired, unless the drive turns back); 0: never.
+  double retire_radius = -1;
   /// Every this many held-out samples one is kept for scoring (default 4: a drive's held-out
   /// samples would otherwise hold 200 MB over 281 keyframes; a quarter of them scores to the
   /// third decimal).
@@ -64,7 +69,8 @@ struct KeyframeStats {
   std::size_t gathered = 0;       ///< weighted samples the learner took
   std::size_t held_out = 0;       ///< held-out samples kept
   double label_ms = 0;            ///< cut, labelling and gathering
-  double update_ms = 0;           ///< the learner's update
+  double update_ms = 0;           ///< the learner's update and the retiring of tiles left
+  std::size_t retired = 0;        ///< tiles retired after this keyframe
   std::size_t memory_bytes = 0;   ///< the mapper's after the keyframe
 };
 

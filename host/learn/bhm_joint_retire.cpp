@@ -1,0 +1,192 @@
+// JointBhm::retire_far and the revival of retired tiles: memory that follows the place a drive's
+// sensor is in, not the drive (include/potmap/learn/bhm_joint.hpp).
+#include <algorithm>
+#include <cmath>
+
+#include "potmap/learn/bhm_joint.hpp"
+
+namespace potmap {
+
+namespace {
+
+int neighbour_slot(const std::int64_t dt[3]) {
+  return int((dt[0] + 1) + 3 * (dt[1] + 1) + 9 * (dt[2] + 1));
+}
+
+// Keeps the elements of v whose block (of `per` elements) stays, in order, in a vector of
+// exactly that size (so the memory of the blocks that go is returned).
+template <class T>
+void keep_blocks(std::vector<T>& v, const std::vector<std::uint8_t>& going, std::size_t per) {
+  std::size_t kept = 0;
+  for (std::uint8_t g : going) kept += g ? 0 : 1;
+  std::vector<T> out;
+  out.reserve(kept * per);
+  for (std::size_t t = 0; t < going.size(); ++t)
+    if (!going[t]) out.insert(out.end(), v.begin() + std::ptrdiff_t(t * per),
+                              v.begin() + std::ptrdiff_t((t + 1) * per));
+  v.swap(out);
+}
+
+}  // namespace
+
+void JointBhm::fold_retiring(const std::vector<std::uint8_t>& going) {
+  // Every stored coupling between a kernel that goes and one that stays: P_ab sits in the half
+  // stencil of the earlier kernel (raster order). The stayed kernel's eta takes -P_ab mean of
+  // the other, and the entry is cleared, so that a revived tile does not count it again.
+  const auto hs = static_cast<std::size_t>(half_slots_);
+  const auto cells = static_cast<std::uint64_t>(tile_cells_);
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    // Only tiles that go and their neighbours hold such couplings.
+    bool near = going[t] != 0;
+    for (int n = 0; n < 27 && !near; ++n) near = tiles_[t].nb[n] >= 0 && going[tiles_[t].nb[n]];
+    if (!near) continue;
+    for (std::uint64_t l = 0; l < cells; ++l) {
+      const auto a = static_cast<std::uint32_t>(t * cells + l);
+      std::int64_t g[3];
+      cell_of(a, g);
+      double* row = &prec_[std::size_t(a) * hs];
+      for (const HalfRun& h : half_)
+        for (std::int32_t j = 0; j < h.len; ++j) {
+          double& p = row[h.at + j];
+          if (p == 0) continue;
+          const std::int64_t c[3] = {g[0] + h.d[0] + j, g[1] + h.d[1], g[2] + h.d[2]};
+          const std::int64_t b = in_grid(c) ? find_cell(c, std::int64_t(t)) : -1;
+          if (b < 0) continue;
+          const bool a_goes = going[t] != 0, b_goes = going[std::size_t(b) / cells] != 0;
+          if (a_goes == b_goes) continue;
+          if (a_goes)
+            eta_[std::size_t(b)] -= p * mean_[a];
+          else
+            eta_[a] -= p * mean_[std::size_t(b)];
+          p = 0;
+        }
+    }
+  }
+  // The bias couples to every kernel.
+  if (o_.bias)
+    for (std::size_t t = 0; t < tiles_.size(); ++t)
+      if (going[t])
+        for (std::uint64_t l = 0; l < cells; ++l) {
+          const std::size_t a = t * cells + l;
+          etab_ -= bcoup_[a] * mean_[a];
+        }
+}
+
+void JointBhm::compact(const std::vector<std::uint8_t>& going) {
+  const auto cells = static_cast<std::size_t>(tile_cells_);
+  std::vector<Tile> tiles;
+  std::vector<std::uint8_t> dirty;
+  for (std::size_t t = 0; t < tiles_.size(); ++t)
+    if (!going[t]) {
+      tiles.push_back(tiles_[t]);
+      dirty.push_back(tile_dirty_[t]);
+    }
+  keep_blocks(prec_, going, cells * static_cast<std::size_t>(half_slots_));
+  keep_blocks(eta_, going, cells);
+  keep_blocks(mean_, going, cells);
+  keep_blocks(bcoup_, going, cells);
+  keep_blocks(touched_, going, cells);
+  keep_blocks(seeded_, going, cells);
+  keep_blocks(mark_, going, cells);
+  keep_blocks(var_, going, cells);
+  tiles_.swap(tiles);
+  tile_dirty_.swap(dirty);
+  tile_index_.clear();
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    const std::int64_t c[3] = {tiles_[t].coord[0], tiles_[t].coord[1], tiles_[t].coord[2]};
+    tile_index_.emplace(tile_key(c), static_cast<std::uint32_t>(t));
+  }
+  for (Tile& tile : tiles_)
+    for (std::int64_t dz = -1; dz <= 1; ++dz)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dx = -1; dx <= 1; ++dx) {
+          const std::int64_t dt[3] = {dx, dy, dz};
+          const std::int64_t u[3] = {tile.coord[0] + dx, tile.coord[1] + dy, tile.coord[2] + dz};
+          tile.nb[neighbour_slot(dt)] =
+              (dim_ == 2 && dz != 0) ? -1 : static_cast<std::int32_t>(find_tile(u));
+        }
+  std::fill(std::begin(recent_key_), std::end(recent_key_), ~0ull);
+  std::fill(std::begin(recent_id_), std::end(recent_id_), -1);
+  scratch_ = Scratch();  // its lists hold storage indices of the tiles before
+}
+
+std::size_t JointBhm::retire_far(const double centre[3], double radius) {
+  if (bounded_ || !(radius > 0) || tiles_.empty()) return 0;
+  const auto cells = static_cast<std::size_t>(tile_cells_);
+  const double edge = double(tile_) * o_.spacing;
+  std::vector<std::uint8_t> going(tiles_.size(), 0);
+  std::size_t n = 0;
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    double d2 = 0;
+    for (int d = 0; d < std::min(dim_, 2); ++d) {
+      const double c = lo_[d] + (double(tiles_[t].coord[d]) + 0.5) * edge - o_.spacing / 2;
+      d2 += (c - centre[d]) * (c - centre[d]);
+    }
+    if (d2 > radius * radius) {
+      going[t] = 1;
+      ++n;
+    }
+  }
+  if (n == 0) return 0;
+  // What a query needs of them, while their neighbours are all still there: the exported
+  // variances of map().
+  std::vector<double> scratch;
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    if (!going[t] || !tile_dirty_[t]) continue;
+    for (std::size_t l = 0; l < cells; ++l) {
+      const auto s = static_cast<std::uint32_t>(t * cells + l);
+      std::int64_t g[3];
+      cell_of(s, g);
+      var_[s] = exported_var(g, s, scratch);
+    }
+    tile_dirty_[t] = 0;
+  }
+  fold_retiring(going);
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    if (!going[t]) continue;
+    RetiredTile r;
+    std::copy(std::begin(tiles_[t].coord), std::end(tiles_[t].coord), r.coord);
+    r.mean.assign(mean_.begin() + std::ptrdiff_t(t * cells),
+                  mean_.begin() + std::ptrdiff_t((t + 1) * cells));
+    r.var.assign(var_.begin() + std::ptrdiff_t(t * cells),
+                 var_.begin() + std::ptrdiff_t((t + 1) * cells));
+    const std::int64_t c[3] = {r.coord[0], r.coord[1], r.coord[2]};
+    retired_index_[tile_key(c)] = static_cast<std::uint32_t>(retired_.size());
+    retired_.push_back(std::move(r));
+    // The neighbours that stay lose couplings: their exported variances change.
+    for (int k = 0; k < 27; ++k)
+      if (tiles_[t].nb[k] >= 0 && !going[std::size_t(tiles_[t].nb[k])])
+        tile_dirty_[std::size_t(tiles_[t].nb[k])] = 1;
+  }
+  compact(going);
+  return n;
+}
+
+void JointBhm::revive(std::uint32_t id, std::uint64_t key) {
+  const auto it = retired_index_.find(key);
+  if (it == retired_index_.end()) return;
+  const std::uint32_t r = it->second;
+  const RetiredTile& rt = retired_[r];
+  const auto cells = static_cast<std::size_t>(tile_cells_);
+  const auto hs = static_cast<std::size_t>(half_slots_);
+  for (std::size_t l = 0; l < cells; ++l) {
+    const std::size_t s = std::size_t(id) * cells + l;
+    const double v = std::min(o_.prior_var, std::max(double(rt.var[l]), 1e-9));
+    prec_[s * hs] = 1.0 / v;
+    mean_[s] = rt.mean[l];
+    eta_[s] = rt.mean[l] / v;
+    // Only kernels that held data come back as reached (the rest are at their prior).
+    touched_[s] = rt.mean[l] != 0 || v < o_.prior_var;
+  }
+  tile_dirty_[id] = 1;
+  // The last retired tile takes the revived one's place.
+  if (r + 1 != retired_.size()) {
+    retired_[r] = std::move(retired_.back());
+    const std::int64_t c[3] = {retired_[r].coord[0], retired_[r].coord[1], retired_[r].coord[2]};
+    retired_index_[tile_key(c)] = r;
+  }
+  retired_.pop_back();
+  retired_index_.erase(it);
+}
+
+}  // namespace potmap
