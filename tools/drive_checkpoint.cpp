@@ -15,6 +15,8 @@ void DriveRun::add(const KeyframeStats& st, const std::array<double, 12>& pose) 
   max_ms = std::max(max_ms, st.label_ms + st.update_ms);
   peak_bytes = std::max(peak_bytes, st.memory_bytes);
   positions.insert(positions.end(), {pose[3], pose[7], pose[11]});
+  memory_mb.push_back(double(st.memory_bytes) / 1e6);
+  keyframe_ms.push_back(st.label_ms + st.update_ms);
 }
 
 nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive) {
@@ -38,7 +40,9 @@ void write_drive_checkpoint(const std::string& path, const DriveRun& run,
                                 {"update_ms", run.update_ms},
                                 {"max_ms", run.max_ms},
                                 {"peak_bytes", run.peak_bytes},
-                                {"positions", run.positions}};
+                                {"positions", run.positions},
+                                {"memory_mb", run.memory_mb},
+                                {"keyframe_ms", run.keyframe_ms}};
   remove_stale_temporaries(path);
   mapper.save_state(path, extra.dump());
 }
@@ -59,6 +63,8 @@ std::size_t read_drive_checkpoint(const std::string& path, DriveRun& run, DriveM
     r.max_ms = extra.at("max_ms");
     r.peak_bytes = extra.at("peak_bytes");
     r.positions = extra.at("positions").get<std::vector<double>>();
+    r.memory_mb = extra.at("memory_mb").get<std::vector<double>>();
+    r.keyframe_ms = extra.at("keyframe_ms").get<std::vector<double>>();
     const std::size_t next = extra.at("next");
     run = std::move(r);
     mapper = std::move(restored);

@@ -22,6 +22,7 @@ struct DriveRun {
   double label_ms = 0, update_ms = 0, max_ms = 0;
   std::size_t peak_bytes = 0;
   std::vector<double> positions;  ///< sensor positions, x y z a keyframe (the band's heights)
+  std::vector<double> memory_mb, keyframe_ms;  ///< the mapper's memory and time, a keyframe
   void add(const KeyframeStats& st, const std::array<double, 12>& pose);
 };
 

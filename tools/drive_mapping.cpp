@@ -4,7 +4,9 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include "commands.hpp"
@@ -50,6 +52,15 @@ struct DriveProgress {
                  st.label_ms + st.update_ms, st.memory_bytes / 1e6, el, el * (1 - f) / f);
   }
 };
+
+// The process's peak resident memory so far, bytes (Linux; 0 elsewhere).
+double peak_rss_bytes() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::strtod(line.c_str() + 6, nullptr);
+  return 0;
+}
 
 DriveMapperOptions mapper_options(const DriveMappingArgs& a) {
   DriveMapperOptions o;
@@ -107,10 +118,8 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   if (map.empty()) throw InputError("mapping: " + a.drive + " gave an empty map");
   const std::string map_file = (fs::path(dir) / "map.potmap").string();
   write_map(map, map_file);
-  MapEvaluator ev(ctx, map);
   const LabelledPoints& test = mapper.held_out();
-  std::vector<float> prob(test.size());
-  ev.evaluate(test.position.data(), test.size(), nullptr, nullptr, prob.data());
+  const std::vector<float> prob = probability_by_columns(ctx, map, test.position);
   const Scores sc = score(prob, test.label);
 
   DriveOutputOptions oo;
@@ -154,6 +163,9 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   j["kernels"] = map.size();
   j["memory_mb"] = mapper.memory_bytes() / 1e6;
   j["peak_memory_mb"] = run.peak_bytes / 1e6;
+  j["peak_rss_mb"] = peak_rss_bytes() / 1e6;
+  j["keyframe_memory_mb"] = run.memory_mb;
+  j["keyframe_ms"] = run.keyframe_ms;
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
   j["device"] = ctx.info().summary();

@@ -8,6 +8,11 @@
 #include <cstring>
 #include <map>
 #include <sstream>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
+#include "potmap/map/evaluate.hpp"
 
 #include "drive_band_picture.hpp"
 #include "potmap/error.hpp"
@@ -19,7 +24,6 @@ namespace potmap::cli {
 namespace {
 
 constexpr double kBlock = 8.0;     // metres: the joint BHM's 3D tile at 1 m kernels
-constexpr double kClamp = 1e-3;    // OctoMap's stored probabilities within [kClamp, 1 - kClamp]
 constexpr std::size_t kBatch = 16;  // blocks evaluated at once (about a million voxels)
 
 using Block = std::array<long, 3>;
@@ -93,22 +97,135 @@ struct BandHeight {
   }
 };
 
-void write_ply(const std::string& path, const std::vector<float>& pts) {
-  const std::size_t n = pts.size() / 5;
-  std::ostringstream h;
-  h << "ply\nformat binary_little_endian 1.0\ncomment potmap occupied voxels: probability and "
-       "logit variance of the joint BHM\nelement vertex "
-    << n
-    << "\nproperty float x\nproperty float y\nproperty float z\nproperty float probability\n"
-       "property float variance\nend_header\n";
-  std::string out = h.str();
-  const std::size_t at = out.size();
-  out.resize(at + pts.size() * sizeof(float));
-  std::memcpy(&out[at], pts.data(), pts.size() * sizeof(float));  // the hosts are little-endian
-  write_text_atomically(path, out);
+// The occupied voxels as a binary PLY, streamed: records go to a temporary body file as they
+// are found (their count is known only at the end), then header and body are joined into a
+// temporary file renamed over `path`.
+class PlyStream {
+ public:
+  explicit PlyStream(const std::string& path)
+      : path_(path), body_(path + ".body-" + std::to_string(::getpid())) {
+    out_.open(body_, std::ios::binary | std::ios::trunc);
+    if (!out_) throw Error("cannot write " + body_);
+  }
+  ~PlyStream() {
+    std::error_code ec;
+    std::filesystem::remove(body_, ec);
+  }
+  void add(float x, float y, float z, float p, float v) {
+    const float r[5] = {x, y, z, p, v};  // the hosts are little-endian
+    out_.write(reinterpret_cast<const char*>(r), sizeof r);
+    ++n_;
+  }
+  std::size_t size() const { return n_; }
+  void finish() {
+    out_.close();
+    if (!out_) throw Error("cannot write " + body_);
+    const std::string tmp = path_ + ".tmp-" + std::to_string(::getpid());
+    {
+      std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+      f << "ply\nformat binary_little_endian 1.0\ncomment potmap occupied voxels: probability "
+           "and logit variance of the joint BHM\nelement vertex "
+        << n_
+        << "\nproperty float x\nproperty float y\nproperty float z\nproperty float "
+           "probability\nproperty float variance\nend_header\n";
+      std::ifstream in(body_, std::ios::binary);
+      f << in.rdbuf();
+      f.flush();
+      if (!f) {
+        std::error_code ec;
+        std::filesystem::remove(tmp, ec);
+        throw Error("cannot write " + path_ + " (disk full?)");
+      }
+    }
+    std::filesystem::rename(tmp, path_);
+  }
+
+ private:
+  std::string path_, body_;
+  std::ofstream out_;
+  std::size_t n_ = 0;
+};
+
+// Blocks grouped in columns of kGroup metres, each evaluated with the kernels within the
+// evaluators' reach of it only: one evaluator over a whole drive's map would index the map's
+// bounding box (gigabytes for a 2.4 km drive).
+constexpr double kGroup = 32.0;
+using Column = std::pair<long, long>;
+
+std::map<Column, std::vector<std::size_t>> group_blocks(const std::vector<Block>& blocks) {
+  std::map<Column, std::vector<std::size_t>> g;
+  for (std::size_t b = 0; b < blocks.size(); ++b)
+    g[{long(std::floor(blocks[b][0] * kBlock / kGroup)),
+       long(std::floor(blocks[b][1] * kBlock / kGroup))}]
+        .push_back(b);
+  return g;
+}
+
+// The kernels of each column's local map: those within `reach` metres of its square.
+std::map<Column, std::vector<std::uint32_t>> group_kernels(
+    const KernelMap& map, const std::map<Column, std::vector<std::size_t>>& groups, double reach) {
+  std::map<Column, std::vector<std::uint32_t>> g;
+  for (std::size_t k = 0; k < map.size(); ++k) {
+    const double x = map.position[3 * k], y = map.position[3 * k + 1];
+    const long cx = long(std::floor(x / kGroup)), cy = long(std::floor(y / kGroup));
+    for (long dy = -1; dy <= 1; ++dy)
+      for (long dx = -1; dx <= 1; ++dx) {
+        const Column c{cx + dx, cy + dy};
+        if (!groups.count(c)) continue;
+        const double gx = std::clamp(x, c.first * kGroup, (c.first + 1) * kGroup);
+        const double gy = std::clamp(y, c.second * kGroup, (c.second + 1) * kGroup);
+        if ((gx - x) * (gx - x) + (gy - y) * (gy - y) <= reach * reach)
+          g[c].push_back(std::uint32_t(k));
+      }
+  }
+  return g;
+}
+
+KernelMap subset(const KernelMap& map, const std::vector<std::uint32_t>& idx) {
+  KernelMap m;
+  m.dim = 3;
+  m.reserve(idx.size());
+  for (std::uint32_t k : idx) m.push_back(&map.position[3 * k], map.gamma[k], map.w_mean[k], map.w_var[k]);
+  m.has_bias = map.has_bias;
+  m.bias_mean = map.bias_mean;
+  m.bias_var = map.bias_var;
+  return m;
+}
+
+double kernel_reach(const KernelMap& map, double extra) {
+  double gmin = HUGE_VAL;
+  for (double g : map.gamma) gmin = std::min(gmin, g);
+  return std::sqrt(kDefaultCutoffTau / gmin) + extra;
 }
 
 }  // namespace
+
+std::vector<float> probability_by_columns(Context& ctx, const KernelMap& map,
+                                          const std::vector<double>& points) {
+  const std::size_t n = points.size() / 3;
+  std::vector<float> prob(n, 0.5f);
+  if (map.empty() || n == 0) return prob;
+  std::map<Column, std::vector<std::size_t>> groups;
+  for (std::size_t i = 0; i < n; ++i)
+    groups[{long(std::floor(points[3 * i] / kGroup)), long(std::floor(points[3 * i + 1] / kGroup))}]
+        .push_back(i);
+  auto kernels = group_kernels(map, groups, kernel_reach(map, 0.1));
+  std::vector<double> pts;
+  std::vector<float> p;
+  for (const auto& [column, members] : groups) {
+    const KernelMap local = subset(map, kernels[column]);
+    kernels[column] = {};
+    pts.clear();
+    for (std::size_t i : members) pts.insert(pts.end(), &points[3 * i], &points[3 * i] + 3);
+    p.assign(members.size(), 0.5f);
+    if (!local.empty()) {
+      MapEvaluator ev(ctx, local);
+      ev.evaluate(pts.data(), members.size(), nullptr, nullptr, p.data());
+    }
+    for (std::size_t k = 0; k < members.size(); ++k) prob[members[k]] = p[k];
+  }
+  return prob;
+}
 
 DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
                                  const std::vector<double>& positions, const std::string& prefix,
@@ -142,43 +259,55 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
   BandHeight height{positions, {}};
 
   octomap::OcTree tree(vox);
-  tree.setClampingThresMin(kClamp);
-  tree.setClampingThresMax(1 - kClamp);
-  KnownEvaluator ev(&ctx, map, o.known);
-  std::vector<float> occupied;  // x y z p var per point
-  std::size_t n_occ = 0, n_free = 0, n_unknown = 0;
+  const std::string ply = prefix + "_occupied.ply";
+  PlyStream cloud(ply);
+  std::size_t n_occ = 0, n_free = 0, n_unknown = 0, done = 0;
+  const double reach = kernel_reach(map, vox);
+  const auto groups = group_blocks(blocks);
+  auto kernels = group_kernels(map, groups, reach);
   auto progress = terminal_progress("outputs");
   std::vector<double> pts;
-  for (std::size_t b0 = 0; b0 < blocks.size(); b0 += kBatch) {
-    const std::size_t b1 = std::min(blocks.size(), b0 + kBatch);
-    pts.clear();
-    for (std::size_t b = b0; b < b1; ++b)
-      for (long k = 0; k < per; ++k)
-        for (long j = 0; j < per; ++j)
-          for (long i = 0; i < per; ++i)
-            pts.insert(pts.end(), {blocks[b][0] * kBlock + (i + 0.5) * vox,
-                                   blocks[b][1] * kBlock + (j + 0.5) * vox,
-                                   blocks[b][2] * kBlock + (k + 0.5) * vox});
-    const KnownValues v = ev.values(pts);
-    for (std::size_t q = 0; q < v.prob.size(); ++q) {
-      if (!v.known[q]) {
-        ++n_unknown;
-        continue;
+  for (const auto& [column, members] : groups) {
+    KnownEvaluator ev(&ctx, subset(map, kernels[column]), o.known);
+    kernels[column] = {};
+    for (std::size_t m0 = 0; m0 < members.size(); m0 += kBatch) {
+      const std::size_t m1 = std::min(members.size(), m0 + kBatch);
+      pts.clear();
+      for (std::size_t m = m0; m < m1; ++m) {
+        const Block& blk = blocks[members[m]];
+        for (long k = 0; k < per; ++k)
+          for (long j = 0; j < per; ++j)
+            for (long i = 0; i < per; ++i)
+              pts.insert(pts.end(), {blk[0] * kBlock + (i + 0.5) * vox,
+                                     blk[1] * kBlock + (j + 0.5) * vox,
+                                     blk[2] * kBlock + (k + 0.5) * vox});
       }
-      const double x = pts[3 * q], y = pts[3 * q + 1], z = pts[3 * q + 2], p = v.prob[q];
-      const double zr = height(x, y);
-      if (z >= zr + o.band_low && z <= zr + o.band_high) band.add(x, y, p, v.var[q]);
-      const double pc = std::min(std::max(p, kClamp), 1 - kClamp);
-      tree.setNodeValue(octomap::point3d(float(x), float(y), float(z)),
-                        float(std::log(pc / (1 - pc))), true);
-      if (p > 0.5) {
-        ++n_occ;
-        occupied.insert(occupied.end(), {float(x), float(y), float(z), float(p), float(v.var[q])});
-      } else {
-        ++n_free;
+      const KnownValues v = ev.values(pts);
+      for (std::size_t q = 0; q < v.prob.size(); ++q) {
+        if (!v.known[q]) {
+          ++n_unknown;
+          continue;
+        }
+        const double x = pts[3 * q], y = pts[3 * q + 1], z = pts[3 * q + 2], p = v.prob[q];
+        const double zr = height(x, y);
+        if (z >= zr + o.band_low && z <= zr + o.band_high) band.add(x, y, p, v.var[q]);
+        // The .bt holds each voxel's most likely state only (OctoMap's writeBinary keeps no
+        // more): set it so, and neighbours of one state prune into one node as the tree grows.
+        tree.setNodeValue(octomap::point3d(float(x), float(y), float(z)),
+                          p > 0.5 ? tree.getClampingThresMaxLog() : tree.getClampingThresMinLog(),
+                          true);
+        if (p > 0.5) {
+          ++n_occ;
+          cloud.add(float(x), float(y), float(z), float(p), float(v.var[q]));
+        } else {
+          ++n_free;
+        }
       }
+      done += m1 - m0;
+      if (progress) progress(double(done) / double(blocks.size()));
     }
-    if (progress) progress(double(b1) / double(blocks.size()));
+    tree.updateInnerOccupancy();
+    tree.prune();
   }
   tree.updateInnerOccupancy();
   tree.prune();
@@ -189,8 +318,7 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
     if (!tree.writeBinary(s)) throw Error("OctoMap export: liboctomap could not write " + bt);
     write_text_atomically(bt, s.str());
   }
-  const std::string ply = prefix + "_occupied.ply";
-  write_ply(ply, occupied);
+  cloud.finish();
   const BandFiles bf = write_band_files(band.prob, band.var, band.nx, band.ny, band.origin,
                                         band.res, prefix, o.picture_res, o.picture_pixels);
   out.files = {bt, ply};
