@@ -11,7 +11,7 @@ build=${2:-$root/build-fuzz}
 source "$root/scripts/sanitizer_build.sh"
 sanitizer_configure "$root" "$build"
 targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary tuning_file
-  point_cloud point_cloud_poses"
+  point_cloud point_cloud_poses drive"
 make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null
 data=$root/../shared/data
 corpus=$build/corpus
@@ -24,6 +24,7 @@ if [ -f "$data/lidar3d/kitti_000008.bin" ]; then
   head -c 1600 "$data/lidar3d/kitti_000008.bin" > "$corpus/velodyne/kitti_head.bin"
 fi
 printf 'Tr: 1 0 0 0 0 1 0 0 0 0 1 0\n\0001 0 0 0 0 1 0 0 0 0 1 0\n' > "$corpus/kitti_poses/seed"
+printf '1 0 0 0 0 1 0 0 0 0 1 0\n\000100.5\n' > "$corpus/drive/seed"
 # A tiny valid .npz (X: 2 x 3 float64, Y: 2 uint8) so the npz fuzzer starts past the zip layer.
 if command -v python3 >/dev/null; then
   python3 - "$corpus/npz/seed.npz" <<'PY'

@@ -25,18 +25,21 @@ nlohmann::json scores_of(const std::string& dir) {
 TEST(DriveMappingCli, LivoxDriveToMapOctomapCloudBandAndScores) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("drive-mapping-cli");
+  const int keyframes = test::sized(12, 4);
   const test::CliResult r =
       test::run_cli("mapping " + test::quoted(test::shared_data("drives3d/hku-1")) +
-                        " --max-scans 12 -q -o " + test::quoted(d) + " --json -",
+                        " --max-scans " + std::to_string(keyframes) + " -q -o " +
+                        test::quoted(d) + " --json -",
                     "2>/dev/null");
   ASSERT_EQ(r.status, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["method"], "BHM");
-  EXPECT_EQ(j["keyframes"], 12);
+  EXPECT_EQ(j["keyframes"], keyframes);
   EXPECT_EQ(j["range_cut_m"], 40.0);
-  // Measured 0.991 / 0.083 on these keyframes (OctoMap at 0.2 m: about 0.96 / 0.22).
-  EXPECT_GT(j["scores"]["auc"].get<double>(), 0.98) << r.out;
-  EXPECT_LT(j["scores"]["nll"].get<double>(), 0.12) << r.out;
+  // Measured AUC / NLL 0.991 / 0.084 on 12 keyframes, 0.982 / 0.124 on 4 (OctoMap at 0.2 m on
+  // keyframes 10-29 of this drive: 0.966 / 0.192, bench/drive3d.py).
+  EXPECT_GT(j["scores"]["auc"].get<double>(), test::sized(0.985, 0.975)) << r.out;
+  EXPECT_LT(j["scores"]["nll"].get<double>(), test::sized(0.10, 0.14)) << r.out;
   for (const char* f : {"map.potmap", "map.bt", "map_occupied.ply", "map_band_prob.png",
                         "map_band_var.png", "map_band.yaml", "map_band.pgm", "scores.json"})
     EXPECT_TRUE(fs::exists(fs::path(d) / f)) << f;
