@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -153,6 +154,12 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   j["poses"] = drive.poses_file;
   j["method"] = "BHM";
   j["keyframes"] = n;
+  double path = 0;
+  for (std::size_t i = 3; i + 2 < run.positions.size(); i += 3)
+    path += std::hypot(run.positions[i] - run.positions[i - 3],
+                       run.positions[i + 1] - run.positions[i - 2],
+                       run.positions[i + 2] - run.positions[i - 1]);
+  j["path_m"] = path;
   j["first"] = a.first;
   j["range_cut_m"] = a.range_cut;
   j["scores"] = {{"acc", sc.acc}, {"auc", sc.auc}, {"nll", sc.nll}, {"n", sc.n}};
