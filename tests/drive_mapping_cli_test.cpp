@@ -2,8 +2,8 @@
 // pictures and a ROS map, and scores on held-out beams; a run stopped at a checkpoint and resumed
 // ends with the same map and scores as one that ran through.
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <octomap/OcTree.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <memory>
@@ -26,11 +26,10 @@ TEST(DriveMappingCli, LivoxDriveToMapOctomapCloudBandAndScores) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("drive-mapping-cli");
   const int keyframes = test::sized(12, 4);
-  const test::CliResult r =
-      test::run_cli("mapping " + test::quoted(test::shared_data("drives3d/hku-1")) +
-                        " --max-scans " + std::to_string(keyframes) + " -q -o " +
-                        test::quoted(d) + " --json -",
-                    "2>/dev/null");
+  const test::CliResult r = test::run_cli(
+      "mapping " + test::quoted(test::shared_data("drives3d/hku-1")) + " --max-scans " +
+          std::to_string(keyframes) + " -q -o " + test::quoted(d) + " --json -",
+      "2>/dev/null");
   ASSERT_EQ(r.status, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["method"], "BHM");
@@ -85,8 +84,10 @@ TEST(DriveMappingCli, ResumedRunEndsAsAnUninterruptedOne) {
   const std::string common = " --max-scans 8 -q --voxel 0.5";
   ASSERT_EQ(test::run_cli("mapping " + drive + common + " -o " + test::quoted(a)).status, 0);
   // A run that stops after keyframe 4 (its checkpoint kept), then a run resumed from it.
-  ASSERT_EQ(test::run_cli("mapping " + drive + " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
-                          "--keep-checkpoint -o " + test::quoted(b))
+  ASSERT_EQ(test::run_cli("mapping " + drive +
+                          " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
+                          "--keep-checkpoint -o " +
+                          test::quoted(b))
                 .status,
             0);
   ASSERT_TRUE(fs::exists(b + "/map.ckpt"));
@@ -98,12 +99,14 @@ TEST(DriveMappingCli, ResumedRunEndsAsAnUninterruptedOne) {
   EXPECT_EQ(scores_of(a)["scores"], scores_of(b)["scores"]);
   test::expect_same_map(read_map(a + "/map.potmap"), read_map(b + "/map.potmap"));
   // Another range cut is another run: refused, naming the option.
-  ASSERT_EQ(test::run_cli("mapping " + drive + " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
-                          "--keep-checkpoint -o " + test::quoted(b))
+  ASSERT_EQ(test::run_cli("mapping " + drive +
+                          " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
+                          "--keep-checkpoint -o " +
+                          test::quoted(b))
                 .status,
             0);
-  const test::CliResult c = test::run_cli("mapping " + drive + common +
-                                          " --range-cut 30 --resume -o " + test::quoted(b));
+  const test::CliResult c =
+      test::run_cli("mapping " + drive + common + " --range-cut 30 --resume -o " + test::quoted(b));
   EXPECT_NE(c.status, 0);
   EXPECT_NE(c.out.find("--range-cut"), std::string::npos) << c.out;
 }
@@ -119,8 +122,7 @@ TEST(DriveMappingCli, RefusesPotOnADriveAndNamesABadPoseLine) {
   fs::create_directories(d + "/Scans");
   for (const char* f : {"000000.pcd", "000001.pcd"})
     fs::copy_file(test::shared_data("drives3d/hku-1/Scans/") + f, d + "/Scans/" + f);
-  test::write_file(d, "odom_poses.txt",
-                   "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 inf 0 0 1 0\n");
+  test::write_file(d, "odom_poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 inf 0 0 1 0\n");
   const test::CliResult bad = test::run_cli("mapping " + test::quoted(d) + " -q");
   EXPECT_NE(bad.status, 0);
   EXPECT_NE(bad.out.find("odom_poses.txt: line 2: number 8: bad pose value: 'inf'"),

@@ -70,8 +70,8 @@ TEST(DriveReader, IndexesTheRiversideDriveAsItIs) {
   EXPECT_DOUBLE_EQ(s.timestamp, d.times[10]);
   double far = 0;
   for (std::size_t i = 0; i < s.num_hits(); ++i)
-    far = std::max(far, std::hypot(s.hits[3 * i] - o[0], s.hits[3 * i + 1] - o[1],
-                                   s.hits[3 * i + 2] - o[2]));
+    far = std::max(
+        far, std::hypot(s.hits[3 * i] - o[0], s.hits[3 * i + 1] - o[1], s.hits[3 * i + 2] - o[2]));
   EXPECT_LT(far, 200.0);  // the OS1-64 returns past its rated 120 m (152 m here)
   EXPECT_GT(far, 20.0);
 }
@@ -92,9 +92,8 @@ TEST(DriveReader, SummarisesBothSharedDrives) {
 }
 
 TEST(DriveReader, ReadsASmallDriveWithPosesAndTimes) {
-  const std::string dir = small_drive("drive_small", 2,
-                                      std::string(kIdentity) + "0 -1 0 10 1 0 0 20 0 0 1 1\n",
-                                      "100.5\n101.5\n");
+  const std::string dir = small_drive(
+      "drive_small", 2, std::string(kIdentity) + "0 -1 0 10 1 0 0 20 0 0 1 1\n", "100.5\n101.5\n");
   const Dataset ds = read_dataset(dir);
   ASSERT_EQ(ds.scans.size(), 2u);
   // Keyframe 1 turned 90 degrees about z and moved to (10, 20, 1): sensor point (1, 0, 0.5)
@@ -108,8 +107,8 @@ TEST(DriveReader, ReadsASmallDriveWithPosesAndTimes) {
 
 TEST(DriveReader, RefusesFewerPoseRowsThanKeyframes) {
   const std::string dir = small_drive("drive_short_poses", 3, std::string(kIdentity) + kIdentity);
-  expect_input_error([&] { open_drive(dir); },
-                     {"odom_poses.txt", "line 3", "2 rows for 3 keyframes", "keyframe 2 has no row"});
+  expect_input_error([&] { open_drive(dir); }, {"odom_poses.txt", "line 3",
+                                                "2 rows for 3 keyframes", "keyframe 2 has no row"});
 }
 
 TEST(DriveReader, RefusesANaNPose) {
@@ -138,8 +137,8 @@ TEST(DriveReader, RefusesATruncatedKeyframe) {
 }
 
 TEST(DriveReader, RefusesBadTimesAndUnknownFolders) {
-  const std::string dir = small_drive("drive_bad_times", 2, std::string(kIdentity) + kIdentity,
-                                      "5.0\n4.0\n");
+  const std::string dir =
+      small_drive("drive_bad_times", 2, std::string(kIdentity) + kIdentity, "5.0\n4.0\n");
   expect_input_error([&] { open_drive(dir); }, {"times.txt", "line 2", "4.0", "before"});
   const std::string empty = test::temp_dir("drive_none");
   EXPECT_FALSE(is_drive(empty));

@@ -31,11 +31,11 @@ int drive_info(const std::string& dir) {
     o << v;
     return o.str();
   };
-  std::cout << "drive: " << dir << " (" << (d.layout == "slam" ? "SLAM keyframes" : "KITTI sequence")
-            << ")\n";
+  std::cout << "drive: " << dir << " ("
+            << (d.layout == "slam" ? "SLAM keyframes" : "KITTI sequence") << ")\n";
   std::cout << "poses: " << d.poses_file << "\n";
   std::cout << "dimension: 3\n";
-  std::cout << "keyframes: " << s.keyframes << "\n";
+  std::cout << "scans: " << s.keyframes << "\n";  // the key 2D datasets print too
   std::cout << "points: " << s.points << " (" << s.min_points << " to " << s.max_points
             << " a keyframe)\n";
   std::cout << "path: " << fixed(s.path_length, 1) << " m (median step " << fixed(s.median_step, 2)

@@ -58,9 +58,11 @@ int run_drive(const MappingArgs& a, const std::string& device) {
   d.seed = a.seed;
   d.quiet = a.quiet;
   if (!a.method.empty() && a.method != "bhm")
-    throw ArgumentError("mapping: a 3D drive is mapped with --method bhm (the joint BHM); POT and "
-                        "RePOT in 3D need a 3D dictionary, which is not built in: use potmap map "
-                        "--dict with one, not --method " + a.method);
+    throw ArgumentError(
+        "mapping: a 3D drive is mapped with --method bhm (the joint BHM); POT and "
+        "RePOT in 3D need a 3D dictionary, which is not built in: use potmap map "
+        "--dict with one, not --method " +
+        a.method);
   return run_drive_mapping(d, device);
 }
 
@@ -197,8 +199,7 @@ void register_mapping(CLI::App& app, Runner& runner) {
                   "3D drives: the pictures' and ROS map's height band starts this many metres "
                   "about the sensor's height")
       ->capture_default_str();
-  cmd->add_option("--band-top", a->drive.band_high,
-                  "3D drives: and ends this many metres about it")
+  cmd->add_option("--band-top", a->drive.band_high, "3D drives: and ends this many metres about it")
       ->capture_default_str();
   cmd->add_option("--voxel", a->drive.voxel_out,
                   "3D drives: voxel edge of the OctoMap, point cloud and band, metres")

@@ -113,9 +113,9 @@ BandFiles write_band_files(const std::vector<float>& prob, const std::vector<flo
   for (std::size_t c = 0; c < prob.size(); ++c) known[c] = prob[c] >= 0;
   const RosMapSummary ros = write_ros_cells(p, known, nx, ny, origin, prefix + "_band.yaml", ro);
   // The pictures.
-  const std::size_t k =
-      picture_res > 0 ? std::max<std::size_t>(1, std::size_t(std::lround(picture_res / res)))
-                      : std::max<std::size_t>(1, (std::max(nx, ny) + pixels - 1) / pixels);
+  const std::size_t k = picture_res > 0
+                            ? std::max<std::size_t>(1, std::size_t(std::lround(picture_res / res)))
+                            : std::max<std::size_t>(1, (std::max(nx, ny) + pixels - 1) / pixels);
   const Pixels px = downsample(prob, var, nx, ny, k);
   std::vector<float> vs;
   for (std::size_t q = 0; q < px.prob.size(); ++q)
@@ -138,8 +138,11 @@ BandFiles write_band_files(const std::vector<float>& prob, const std::vector<flo
                 "occupied, %zu free, %zu unknown\n",
                 px.w, px.h, mpp, ros.width, ros.height, res, ros.occupied, ros.free, ros.unknown);
   out.summary = line;
-  out.json = {{"picture_m_per_px", mpp}, {"ros_res_m", res},   {"ros_occupied", ros.occupied},
-              {"ros_free", ros.free},    {"ros_unknown", ros.unknown}};
+  out.json = {{"picture_m_per_px", mpp},
+              {"ros_res_m", res},
+              {"ros_occupied", ros.occupied},
+              {"ros_free", ros.free},
+              {"ros_unknown", ros.unknown}};
   return out;
 }
 

@@ -31,18 +31,13 @@ nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive) {
           {"--seed", a.seed}};
 }
 
-void write_drive_checkpoint(const std::string& path, const DriveRun& run,
-                            const DriveMapper& mapper, std::size_t next) {
-  const nlohmann::json extra = {{"record", run.record},
-                                {"next", next},
-                                {"keyframes", run.keyframes},
-                                {"label_ms", run.label_ms},
-                                {"update_ms", run.update_ms},
-                                {"max_ms", run.max_ms},
-                                {"peak_bytes", run.peak_bytes},
-                                {"positions", run.positions},
-                                {"memory_mb", run.memory_mb},
-                                {"keyframe_ms", run.keyframe_ms}};
+void write_drive_checkpoint(const std::string& path, const DriveRun& run, const DriveMapper& mapper,
+                            std::size_t next) {
+  const nlohmann::json extra = {{"record", run.record},         {"next", next},
+                                {"keyframes", run.keyframes},   {"label_ms", run.label_ms},
+                                {"update_ms", run.update_ms},   {"max_ms", run.max_ms},
+                                {"peak_bytes", run.peak_bytes}, {"positions", run.positions},
+                                {"memory_mb", run.memory_mb},   {"keyframe_ms", run.keyframe_ms}};
   remove_stale_temporaries(path);
   mapper.save_state(path, extra.dump());
 }

@@ -31,8 +31,8 @@ struct DriveRun {
 nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive);
 
 /// Writes the mapper and the run to `path`; `next` is the first keyframe not yet mapped.
-void write_drive_checkpoint(const std::string& path, const DriveRun& run,
-                            const DriveMapper& mapper, std::size_t next);
+void write_drive_checkpoint(const std::string& path, const DriveRun& run, const DriveMapper& mapper,
+                            std::size_t next);
 
 /// Restores `mapper` and `run` from `path` (written by the same command and options: throws
 /// ArgumentError naming each option that differs) and returns the next keyframe.

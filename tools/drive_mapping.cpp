@@ -70,6 +70,38 @@ DriveMapperOptions mapper_options(const DriveMappingArgs& a) {
   return o;
 }
 
+// scores.json: what was mapped, the scores, time and memory per keyframe.
+nlohmann::json summary_json(const DriveMappingArgs& a, const Drive& drive, const DriveRun& run,
+                            const DriveMapper& mapper, std::size_t kernels, const Scores& sc) {
+  const double n = double(run.keyframes);
+  nlohmann::json j;
+  j["drive"] = a.drive;
+  j["layout"] = drive.layout;
+  j["poses"] = drive.poses_file;
+  j["method"] = "BHM";
+  j["keyframes"] = run.keyframes;
+  double path = 0;
+  for (std::size_t i = 3; i + 2 < run.positions.size(); i += 3)
+    path += std::hypot(run.positions[i] - run.positions[i - 3],
+                       run.positions[i + 1] - run.positions[i - 2],
+                       run.positions[i + 2] - run.positions[i - 1]);
+  j["path_m"] = path;
+  j["first"] = a.first;
+  j["range_cut_m"] = a.range_cut;
+  j["scores"] = {{"acc", sc.acc}, {"auc", sc.auc}, {"nll", sc.nll}, {"n", sc.n}};
+  j["ms_per_keyframe"] = (run.label_ms + run.update_ms) / n;
+  j["label_ms_per_keyframe"] = run.label_ms / n;
+  j["update_ms_per_keyframe"] = run.update_ms / n;
+  j["max_update_ms"] = run.max_ms;
+  j["kernels"] = kernels;
+  j["memory_mb"] = mapper.memory_bytes() / 1e6;
+  j["peak_memory_mb"] = run.peak_bytes / 1e6;
+  j["peak_rss_mb"] = peak_rss_bytes() / 1e6;
+  j["keyframe_memory_mb"] = run.memory_mb;
+  j["keyframe_ms"] = run.keyframe_ms;
+  return j;
+}
+
 }  // namespace
 
 int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
@@ -98,8 +130,8 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   }
   Context ctx = make_context(device);
   std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), joint BHM\n",
-               a.first, end - 1, a.drive.c_str(), drive.layout == "slam" ? "SLAM keyframes" : "KITTI",
-               a.range_cut);
+               a.first, end - 1, a.drive.c_str(),
+               drive.layout == "slam" ? "SLAM keyframes" : "KITTI", a.range_cut);
   DriveProgress progress;
   progress.total = end - at;
   progress.quiet = a.quiet;
@@ -148,31 +180,7 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   std::vector<std::string> files = {map_file};
   files.insert(files.end(), outs.files.begin(), outs.files.end());
 
-  nlohmann::json j;
-  j["drive"] = a.drive;
-  j["layout"] = drive.layout;
-  j["poses"] = drive.poses_file;
-  j["method"] = "BHM";
-  j["keyframes"] = n;
-  double path = 0;
-  for (std::size_t i = 3; i + 2 < run.positions.size(); i += 3)
-    path += std::hypot(run.positions[i] - run.positions[i - 3],
-                       run.positions[i + 1] - run.positions[i - 2],
-                       run.positions[i + 2] - run.positions[i - 1]);
-  j["path_m"] = path;
-  j["first"] = a.first;
-  j["range_cut_m"] = a.range_cut;
-  j["scores"] = {{"acc", sc.acc}, {"auc", sc.auc}, {"nll", sc.nll}, {"n", sc.n}};
-  j["ms_per_keyframe"] = (run.label_ms + run.update_ms) / double(n);
-  j["label_ms_per_keyframe"] = run.label_ms / double(n);
-  j["update_ms_per_keyframe"] = run.update_ms / double(n);
-  j["max_update_ms"] = run.max_ms;
-  j["kernels"] = map.size();
-  j["memory_mb"] = mapper.memory_bytes() / 1e6;
-  j["peak_memory_mb"] = run.peak_bytes / 1e6;
-  j["peak_rss_mb"] = peak_rss_bytes() / 1e6;
-  j["keyframe_memory_mb"] = run.memory_mb;
-  j["keyframe_ms"] = run.keyframe_ms;
+  nlohmann::json j = summary_json(a, drive, run, mapper, map.size(), sc);
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
   j["device"] = ctx.info().summary();

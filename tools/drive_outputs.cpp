@@ -2,15 +2,15 @@
 
 #include <octomap/OcTree.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <map>
-#include <sstream>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
+#include <map>
+#include <sstream>
 
 #include "potmap/map/evaluate.hpp"
 
@@ -23,7 +23,7 @@ namespace potmap::cli {
 
 namespace {
 
-constexpr double kBlock = 8.0;     // metres: the joint BHM's 3D tile at 1 m kernels
+constexpr double kBlock = 8.0;      // metres: the joint BHM's 3D tile at 1 m kernels
 constexpr std::size_t kBatch = 16;  // blocks evaluated at once (about a million voxels)
 
 using Block = std::array<long, 3>;
@@ -50,7 +50,8 @@ struct Band {
   std::size_t nx = 0, ny = 0;
   std::vector<float> prob, var;
   void add(double x, double y, double p, double v) {
-    const long i = long(std::floor((x - origin[0]) / res)), j = long(std::floor((y - origin[1]) / res));
+    const long i = long(std::floor((x - origin[0]) / res)),
+               j = long(std::floor((y - origin[1]) / res));
     if (i < 0 || j < 0 || std::size_t(i) >= nx || std::size_t(j) >= ny) return;
     const std::size_t c = std::size_t(i) + nx * std::size_t(j);
     if (p > prob[c]) {
@@ -185,7 +186,8 @@ KernelMap subset(const KernelMap& map, const std::vector<std::uint32_t>& idx) {
   KernelMap m;
   m.dim = 3;
   m.reserve(idx.size());
-  for (std::uint32_t k : idx) m.push_back(&map.position[3 * k], map.gamma[k], map.w_mean[k], map.w_var[k]);
+  for (std::uint32_t k : idx)
+    m.push_back(&map.position[3 * k], map.gamma[k], map.w_mean[k], map.w_var[k]);
   m.has_bias = map.has_bias;
   m.bias_mean = map.bias_mean;
   m.bias_var = map.bias_var;
@@ -227,19 +229,12 @@ std::vector<float> probability_by_columns(Context& ctx, const KernelMap& map,
   return prob;
 }
 
-DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
-                                 const std::vector<double>& positions, const std::string& prefix,
-                                 const DriveOutputOptions& o) {
-  if (map.dim != 3) throw ArgumentError("drive outputs: the map is not 3D");
-  if (!(o.voxel > 0) || !(o.band_high > o.band_low) || o.ros_res < 0 || o.picture_res < 0)
-    throw ArgumentError("drive outputs: voxel must be positive, band_high above band_low");
-  const std::vector<Block> blocks = kernel_blocks(map);
-  if (blocks.empty()) throw ArgumentError("drive outputs: the map has no kernels");
-  // Voxels per block side, so that voxel centres tile every block alike.
-  const long per = std::max(1L, long(std::lround(kBlock / o.voxel)));
-  const double vox = kBlock / double(per);
+namespace {
+
+// The band raster over the blocks' x, y bounds at `res` metres.
+Band make_band(const std::vector<Block>& blocks, double res) {
   Band band;
-  band.res = o.ros_res > 0 ? o.ros_res : vox;
+  band.res = res;
   double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
   for (const Block& b : blocks)
     for (int d = 0; d < 2; ++d) {
@@ -256,19 +251,44 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
                         " cells: choose a coarser --ros-res");
   band.prob.assign(band.nx * band.ny, -1.0f);
   band.var.assign(band.nx * band.ny, 0.0f);
-  BandHeight height{positions, {}};
+  return band;
+}
 
-  octomap::OcTree tree(vox);
-  const std::string ply = prefix + "_occupied.ply";
-  PlyStream cloud(ply);
-  std::size_t n_occ = 0, n_free = 0, n_unknown = 0, done = 0;
-  const double reach = kernel_reach(map, vox);
+// Where each known voxel goes: the band, the OctoMap, the point cloud.
+struct VoxelSink {
+  Band& band;
+  BandHeight& height;
+  octomap::OcTree& tree;
+  PlyStream& cloud;
+  const DriveOutputOptions& o;
+  std::size_t occupied = 0, free = 0, unknown = 0;
+  void add(double x, double y, double z, double p, double var) {
+    const double zr = height(x, y);
+    if (z >= zr + o.band_low && z <= zr + o.band_high) band.add(x, y, p, var);
+    // The .bt holds each voxel's most likely state only (OctoMap's writeBinary keeps no
+    // more): set it so, and neighbours of one state prune into one node as the tree grows.
+    tree.setNodeValue(octomap::point3d(float(x), float(y), float(z)),
+                      p > 0.5 ? tree.getClampingThresMaxLog() : tree.getClampingThresMinLog(),
+                      true);
+    if (p > 0.5) {
+      ++occupied;
+      cloud.add(float(x), float(y), float(z), float(p), float(var));
+    } else {
+      ++free;
+    }
+  }
+};
+
+// Every voxel of every block, a column of blocks at a time with that column's local map.
+void volume_pass(Context& ctx, const KernelMap& map, const std::vector<Block>& blocks, long per,
+                 double vox, const KnownRule& known, VoxelSink& sink) {
   const auto groups = group_blocks(blocks);
-  auto kernels = group_kernels(map, groups, reach);
+  auto kernels = group_kernels(map, groups, kernel_reach(map, vox));
   auto progress = terminal_progress("outputs");
   std::vector<double> pts;
+  std::size_t done = 0;
   for (const auto& [column, members] : groups) {
-    KnownEvaluator ev(&ctx, subset(map, kernels[column]), o.known);
+    KnownEvaluator ev(&ctx, subset(map, kernels[column]), known);
     kernels[column] = {};
     for (std::size_t m0 = 0; m0 < members.size(); m0 += kBatch) {
       const std::size_t m1 = std::min(members.size(), m0 + kBatch);
@@ -278,39 +298,46 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
         for (long k = 0; k < per; ++k)
           for (long j = 0; j < per; ++j)
             for (long i = 0; i < per; ++i)
-              pts.insert(pts.end(), {blk[0] * kBlock + (i + 0.5) * vox,
-                                     blk[1] * kBlock + (j + 0.5) * vox,
-                                     blk[2] * kBlock + (k + 0.5) * vox});
+              pts.insert(pts.end(),
+                         {blk[0] * kBlock + (i + 0.5) * vox, blk[1] * kBlock + (j + 0.5) * vox,
+                          blk[2] * kBlock + (k + 0.5) * vox});
       }
       const KnownValues v = ev.values(pts);
       for (std::size_t q = 0; q < v.prob.size(); ++q) {
-        if (!v.known[q]) {
-          ++n_unknown;
-          continue;
-        }
-        const double x = pts[3 * q], y = pts[3 * q + 1], z = pts[3 * q + 2], p = v.prob[q];
-        const double zr = height(x, y);
-        if (z >= zr + o.band_low && z <= zr + o.band_high) band.add(x, y, p, v.var[q]);
-        // The .bt holds each voxel's most likely state only (OctoMap's writeBinary keeps no
-        // more): set it so, and neighbours of one state prune into one node as the tree grows.
-        tree.setNodeValue(octomap::point3d(float(x), float(y), float(z)),
-                          p > 0.5 ? tree.getClampingThresMaxLog() : tree.getClampingThresMinLog(),
-                          true);
-        if (p > 0.5) {
-          ++n_occ;
-          cloud.add(float(x), float(y), float(z), float(p), float(v.var[q]));
-        } else {
-          ++n_free;
-        }
+        if (v.known[q])
+          sink.add(pts[3 * q], pts[3 * q + 1], pts[3 * q + 2], v.prob[q], v.var[q]);
+        else
+          ++sink.unknown;
       }
       done += m1 - m0;
       if (progress) progress(double(done) / double(blocks.size()));
     }
-    tree.updateInnerOccupancy();
-    tree.prune();
+    sink.tree.updateInnerOccupancy();
+    sink.tree.prune();
   }
-  tree.updateInnerOccupancy();
-  tree.prune();
+}
+
+}  // namespace
+
+DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
+                                 const std::vector<double>& positions, const std::string& prefix,
+                                 const DriveOutputOptions& o) {
+  if (map.dim != 3) throw ArgumentError("drive outputs: the map is not 3D");
+  if (!(o.voxel > 0) || !(o.band_high > o.band_low) || o.ros_res < 0 || o.picture_res < 0)
+    throw ArgumentError("drive outputs: voxel must be positive, band_high above band_low");
+  const std::vector<Block> blocks = kernel_blocks(map);
+  if (blocks.empty()) throw ArgumentError("drive outputs: the map has no kernels");
+  // Voxels per block side, so that voxel centres tile every block alike.
+  const long per = std::max(1L, long(std::lround(kBlock / o.voxel)));
+  const double vox = kBlock / double(per);
+  Band band = make_band(blocks, o.ros_res > 0 ? o.ros_res : vox);
+  BandHeight height{positions, {}};
+  octomap::OcTree tree(vox);
+  const std::string ply = prefix + "_occupied.ply";
+  PlyStream cloud(ply);
+  VoxelSink sink{band, height, tree, cloud, o};
+  volume_pass(ctx, map, blocks, per, vox, o.known, sink);
+  const std::size_t n_occ = sink.occupied, n_free = sink.free, n_unknown = sink.unknown;
   DriveOutputs out;
   const std::string bt = prefix + ".bt";
   {
@@ -332,10 +359,14 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
                 std::size_t(tree.getNumLeafNodes()), bt.c_str(), n_occ, ply.c_str(),
                 bf.summary.c_str());
   out.summary = line;
-  out.json = {{"voxel_m", vox},          {"blocks", blocks.size()},
-              {"occupied_voxels", n_occ}, {"free_voxels", n_free},
-              {"unknown_voxels", n_unknown}, {"octomap_leaves", tree.getNumLeafNodes()},
-              {"band_m", {o.band_low, o.band_high}}, {"band", bf.json}};
+  out.json = {{"voxel_m", vox},
+              {"blocks", blocks.size()},
+              {"occupied_voxels", n_occ},
+              {"free_voxels", n_free},
+              {"unknown_voxels", n_unknown},
+              {"octomap_leaves", tree.getNumLeafNodes()},
+              {"band_m", {o.band_low, o.band_high}},
+              {"band", bf.json}};
   return out;
 }
 

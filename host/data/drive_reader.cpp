@@ -123,7 +123,8 @@ Drive open_slam(const fs::path& dir, const DriveOptions& o) {
 // KITTI's own layout keeps poses in dataset/poses/NN.txt, beside dataset/sequences/NN.
 fs::path kitti_poses(const fs::path& seq) {
   if (path_exists(seq / "poses.txt")) return seq / "poses.txt";
-  const fs::path up = seq.parent_path().parent_path() / "poses" / (seq.filename().string() + ".txt");
+  const fs::path up =
+      seq.parent_path().parent_path() / "poses" / (seq.filename().string() + ".txt");
   return up;
 }
 
@@ -160,13 +161,12 @@ std::vector<std::array<double, 12>> read_pose_rows(const std::string& path) {
     for (int k = 0; k < 12; ++k) {
       std::string tok;
       if (!(ss >> tok))
-        throw InputError(where + ": expected 12 numbers (3 x 4 [R | t]), got " +
-                         std::to_string(k));
+        throw InputError(where + ": expected 12 numbers (3 x 4 [R | t]), got " + std::to_string(k));
       char* e = nullptr;
       m[k] = std::strtod(tok.c_str(), &e);
       if (e == tok.c_str() || *e != '\0' || !std::isfinite(m[k]))
-        throw InputError(where + ": number " + std::to_string(k + 1) + ": bad pose value: '" +
-                         tok + "'");
+        throw InputError(where + ": number " + std::to_string(k + 1) + ": bad pose value: '" + tok +
+                         "'");
     }
     std::string extra;
     if (ss >> extra) throw InputError(where + ": more than 12 numbers: '" + extra + "'");
@@ -182,7 +182,8 @@ bool is_drive(const std::string& path) {
   if (folder_exists(p / "Scans") &&
       (path_exists(p / "odom_poses.txt") || path_exists(p / "optimized_poses.txt")))
     return true;
-  return folder_exists(p / "velodyne") && path_exists(p / "calib.txt") && path_exists(kitti_poses(p));
+  return folder_exists(p / "velodyne") && path_exists(p / "calib.txt") &&
+         path_exists(kitti_poses(p));
 }
 
 Drive open_drive(const std::string& path, const DriveOptions& options) {

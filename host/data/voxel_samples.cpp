@@ -38,7 +38,8 @@ LabelledPoints aggregate_voxels(const LabelledPoints& samples, double voxel) {
   if (samples.position.size() != n * std::size_t(dim) ||
       (!samples.weight.empty() && samples.weight.size() != n) ||
       (!samples.scan.empty() && samples.scan.size() != n))
-    throw ArgumentError("aggregate_voxels: positions, labels, scans and weights disagree in number");
+    throw ArgumentError(
+        "aggregate_voxels: positions, labels, scans and weights disagree in number");
   const double inv = 1.0 / voxel;
   // (scan, key, index), sorted: each run of equal (scan, key) is one output sample. A point
   // farther than 2^20 voxels from the origin keeps a voxel of its own (index as its key).
@@ -65,8 +66,7 @@ LabelledPoints aggregate_voxels(const LabelledPoints& samples, double voxel) {
   out.dim = dim;
   for (std::size_t a = 0; a < n;) {
     std::size_t b = a + 1;
-    while (b < n && e[b].scan == e[a].scan && e[b].key == e[a].key && e[b].alone == e[a].alone)
-      ++b;
+    while (b < n && e[b].scan == e[a].scan && e[b].key == e[a].key && e[b].alone == e[a].alone) ++b;
     double sum[3] = {0, 0, 0}, w = 0;
     for (std::size_t k = a; k < b; ++k) {
       const std::size_t i = e[k].index;

@@ -22,8 +22,9 @@ void keep_blocks(std::vector<T>& v, const std::vector<std::uint8_t>& going, std:
   std::vector<T> out;
   out.reserve(kept * per);
   for (std::size_t t = 0; t < going.size(); ++t)
-    if (!going[t]) out.insert(out.end(), v.begin() + std::ptrdiff_t(t * per),
-                              v.begin() + std::ptrdiff_t((t + 1) * per));
+    if (!going[t])
+      out.insert(out.end(), v.begin() + std::ptrdiff_t(t * per),
+                 v.begin() + std::ptrdiff_t((t + 1) * per));
   v.swap(out);
 }
 

@@ -16,16 +16,28 @@ namespace potmap {
 
 namespace {
 
-constexpr detail::ContainerLayout kLayout{"POTDRV\r\n", "a potmap drive mapper state", 1, 24,
-                                          16};
+constexpr detail::ContainerLayout kLayout{"POTDRV\r\n", "a potmap drive mapper state", 1, 24, 16};
 
 std::uint64_t options_fingerprint(const DriveMapperOptions& o) {
   const JointBhmOptions& b = o.bhm;
-  const double v[] = {o.retire_radius, o.range_cut,   o.labels.free_per_metre, double(o.labels.max_free_per_beam),
-                      o.labels.holdout_fraction, double(o.labels.seed), o.voxel,
-                      double(o.test_stride), b.spacing, b.gamma, b.neighbour_phi, b.prior_var,
-                      double(b.bias), double(b.em_iterations), b.tau, b.cg_tolerance,
-                      double(b.cg_max_iterations), double(b.solve_margin)};
+  const double v[] = {o.retire_radius,
+                      o.range_cut,
+                      o.labels.free_per_metre,
+                      double(o.labels.max_free_per_beam),
+                      o.labels.holdout_fraction,
+                      double(o.labels.seed),
+                      o.voxel,
+                      double(o.test_stride),
+                      b.spacing,
+                      b.gamma,
+                      b.neighbour_phi,
+                      b.prior_var,
+                      double(b.bias),
+                      double(b.em_iterations),
+                      b.tau,
+                      b.cg_tolerance,
+                      double(b.cg_max_iterations),
+                      double(b.solve_margin)};
   std::string bytes(sizeof v, '\0');
   std::memcpy(&bytes[0], v, sizeof v);
   return detail::fnv1a64(bytes);

@@ -41,11 +41,11 @@ struct Drive {
   std::string path;    ///< the folder as given
   std::string layout;  ///< "slam" or "kitti"
   std::string poses_file;
-  std::vector<std::string> frames;              ///< keyframe files
-  std::vector<std::array<double, 12>> poses;    ///< sensor to world, 3 x 4 row-major [R | t]
-  std::vector<double> times;                    ///< seconds; keyframe indices when no times.txt
-  bool has_times = false;                       ///< whether times came from times.txt
-  double max_range = 120;                       ///< metres (DriveOptions::max_range)
+  std::vector<std::string> frames;            ///< keyframe files
+  std::vector<std::array<double, 12>> poses;  ///< sensor to world, 3 x 4 row-major [R | t]
+  std::vector<double> times;                  ///< seconds; keyframe indices when no times.txt
+  bool has_times = false;                     ///< whether times came from times.txt
+  double max_range = 120;                     ///< metres (DriveOptions::max_range)
   std::size_t size() const { return frames.size(); }
 };
 
@@ -70,12 +70,12 @@ Dataset read_drive(const Drive& drive, std::size_t first = 0, std::size_t count 
 /// What `potmap data info DRIVE` prints.
 struct DriveSummary {
   std::size_t keyframes = 0;
-  std::size_t points = 0;                ///< summed over keyframes
+  std::size_t points = 0;  ///< summed over keyframes
   std::size_t min_points = 0, max_points = 0;
-  double path_length = 0;                ///< metres, along the poses
-  double largest_step = 0;               ///< metres between consecutive keyframes
-  double median_step = 0;                ///< metres
-  double duration = 0;                   ///< seconds (times.txt; 0 without it)
+  double path_length = 0;                       ///< metres, along the poses
+  double largest_step = 0;                      ///< metres between consecutive keyframes
+  double median_step = 0;                       ///< metres
+  double duration = 0;                          ///< seconds (times.txt; 0 without it)
   double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};  ///< bounds of the sensor positions, metres
   /// Field of view of the keyframes, in the sensor frame: azimuth span covered (degrees, 360
   /// for a spinning LIDAR), elevation range (degrees), and the median and 99th percentile

@@ -65,13 +65,13 @@ struct DriveMapperOptions {
 
 /// What one add() did.
 struct KeyframeStats {
-  std::size_t samples = 0;        ///< training samples before gathering
-  std::size_t gathered = 0;       ///< weighted samples the learner took
-  std::size_t held_out = 0;       ///< held-out samples kept
-  double label_ms = 0;            ///< cut, labelling and gathering
-  double update_ms = 0;           ///< the learner's update and the retiring of tiles left
-  std::size_t retired = 0;        ///< tiles retired after this keyframe
-  std::size_t memory_bytes = 0;   ///< the mapper's after the keyframe
+  std::size_t samples = 0;       ///< training samples before gathering
+  std::size_t gathered = 0;      ///< weighted samples the learner took
+  std::size_t held_out = 0;      ///< held-out samples kept
+  double label_ms = 0;           ///< cut, labelling and gathering
+  double update_ms = 0;          ///< the learner's update and the retiring of tiles left
+  std::size_t retired = 0;       ///< tiles retired after this keyframe
+  std::size_t memory_bytes = 0;  ///< the mapper's after the keyframe
 };
 
 class DriveMapper {
