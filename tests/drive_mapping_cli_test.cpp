@@ -82,14 +82,14 @@ TEST(DriveMappingCli, ResumedRunEndsAsAnUninterruptedOne) {
   const std::string drive = test::quoted(test::shared_data("drives3d/hku-1"));
   const std::string a = test::temp_dir("drive-resume-a"), b = test::temp_dir("drive-resume-b");
   const std::string common = " --max-scans 8 -q --voxel 0.5";
+  // A run that ends after keyframe 4 with its checkpoint at 2 kept: a run stopped there.
+  auto stopped_run = [&] {
+    return test::run_cli("mapping " + drive + " --max-scans 4 -q --voxel 0.5 " +
+                         "--checkpoint-every 2 --keep-checkpoint -o " + test::quoted(b))
+        .status;
+  };
   ASSERT_EQ(test::run_cli("mapping " + drive + common + " -o " + test::quoted(a)).status, 0);
-  // A run that stops after keyframe 4 (its checkpoint kept), then a run resumed from it.
-  ASSERT_EQ(test::run_cli("mapping " + drive +
-                          " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
-                          "--keep-checkpoint -o " +
-                          test::quoted(b))
-                .status,
-            0);
+  ASSERT_EQ(stopped_run(), 0);
   ASSERT_TRUE(fs::exists(b + "/map.ckpt"));
   const test::CliResult r =
       test::run_cli("mapping " + drive + common + " --resume -o " + test::quoted(b));
@@ -99,12 +99,7 @@ TEST(DriveMappingCli, ResumedRunEndsAsAnUninterruptedOne) {
   EXPECT_EQ(scores_of(a)["scores"], scores_of(b)["scores"]);
   test::expect_same_map(read_map(a + "/map.potmap"), read_map(b + "/map.potmap"));
   // Another range cut is another run: refused, naming the option.
-  ASSERT_EQ(test::run_cli("mapping " + drive +
-                          " --max-scans 4 -q --voxel 0.5 --checkpoint-every 2 "
-                          "--keep-checkpoint -o " +
-                          test::quoted(b))
-                .status,
-            0);
+  ASSERT_EQ(stopped_run(), 0);
   const test::CliResult c =
       test::run_cli("mapping " + drive + common + " --range-cut 30 --resume -o " + test::quoted(b));
   EXPECT_NE(c.status, 0);

@@ -156,13 +156,7 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   j["dictionary"] = a.dict.empty() ? "default: " + default_dictionary_recipe() : a.dict;
   j["range_cut"] = range_cut;
   j["device"] = ctx.info().summary();
-  const std::string scores = (fs::path(dir) / "scores.json").string();
-  files.push_back(scores);
-  j["files"] = files;
-  write_text_atomically(scores, j.dump(1) + "\n");
-  if (a.json == "-") std::cout << j.dump(1) << "\n";
-  std::fprintf(human, "files:\n");
-  for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
+  write_scores_and_list(dir, j, files, a.json, human);
   return 0;
 }
 

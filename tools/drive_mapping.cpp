@@ -185,13 +185,7 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   j["outputs_s"] = output_s;
   j["device"] = ctx.info().summary();
   j["outputs"] = outs.json;
-  const std::string scores = (fs::path(dir) / "scores.json").string();
-  files.push_back(scores);
-  j["files"] = files;
-  write_text_atomically(scores, j.dump(1) + "\n");
-  if (a.json == "-") std::cout << j.dump(1) << "\n";
-  std::fprintf(human, "files:\n");
-  for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
+  write_scores_and_list(dir, j, files, a.json, human);
   std::error_code ec;
   if (!a.keep_checkpoint) fs::remove(ckpt, ec);
   return 0;

@@ -56,4 +56,16 @@ void write_text_atomically(const std::string& path, const std::string& text) {
   if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename");
 }
 
+void write_scores_and_list(const std::string& dir, nlohmann::json summary,
+                           std::vector<std::string> files, const std::string& json,
+                           std::FILE* human) {
+  const std::string scores = (std::filesystem::path(dir) / "scores.json").string();
+  files.push_back(scores);
+  summary["files"] = files;
+  write_text_atomically(scores, summary.dump(1) + "\n");
+  if (json == "-") std::printf("%s\n", summary.dump(1).c_str());
+  std::fprintf(human, "files:\n");
+  for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
+}
+
 }  // namespace potmap::cli

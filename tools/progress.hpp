@@ -1,8 +1,12 @@
 #pragma once
 // Small helpers shared by the subcommands.
 #include <chrono>
+#include <cstdio>
 #include <functional>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 namespace potmap::cli {
 
@@ -18,5 +22,12 @@ std::function<void(double fraction)> terminal_progress(const std::string& label)
 /// Writes text to path through a temporary file in the same folder and a rename; throws
 /// potmap::Error naming the file on failure (and leaves nothing behind).
 void write_text_atomically(const std::string& path, const std::string& text);
+
+/// The end of a mapping command: `summary` gets the list of `files` (with DIR/scores.json, which
+/// it is written to, atomically), is printed on stdout when `json` is "-", and the files are
+/// listed on `human`.
+void write_scores_and_list(const std::string& dir, nlohmann::json summary,
+                           std::vector<std::string> files, const std::string& json,
+                           std::FILE* human);
 
 }  // namespace potmap::cli
