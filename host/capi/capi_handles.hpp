@@ -8,6 +8,7 @@
 
 #include "capi_guard.hpp"
 #include "potmap/data/scan.hpp"
+#include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/pot/atoms.hpp"
@@ -16,12 +17,13 @@
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::capi {
-constexpr std::uint32_t kContextTag = 0x43504d50;     // "PMPC"
-constexpr std::uint32_t kMapTag = 0x4d504d50;         // "PMPM"
-constexpr std::uint32_t kEvaluatorTag = 0x45504d50;   // "PMPE"
-constexpr std::uint32_t kDatasetTag = 0x53504d50;     // "PMPS"
-constexpr std::uint32_t kDictionaryTag = 0x44504d50;  // "PMPD"
-constexpr std::uint32_t kMapperTag = 0x52504d50;      // "PMPR"
+constexpr std::uint32_t kContextTag = 0x43504d50;      // "PMPC"
+constexpr std::uint32_t kMapTag = 0x4d504d50;          // "PMPM"
+constexpr std::uint32_t kEvaluatorTag = 0x45504d50;    // "PMPE"
+constexpr std::uint32_t kDatasetTag = 0x53504d50;      // "PMPS"
+constexpr std::uint32_t kDictionaryTag = 0x44504d50;   // "PMPD"
+constexpr std::uint32_t kMapperTag = 0x52504d50;       // "PMPR"
+constexpr std::uint32_t kDriveMapperTag = 0x56504d50;  // "PMPV"
 constexpr std::uint32_t kDeadTag = 0xdeadbeef;
 }  // namespace potmap::capi
 
@@ -61,6 +63,12 @@ struct potmap_mapper {
   std::unique_ptr<potmap::Mapper> mapper;
 };
 
+struct potmap_drive_mapper {
+  std::uint32_t tag = potmap::capi::kDriveMapperTag;
+  std::shared_ptr<potmap::Context> ctx;  // may be null: the update on the caller's thread
+  std::unique_ptr<potmap::DriveMapper> mapper;
+};
+
 namespace potmap::capi {
 
 /// The handle, checked: null or of another type (or destroyed) fails.
@@ -91,6 +99,9 @@ inline potmap_dictionary& checked(const potmap_dictionary* h) {
 }
 inline potmap_mapper& checked(const potmap_mapper* h) {
   return checked(const_cast<potmap_mapper*>(h), kMapperTag, "mapper");
+}
+inline potmap_drive_mapper& checked(const potmap_drive_mapper* h) {
+  return checked(const_cast<potmap_drive_mapper*>(h), kDriveMapperTag, "drive mapper");
 }
 
 /// Clears the tag and frees the handle; null does nothing.

@@ -118,6 +118,8 @@ typedef struct potmap_dictionary potmap_dictionary;
 /** Maps scans one at a time by POT or RePOT with a dictionary, and accumulates them into an
  *  overall map. */
 typedef struct potmap_mapper potmap_mapper;
+/** The joint BHM over a 3D drive, a keyframe at a time (potmap_drive_mapper_*). */
+typedef struct potmap_drive_mapper potmap_drive_mapper;
 
 /* ---- context --------------------------------------------------------------------------- */
 
@@ -296,7 +298,8 @@ typedef struct potmap_scan {
 POTMAP_EXPORT potmap_status potmap_scan_init(potmap_scan* scan, size_t struct_size);
 
 /** Reads a dataset file by its name, as `potmap data info` does: *.log[.gz] CARMEN, *.bin KITTI
- *  or nuScenes frames, a KITTI odometry sequence by its poses.txt, *.npz / *.csv labelled
+ *  or nuScenes frames, a 3D drive folder (SLAM keyframes or a KITTI sequence: every keyframe in
+ *  the world frame), a KITTI odometry sequence by its poses.txt, *.npz / *.csv labelled
  *  samples (see potmap/data/scan.hpp, read_dataset). The whole file is read now.
  *  *out receives a new handle; free it with potmap_dataset_destroy.
  *  Errors: POTMAP_ERROR_INPUT (the message names the file, line or offset, and value). */
@@ -560,6 +563,82 @@ POTMAP_EXPORT potmap_status potmap_mapper_save_state(const potmap_mapper* mapper
  *  corrupt file, or a state of another dictionary, options or dimension; the message names the
  *  file and byte offset); the mapper is unchanged then. */
 POTMAP_EXPORT potmap_status potmap_mapper_load_state(potmap_mapper* mapper, const char* path);
+
+/* ---- 3D drives --------------------------------------------------------------------------- */
+
+/** How a 3D drive is mapped (potmap/learn/drive_mapper.hpp, DriveMapperOptions; the defaults are
+ *  `potmap mapping DRIVE`'s, chosen on real drives: docs/drives-3d.md). */
+typedef struct potmap_drive_mapper_options {
+  size_t struct_size;      /**< the caller's sizeof (potmap_drive_mapper_options_init sets it) */
+  double range_cut;        /**< horizontal range cut, metres, > 0 (default 40) */
+  double free_per_metre;   /**< free samples per metre of beam, > 0 (default 0.5) */
+  double holdout_fraction; /**< beams held out of every keyframe for scoring, [0, 1) (0.2) */
+  uint64_t seed;           /**< labelling and hold-out seed (default 0) */
+  double voxel;            /**< samples gathered per voxel of this edge, metres (0.5; 0: none) */
+  /** Tiles farther than this from the sensor (metres, x and y) are retired to their means and
+   *  variances after each keyframe (default -1: range_cut + 16; 0: never). */
+  double retire_radius;
+} potmap_drive_mapper_options;
+
+/** Fills *options with the defaults above; struct_size as for potmap_scan_init. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_options_init(potmap_drive_mapper_options* options,
+                                                             size_t struct_size);
+
+/** Creates a drive mapper. `context` may be NULL (the update runs on the calling thread alone;
+ *  with a context, on its host team too: the same map bit for bit). `options` NULL: the
+ *  defaults. *out receives a new handle; free it with potmap_drive_mapper_destroy.
+ *  Errors: POTMAP_ERROR_INVALID_ARGUMENT (an option out of range: field and value named). */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_create(potmap_context* context,
+                                                       const potmap_drive_mapper_options* options,
+                                                       potmap_drive_mapper** out);
+
+/** Frees the mapper. NULL: no-op. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_destroy(potmap_drive_mapper* mapper);
+
+/** What potmap_drive_mapper_add_keyframe did. Times in milliseconds (wall clock). */
+typedef struct potmap_keyframe_stats {
+  size_t struct_size;  /**< set by the caller to sizeof(potmap_keyframe_stats) */
+  size_t samples;      /**< training samples before gathering */
+  size_t gathered;     /**< weighted samples the joint BHM took */
+  size_t held_out;     /**< held-out samples kept for scoring */
+  size_t retired;      /**< tiles retired after the keyframe */
+  size_t memory_bytes; /**< what the mapper holds after it */
+  double label_ms;     /**< cut, labelling and gathering */
+  double update_ms;    /**< the joint BHM's update and the retiring */
+} potmap_keyframe_stats;
+
+/** Adds keyframe `index` (a 3D scan in the world frame: hits moved by the pose, which gives
+ *  the sensor's position; potmap_dataset_load reads a drive folder into such scans). The index
+ *  seeds its labelling. `stats` may be NULL. On failure the mapper is unchanged.
+ *  Errors: POTMAP_ERROR_DIMENSION_MISMATCH (a 2D scan), POTMAP_ERROR_INVALID_ARGUMENT (a bad
+ *  scan: field and value named), POTMAP_ERROR_BUFFER_TOO_SMALL (stats->struct_size). */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_add_keyframe(potmap_drive_mapper* mapper,
+                                                             const potmap_scan* keyframe,
+                                                             int64_t index,
+                                                             potmap_keyframe_stats* stats);
+
+/** The map of every keyframe so far (retired tiles included), as a new map handle: the caller
+ *  frees it with potmap_map_destroy. It costs a solve and a variance per changed tile: call it
+ *  when the map is needed, not after every keyframe. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_map(const potmap_drive_mapper* mapper,
+                                                    potmap_map** out);
+
+/** The held-out samples kept: *n samples, their positions (3 doubles each) and labels (1
+ *  occupied, 0 free), borrowed: valid until the next add_keyframe, load_state or destroy. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_held_out(const potmap_drive_mapper* mapper,
+                                                         size_t* n, const double** positions,
+                                                         const uint8_t** labels);
+
+/** Writes the mapper's whole state to `path` atomically (DriveMapper::save_state); a mapper
+ *  with the same options that loads it continues bit for bit. Errors: POTMAP_ERROR_IO. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_save_state(const potmap_drive_mapper* mapper,
+                                                           const char* path);
+
+/** Restores a state of potmap_drive_mapper_save_state. Errors: POTMAP_ERROR_INPUT (a damaged
+ *  file, or one saved with other options: the message names the file and byte); the mapper is
+ *  unchanged then. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_load_state(potmap_drive_mapper* mapper,
+                                                           const char* path);
 
 #ifdef __cplusplus
 } /* extern "C" */
