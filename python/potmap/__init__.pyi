@@ -316,6 +316,126 @@ class DictionaryOptions:
     @seed.setter
     def seed(self, value: Any) -> None: ...
 
+class Drive:
+    """The index of a 3D drive (SLAM keyframes or a KITTI sequence): names, poses
+    and times; keyframes are read one at a time with keyframe(i)."""
+    def __init__(self, *args: Any, **kwargs: Any) -> Any:
+        """Initialize self.  See help(type(self)) for accurate signature."""
+        ...
+    @property
+    def path(self) -> str:
+        ...
+    @property
+    def layout(self) -> str:
+        """'slam' or 'kitti'"""
+        ...
+    @property
+    def poses_file(self) -> str:
+        ...
+    @property
+    def frames(self) -> List[str]:
+        """keyframe files, in order"""
+        ...
+    @property
+    def times(self) -> List[float]:
+        """seconds (keyframe indices without times.txt)"""
+        ...
+    @property
+    def max_range(self) -> float:
+        """metres"""
+        ...
+    @property
+    def poses(self) -> numpy.ndarray:
+        """(n, 3, 4) sensor-to-world [R | t]"""
+        ...
+    def __len__(self) -> int:
+        ...
+    def keyframe(self, i: int) -> Scan:
+        """Keyframe i as a 3D Scan in the world frame (read now)."""
+        ...
+
+class DriveMapper:
+    """The joint BHM over a 3D drive, a keyframe at a time, in memory that
+    follows the place (tiles the sensor left are retired)."""
+    def __init__(self, **kwargs: Any) -> None:
+        """Keyword arguments: DriveMapperOptions fields (range_cut=40 m, voxel=0.5 m, ...)."""
+        ...
+    def add(self, keyframe: Scan, index: int, ctx: Context = None) -> KeyframeStats:
+        """Adds a 3D Scan (world frame) as keyframe `index` (which seeds its labelling)."""
+        ...
+    def map(self) -> KernelMap:
+        """The KernelMap of every keyframe so far (retired tiles included)."""
+        ...
+    @property
+    def held_out(self) -> LabelledPoints:
+        """the held-out samples kept (LabelledPoints)"""
+        ...
+    @property
+    def keyframes(self) -> int:
+        ...
+    @property
+    def memory_bytes(self) -> int:
+        ...
+    def save_state(self, path: str) -> None:
+        """Writes the whole state atomically; load_state() continues bit for bit."""
+        ...
+    def load_state(self, path: str) -> None:
+        """Restores a state saved with the same options."""
+        ...
+
+class DriveMapperOptions:
+    """How a 3D drive is mapped; the defaults are `potmap mapping DRIVE`'s (docs/drives-3d.md)."""
+    def __init__(self, **kwargs: Any) -> None:
+        ...
+    @property
+    def range_cut(self) -> float:
+        """horizontal range cut, metres (default 40)"""
+        ...
+    @range_cut.setter
+    def range_cut(self, value: Any) -> None: ...
+    @property
+    def free_per_metre(self) -> float:
+        """free samples per metre of beam (default 0.5)"""
+        ...
+    @free_per_metre.setter
+    def free_per_metre(self, value: Any) -> None: ...
+    @property
+    def holdout_fraction(self) -> float:
+        """beams of each keyframe held out for scoring (default 0.2)"""
+        ...
+    @holdout_fraction.setter
+    def holdout_fraction(self, value: Any) -> None: ...
+    @property
+    def seed(self) -> int:
+        """labelling seed (default 0)"""
+        ...
+    @seed.setter
+    def seed(self, value: Any) -> None: ...
+    @property
+    def voxel(self) -> float:
+        """samples gathered per voxel of this edge, metres (default 0.5; 0: none)"""
+        ...
+    @voxel.setter
+    def voxel(self, value: Any) -> None: ...
+    @property
+    def bhm(self) -> JointBhmOptions:
+        """the JointBhmOptions (default: the drive defaults, 1 m kernels)"""
+        ...
+    @bhm.setter
+    def bhm(self, value: Any) -> None: ...
+    @property
+    def retire_radius(self) -> float:
+        """tiles farther than this from the sensor are retired, metres (default -1: range_cut + 16; 0: never)"""
+        ...
+    @retire_radius.setter
+    def retire_radius(self, value: Any) -> None: ...
+    @property
+    def test_stride(self) -> int:
+        """every this many held-out samples one is kept (default 4)"""
+        ...
+    @test_stride.setter
+    def test_stride(self, value: Any) -> None: ...
+
 class Evaluator:
     """A map uploaded once to a device, evaluated any number of times.
     Keeps its Context alive. Threads sharing one take turns."""
@@ -588,6 +708,40 @@ class KernelMap:
     def save(self, path: str) -> None:
         """Writes a KernelMap as .csv, .npz or .potmap (by extension), through a temporary file
         and a rename. ArgumentError for an unknown extension or an invalid map."""
+        ...
+
+class KeyframeStats:
+    """What DriveMapper.add() did."""
+    def __init__(self, *args: Any, **kwargs: Any) -> Any:
+        """Initialize self.  See help(type(self)) for accurate signature."""
+        ...
+    @property
+    def samples(self) -> int:
+        """training samples before gathering"""
+        ...
+    @property
+    def gathered(self) -> int:
+        """weighted samples learned"""
+        ...
+    @property
+    def held_out(self) -> int:
+        """held-out samples kept"""
+        ...
+    @property
+    def retired(self) -> int:
+        """tiles retired"""
+        ...
+    @property
+    def label_ms(self) -> float:
+        """cut, labelling, gathering"""
+        ...
+    @property
+    def update_ms(self) -> float:
+        """update and retiring"""
+        ...
+    @property
+    def memory_bytes(self) -> int:
+        """held after it"""
         ...
 
 class LabelledPoints:
@@ -1575,6 +1729,17 @@ def label(scans: Any, free_per_metre: float = 1.0, holdout: float = 0.2, seed: i
 
 def label_scan(scan: Scan, index: int = 0, free_per_metre: float = 1.0, holdout: float = 0.2, seed: int = 0) -> LabelledSplit:
     """label() of one scan with scan index `index` (which seeds its samples and split)."""
+    ...
+
+def map_drive(path: str, first: int = 0, count: int = 0, ctx: Context = None, **kwargs: Any) -> DriveMapper:
+    """Maps a drive folder in one call (count 0: to the end) and returns its DriveMapper
+    (map(), held_out). Keyword arguments: DriveMapperOptions fields."""
+    ...
+
+def open_drive(path: str, poses: str = 'odom', max_range: float = 120.0) -> Drive:
+    """Indexes a drive folder. poses: 'odom' (odom_poses.txt, default), 'optimized' or
+    'auto'. max_range: the sensor's range, metres (default 120). Errors name the file,
+    line and value (InputError)."""
     ...
 
 def out_of_sample_map(problem: SinkhornProblem, barycentric: numpy.typing.ArrayLike, points: numpy.typing.ArrayLike) -> numpy.ndarray:

@@ -14,6 +14,7 @@ void bind_data(pybind11::module_& m);
 void bind_learn(pybind11::module_& m);
 void bind_ot(pybind11::module_& m);
 void bind_pot(pybind11::module_& m);
+void bind_drives(pybind11::module_& m);
 void bind_experiments(pybind11::module_& m);
 
 }  // namespace potmap::python

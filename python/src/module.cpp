@@ -17,6 +17,7 @@ PYBIND11_MODULE(_potmap, m) {
   bind_learn(m);
   bind_ot(m);
   bind_pot(m);
+  bind_drives(m);
 #ifdef POTMAP_PY_EXPERIMENTS
   bind_experiments(m);
 #endif

@@ -1,0 +1,179 @@
+// 3D drives: the drive index, a keyframe at a time, and the joint BHM's drive mapper
+// (include/potmap/data/drive.hpp, include/potmap/learn/drive_mapper.hpp).
+
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <mutex>
+
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "potmap/data/drive.hpp"
+#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/runtime/context.hpp"
+
+namespace potmap::python {
+
+namespace py = pybind11;
+using namespace pybind11::literals;
+
+namespace {
+
+// The mapper with a lock: calls release the GIL, so two Python threads must not update it at
+// once.
+struct PyDriveMapper {
+  explicit PyDriveMapper(const DriveMapperOptions& o) : m(o) {}
+  DriveMapper m;
+  std::unique_ptr<std::mutex> mu = std::make_unique<std::mutex>();
+};
+
+py::array_t<double> poses_array(const Drive& d) {
+  py::array_t<double> a({static_cast<py::ssize_t>(d.size()), py::ssize_t(3), py::ssize_t(4)});
+  double* p = a.mutable_data();
+  for (const auto& pose : d.poses) p = std::copy(pose.begin(), pose.end(), p);
+  return a;
+}
+
+void bind_drive(py::module_& m) {
+  py::class_<Drive>(m, "Drive",
+                    "The index of a 3D drive (SLAM keyframes or a KITTI sequence): names, poses\n"
+                    "and times; keyframes are read one at a time with keyframe(i).")
+      .def_readonly("path", &Drive::path)
+      .def_readonly("layout", &Drive::layout, "'slam' or 'kitti'")
+      .def_readonly("poses_file", &Drive::poses_file)
+      .def_readonly("frames", &Drive::frames, "keyframe files, in order")
+      .def_readonly("times", &Drive::times, "seconds (keyframe indices without times.txt)")
+      .def_readonly("max_range", &Drive::max_range, "metres")
+      .def_property_readonly("poses", &poses_array, "(n, 3, 4) sensor-to-world [R | t]")
+      .def("__len__", &Drive::size)
+      .def(
+          "keyframe", [](const Drive& d, std::size_t i) { return read_keyframe(d, i); }, "i"_a,
+          py::call_guard<py::gil_scoped_release>(),
+          "Keyframe i as a 3D Scan in the world frame (read now).");
+  m.def(
+      "open_drive",
+      [](const std::string& path, const std::string& poses, double max_range) {
+        DriveOptions o;
+        o.poses = poses;
+        o.max_range = max_range;
+        return open_drive(path, o);
+      },
+      "path"_a, "poses"_a = "odom", "max_range"_a = 120.0, py::call_guard<py::gil_scoped_release>(),
+      "Indexes a drive folder. poses: 'odom' (odom_poses.txt, default), 'optimized' or\n"
+      "'auto'. max_range: the sensor's range, metres (default 120). Errors name the file,\n"
+      "line and value (InputError).");
+}
+
+}  // namespace
+
+void bind_drives(py::module_& m) {
+  bind_drive(m);
+  py::class_<DriveMapperOptions> opt(m, "DriveMapperOptions",
+                                     "How a 3D drive is mapped; the defaults are `potmap "
+                                     "mapping DRIVE`'s (docs/drives-3d.md).");
+  opt.def(py::init([](const py::kwargs& kw) {
+       return options_from<DriveMapperOptions>(kw, "DriveMapperOptions");
+     }))
+      .def_readwrite("range_cut", &DriveMapperOptions::range_cut,
+                     "horizontal range cut, metres (default 40)")
+      .def_property(
+          "free_per_metre", [](const DriveMapperOptions& o) { return o.labels.free_per_metre; },
+          [](DriveMapperOptions& o, double v) { o.labels.free_per_metre = v; },
+          "free samples per metre of beam (default 0.5)")
+      .def_property(
+          "holdout_fraction", [](const DriveMapperOptions& o) { return o.labels.holdout_fraction; },
+          [](DriveMapperOptions& o, double v) { o.labels.holdout_fraction = v; },
+          "beams of each keyframe held out for scoring (default 0.2)")
+      .def_property(
+          "seed", [](const DriveMapperOptions& o) { return o.labels.seed; },
+          [](DriveMapperOptions& o, std::uint64_t v) { o.labels.seed = v; },
+          "labelling seed (default 0)")
+      .def_readwrite("voxel", &DriveMapperOptions::voxel,
+                     "samples gathered per voxel of this edge, metres (default 0.5; 0: none)")
+      .def_readwrite("bhm", &DriveMapperOptions::bhm,
+                     "the JointBhmOptions (default: the drive defaults, 1 m kernels)")
+      .def_readwrite("retire_radius", &DriveMapperOptions::retire_radius,
+                     "tiles farther than this from the sensor are retired, metres (default -1: "
+                     "range_cut + 16; 0: never)")
+      .def_readwrite("test_stride", &DriveMapperOptions::test_stride,
+                     "every this many held-out samples one is kept (default 4)");
+  add_fields_repr(opt);
+
+  py::class_<KeyframeStats>(m, "KeyframeStats", "What DriveMapper.add() did.")
+      .def_readonly("samples", &KeyframeStats::samples, "training samples before gathering")
+      .def_readonly("gathered", &KeyframeStats::gathered, "weighted samples learned")
+      .def_readonly("held_out", &KeyframeStats::held_out, "held-out samples kept")
+      .def_readonly("retired", &KeyframeStats::retired, "tiles retired")
+      .def_readonly("label_ms", &KeyframeStats::label_ms, "cut, labelling, gathering")
+      .def_readonly("update_ms", &KeyframeStats::update_ms, "update and retiring")
+      .def_readonly("memory_bytes", &KeyframeStats::memory_bytes, "held after it");
+
+  py::class_<PyDriveMapper>(m, "DriveMapper",
+                            "The joint BHM over a 3D drive, a keyframe at a time, in memory that\n"
+                            "follows the place (tiles the sensor left are retired).")
+      .def(py::init([](const py::kwargs& kw) {
+             return PyDriveMapper(options_from<DriveMapperOptions>(kw, "DriveMapper"));
+           }),
+           "Keyword arguments: DriveMapperOptions fields (range_cut=40 m, voxel=0.5 m, ...).")
+      .def(
+          "add",
+          [](PyDriveMapper& d, const Scan& s, std::int64_t index, Context* ctx) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(*d.mu);
+            return d.m.add(s, index, ctx);
+          },
+          "keyframe"_a, "index"_a, "ctx"_a = nullptr,
+          "Adds a 3D Scan (world frame) as keyframe `index` (which seeds its labelling).")
+      .def(
+          "map",
+          [](PyDriveMapper& d) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(*d.mu);
+            return d.m.map();
+          },
+          "The KernelMap of every keyframe so far (retired tiles included).")
+      .def_property_readonly(
+          "held_out",
+          [](PyDriveMapper& d) {
+            std::lock_guard<std::mutex> lock(*d.mu);
+            return d.m.held_out();
+          },
+          "the held-out samples kept (LabelledPoints)")
+      .def_property_readonly("keyframes", [](PyDriveMapper& d) { return d.m.keyframes(); })
+      .def_property_readonly("memory_bytes", [](PyDriveMapper& d) { return d.m.memory_bytes(); })
+      .def(
+          "save_state",
+          [](PyDriveMapper& d, const std::string& path) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(*d.mu);
+            d.m.save_state(path);
+          },
+          "path"_a, "Writes the whole state atomically; load_state() continues bit for bit.")
+      .def(
+          "load_state",
+          [](PyDriveMapper& d, const std::string& path) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(*d.mu);
+            d.m.load_state(path);
+          },
+          "path"_a, "Restores a state saved with the same options.");
+
+  m.def(
+      "map_drive",
+      [](const std::string& path, std::size_t first, std::size_t count, Context* ctx,
+         const py::kwargs& kw) {
+        const DriveMapperOptions o = options_from<DriveMapperOptions>(kw, "map_drive");
+        py::gil_scoped_release release;
+        const Drive d = open_drive(path);
+        PyDriveMapper m(o);
+        const std::size_t end = count ? std::min(d.size(), first + count) : d.size();
+        for (std::size_t i = first; i < end; ++i)
+          m.m.add(read_keyframe(d, i), std::int64_t(i), ctx);
+        return m;
+      },
+      "path"_a, "first"_a = 0, "count"_a = 0, "ctx"_a = nullptr,
+      "Maps a drive folder in one call (count 0: to the end) and returns its DriveMapper\n"
+      "(map(), held_out). Keyword arguments: DriveMapperOptions fields.");
+}
+
+}  // namespace potmap::python
