@@ -31,16 +31,17 @@ struct DriveOptions {
   /// (optimized_poses.txt) or "auto" (optimized_poses.txt when present, else odom_poses.txt).
   std::string poses = "odom";
   /// The sensor's maximum range, metres (default 120: an Ouster OS1-64's and a Velodyne
-  /// HDL-64E's; a point cloud does not say its sensor's range, and a PCD keyframe holds
-  /// returns only, so this bounds the points kept, not free space).
+  /// HDL-64E's rated range; a point cloud does not say its sensor's). Returns at or beyond it
+  /// count as no-returns (free space up to it), as Scan::max_range says; mapping cuts far
+  /// shorter (DriveMapperOptions::range_cut).
   double max_range = 120;
 };
 
 /// The index of a drive: one entry per keyframe, in order.
 struct Drive {
-  std::string path;    ///< the folder as given
-  std::string layout;  ///< "slam" or "kitti"
-  std::string poses_file;
+  std::string path;                           ///< the folder as given
+  std::string layout;                         ///< "slam" or "kitti"
+  std::string poses_file;                     ///< the poses file read
   std::vector<std::string> frames;            ///< keyframe files
   std::vector<std::array<double, 12>> poses;  ///< sensor to world, 3 x 4 row-major [R | t]
   std::vector<double> times;                  ///< seconds; keyframe indices when no times.txt

@@ -7,8 +7,9 @@
 //
 // The defaults are chosen for driving on real drives (docs/drives-3d.md has the measurements):
 //  - a 40 m cut: a car's LIDAR returns lie within 60 m (riverside-a: median 12 m, 99 % within
-//    63 m); 40 m holds the road and the buildings beside it, and doubling the cut past it
-//    doubles the free space sampled for beams that mostly end before it;
+//    63 m); 40 m holds the road and the buildings beside it, where a planner looks, and costs
+//    about three times a 20 m cut's time (more kernels a keyframe); past it, the few long beams
+//    add kernels and free space far from the road;
 //  - kernels 1 m apart (the vertical spacing of a 64-ring sensor's rings at 20-30 m), the 2D
 //    overlap (phi 0.19 at one spacing);
 //  - 0.5 free samples a metre of beam, gathered per 0.5 m voxel (a third of the samples, the
@@ -51,6 +52,7 @@ struct DriveMapperOptions {
   /// Voxel edge the training samples are gathered in, metres (default 0.5, half the kernel
   /// spacing; 0: every sample on its own).
   double voxel = 0.5;
+  /// The learner (default drive_bhm_options(): the defaults above).
   JointBhmOptions bhm = drive_bhm_options();
   /// After each keyframe the learner's tiles farther than this from the sensor (metres, in x
   /// and y) are retired (JointBhm::retire_far): memory follows the place, not the drive. -1
