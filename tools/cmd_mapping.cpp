@@ -57,6 +57,7 @@ int run_drive(const MappingArgs& a, const std::string& device) {
   d.max_keyframes = a.max_scans;
   d.seed = a.seed;
   d.quiet = a.quiet;
+  d.picture_pixels = a.picture_pixels;
   if (!a.method.empty() && a.method != "bhm")
     throw ArgumentError(
         "mapping: a 3D drive is mapped with --method bhm (the joint BHM); POT and "
@@ -167,7 +168,10 @@ void register_mapping(CLI::App& app, Runner& runner) {
       "mapping",
       "From a raw log to a map in one command: the scans mapped by RePOT with the built-in "
       "dictionary (or --dict), written as DIR/map.potmap, pictures DIR/map_{prob,var,kernels}.png, "
-      "a ROS map DIR/map.yaml + map.pgm and DIR/scores.json (held-out beams)");
+      "a ROS map DIR/map.yaml + map.pgm and DIR/scores.json (held-out beams). A 3D drive folder is "
+      "mapped by the joint BHM a keyframe at a time into DIR/map.potmap, an OctoMap DIR/map.bt, "
+      "the occupied voxels DIR/map_occupied.ply, a height band's pictures DIR/map_band_*.png and "
+      "ROS map DIR/map_band.yaml, and DIR/scores.json (docs/drives-3d.md)");
   auto a = std::make_shared<MappingArgs>();
   auto device = add_device_option(cmd);
   cmd->add_option("LOG", a->log,
@@ -218,7 +222,8 @@ void register_mapping(CLI::App& app, Runner& runner) {
   cmd->add_option("--rotations", a->rotations, "Rotations tried per atom")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--ros-res", a->ros_res, "ROS map resolution, metres per pixel")
+  cmd->add_option("--ros-res", a->ros_res,
+                  "ROS map resolution, metres per pixel (3D drives: the band's map is at --voxel)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   cmd->add_option("--picture-pixels", a->picture_pixels, "Pixels along the pictures' long side")

@@ -42,7 +42,7 @@ struct DriveOutputOptions {
   /// Picture resolution, metres a pixel (0, default: the coarsest multiple of the voxel edge
   /// that fits picture_pixels along the longer side).
   double picture_res = 0;
-  std::size_t picture_pixels = 1600;
+  std::size_t picture_pixels = 1200;  ///< along the longer side (as 2D mapping's pictures)
   KnownRule known;
 };
 
