@@ -262,3 +262,22 @@ TEST(ExperimentCli, RejectsUnknownMethod) {
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.out.find("xyz"), std::string::npos) << r.out;
 }
+
+// A 3D drive takes the drive defaults of `potmap mapping` (1 m kernels, 0.5 free samples a
+// metre, two EM rounds) wherever the command line leaves them; what it sets stays.
+TEST(ExperimentCli, DriveTakesTheDriveDefaultsUnlessSet) {
+  if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string js = potmap::test::temp_dir("experiment_drive") + "/out.json";
+  const auto r = potmap::test::run_cli(
+      "experiment intra " + potmap::test::quoted(potmap::test::shared_data("drives3d/hku-1")) +
+          " --scans 11 --methods bhm --max-range 15 --seeds 0 --free-per-metre 0.25 --json " +
+          potmap::test::quoted(js),
+      "2>&1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::ifstream in(js);
+  const json j = json::parse(in);
+  EXPECT_EQ(j["settings"]["bhm_spacing"], 1.0);
+  EXPECT_EQ(j["settings"]["bhm_em"], 2);
+  EXPECT_EQ(j["settings"]["free_per_metre"], 0.25);
+  EXPECT_EQ(j["runs"][0]["info"]["spacing_m"], 1.0);
+}
