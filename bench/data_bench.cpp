@@ -5,9 +5,12 @@
 #include <filesystem>
 #include <string>
 
+#include "potmap/data/drive.hpp"
+#include "potmap/data/keyframe_samples.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/data/simulator.hpp"
+#include "potmap/runtime/context.hpp"
 
 namespace {
 
@@ -72,6 +75,38 @@ void label_intel(benchmark::State& st) {
       benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
 }
 BENCHMARK(label_intel)->Unit(benchmark::kMillisecond);
+
+// A car keyframe's training samples gathered per 0.5 m voxel at the drive defaults (40 m cut,
+// 0.5 free samples a metre): on the device, by its host reference, and by label_scan() +
+// aggregate_voxels() one sample at a time (the baseline: the same voxels).
+enum class Gather { device, reference, label_then_aggregate };
+void gather_riverside(benchmark::State& st, Gather how) {
+  const std::string p = data("drives3d/riverside-a");
+  if (!std::filesystem::exists(p)) return st.SkipWithError("no ../shared/data");
+  const potmap::Scan k = potmap::limit_range(potmap::read_keyframe(potmap::open_drive(p), 12), 40);
+  potmap::LabelOptions o;
+  o.free_per_metre = 0.5;
+  static potmap::Context ctx;
+  potmap::gather_keyframe(k, 12, o, 0.5, &ctx);  // the kernels built before the clock starts
+  std::size_t voxels = 0;
+  for (auto _ : st) {
+    if (how == Gather::device) {
+      voxels += potmap::gather_keyframe(k, 12, o, 0.5, &ctx).train.size();
+    } else if (how == Gather::reference) {
+      voxels += potmap::gather_keyframe_reference(k, 12, o, 0.5).train.size();
+    } else {
+      potmap::LabelledSplit split;
+      potmap::label_scan(k, 12, o, split);
+      voxels += potmap::aggregate_voxels(split.train, 0.5).size();
+    }
+  }
+  st.counters["voxels/s"] =
+      benchmark::Counter(static_cast<double>(voxels), benchmark::Counter::kIsRate);
+}
+BENCHMARK_CAPTURE(gather_riverside, device, Gather::device)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(gather_riverside, reference, Gather::reference)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(gather_riverside, label_then_aggregate, Gather::label_then_aggregate)
+    ->Unit(benchmark::kMillisecond);
 
 void simulate_2d(benchmark::State& st) {
   const potmap::Town t = potmap::Town::builtin("town1");

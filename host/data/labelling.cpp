@@ -1,33 +1,24 @@
 #include "potmap/data/labelling.hpp"
-#include "sim_rng.hpp"
+#include "beam_samples.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <string>
 
 #include "potmap/error.hpp"
 
 namespace potmap {
 
-namespace {
+namespace data {
 
-using Rng = data::SimRng;
-
-void push(LabelledPoints& lp, const double* p, int d, std::uint8_t y, std::int64_t t) {
-  lp.position.insert(lp.position.end(), p, p + d);
-  lp.label.push_back(y);
-  lp.scan.push_back(t);
-}
-
-// The generator of one scan: the split is its first use, the free samples follow.
-Rng split_rng(std::int64_t scan_index, const LabelOptions& o) {
-  Rng rng{o.seed * 0x2545f4914f6cdd1dULL ^ static_cast<std::uint64_t>(scan_index)};
+SimRng split_rng(std::int64_t scan_index, const LabelOptions& o) {
+  SimRng rng{o.seed * 0x2545f4914f6cdd1dULL ^ static_cast<std::uint64_t>(scan_index)};
   rng.next();
   return rng;
 }
 
-// Beam-level split: exactly round(fraction * beams) beams, by a partial Fisher-Yates shuffle.
-std::vector<std::uint8_t> draw_split(std::size_t nb, const LabelOptions& o, Rng& rng) {
+std::vector<std::uint8_t> draw_split(std::size_t nb, const LabelOptions& o, SimRng& rng) {
   std::vector<std::uint8_t> held(nb, 0);
   const std::size_t nheld = static_cast<std::size_t>(std::lround(o.holdout_fraction * nb));
   if (nheld > 0) {
@@ -39,6 +30,65 @@ std::vector<std::uint8_t> draw_split(std::size_t nb, const LabelOptions& o, Rng&
     }
   }
   return held;
+}
+
+bool beam_segment(const Scan& scan, std::size_t b, const double* org, double rmax,
+                  BeamSegment& out) {
+  const int d = scan.dim;
+  const std::size_t nh = scan.num_hits();
+  if (b < nh) {
+    const double* p = &scan.hits[b * d];
+    double r2 = 0;
+    bool finite = true;
+    for (int k = 0; k < d; ++k) {
+      finite = finite && std::isfinite(p[k]);
+      out.dir[k] = p[k] - org[k];
+      r2 += out.dir[k] * out.dir[k];
+    }
+    if (!finite) return false;
+    const double r = std::sqrt(r2);
+    out.hit = r < rmax;
+    out.len = out.hit ? r : rmax;
+    if (r > 0)
+      for (int k = 0; k < d; ++k) out.dir[k] /= r;
+    if (out.hit) std::copy(p, p + d, out.end);
+    return true;
+  }
+  const double* u = &scan.no_return[(b - nh) * d];
+  double n2 = 0;
+  for (int k = 0; k < d; ++k) n2 += u[k] * u[k];
+  if (!std::isfinite(n2) || n2 == 0 || !std::isfinite(rmax)) return false;
+  const double inv = 1 / std::sqrt(n2);
+  for (int k = 0; k < d; ++k) out.dir[k] = u[k] * inv;
+  out.hit = false;
+  out.len = rmax;
+  return true;
+}
+
+void check_label_options(const LabelOptions& o, const char* who) {
+  if (!(o.free_per_metre >= 0) || o.max_free_per_beam < 1 ||
+      !(o.holdout_fraction >= 0 && o.holdout_fraction <= 1))
+    throw ArgumentError(std::string(who) +
+                        ": free_per_metre must be >= 0, holdout_fraction in [0, 1]");
+}
+
+long free_samples(double len, const LabelOptions& o) {
+  const double want = std::min(len * o.free_per_metre, static_cast<double>(o.max_free_per_beam));
+  return std::max(1L, std::lround(want));
+}
+
+}  // namespace data
+
+namespace {
+
+using Rng = data::SimRng;
+using data::draw_split;
+using data::split_rng;
+
+void push(LabelledPoints& lp, const double* p, int d, std::uint8_t y, std::int64_t t) {
+  lp.position.insert(lp.position.end(), p, p + d);
+  lp.label.push_back(y);
+  lp.scan.push_back(t);
 }
 
 }  // namespace
@@ -73,62 +123,30 @@ void label_scan(const Scan& scan, std::int64_t scan_index, const LabelOptions& o
                 LabelledSplit& out) {
   const int d = scan.dim;
   if (d != 2 && d != 3) throw ArgumentError("label_scan: scan dim must be 2 or 3");
-  if (!(o.free_per_metre >= 0) || o.max_free_per_beam < 1 ||
-      !(o.holdout_fraction >= 0 && o.holdout_fraction <= 1))
-    throw ArgumentError("label_scan: free_per_metre must be >= 0, holdout_fraction in [0, 1]");
+  data::check_label_options(o, "label_scan");
   for (LabelledPoints* lp : {&out.train, &out.test}) {
     if (lp->empty()) lp->dim = d;
     if (lp->dim != d) throw ArgumentError("label_scan: output dim differs from the scan's");
   }
-  const std::size_t nh = scan.num_hits(), nb = scan.num_beams();
+  const std::size_t nb = scan.num_beams();
   if (nb == 0) return;
   Rng rng = split_rng(scan_index, o);
   const std::vector<std::uint8_t> held = draw_split(nb, o, rng);
   const auto org = scan.origin();
   const double rmax = scan.max_range > 0 ? scan.max_range : HUGE_VAL;
-  double end[3], q[3], dir[3];
+  double q[3];
   for (std::size_t b = 0; b < nb; ++b) {
     LabelledPoints& dst = held[b] ? out.test : out.train;
-    double len;
-    bool hit;
-    if (b < nh) {
-      const double* p = &scan.hits[b * d];
-      double r2 = 0;
-      bool finite = true;
-      for (int k = 0; k < d; ++k) {
-        finite = finite && std::isfinite(p[k]);
-        dir[k] = p[k] - org[k];
-        r2 += dir[k] * dir[k];
-      }
-      if (!finite) {
-        ++out.points_dropped;
-        continue;
-      }
-      const double r = std::sqrt(r2);
-      hit = r < rmax;
-      len = hit ? r : rmax;
-      if (r > 0)
-        for (int k = 0; k < d; ++k) dir[k] /= r;
-      if (hit) std::copy(p, p + d, end);
-    } else {
-      const double* u = &scan.no_return[(b - nh) * d];
-      double n2 = 0;
-      for (int k = 0; k < d; ++k) n2 += u[k] * u[k];
-      if (!std::isfinite(n2) || n2 == 0 || !std::isfinite(rmax)) {
-        ++out.points_dropped;
-        continue;
-      }
-      const double inv = 1 / std::sqrt(n2);
-      for (int k = 0; k < d; ++k) dir[k] = u[k] * inv;
-      hit = false;
-      len = rmax;
+    data::BeamSegment beam;
+    if (!data::beam_segment(scan, b, org.data(), rmax, beam)) {
+      ++out.points_dropped;
+      continue;
     }
-    if (hit) push(dst, end, d, 1, scan_index);
-    const double want = std::min(len * o.free_per_metre, static_cast<double>(o.max_free_per_beam));
-    const long nfree = std::max(1L, std::lround(want));
+    if (beam.hit) push(dst, beam.end, d, 1, scan_index);
+    const long nfree = data::free_samples(beam.len, o);
     for (long j = 0; j < nfree; ++j) {
-      const double s = rng.uniform() * len;
-      for (int k = 0; k < d; ++k) q[k] = org[k] + s * dir[k];
+      const double s = rng.uniform() * beam.len;
+      for (int k = 0; k < d; ++k) q[k] = org[k] + s * beam.dir[k];
       push(dst, q, d, 0, scan_index);
     }
   }

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "potmap/data/keyframe_samples.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -44,11 +45,20 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
                         std::to_string(keyframe.dim) + "D, not 3D");
   KeyframeStats st;
   const auto t0 = std::chrono::steady_clock::now();
+  const Scan cut = limit_range(keyframe, o_.range_cut);
   LabelledSplit split;
-  label_scan(limit_range(keyframe, o_.range_cut), index, o_.labels, split);
-  st.samples = split.train.size();
-  const LabelledPoints train =
-      o_.voxel > 0 ? aggregate_voxels(split.train, o_.voxel) : std::move(split.train);
+  LabelledPoints train;
+  if (o_.voxel > 0) {
+    KeyframeSamples ks = gather_keyframe(cut, index, o_.labels, o_.voxel, ctx);
+    st.samples = ks.samples;
+    st.on_device = ks.on_device;
+    train = std::move(ks.train);
+    split.test = std::move(ks.test);
+  } else {
+    label_scan(cut, index, o_.labels, split);
+    st.samples = split.train.size();
+    train = std::move(split.train);
+  }
   st.gathered = train.size();
   for (std::size_t i = 0; i < split.test.size(); i += o_.test_stride) {
     for (int d = 0; d < 3; ++d) test_.position.push_back(split.test.position[3 * i + d]);

@@ -44,6 +44,7 @@ DeviceInfo describe(const bc::device& d) {
   info.is_gpu = (d.type() & CL_DEVICE_TYPE_GPU) != 0;
   info.is_cpu = (d.type() & CL_DEVICE_TYPE_CPU) != 0;
   info.has_fp64 = d.supports_extension("cl_khr_fp64");
+  info.has_int64_atomics = d.supports_extension("cl_khr_int64_base_atomics");
   info.compute_units = d.compute_units();
   info.max_work_group_size = d.max_work_group_size();
   info.global_mem_bytes = d.global_memory_size();

@@ -71,6 +71,7 @@ struct KeyframeStats {
   std::size_t gathered = 0;      ///< weighted samples the learner took
   std::size_t held_out = 0;      ///< held-out samples kept
   double label_ms = 0;           ///< cut, labelling and gathering
+  bool on_device = false;        ///< the samples were gathered on the device (gather_keyframe)
   double update_ms = 0;          ///< the learner's update and the retiring of tiles left
   std::size_t retired = 0;       ///< tiles retired after this keyframe
   std::size_t memory_bytes = 0;  ///< the mapper's after the keyframe
@@ -82,7 +83,9 @@ class DriveMapper {
   explicit DriveMapper(const DriveMapperOptions& options = {});
 
   /// Adds keyframe `index` (world frame, 3D): the index seeds its labelling, so a run resumed
-  /// at any keyframe continues as an uninterrupted one. Throws ArgumentError for a 2D scan.
+  /// at any keyframe continues as an uninterrupted one. With `ctx` the training samples are
+  /// drawn and gathered per voxel on its device (gather_keyframe(): the same samples as the
+  /// host's) and the learner's update runs on its host team. Throws ArgumentError for a 2D scan.
   KeyframeStats add(const Scan& keyframe, std::int64_t index, Context* ctx = nullptr);
 
   /// The map (JointBhm::map()).

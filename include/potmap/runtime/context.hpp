@@ -75,6 +75,9 @@ struct DeviceInfo {
   bool is_gpu = false;
   bool is_cpu = false;
   bool has_fp64 = false;
+  /// 64-bit integer atomics on global memory (cl_khr_int64_base_atomics): the keyframe
+  /// gathering's table (data/keyframe_samples.hpp) needs them.
+  bool has_int64_atomics = false;
   std::size_t compute_units = 0;
   std::size_t max_work_group_size = 0;
   std::size_t global_mem_bytes = 0;
