@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <cstdio>
+#include <map>
 
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
@@ -85,4 +88,54 @@ TEST(DriveMapper, ASavedStateContinuesBitForBit) {
   other.range_cut = 16;
   DriveMapper e(other);
   test::expect_input_error([&] { e.load_state(path); }, {path, "other drive mapper options"});
+}
+
+TEST(DriveMapper, RepotSeedsWhereNoSampleReachesAndScoresAsBhm) {
+  const Drive d = open_drive(test::shared_data("drives3d/riverside-a"));
+  DriveMapperOptions o;
+  o.range_cut = 20;
+  o.test_stride = 16;
+  DriveMapper bhm(o);
+  o.dictionary = test::drive_atoms("drives3d/riverside-a", 4);
+  ASSERT_GT(o.dictionary->size(), 4u);
+  DriveMapper repot(o);
+  std::size_t seeded = 0;
+  for (std::size_t i = 20; i < 20 + test::sized(4u, 2u); ++i) {
+    const Scan k = read_keyframe(d, i);
+    const KeyframeStats st = repot.add(k, std::int64_t(i), &test::context());
+    bhm.add(k, std::int64_t(i), &test::context());
+    EXPECT_GT(st.transfer_ms, 0);
+    seeded += st.seeded;
+  }
+  EXPECT_GT(seeded, 0u);
+  // Where samples reach, the seeds have yielded: RePOT's held-out scores are BHM's up to the
+  // solver's tolerance (measured equal to 1e-4); past the data it holds the seeded kernels.
+  const Scores r = held_out_scores(repot), b = held_out_scores(bhm);
+  std::printf("riverside-a keyframes 20-23, 20 m: RePOT AUC %.4f NLL %.4f, BHM %.4f %.4f\n", r.auc,
+              r.nll, b.auc, b.nll);
+  EXPECT_NEAR(r.auc, b.auc, 0.002);
+  EXPECT_NEAR(r.nll, b.nll, 0.005);
+  const KernelMap rm = repot.map(), bm = bhm.map();
+  std::map<std::array<long, 3>, double> bhm_mean;
+  auto key = [](const KernelMap& m, std::size_t k) {
+    return std::array<long, 3>{std::lround(m.position[3 * k] * 1e3),
+                               std::lround(m.position[3 * k + 1] * 1e3),
+                               std::lround(m.position[3 * k + 2] * 1e3)};
+  };
+  for (std::size_t k = 0; k < bm.size(); ++k) bhm_mean[key(bm, k)] = bm.w_mean[k];
+  std::size_t moved = 0;  // seeded kernels no sample reached
+  for (std::size_t k = 0; k < rm.size(); ++k) {
+    const auto it = bhm_mean.find(key(rm, k));
+    moved += it == bhm_mean.end() || std::abs(it->second - rm.w_mean[k]) > 1e-3;
+  }
+  EXPECT_GT(moved, 0u);
+  // A state saved with one dictionary does not load into a mapper of another, or none.
+  const std::string path = test::temp_dir("drive-mapper-repot") + "/s.potdrv";
+  repot.save_state(path);
+  test::expect_input_error([&] { bhm.load_state(path); }, {path, "other drive mapper options"});
+  // A 2D dictionary is refused.
+  auto flat = std::make_shared<Dictionary>();
+  flat->dim = 2;
+  o.dictionary = flat;
+  EXPECT_THROW(DriveMapper{o}, ArgumentError);
 }

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "potmap/io/map_io.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -123,4 +124,23 @@ TEST(DriveMappingCli, RefusesPotOnADriveAndNamesABadPoseLine) {
   EXPECT_NE(bad.out.find("odom_poses.txt: line 2: number 8: bad pose value: 'inf'"),
             std::string::npos)
       << bad.out;
+}
+
+TEST(DriveMappingCli, RepotWithADictionaryFileReportsItsTransfer) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("drive-mapping-repot");
+  write_dictionary(*test::drive_atoms("drives3d/hku-1", 3), d + "/atoms.potdict");
+  const test::CliResult r = test::run_cli(
+      "mapping " + test::quoted(test::shared_data("drives3d/hku-1")) + " --method repot --dict " +
+          test::quoted(d + "/atoms.potdict") + " --first 10 --max-scans " +
+          std::to_string(test::sized(4, 2)) + " -q -o " + test::quoted(d + "/out") + " --json -",
+      "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["method"], "RePOT");
+  EXPECT_GT(j["transfer_ms_per_keyframe"].get<double>(), 0) << r.out;
+  // RePOT's held-out scores are the BHM's where samples reach (measured on 4 keyframes from
+  // 10: AUC 0.99, NLL 0.07).
+  EXPECT_GT(j["scores"]["auc"].get<double>(), 0.97) << r.out;
+  EXPECT_LT(j["scores"]["nll"].get<double>(), 0.15) << r.out;
 }

@@ -16,12 +16,35 @@
 #include <unistd.h>
 #include <memory>
 
+#include "potmap/data/drive.hpp"
+#include "potmap/learn/drive_mapper.hpp"
+
 namespace fs = std::filesystem;
 
 namespace potmap::test {
 
 std::string source_dir() {
   return POTMAP_SOURCE_DIR;
+}
+
+std::shared_ptr<const Dictionary> drive_atoms(const std::string& drive, std::size_t keyframes) {
+  const Drive d = open_drive(shared_data(drive));
+  DriveMapperOptions o;
+  o.range_cut = 20;
+  DriveMapper src(o);
+  std::vector<Scan> scans;
+  for (std::size_t i = 0; i < keyframes; ++i) {
+    const Scan k = read_keyframe(d, i);
+    src.add(k, std::int64_t(i), &context());
+    scans.push_back(limit_range(k, 20));
+  }
+  DictionaryOptions dopt;
+  dopt.kernels_at_samples = 1;
+  dopt.labels.free_per_metre = 0.5;
+  dopt.max_weight_variance = 5;
+  auto dict = std::make_shared<Dictionary>();
+  build_dictionary(scans, src.map(), dopt, *dict);
+  return dict;
 }
 
 std::string shared_data(const std::string& rel) {

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <initializer_list>
+#include <memory>
 #include <string>
 
 #include "potmap/data/labelling.hpp"
@@ -16,6 +17,11 @@
 namespace potmap::test {
 
 constexpr double kPi = 3.14159265358979323846;
+
+/// A drive's own dictionary: keyframes 0 to keyframes-1 of ../shared/data/`drive` mapped by
+/// the joint BHM at a 20 m cut, cut into 20 m sectors, kernels at the atoms' samples every
+/// metre (as a 3D dictionary is made).
+std::shared_ptr<const Dictionary> drive_atoms(const std::string& drive, std::size_t keyframes);
 
 /// The repository root (tests read ../shared/data relative to it).
 std::string source_dir();

@@ -329,22 +329,27 @@ void register_dict(CLI::App& app, Runner& runner) {
   CLI::App* def = dict->add_subcommand(
       "default",
       "The built-in default dictionary (" + default_dictionary_recipe() +
+          "; with --3d: " + default_dictionary_recipe(3) +
           "): built once, cached in the user's cache folder, used by `map` and `mapping` "
           "without --dict");
   auto def_out = std::make_shared<std::string>();
   auto def_json = std::make_shared<std::string>();
+  auto def_3d = std::make_shared<bool>(false);
   def->add_option("--out", *def_out, "Also copy it to this file");
   def->add_option("--json", *def_json, "Also write the summary as JSON to this file; '-': stdout");
-  def->callback([&runner, def_out, def_json] {
-    runner.action = [def_out, def_json] {
+  def->add_flag("--3d", *def_3d,
+                "The 3D dictionary (`potmap mapping DRIVE --method repot` uses it)");
+  def->callback([&runner, def_out, def_json, def_3d] {
+    runner.action = [def_out, def_json, def_3d] {
+      const int dim = *def_3d ? 3 : 2;
       std::string where;
-      const Dictionary d = default_dictionary(&where);
+      const Dictionary d = default_dictionary(&where, dim);
       std::ostream& human = *def_json == "-" ? std::cerr : std::cout;
-      human << "default           " << default_dictionary_recipe() << "\n"
+      human << "default           " << default_dictionary_recipe(dim) << "\n"
             << "cached in         " << (where.empty() ? "(no cache folder)" : where) << "\n";
       nlohmann::json j = summary_json(d);
       j["file"] = where;
-      j["version"] = kDefaultDictionaryVersion;
+      j["version"] = dim == 3 ? kDefaultDictionary3dVersion : kDefaultDictionaryVersion;
       print_summary(j, human);
       if (!def_out->empty()) {
         write_dictionary(d, *def_out);

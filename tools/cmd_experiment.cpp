@@ -198,8 +198,9 @@ void add_common(CLI::App* cmd, Settings& s) {
 }
 
 constexpr const char* kDatasetHelp =
-    "Datasets: files any reader takes (CARMEN .log[.gz], ...) or sim:TOWN[+TOWN] for built-in "
-    "simulated towns (town1, town2, town3)";
+    "Datasets: files any reader takes (CARMEN .log[.gz], ...), 3D drive folders, or "
+    "sim:TOWN[+TOWN] for built-in simulated towns (town1, town2, town3; sim3d:TOWN driven with "
+    "a 32-ring 3D sensor)";
 
 std::vector<Scan> slice(const std::vector<Scan>& v, std::size_t a, std::size_t b) {
   a = std::min(a, v.size());
@@ -410,7 +411,10 @@ int run_sim2real(const Settings& settings, const std::vector<std::string>& data,
   const auto methods = h.methods();
   bool warm = false;
   for (std::uint64_t seed : settings.seeds) {
-    const std::string src_spec = "sim:" + towns;
+    // 3D targets (drives) take the towns driven with the 3D sensor.
+    const bool three_d =
+        std::any_of(data.begin(), data.end(), [](const std::string& d) { return is_drive(d); });
+    const std::string src_spec = (three_d ? "sim3d:" : "sim:") + towns;
     const auto src = h.load_places(src_spec, seed);
     for (const std::string& b : data) {
       const auto dst = h.load(b, seed);
@@ -501,7 +505,9 @@ void add_inter(CLI::App* ex, Runner& runner) {
 // `experiment sim2real`: the simulated towns as the source of real logs.
 void add_sim2real(CLI::App* ex, Runner& runner) {
   RunnerCommand c = runner_command(
-      ex, "sim2real", "Sim-to-real: source the built-in simulated towns, target real logs");
+      ex, "sim2real",
+      "Sim-to-real: source the built-in simulated towns (driven with the 3D frames' 32-ring "
+      "sensor when a target is a 3D drive), target real logs");
   auto towns = std::make_shared<std::string>("town1+town2+town3");
   c.app->add_option("TARGETS", *c.data, "Real logs (any reader's format)")
       ->required()

@@ -58,12 +58,8 @@ int run_drive(const MappingArgs& a, const std::string& device) {
   d.seed = a.seed;
   d.quiet = a.quiet;
   d.picture_pixels = a.picture_pixels;
-  if (!a.method.empty() && a.method != "bhm")
-    throw ArgumentError(
-        "mapping: a 3D drive is mapped with --method bhm (the joint BHM); POT and "
-        "RePOT in 3D need a 3D dictionary, which is not built in: use potmap map "
-        "--dict with one, not --method " +
-        a.method);
+  d.method = a.method.empty() ? "bhm" : a.method;
+  d.dict = a.dict;
   return run_drive_mapping(d, device);
 }
 
@@ -182,7 +178,9 @@ void register_mapping(CLI::App& app, Runner& runner) {
   cmd->add_option("--dict", a->dict, "Dictionary of atoms (default: the built-in one)");
   cmd->add_option("--method", a->method,
                   "2D logs: repot (default: POT's transport refined by a persistent joint BHM) "
-                  "or pot; 3D drives: bhm (default: the joint BHM at the drive defaults)");
+                  "or pot; 3D drives: bhm (default: the joint BHM at the drive defaults) or repot "
+                  "(that BHM seeded by POT's transport from the built-in 3D dictionary, or "
+                  "--dict, where no sample reaches)");
   cmd->add_option("--range-cut", a->range_cut,
                   "Returns farther than this (metres, horizontally in 3D) become no-returns "
                   "(default: 20 for 2D logs, the towns' range, which the default dictionary's "

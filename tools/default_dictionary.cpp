@@ -12,6 +12,7 @@
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
+#include "potmap/experiments/experiment_frames.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
 #include "user_cache.hpp"
@@ -47,7 +48,11 @@ class BuildLock {
 
 }  // namespace
 
-std::string default_dictionary_recipe() {
+std::string default_dictionary_recipe(int dim) {
+  if (dim == 3)
+    return "potmap 3D default dictionary v" + std::to_string(kDefaultDictionary3dVersion) +
+           ": town1+town2+town3 (seed 0), 32-ring LIDAR drives 4 m apart, 20 m, joint BHM atoms "
+           "(frame_setup_3d)";
   return "potmap default dictionary v" + std::to_string(kDefaultDictionaryVersion) +
          ": town1+town2+town3 (seed 0), drives 2 m apart, 20 m, joint BHM atoms (PotSetup)";
 }
@@ -80,16 +85,39 @@ Dictionary build_default_dictionary(std::size_t scans,
   return dict;
 }
 
-std::string default_dictionary_path() {
-  const std::string dir = user_cache_dir("dictionaries");
-  if (dir.empty()) return {};
-  return (std::filesystem::path(dir) /
-          ("default-v" + std::to_string(kDefaultDictionaryVersion) + ".potdict"))
-      .string();
+Dictionary build_default_dictionary_3d(std::size_t scans,
+                                       const std::function<void(double)>& progress) {
+  experiment::PotSetup setup = experiment::frame_setup_3d().pot;
+  setup.dictionary.source = default_dictionary_recipe(3);
+  Dictionary dict;
+  const std::size_t towns = std::size(kTowns);
+  for (std::size_t t = 0; t < towns; ++t) {
+    Simulation sim = simulate(Town::builtin(kTowns[t], 0), experiment::sim_options_3d(scans, 0));
+    std::vector<std::vector<Scan>> place(1);
+    for (Scan& s : sim.scans) place[0].push_back(experiment::limit_range(s, kRangeCut));
+    Dictionary part = experiment::build_atoms(nullptr, place, setup, 0);
+    if (dict.empty()) {
+      dict = std::move(part);
+    } else {
+      for (Atom& a : part.atoms) dict.atoms.push_back(std::move(a));
+    }
+    if (progress) progress(double(t + 1) / towns);
+  }
+  return dict;
 }
 
-Dictionary default_dictionary(std::string* where) {
-  const std::string path = default_dictionary_path();
+std::string default_dictionary_path(int dim) {
+  const std::string dir = user_cache_dir("dictionaries");
+  if (dir.empty()) return {};
+  const std::string name = dim == 3 ? "default-3d-v" + std::to_string(kDefaultDictionary3dVersion)
+                                    : "default-v" + std::to_string(kDefaultDictionaryVersion);
+  return (std::filesystem::path(dir) / (name + ".potdict")).string();
+}
+
+Dictionary default_dictionary(std::string* where, int dim) {
+  if (dim != 2 && dim != 3)
+    throw ArgumentError("default dictionary: dim must be 2 or 3, got " + std::to_string(dim));
+  const std::string path = default_dictionary_path(dim);
   if (where) *where = path;
   std::error_code ec;
   if (!path.empty())
@@ -104,10 +132,12 @@ Dictionary default_dictionary(std::string* where) {
                 << e.what() << ")\n";
     }
   }
-  std::cerr << "potmap: building the default dictionary (" << default_dictionary_recipe()
+  std::cerr << "potmap: building the default dictionary (" << default_dictionary_recipe(dim)
             << "); once, then cached in " << (path.empty() ? "(no cache folder)" : path) << "\n";
   const auto t0 = std::chrono::steady_clock::now();
-  Dictionary dict = build_default_dictionary(200, terminal_progress("default dictionary"));
+  Dictionary dict =
+      dim == 3 ? build_default_dictionary_3d(20, terminal_progress("3D default dictionary"))
+               : build_default_dictionary(200, terminal_progress("default dictionary"));
   if (!path.empty()) {
     try {
       write_dictionary(dict, path);

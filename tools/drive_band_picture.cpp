@@ -13,7 +13,7 @@ namespace potmap::cli {
 
 namespace {
 
-const Rgb kUnknown{150, 150, 150};
+const Rgb kUnknown = experiment::kUnknownGrey;
 const Rgb kInk{0, 0, 0};
 
 struct Pixels {

@@ -5,21 +5,25 @@
 
 #include "map_checkpoint.hpp"
 #include "potmap/error.hpp"
+#include "potmap/pot/fingerprint.hpp"
 
 namespace potmap::cli {
 
 void DriveRun::add(const KeyframeStats& st, const std::array<double, 12>& pose) {
   ++keyframes;
   label_ms += st.label_ms;
+  transfer_ms += st.transfer_ms;
   update_ms += st.update_ms;
-  max_ms = std::max(max_ms, st.label_ms + st.update_ms);
+  const double ms = st.label_ms + st.transfer_ms + st.update_ms;
+  max_ms = std::max(max_ms, ms);
   peak_bytes = std::max(peak_bytes, st.memory_bytes);
   positions.insert(positions.end(), {pose[3], pose[7], pose[11]});
   memory_mb.push_back(double(st.memory_bytes) / 1e6);
-  keyframe_ms.push_back(st.label_ms + st.update_ms);
+  keyframe_ms.push_back(ms);
 }
 
-nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive) {
+nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
+                                const DriveMapperOptions& options) {
   std::error_code ec;
   const auto poses_bytes = std::filesystem::file_size(drive.poses_file, ec);
   return {{"drive", std::filesystem::absolute(a.drive).lexically_normal().string()},
@@ -28,16 +32,20 @@ nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive) {
           {"keyframes_in_drive", drive.size()},
           {"--first", a.first},
           {"--range-cut", a.range_cut},
-          {"--seed", a.seed}};
+          {"--seed", a.seed},
+          {"--method", a.method},
+          {"dictionary",
+           options.dictionary ? std::to_string(fingerprint(*options.dictionary)) : std::string()}};
 }
 
 void write_drive_checkpoint(const std::string& path, const DriveRun& run, const DriveMapper& mapper,
                             std::size_t next) {
-  const nlohmann::json extra = {{"record", run.record},         {"next", next},
-                                {"keyframes", run.keyframes},   {"label_ms", run.label_ms},
-                                {"update_ms", run.update_ms},   {"max_ms", run.max_ms},
-                                {"peak_bytes", run.peak_bytes}, {"positions", run.positions},
-                                {"memory_mb", run.memory_mb},   {"keyframe_ms", run.keyframe_ms}};
+  const nlohmann::json extra = {{"record", run.record},          {"next", next},
+                                {"keyframes", run.keyframes},    {"label_ms", run.label_ms},
+                                {"update_ms", run.update_ms},    {"transfer_ms", run.transfer_ms},
+                                {"max_ms", run.max_ms},          {"peak_bytes", run.peak_bytes},
+                                {"positions", run.positions},    {"memory_mb", run.memory_mb},
+                                {"keyframe_ms", run.keyframe_ms}};
   remove_stale_temporaries(path);
   mapper.save_state(path, extra.dump());
 }
@@ -55,6 +63,7 @@ std::size_t read_drive_checkpoint(const std::string& path, DriveRun& run, DriveM
     r.keyframes = extra.at("keyframes");
     r.label_ms = extra.at("label_ms");
     r.update_ms = extra.at("update_ms");
+    r.transfer_ms = extra.value("transfer_ms", 0.0);
     r.max_ms = extra.at("max_ms");
     r.peak_bytes = extra.at("peak_bytes");
     r.positions = extra.at("positions").get<std::vector<double>>();

@@ -19,7 +19,7 @@ namespace potmap::cli {
 struct DriveRun {
   nlohmann::json record;  ///< what a resumed run must match (the drive and every option)
   std::size_t keyframes = 0;
-  double label_ms = 0, update_ms = 0, max_ms = 0;
+  double label_ms = 0, transfer_ms = 0, update_ms = 0, max_ms = 0;
   std::size_t peak_bytes = 0;
   std::vector<double> positions;  ///< sensor positions, x y z a keyframe (the band's heights)
   std::vector<double> memory_mb, keyframe_ms;  ///< the mapper's memory and time, a keyframe
@@ -28,7 +28,8 @@ struct DriveRun {
 
 /// The record of a run: the drive (its poses file's size and its keyframe count) and every
 /// option that changes the map.
-nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive);
+nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
+                                const DriveMapperOptions& options);
 
 /// Writes the mapper and the run to `path`; `next` is the first keyframe not yet mapped.
 void write_drive_checkpoint(const std::string& path, const DriveRun& run, const DriveMapper& mapper,

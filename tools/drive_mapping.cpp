@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "default_dictionary.hpp"
 #include "drive_checkpoint.hpp"
 #include "drive_outputs.hpp"
 #include "potmap/data/drive.hpp"
@@ -19,6 +20,7 @@
 #include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
 
 namespace fs = std::filesystem;
@@ -50,7 +52,8 @@ struct DriveProgress {
                  "potmap: keyframe %zu (%zu of %zu, %.0f%%): %zu samples as %zu, %.0f ms, "
                  "%.0f MB; elapsed %.0f s, ETA %.0f s\n",
                  keyframe, done, total, 100 * f, st.samples, st.gathered,
-                 st.label_ms + st.update_ms, st.memory_bytes / 1e6, el, el * (1 - f) / f);
+                 st.label_ms + st.transfer_ms + st.update_ms, st.memory_bytes / 1e6, el,
+                 el * (1 - f) / f);
   }
 };
 
@@ -63,10 +66,23 @@ double peak_rss_bytes() {
   return 0;
 }
 
-DriveMapperOptions mapper_options(const DriveMappingArgs& a) {
+DriveMapperOptions mapper_options(const DriveMappingArgs& a, std::string* dict_file) {
   DriveMapperOptions o;
   o.range_cut = a.range_cut;
   o.labels.seed = a.seed;
+  if (a.method == "repot") {
+    *dict_file = a.dict;
+    o.dictionary = std::make_shared<const Dictionary>(
+        a.dict.empty() ? default_dictionary(dict_file, 3) : read_dictionary(a.dict));
+    if (o.dictionary->dim != 3)
+      throw ArgumentError("mapping: " + *dict_file + " is a " + std::to_string(o.dictionary->dim) +
+                          "D dictionary; a drive needs 3D atoms (potmap dict default --3d)");
+  } else if (a.method != "bhm") {
+    throw ArgumentError("mapping: a 3D drive is mapped with --method bhm or repot, not '" +
+                        a.method +
+                        "' (POT's averaged map of a whole drive grows with the drive: RePOT "
+                        "keeps the transported kernels where the data does not reach)");
+  }
   return o;
 }
 
@@ -78,7 +94,7 @@ nlohmann::json summary_json(const DriveMappingArgs& a, const Drive& drive, const
   j["drive"] = a.drive;
   j["layout"] = drive.layout;
   j["poses"] = drive.poses_file;
-  j["method"] = "BHM";
+  j["method"] = mapper.options().dictionary ? "RePOT" : "BHM";
   j["keyframes"] = run.keyframes;
   double path = 0;
   for (std::size_t i = 3; i + 2 < run.positions.size(); i += 3)
@@ -89,8 +105,9 @@ nlohmann::json summary_json(const DriveMappingArgs& a, const Drive& drive, const
   j["first"] = a.first;
   j["range_cut_m"] = a.range_cut;
   j["scores"] = {{"acc", sc.acc}, {"auc", sc.auc}, {"nll", sc.nll}, {"n", sc.n}};
-  j["ms_per_keyframe"] = (run.label_ms + run.update_ms) / n;
+  j["ms_per_keyframe"] = (run.label_ms + run.transfer_ms + run.update_ms) / n;
   j["label_ms_per_keyframe"] = run.label_ms / n;
+  j["transfer_ms_per_keyframe"] = run.transfer_ms / n;
   j["update_ms_per_keyframe"] = run.update_ms / n;
   j["max_update_ms"] = run.max_ms;
   j["kernels"] = kernels;
@@ -118,10 +135,11 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   std::FILE* human = a.json == "-" ? stderr : stdout;
   const auto t_run = std::chrono::steady_clock::now();
 
-  const DriveMapperOptions mo = mapper_options(a);
+  std::string dict_file;
+  const DriveMapperOptions mo = mapper_options(a, &dict_file);
   DriveMapper mapper(mo);
   DriveRun run;
-  run.record = drive_run_record(a, drive);
+  run.record = drive_run_record(a, drive, mo);
   const std::string ckpt = (fs::path(dir) / "map.ckpt").string();
   std::size_t at = a.first;
   if (a.resume && fs::exists(ckpt)) {
@@ -129,9 +147,13 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
     std::fprintf(human, "resumed        at keyframe %zu from %s\n", at, ckpt.c_str());
   }
   Context ctx = make_context(device);
-  std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), joint BHM\n",
-               a.first, end - 1, a.drive.c_str(),
-               drive.layout == "slam" ? "SLAM keyframes" : "KITTI", a.range_cut);
+  std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), %s\n", a.first,
+               end - 1, a.drive.c_str(), drive.layout == "slam" ? "SLAM keyframes" : "KITTI",
+               a.range_cut,
+               mo.dictionary ? ("RePOT: the joint BHM seeded from " +
+                                std::to_string(mo.dictionary->size()) + " atoms of " + dict_file)
+                                   .c_str()
+                             : "joint BHM");
   DriveProgress progress;
   progress.total = end - at;
   progress.quiet = a.quiet;
@@ -173,9 +195,11 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
                sc.acc, sc.auc, sc.nll, sc.n, mo.test_stride);
   std::fprintf(human,
                "map            %zu kernels, %.1f MB held; %.0f ms a keyframe (%.0f labelling and "
-               "gathering, %.0f update) -> %s\n",
-               map.size(), mapper.memory_bytes() / 1e6, (run.label_ms + run.update_ms) / double(n),
-               run.label_ms / double(n), run.update_ms / double(n), map_file.c_str());
+               "gathering, %.0f transfer, %.0f update) -> %s\n",
+               map.size(), mapper.memory_bytes() / 1e6,
+               (run.label_ms + run.transfer_ms + run.update_ms) / double(n),
+               run.label_ms / double(n), run.transfer_ms / double(n), run.update_ms / double(n),
+               map_file.c_str());
   std::fprintf(human, "%s", outs.summary.c_str());
   std::vector<std::string> files = {map_file};
   files.insert(files.end(), outs.files.begin(), outs.files.end());

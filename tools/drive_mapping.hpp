@@ -11,6 +11,9 @@ namespace potmap::cli {
 
 struct DriveMappingArgs {
   std::string drive, out, json, poses = "odom";
+  /// "bhm" (the joint BHM) or "repot" (seeded from `dict`: the built-in 3D dictionary when
+  /// empty).
+  std::string method = "bhm", dict;
   double range_cut = 40;  ///< metres
   std::size_t first = 0, max_keyframes = 0;
   std::uint64_t seed = 0;

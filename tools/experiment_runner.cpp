@@ -17,6 +17,7 @@
 #include "commands.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
+#include "potmap/experiments/experiment_frames.hpp"
 #include "potmap/map/raster.hpp"
 #include "potmap/render/kernel_picture.hpp"
 #include "progress.hpp"
@@ -136,9 +137,12 @@ std::vector<std::vector<Scan>> Harness::load_places(const std::string& spec, std
   std::vector<std::vector<Scan>> places;
   const auto colon = spec.find(':');
   const std::string kind = colon == std::string::npos ? "" : spec.substr(0, colon);
-  if (kind == "sim" || kind == "simdyn") {
+  if (kind == "sim" || kind == "simdyn" || kind == "sim3d") {
     for (const std::string& town : split_list(spec.substr(colon + 1), '+')) {
-      SimOptions o;
+      // sim3d: the 32-ring sensor of the 3D frames (experiment_frames.hpp), the 3D towns.
+      SimOptions o = kind == "sim3d"
+                         ? experiment::sim_options_3d(s_.sim_scans, seed, s_.sim_spacing)
+                         : SimOptions{};
       o.scans = s_.sim_scans;
       o.spacing = s_.sim_spacing;
       o.seed = seed;
@@ -205,9 +209,24 @@ std::shared_ptr<const StructureReference> Harness::make_reference(const MapTask&
   ref->name = name;
   if (picture && !s_.figures.empty())
     ref->picture = std::make_shared<experiment::Picture>(
-        experiment::probability_picture(ogm, task.dim, task.lo, task.hi, s_.figure_pixels));
+        experiment::probability_picture(ogm, task.dim, task.lo, task.hi, picture_view(task)));
   ref->seconds = seconds_since(t0);
   return ref;
+}
+
+experiment::PictureView Harness::picture_view(const MapTask& task) const {
+  experiment::PictureView v;
+  v.max_pixels = s_.figure_pixels;
+  if (task.dim == 3 && !task.train_scans.empty()) {
+    // Top down, what stands from a metre below the sensor to half a metre above it (the band
+    // of `potmap mapping`'s drive pictures), about the sensors' mean height.
+    double z = 0;
+    for (const Scan& sc : task.train_scans) z += sc.origin()[2];
+    z /= double(task.train_scans.size());
+    v.band_lo = z - 1.0;
+    v.band_hi = z + 0.5;
+  }
+  return v;
 }
 
 Record Harness::fit_and_score(const Method& m, const MapTask& task, const LabelledPoints& test,
@@ -232,10 +251,10 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
   }
   if (figures && !s_.figures.empty()) {
     r.picture = std::make_shared<experiment::Picture>(
-        experiment::probability_picture(f, task.dim, task.lo, task.hi, s_.figure_pixels));
+        experiment::probability_picture(f, task.dim, task.lo, task.hi, picture_view(task)));
     const std::string prefix =
         (fs::path(s_.figures) / slug(experiment_ + "_" + case_label + "_" + m.name)).string();
-    r.figures = experiment::write_figures(f, task.lo, task.hi, prefix, s_.figure_pixels);
+    r.figures = experiment::write_figures(f, task.dim, task.lo, task.hi, prefix, s_.figure_pixels);
     if (m.uses_source && f.kernels && !f.kernels->empty() && context()) {
       // Transported kernels coloured by width over the grey map (the paper's Fig. 3 and 9),
       // in place of the plain dots.
@@ -709,7 +728,7 @@ nlohmann::json Harness::write_compare_figures(const std::vector<Case>& cases,
         (fs::path(s_.figures) /
          (slug(experiment_ + "_" + case_label(cases[ci], "-") + "_compare") + "_prob.png"))
             .string();
-    experiment::write_side_by_side(panels, path);
+    experiment::write_comparison(panels, names, path);
     compare.push_back({{"source", src}, {"target", dst}, {"file", path}, {"panels", names}});
   }
   return compare;

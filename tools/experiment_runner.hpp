@@ -123,6 +123,8 @@ class Harness {
   experiment::PotSetup pot_setup(bool refine) const;
   /// Fits and scores one method on one task (no caching); figures when `figures` is set; the
   /// structural score against `reference` when it is not null.
+  // The pictures' view of a task: 3D tasks top down over a height band about the sensors.
+  experiment::PictureView picture_view(const experiment::MapTask& task) const;
   Record fit_and_score(const experiment::Method& m, const experiment::MapTask& task,
                        const LabelledPoints& test, bool figures, const std::string& case_label,
                        const StructureReference* reference = nullptr);

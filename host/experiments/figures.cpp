@@ -10,14 +10,15 @@
 
 namespace potmap::experiment {
 
-std::vector<std::string> write_figures(const FittedMap& map, const double lo[3], const double hi[3],
-                                       const std::string& prefix, std::size_t max_pixels) {
+std::vector<std::string> write_figures(const FittedMap& map, int dim, const double lo[3],
+                                       const double hi[3], const std::string& prefix,
+                                       std::size_t max_pixels) {
   const double ex = hi[0] - lo[0], ey = hi[1] - lo[1];
   if (!(ex > 0 && ey > 0) || max_pixels == 0) throw ArgumentError("write_figures: empty window");
+  if (dim != 2 && dim != 3) throw ArgumentError("write_figures: dim must be 2 or 3");
   const double cell = std::max(ex, ey) / double(max_pixels);
   const auto w = std::max<std::size_t>(1, std::size_t(std::ceil(ex / cell)));
   const auto h = std::max<std::size_t>(1, std::size_t(std::ceil(ey / cell)));
-  const int dim = map.kernels ? map.kernels->dim : 2;
   std::vector<double> pts(w * h * dim, 0.0), prob(w * h), var(w * h);
   for (std::size_t r = 0; r < h; ++r)
     for (std::size_t c = 0; c < w; ++c) {

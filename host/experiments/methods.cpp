@@ -7,6 +7,7 @@
 #include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
+#include "potmap/io/known_cells.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/evaluate.hpp"
 
@@ -23,6 +24,13 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 FittedMap kernel_fitted_map(Context* ctx, std::shared_ptr<const KernelMap> map) {
   FittedMap f;
   f.kernels = map;
+  // Made at the first picture only: scoring never asks.
+  f.known = [ctx, map, ev = std::shared_ptr<KnownEvaluator>()](const double* pts, std::size_t n,
+                                                               std::uint8_t* known) mutable {
+    if (!ev) ev = std::make_shared<KnownEvaluator>(ctx, *map);
+    const KnownValues v = ev->values(std::vector<double>(pts, pts + n * std::size_t(map->dim)));
+    std::copy(v.known.begin(), v.known.end(), known);
+  };
   if (ctx) {
     auto ev = std::make_shared<MapEvaluator>(*ctx, *map);
     f.query = [ev](const double* pts, std::size_t n, double* prob, double* var) {
@@ -65,6 +73,9 @@ Method ogm_method(double resolution) {
       grid->probability(pts, n, prob);
       if (var)
         for (std::size_t i = 0; i < n; ++i) var[i] = std::numeric_limits<double>::quiet_NaN();
+    };
+    f.known = [grid](const double* pts, std::size_t n, std::uint8_t* known) {
+      grid->observed(pts, n, known);
     };
     return f;
   };

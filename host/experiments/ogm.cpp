@@ -76,6 +76,12 @@ void OccupancyGrid::probability(const double* points, std::size_t n, double* pro
   }
 }
 
+void OccupancyGrid::observed(const double* points, std::size_t n, std::uint8_t* observed) const {
+  const Impl& m = *impl_;
+  for (std::size_t i = 0; i < n; ++i)
+    observed[i] = m.tree.search(m.point(points + i * m.dim)) != nullptr ? 1 : 0;
+}
+
 int OccupancyGrid::dim() const {
   return impl_->dim;
 }

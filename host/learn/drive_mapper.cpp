@@ -27,6 +27,16 @@ JointBhmOptions drive_bhm_options() {
   return o;
 }
 
+PotOptions drive_pot_options() {
+  PotOptions p;
+  p.ranking = PotRanking::indexed;
+  p.rotations = evenly_spaced_rotations(8);
+  p.placement = PotPlacement::barycentric;
+  p.displacement_variance = 0.25;
+  p.wall_clearance = 1.0;
+  return p;
+}
+
 DriveMapper::DriveMapper(const DriveMapperOptions& options)
     : o_(options), learner_(3, options.bhm) {
   if (!(o_.range_cut > 0) || !std::isfinite(o_.range_cut))
@@ -36,6 +46,12 @@ DriveMapper::DriveMapper(const DriveMapperOptions& options)
     throw ArgumentError("drive mapper: voxel must be 0 or positive, got " +
                         std::to_string(o_.voxel));
   if (o_.test_stride == 0) throw ArgumentError("drive mapper: test_stride must be at least 1");
+  if (o_.dictionary && o_.dictionary->dim != 3)
+    throw ArgumentError("drive mapper: the dictionary is " + std::to_string(o_.dictionary->dim) +
+                        "D, a drive needs 3D atoms");
+  if (!(o_.seed_min_variance >= 0) || !std::isfinite(o_.seed_min_variance))
+    throw ArgumentError("drive mapper: seed_min_variance must be >= 0, got " +
+                        std::to_string(o_.seed_min_variance));
   test_.dim = 3;
 }
 
@@ -67,6 +83,13 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
     ++st.held_out;
   }
   st.label_ms = ms_since(t0);
+  if (o_.dictionary && !train.empty()) {
+    const auto t2 = std::chrono::steady_clock::now();
+    const ScanTransfer t = transfer_scan(ctx, *o_.dictionary, train, keyframe.origin(),
+                                         scan_heading(keyframe), index, o_.pot);
+    st.seeded = learner_.seed_unreached(t.map, o_.seed_min_variance);
+    st.transfer_ms = ms_since(t2);
+  }
   const auto t1 = std::chrono::steady_clock::now();
   learner_.update(train, ctx);
   const double radius = o_.retire_radius < 0 ? o_.range_cut + 16 : o_.retire_radius;

@@ -10,6 +10,7 @@
 #include "learn/bhm_joint_state.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/drive_mapper.hpp"
+#include "potmap/pot/fingerprint.hpp"
 #include "runtime/hash.hpp"
 
 namespace potmap {
@@ -40,6 +41,17 @@ std::uint64_t options_fingerprint(const DriveMapperOptions& o) {
                       double(b.solve_margin)};
   std::string bytes(sizeof v, '\0');
   std::memcpy(&bytes[0], v, sizeof v);
+  if (o.dictionary) {
+    // RePOT: the atoms and what the transfer makes of them (a BHM-only state's bytes as before).
+    const PotOptions& p = o.pot;
+    const std::uint64_t atoms = fingerprint(*o.dictionary);
+    bytes.append(reinterpret_cast<const char*>(&atoms), sizeof atoms);
+    const double r[] = {o.seed_min_variance,        double(p.sectors), p.max_range,
+                        double(p.rotations.size()), double(p.ranking), double(p.placement),
+                        p.displacement_variance,    p.wall_clearance,  double(p.index_neighbours),
+                        double(p.fine_candidates)};
+    bytes.append(reinterpret_cast<const char*>(r), sizeof r);
+  }
   return detail::fnv1a64(bytes);
 }
 

@@ -2136,6 +2136,6 @@ class experiment:
         """ACC, AUC and NLL of a fitted map on labelled points."""
         ...
 
-    def write_figures(map: FittedMap, lo: List[float], hi: List[float], prefix: str, max_pixels: int = 400) -> List[str]:
+    def write_figures(map: FittedMap, lo: List[float], hi: List[float], prefix: str, max_pixels: int = 400, dim: int = 0) -> List[str]:
         """PREFIX_prob.png, PREFIX_var.png, PREFIX_kernels.png of a fitted map; returns the files."""
         ...

@@ -189,15 +189,18 @@ void bind_experiments(py::module_& m) {
   e.def(
       "write_figures",
       [](const ex::FittedMap& f, const std::vector<double>& lo, const std::vector<double>& hi,
-         const std::string& prefix, std::size_t max_pixels) {
+         const std::string& prefix, std::size_t max_pixels, int dim) {
         if (lo.size() < 2 || hi.size() < 2) throw py::value_error("lo, hi: at least x and y");
+        if (dim == 0) dim = f.kernels ? f.kernels->dim : 2;
         double l[3] = {lo[0], lo[1], lo.size() > 2 ? lo[2] : 0},
                h[3] = {hi[0], hi[1], hi.size() > 2 ? hi[2] : 0};
         py::gil_scoped_release release;
-        return ex::write_figures(f, l, h, prefix, max_pixels);
+        return ex::write_figures(f, dim, l, h, prefix, max_pixels);
       },
-      "map"_a, "lo"_a, "hi"_a, "prefix"_a, "max_pixels"_a = 400,
-      "PREFIX_prob.png, PREFIX_var.png, PREFIX_kernels.png of a fitted map; returns the files.");
+      "map"_a, "lo"_a, "hi"_a, "prefix"_a, "max_pixels"_a = 400, "dim"_a = 0,
+      "PREFIX_prob.png, PREFIX_var.png, PREFIX_kernels.png of a fitted map of dimension dim (0: "
+      "its kernels', else 2; a 3D map at the height halfway between lo and hi); returns the "
+      "files.");
 }
 
 }  // namespace potmap::python

@@ -70,6 +70,11 @@ struct FittedMap {
   /// Probability at n points (n * dim coordinates) into prob; var, if not null, receives the
   /// model's variance where it has one (NaN where it has none, e.g. an occupancy grid).
   std::function<void(const double* points, std::size_t n, double* prob, double* var)> query;
+  /// Whether the model has observed each of n points (n * dim coordinates; 1 = observed): an
+  /// occupancy grid's cell was updated by a beam, a kernel map's kernels there moved off their
+  /// prior (io/known_cells.hpp). Empty: every point counts as observed. Pictures show the rest
+  /// grey.
+  std::function<void(const double* points, std::size_t n, std::uint8_t* known)> known;
   /// The kernels, for kernel maps (figures); null for other models.
   std::shared_ptr<const KernelMap> kernels;
   double fit_seconds = 0;              ///< wall time of learning, all scans of the task
@@ -270,13 +275,15 @@ FittedMap kernel_fitted_map(Context* ctx, std::shared_ptr<const KernelMap> map);
 /// Scores a fitted map on labelled points; query_seconds receives the wall time of the query.
 Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query_seconds = nullptr);
 
-/// Figures of a fitted map over [lo, hi] (x, y; metres), at most max_pixels along the longer
-/// side: PREFIX_prob.png (viridis), PREFIX_var.png (variance as raster.hpp colours it; only when
-/// the model has one) and, for kernel maps, PREFIX_kernels.png (each kernel a dot at its
-/// position coloured by log10 gamma, viridis from the smallest to the largest width). Returns
-/// the files written.
-std::vector<std::string> write_figures(const FittedMap& map, const double lo[3], const double hi[3],
-                                       const std::string& prefix, std::size_t max_pixels = 400);
+/// Figures of a fitted map of dimension `dim` over [lo, hi] (x, y; metres; a 3D map at the
+/// height halfway between lo[2] and hi[2]), at most max_pixels along the longer side:
+/// PREFIX_prob.png (viridis), PREFIX_var.png (variance as raster.hpp colours it; only when the
+/// model has one) and, for kernel maps, PREFIX_kernels.png (each kernel a dot at its position
+/// coloured by log10 gamma, viridis from the smallest to the largest width). Returns the files
+/// written.
+std::vector<std::string> write_figures(const FittedMap& map, int dim, const double lo[3],
+                                       const double hi[3], const std::string& prefix,
+                                       std::size_t max_pixels = 400);
 
 }  // namespace potmap::experiment
 POTMAP_CXX_API_END

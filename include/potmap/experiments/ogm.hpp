@@ -4,6 +4,7 @@
 // point and the sensor are put at z = 0, so rays stay in that layer.
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include "potmap/export.h"
 
@@ -38,6 +39,9 @@ class OccupancyGrid {
   /// Occupancy probability at n points (n * dim coordinates, metres): the cell's probability,
   /// 0.5 for a cell no beam has touched. `prob` receives n values.
   void probability(const double* points, std::size_t n, double* prob) const;
+  /// Whether a beam has touched the cell at each of n points (1) or not (0): `observed`
+  /// receives n flags.
+  void observed(const double* points, std::size_t n, std::uint8_t* observed) const;
 
   int dim() const;
   double resolution() const;

@@ -22,6 +22,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "potmap/data/labelled_points.hpp"
@@ -30,6 +31,8 @@
 #include "potmap/export.h"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/kernel_map.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/transfer.hpp"
 
 POTMAP_CXX_API_BEGIN
 namespace potmap {
@@ -38,6 +41,12 @@ class Context;
 
 /// The joint BHM options of the drive defaults above.
 JointBhmOptions drive_bhm_options();
+
+/// RePOT's transfer on a drive: the indexed ranking (nearest atoms by signature: its time
+/// barely grows with the dictionary), 8 rotations, kernels at the barycentric images of the
+/// atoms' (they reach past the keyframe's samples, where seeds matter) with 0.25 weight variance
+/// per m^2 moved, free-space kernels dropped within 1 m (one kernel spacing) of a hit.
+PotOptions drive_pot_options();
 
 struct DriveMapperOptions {
   /// Horizontal range cut, metres (default 40, see above): returns farther become free space
@@ -59,6 +68,17 @@ struct DriveMapperOptions {
   /// (default): the range cut plus 16 m (two 3D tiles: no sample of the next keyframe reaches a
   /// tile retired, unless the drive turns back); 0: never.
   double retire_radius = -1;
+  /// RePOT (SPEC section 4): a dictionary of 3D atoms (null, the default: the joint BHM alone).
+  /// Each keyframe's gathered training samples are transported from it (transfer_scan() with
+  /// `pot`) and the transported kernels seed the learner's prior where no sample has reached
+  /// yet (JointBhm::seed_unreached): the map reaches past the data with the atoms' shapes,
+  /// and where samples reach it is the BHM's (the seeds yield to data).
+  std::shared_ptr<const Dictionary> dictionary;
+  /// The transfer's settings (default drive_pot_options()).
+  PotOptions pot = drive_pot_options();
+  /// Seeded prior variances are at least this (default 10, the joint BHM's prior: a seed
+  /// moves the prior mean only, as RePOT's in the experiments).
+  double seed_min_variance = 10;
   /// Every this many held-out samples one is kept for scoring (default 4: a drive's held-out
   /// samples would otherwise hold 200 MB over 281 keyframes; a quarter of them scores to the
   /// third decimal).
@@ -73,13 +93,16 @@ struct KeyframeStats {
   double label_ms = 0;           ///< cut, labelling and gathering
   bool on_device = false;        ///< the samples were gathered on the device (gather_keyframe)
   double update_ms = 0;          ///< the learner's update and the retiring of tiles left
+  double transfer_ms = 0;        ///< RePOT's transfer and seeding (0 without a dictionary)
+  std::size_t seeded = 0;        ///< kernels RePOT seeded
   std::size_t retired = 0;       ///< tiles retired after this keyframe
   std::size_t memory_bytes = 0;  ///< the mapper's after the keyframe
 };
 
 class DriveMapper {
  public:
-  /// Throws ArgumentError on a range cut that is not positive or bad learner options.
+  /// Throws ArgumentError on a range cut that is not positive, bad learner options or a
+  /// dictionary that is not 3D.
   explicit DriveMapper(const DriveMapperOptions& options = {});
 
   /// Adds keyframe `index` (world frame, 3D): the index seeds its labelling, so a run resumed

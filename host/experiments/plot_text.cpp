@@ -1,9 +1,11 @@
-#include "plot_text.hpp"
+// A 3 x 5 pixel font (digits, letters drawn as capitals, a few signs) scaled up, so that a
+// figure names its panels and axes without a font library.
+#include "potmap/experiments/figure_panels.hpp"
 
 #include <cctype>
 #include <cstdint>
 
-namespace potmap::cli {
+namespace potmap::experiment {
 
 namespace {
 
@@ -68,8 +70,7 @@ std::uint16_t glyph(char c) {
 
 }  // namespace
 
-void draw_text(experiment::Picture& pic, long x, long y, const std::string& text, Rgb colour,
-               int scale) {
+void draw_text(Picture& pic, long x, long y, const std::string& text, Rgb colour, int scale) {
   for (char c : text) {
     const std::uint16_t g = glyph(c);
     for (int row = 0; row < 5; ++row)
@@ -89,4 +90,4 @@ void draw_text(experiment::Picture& pic, long x, long y, const std::string& text
   }
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::experiment
