@@ -73,6 +73,25 @@ potmap_status potmap_drive_mapper_create(potmap_context* context,
   });
 }
 
+potmap_status potmap_drive_mapper_create_repot(potmap_context* context,
+                                               const potmap_drive_mapper_options* options,
+                                               const potmap_dictionary* dictionary,
+                                               potmap_drive_mapper** out) {
+  return guard("potmap_drive_mapper_create_repot", POTMAP_ERROR_INTERNAL, [&] {
+    require(out, "out");
+    const potmap_dictionary& d = checked(dictionary);
+    if (d.dict->dim != 3)
+      fail(POTMAP_ERROR_DIMENSION_MISMATCH,
+           "the dictionary is " + std::to_string(d.dict->dim) + "D, a drive needs 3D atoms");
+    potmap::DriveMapperOptions o = to_options(options);
+    o.dictionary = d.dict;
+    auto h = std::make_unique<potmap_drive_mapper>();
+    if (context) h->ctx = checked(context).ctx;
+    h->mapper = std::make_unique<potmap::DriveMapper>(o);
+    *out = h.release();
+  });
+}
+
 potmap_status potmap_drive_mapper_destroy(potmap_drive_mapper* mapper) {
   return destroy(mapper, kDriveMapperTag, "potmap_drive_mapper_destroy");
 }
@@ -99,6 +118,8 @@ potmap_status potmap_drive_mapper_add_keyframe(potmap_drive_mapper* mapper,
     st.memory_bytes = k.memory_bytes;
     st.label_ms = k.label_ms;
     st.update_ms = k.update_ms;
+    st.transfer_ms = k.transfer_ms;
+    st.seeded = k.seeded;
     write_struct(stats, st, kKeyframeStatsV1, "stats", POTMAP_ERROR_BUFFER_TOO_SMALL);
   });
 }

@@ -592,6 +592,15 @@ POTMAP_EXPORT potmap_status potmap_drive_mapper_create(potmap_context* context,
                                                        const potmap_drive_mapper_options* options,
                                                        potmap_drive_mapper** out);
 
+/** A drive mapper that runs RePOT: each keyframe's training samples are transported from the
+ *  3D atoms of `dictionary` (shared: the handle may be destroyed after this call) and the
+ *  transported kernels seed the joint BHM where no sample has reached (DriveMapperOptions::
+ *  dictionary; `potmap mapping DRIVE --method repot`). Otherwise as potmap_drive_mapper_create.
+ *  Errors: POTMAP_ERROR_DIMENSION_MISMATCH (a 2D dictionary), as potmap_drive_mapper_create. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_create_repot(
+    potmap_context* context, const potmap_drive_mapper_options* options,
+    const potmap_dictionary* dictionary, potmap_drive_mapper** out);
+
 /** Frees the mapper. NULL: no-op. */
 POTMAP_EXPORT potmap_status potmap_drive_mapper_destroy(potmap_drive_mapper* mapper);
 
@@ -605,6 +614,8 @@ typedef struct potmap_keyframe_stats {
   size_t memory_bytes; /**< what the mapper holds after it */
   double label_ms;     /**< cut, labelling and gathering */
   double update_ms;    /**< the joint BHM's update and the retiring */
+  double transfer_ms;  /**< RePOT's transfer and seeding (0 without a dictionary) */
+  size_t seeded;       /**< kernels RePOT seeded */
 } potmap_keyframe_stats;
 
 /** Adds keyframe `index` (a 3D scan in the world frame: hits moved by the pose, which gives

@@ -435,6 +435,18 @@ class DriveMapperOptions:
         ...
     @test_stride.setter
     def test_stride(self, value: Any) -> None: ...
+    @property
+    def dictionary(self) -> Dictionary:
+        """RePOT: a 3D Dictionary whose transport seeds the joint BHM where no sample reaches (default None: the joint BHM alone)"""
+        ...
+    @dictionary.setter
+    def dictionary(self, value: Any) -> None: ...
+    @property
+    def seed_min_variance(self) -> float:
+        """RePOT: seeded prior variances are at least this (default 10)"""
+        ...
+    @seed_min_variance.setter
+    def seed_min_variance(self, value: Any) -> None: ...
 
 class Evaluator:
     """A map uploaded once to a device, evaluated any number of times.
@@ -738,6 +750,14 @@ class KeyframeStats:
     @property
     def update_ms(self) -> float:
         """update and retiring"""
+        ...
+    @property
+    def transfer_ms(self) -> float:
+        """RePOT's transfer and seeding"""
+        ...
+    @property
+    def seeded(self) -> int:
+        """kernels RePOT seeded"""
         ...
     @property
     def memory_bytes(self) -> int:
@@ -2137,5 +2157,5 @@ class experiment:
         ...
 
     def write_figures(map: FittedMap, lo: List[float], hi: List[float], prefix: str, max_pixels: int = 400, dim: int = 0) -> List[str]:
-        """PREFIX_prob.png, PREFIX_var.png, PREFIX_kernels.png of a fitted map; returns the files."""
+        """PREFIX_prob.png, PREFIX_var.png, PREFIX_kernels.png of a fitted map of dimension dim (0: its kernels', else 2; a 3D map at the height halfway between lo and hi); returns the files."""
         ...

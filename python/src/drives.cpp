@@ -96,7 +96,17 @@ void bind_drives(py::module_& m) {
                      "tiles farther than this from the sensor are retired, metres (default -1: "
                      "range_cut + 16; 0: never)")
       .def_readwrite("test_stride", &DriveMapperOptions::test_stride,
-                     "every this many held-out samples one is kept (default 4)");
+                     "every this many held-out samples one is kept (default 4)")
+      .def_property(
+          "dictionary",
+          [](const DriveMapperOptions& o) {
+            return std::const_pointer_cast<Dictionary>(o.dictionary);
+          },
+          [](DriveMapperOptions& o, std::shared_ptr<Dictionary> d) { o.dictionary = std::move(d); },
+          "RePOT: a 3D Dictionary whose transport seeds the joint BHM where no sample reaches "
+          "(default None: the joint BHM alone)")
+      .def_readwrite("seed_min_variance", &DriveMapperOptions::seed_min_variance,
+                     "RePOT: seeded prior variances are at least this (default 10)");
   add_fields_repr(opt);
 
   py::class_<KeyframeStats>(m, "KeyframeStats", "What DriveMapper.add() did.")
@@ -106,6 +116,8 @@ void bind_drives(py::module_& m) {
       .def_readonly("retired", &KeyframeStats::retired, "tiles retired")
       .def_readonly("label_ms", &KeyframeStats::label_ms, "cut, labelling, gathering")
       .def_readonly("update_ms", &KeyframeStats::update_ms, "update and retiring")
+      .def_readonly("transfer_ms", &KeyframeStats::transfer_ms, "RePOT's transfer and seeding")
+      .def_readonly("seeded", &KeyframeStats::seeded, "kernels RePOT seeded")
       .def_readonly("memory_bytes", &KeyframeStats::memory_bytes, "held after it");
 
   py::class_<PyDriveMapper>(m, "DriveMapper",

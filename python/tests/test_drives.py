@@ -59,3 +59,24 @@ def test_drive_mapper_keyframe_by_keyframe_with_a_saved_state(tmp_path):
     assert np.array_equal(a.map().w_mean, b.map().w_mean)
     with pytest.raises(potmap.InputError, match="other drive mapper options"):
         potmap.DriveMapper(range_cut=30).load_state(str(tmp_path / "s.state"))
+
+
+def test_repot_drive_mapper_seeds_from_a_dictionary_of_the_drive(ctx):
+    d = potmap.open_drive(HKU)
+    src = potmap.DriveMapper(range_cut=20)
+    scans = [potmap.experiment.limit_range(d.keyframe(i), 20) for i in range(3)]
+    for i in range(3):
+        src.add(d.keyframe(i), i, ctx)
+    atoms = potmap.build_dictionary(scans, src.map(), kernels_at_samples=1.0,
+                                    max_weight_variance=5.0, free_per_metre=0.5)
+    m = potmap.DriveMapper(range_cut=20, dictionary=atoms)
+    assert m is not None
+    seeded = 0
+    for i in range(10, 12):
+        st = m.add(d.keyframe(i), i, ctx)
+        assert st.transfer_ms > 0
+        seeded += st.seeded
+    assert seeded > 0
+    flat = potmap.Dictionary()
+    with pytest.raises(ValueError, match="3D atoms"):
+        potmap.DriveMapper(dictionary=flat)

@@ -1,6 +1,7 @@
 // C API: a real drive read as a dataset, mapped keyframe by keyframe by the drive mapper, scored
 // on its held-out samples; options, stats and states checked as every C API struct is.
 #include <cmath>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -109,5 +110,57 @@ TEST(CApiDriveMapper, MapsADriveReadAsADataset) {
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m));
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m2));
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(nullptr));
+  POTMAP_ASSERT_OK(potmap_dataset_destroy(data));
+}
+
+TEST(CApiDriveMapper, RepotSeedsFromADictionaryOfTheDrive) {
+  potmap_dataset* data = nullptr;
+  POTMAP_ASSERT_OK(potmap_dataset_load(shared_data("drives3d/hku-1").c_str(), &data));
+  potmap_drive_mapper_options mo;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_options_init(&mo, sizeof mo));
+  mo.range_cut = 20;
+  // The atoms: keyframes 0-2 mapped by the joint BHM, cut into 20 m sectors.
+  potmap_drive_mapper* src = nullptr;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), &mo, &src));
+  std::vector<potmap_scan> scans(3);
+  std::vector<const potmap_scan*> ptrs;
+  for (size_t i = 0; i < scans.size(); ++i) {
+    POTMAP_ASSERT_OK(potmap_scan_init(&scans[i], sizeof scans[i]));
+    POTMAP_ASSERT_OK(potmap_dataset_scan(data, i, &scans[i]));
+    POTMAP_ASSERT_OK(potmap_drive_mapper_add_keyframe(src, &scans[i], int64_t(i), nullptr));
+    ptrs.push_back(&scans[i]);
+  }
+  potmap_map* map = nullptr;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_map(src, &map));
+  potmap_dictionary_options dopt;
+  POTMAP_ASSERT_OK(potmap_dictionary_options_init(&dopt, sizeof dopt));
+  dopt.max_range = 20;
+  dopt.max_weight_variance = 5;
+  potmap_dictionary* dict = nullptr;
+  POTMAP_ASSERT_OK(potmap_dictionary_build(ptrs.data(), ptrs.size(), map, &dopt, &dict));
+  potmap_drive_mapper* m = nullptr;
+  POTMAP_EXPECT_FAIL(potmap_drive_mapper_create_repot(shared_context(), &mo, nullptr, &m),
+                     POTMAP_ERROR_NULL_ARGUMENT);
+  POTMAP_ASSERT_OK(potmap_drive_mapper_create_repot(shared_context(), &mo, dict, &m));
+  POTMAP_ASSERT_OK(potmap_dictionary_destroy(dict));  // the mapper shares the atoms
+  potmap_keyframe_stats st;
+  st.struct_size = sizeof st;
+  size_t seeded = 0;
+  potmap_scan s;
+  POTMAP_ASSERT_OK(potmap_scan_init(&s, sizeof s));
+  for (size_t i = 10; i < 12; ++i) {
+    POTMAP_ASSERT_OK(potmap_dataset_scan(data, i, &s));
+    POTMAP_ASSERT_OK(potmap_drive_mapper_add_keyframe(m, &s, int64_t(i), &st));
+    EXPECT_GT(st.transfer_ms, 0);
+    seeded += st.seeded;
+  }
+  EXPECT_GT(seeded, 0u);
+  // A caller built against the first potmap_keyframe_stats (no transfer fields) still works.
+  st.struct_size = offsetof(potmap_keyframe_stats, transfer_ms);
+  POTMAP_ASSERT_OK(potmap_dataset_scan(data, 12, &s));
+  POTMAP_ASSERT_OK(potmap_drive_mapper_add_keyframe(m, &s, 12, &st));
+  POTMAP_ASSERT_OK(potmap_map_destroy(map));
+  POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m));
+  POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(src));
   POTMAP_ASSERT_OK(potmap_dataset_destroy(data));
 }
