@@ -201,6 +201,11 @@ void register_mapping(CLI::App& app, Runner& runner) {
                   "3D drives: voxel edge of the OctoMap, point cloud and band, metres")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--transfer-every", a->drive.transfer_every,
+                  "3D drives, --method repot: transfer every N keyframes (seeds last until data "
+                  "reaches them)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--checkpoint-every", a->drive.checkpoint_every,
                   "3D drives: write DIR/map.ckpt after every N keyframes (0: never)")
       ->capture_default_str();

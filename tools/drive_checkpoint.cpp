@@ -34,6 +34,7 @@ nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
           {"--range-cut", a.range_cut},
           {"--seed", a.seed},
           {"--method", a.method},
+          {"--transfer-every", a.transfer_every},
           {"dictionary",
            options.dictionary ? std::to_string(fingerprint(*options.dictionary)) : std::string()}};
 }

@@ -71,6 +71,7 @@ DriveMapperOptions mapper_options(const DriveMappingArgs& a, std::string* dict_f
   o.range_cut = a.range_cut;
   o.labels.seed = a.seed;
   if (a.method == "repot") {
+    o.transfer_every = a.transfer_every;
     *dict_file = a.dict;
     o.dictionary = std::make_shared<const Dictionary>(
         a.dict.empty() ? default_dictionary(dict_file, 3) : read_dictionary(a.dict));

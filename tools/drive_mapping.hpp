@@ -21,6 +21,7 @@ struct DriveMappingArgs {
   double picture_res = 0, ros_res = 0, voxel_out = 0.4;  ///< metres (0: automatic)
   std::size_t picture_pixels = 1200;  ///< along the longer side (as 2D mapping's pictures)
   std::size_t checkpoint_every = 25;  ///< keyframes (0: no checkpoints)
+  std::size_t transfer_every = 4;     ///< RePOT: keyframes between transfers
   bool resume = false, keep_checkpoint = false, quiet = false;
 };
 

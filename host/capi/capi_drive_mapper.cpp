@@ -19,6 +19,7 @@ potmap_drive_mapper_options default_options() {
   o.seed = d.labels.seed;
   o.voxel = d.voxel;
   o.retire_radius = d.retire_radius;
+  o.transfer_every = d.transfer_every;
   return o;
 }
 
@@ -37,6 +38,7 @@ potmap::DriveMapperOptions to_options(const potmap_drive_mapper_options* in) {
   if (!(o.voxel >= 0) || !std::isfinite(o.voxel)) bad("voxel", o.voxel);
   if (!(o.retire_radius >= -1) || !std::isfinite(o.retire_radius))
     bad("retire_radius", o.retire_radius);
+  if (o.transfer_every < 1) bad("transfer_every", double(o.transfer_every));
   potmap::DriveMapperOptions r;
   r.range_cut = o.range_cut;
   r.labels.free_per_metre = o.free_per_metre;
@@ -44,6 +46,7 @@ potmap::DriveMapperOptions to_options(const potmap_drive_mapper_options* in) {
   r.labels.seed = o.seed;
   r.voxel = o.voxel;
   r.retire_radius = o.retire_radius < 0 ? -1 : o.retire_radius;
+  r.transfer_every = o.transfer_every;
   return r;
 }
 

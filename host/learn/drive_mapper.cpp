@@ -49,6 +49,8 @@ DriveMapper::DriveMapper(const DriveMapperOptions& options)
   if (o_.dictionary && o_.dictionary->dim != 3)
     throw ArgumentError("drive mapper: the dictionary is " + std::to_string(o_.dictionary->dim) +
                         "D, a drive needs 3D atoms");
+  if (o_.transfer_every == 0)
+    throw ArgumentError("drive mapper: transfer_every must be at least 1");
   if (!(o_.seed_min_variance >= 0) || !std::isfinite(o_.seed_min_variance))
     throw ArgumentError("drive mapper: seed_min_variance must be >= 0, got " +
                         std::to_string(o_.seed_min_variance));
@@ -83,7 +85,7 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
     ++st.held_out;
   }
   st.label_ms = ms_since(t0);
-  if (o_.dictionary && !train.empty()) {
+  if (o_.dictionary && !train.empty() && keyframes_ % o_.transfer_every == 0) {
     const auto t2 = std::chrono::steady_clock::now();
     const ScanTransfer t = transfer_scan(ctx, *o_.dictionary, train, keyframe.origin(),
                                          scan_heading(keyframe), index, o_.pot);

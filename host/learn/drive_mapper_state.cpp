@@ -46,9 +46,11 @@ std::uint64_t options_fingerprint(const DriveMapperOptions& o) {
     const PotOptions& p = o.pot;
     const std::uint64_t atoms = fingerprint(*o.dictionary);
     bytes.append(reinterpret_cast<const char*>(&atoms), sizeof atoms);
-    const double r[] = {o.seed_min_variance,        double(p.sectors), p.max_range,
-                        double(p.rotations.size()), double(p.ranking), double(p.placement),
-                        p.displacement_variance,    p.wall_clearance,  double(p.index_neighbours),
+    const double r[] = {o.seed_min_variance,        double(o.transfer_every),
+                        double(p.sectors),          p.max_range,
+                        double(p.rotations.size()), double(p.ranking),
+                        double(p.placement),        p.displacement_variance,
+                        p.wall_clearance,           double(p.index_neighbours),
                         double(p.fine_candidates)};
     bytes.append(reinterpret_cast<const char*>(r), sizeof r);
   }

@@ -578,6 +578,9 @@ typedef struct potmap_drive_mapper_options {
   /** Tiles farther than this from the sensor (metres, x and y) are retired to their means and
    *  variances after each keyframe (default -1: range_cut + 16; 0: never). */
   double retire_radius;
+  /** RePOT (potmap_drive_mapper_create_repot): transfer every this many keyframes, >= 1
+   *  (default 4: seeds last until data reaches them). */
+  size_t transfer_every;
 } potmap_drive_mapper_options;
 
 /** Fills *options with the defaults above; struct_size as for potmap_scan_init. */

@@ -106,7 +106,9 @@ void bind_drives(py::module_& m) {
           "RePOT: a 3D Dictionary whose transport seeds the joint BHM where no sample reaches "
           "(default None: the joint BHM alone)")
       .def_readwrite("seed_min_variance", &DriveMapperOptions::seed_min_variance,
-                     "RePOT: seeded prior variances are at least this (default 10)");
+                     "RePOT: seeded prior variances are at least this (default 10)")
+      .def_readwrite("transfer_every", &DriveMapperOptions::transfer_every,
+                     "RePOT: transfer every this many keyframes (default 4)");
   add_fields_repr(opt);
 
   py::class_<KeyframeStats>(m, "KeyframeStats", "What DriveMapper.add() did.")

@@ -69,7 +69,7 @@ def test_repot_drive_mapper_seeds_from_a_dictionary_of_the_drive(ctx):
         src.add(d.keyframe(i), i, ctx)
     atoms = potmap.build_dictionary(scans, src.map(), kernels_at_samples=1.0,
                                     max_weight_variance=5.0, free_per_metre=0.5)
-    m = potmap.DriveMapper(range_cut=20, dictionary=atoms)
+    m = potmap.DriveMapper(range_cut=20, dictionary=atoms, transfer_every=1)
     assert m is not None
     seeded = 0
     for i in range(10, 12):

@@ -119,6 +119,7 @@ TEST(CApiDriveMapper, RepotSeedsFromADictionaryOfTheDrive) {
   potmap_drive_mapper_options mo;
   POTMAP_ASSERT_OK(potmap_drive_mapper_options_init(&mo, sizeof mo));
   mo.range_cut = 20;
+  mo.transfer_every = 1;
   // The atoms: keyframes 0-2 mapped by the joint BHM, cut into 20 m sectors.
   potmap_drive_mapper* src = nullptr;
   POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), &mo, &src));
