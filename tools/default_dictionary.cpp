@@ -57,21 +57,18 @@ std::string default_dictionary_recipe(int dim) {
          ": town1+town2+town3 (seed 0), drives 2 m apart, 20 m, joint BHM atoms (PotSetup)";
 }
 
-Dictionary build_default_dictionary(std::size_t scans,
-                                    const std::function<void(double)>& progress) {
-  experiment::PotSetup setup;
-  setup.dictionary.source = default_dictionary_recipe();
-  // One town at a time, so that progress can be shown between them; build_atoms appends the
-  // atoms of its places in order, so the dictionary is the one a single call over all three
-  // towns gives, byte for byte.
+namespace {
+
+// Atoms of the three towns, each driven as `drive` says, cut at the towns' range. One town at a
+// time, so that progress can be shown between them; build_atoms appends the atoms of its places
+// in order, so the dictionary is the one a single call over all three towns gives, byte for
+// byte.
+Dictionary atoms_of_towns(const experiment::PotSetup& setup, const SimOptions& drive,
+                          const std::function<void(double)>& progress) {
   Dictionary dict;
   const std::size_t towns = std::size(kTowns);
   for (std::size_t t = 0; t < towns; ++t) {
-    SimOptions o;
-    o.scans = scans;
-    o.spacing = kSpacing;
-    o.seed = 0;
-    Simulation sim = simulate(Town::builtin(kTowns[t], 0), o);
+    Simulation sim = simulate(Town::builtin(kTowns[t], 0), drive);
     std::vector<std::vector<Scan>> place(1);
     for (Scan& s : sim.scans) place[0].push_back(experiment::limit_range(s, kRangeCut));
     Dictionary part = experiment::build_atoms(nullptr, place, setup, 0);
@@ -85,25 +82,24 @@ Dictionary build_default_dictionary(std::size_t scans,
   return dict;
 }
 
+}  // namespace
+
+Dictionary build_default_dictionary(std::size_t scans,
+                                    const std::function<void(double)>& progress) {
+  experiment::PotSetup setup;
+  setup.dictionary.source = default_dictionary_recipe();
+  SimOptions o;
+  o.scans = scans;
+  o.spacing = kSpacing;
+  o.seed = 0;
+  return atoms_of_towns(setup, o, progress);
+}
+
 Dictionary build_default_dictionary_3d(std::size_t scans,
                                        const std::function<void(double)>& progress) {
   experiment::PotSetup setup = experiment::frame_setup_3d().pot;
   setup.dictionary.source = default_dictionary_recipe(3);
-  Dictionary dict;
-  const std::size_t towns = std::size(kTowns);
-  for (std::size_t t = 0; t < towns; ++t) {
-    Simulation sim = simulate(Town::builtin(kTowns[t], 0), experiment::sim_options_3d(scans, 0));
-    std::vector<std::vector<Scan>> place(1);
-    for (Scan& s : sim.scans) place[0].push_back(experiment::limit_range(s, kRangeCut));
-    Dictionary part = experiment::build_atoms(nullptr, place, setup, 0);
-    if (dict.empty()) {
-      dict = std::move(part);
-    } else {
-      for (Atom& a : part.atoms) dict.atoms.push_back(std::move(a));
-    }
-    if (progress) progress(double(t + 1) / towns);
-  }
-  return dict;
+  return atoms_of_towns(setup, experiment::sim_options_3d(scans, 0), progress);
 }
 
 std::string default_dictionary_path(int dim) {

@@ -40,24 +40,8 @@ Pixels downsample(const std::vector<float>& prob, const std::vector<float>& var,
   return p;
 }
 
-void fill(experiment::Picture& pic, std::size_t x0, std::size_t y0, std::size_t w, std::size_t h,
-          Rgb c) {
-  for (std::size_t y = y0; y < std::min(pic.height, y0 + h); ++y)
-    for (std::size_t x = x0; x < std::min(pic.width, x0 + w); ++x) {
-      std::uint8_t* px = &pic.rgb[3 * (x + pic.width * y)];
-      px[0] = c.r;
-      px[1] = c.g;
-      px[2] = c.b;
-    }
-}
-
-// A round length (1, 2 or 5 times a power of ten) near a fifth of `metres`.
-double scale_length(double metres) {
-  const double target = metres / 5, p = std::pow(10.0, std::floor(std::log10(target)));
-  for (double m : {5.0, 2.0, 1.0})
-    if (m * p <= target) return m * p;
-  return p;
-}
+using experiment::fill_box;
+using experiment::round_scale;
 
 // The map above, then a strip: the colour bar (quantity and its ends), the grey of unknown
 // space, and a scale bar in metres.
@@ -75,24 +59,24 @@ experiment::Picture picture(const Pixels& px, bool variance, double vmax, double
       if (px.prob[q] >= 0)
         c = variance ? colormap(Colormap::Magma, std::min(1.0, double(px.var[q]) / vmax))
                      : colormap(Colormap::Viridis, px.prob[q]);
-      fill(pic, i, j, 1, 1, c);
+      fill_box(pic, i, j, 1, 1, c);
     }
   const std::size_t y = px.h + 8, bar = 160;
   draw_text(pic, 6, long(y), title, kInk, 2);
   for (std::size_t i = 0; i < bar; ++i)
-    fill(pic, 6 + i, y + 16, 1, 12,
-         colormap(variance ? Colormap::Magma : Colormap::Viridis, double(i) / double(bar - 1)));
+    fill_box(pic, 6 + i, y + 16, 1, 12,
+             colormap(variance ? Colormap::Magma : Colormap::Viridis, double(i) / double(bar - 1)));
   char hi[32];
   std::snprintf(hi, sizeof hi, variance ? "%.2g" : "1", vmax);
   draw_text(pic, 6, long(y + 32), "0", kInk, 2);
   draw_text(pic, long(6 + bar - text_advance(2) * std::string(hi).size()), long(y + 32), hi, kInk,
             2);
-  fill(pic, 6 + bar + 14, y + 16, 12, 12, kUnknown);
+  fill_box(pic, 6 + bar + 14, y + 16, 12, 12, kUnknown);
   draw_text(pic, long(6 + bar + 30), long(y + 16), "UNKNOWN", kInk, 2);
-  const double len = scale_length(double(px.w) * metres_per_px);
+  const double len = round_scale(double(px.w) * metres_per_px);
   const auto len_px = std::size_t(std::lround(len / metres_per_px));
   const std::size_t sx = w > len_px + 10 ? w - len_px - 10 : 0;
-  fill(pic, sx, y + 20, len_px, 4, kInk);
+  fill_box(pic, sx, y + 20, len_px, 4, kInk);
   char lab[32];
   std::snprintf(lab, sizeof lab, "%g M", len);
   draw_text(pic, long(sx), long(y + 32), lab, kInk, 2);

@@ -122,6 +122,8 @@ namespace {
 
 constexpr Rgb kInk{0, 0, 0};
 
+}  // namespace
+
 void fill_box(Picture& pic, std::size_t x0, std::size_t y0, std::size_t w, std::size_t h, Rgb c) {
   for (std::size_t y = y0; y < std::min(pic.height, y0 + h); ++y)
     for (std::size_t x = x0; x < std::min(pic.width, x0 + w); ++x) {
@@ -132,13 +134,14 @@ void fill_box(Picture& pic, std::size_t x0, std::size_t y0, std::size_t w, std::
     }
 }
 
-// A round length (1, 2 or 5 times a power of ten) near a fifth of `metres`.
 double round_scale(double metres) {
   const double target = metres / 5, p = std::pow(10.0, std::floor(std::log10(target)));
   for (double m : {5.0, 2.0, 1.0})
     if (m * p <= target) return m * p;
   return p;
 }
+
+namespace {
 
 // The legend strip at row y: the colour bar of P(occupied), the grey of unknown space, and a
 // scale bar of `metres_per_pixel` at the right end (none when 0).

@@ -58,6 +58,12 @@ Picture probability_picture(const FittedMap& map, int dim, const double lo[3], c
 void write_comparison(const std::vector<const Picture*>& panels,
                       const std::vector<std::string>& titles, const std::string& path);
 
+/// Paints the w x h box of `pic` at (x0, y0) (clipped to the picture) in colour c.
+void fill_box(Picture& pic, std::size_t x0, std::size_t y0, std::size_t w, std::size_t h, Rgb c);
+
+/// A round length for a scale bar: 1, 2 or 5 times a power of ten, near a fifth of `metres`.
+double round_scale(double metres);
+
 /// Pixels a character of draw_text advances at `scale` (glyph 3 x scale wide plus one scale of
 /// space).
 inline long text_advance(int scale) {
