@@ -3,7 +3,8 @@
 
 Usage: bench/drive3d.py [--build build] [--drives riverside-a,hku-1] [--cuts 20,40]
                         [--keyframes 30] [--source 10] [--methods ogm,bhm]
-                        [--out docs/drive3d-speed.json] [-- EXTRA potmap experiment options]
+                        [--mapping bhm,repot] [--out docs/drive3d-speed.json]
+                        [-- EXTRA potmap experiment options]
 
 For every drive of ../shared/data/drives3d and every cut (a horizontal range, metres, applied
 to every method alike), `potmap experiment intra` maps keyframes [source, keyframes) of the
@@ -13,6 +14,13 @@ joint BHM at the 3D drive defaults below, every method scored on the same held-o
 fit: BHM's gathering of samples per voxel, its updates and the map's export; OctoMap's ray
 casting of the training beams), and each method's time as a ratio to OctoMap 0.2 m's in the
 same run, so the ratio holds on a machine shared with other jobs. The JSON holds every run.
+
+Then, right after each experiment, `potmap mapping DRIVE --method M` (--mapping: bhm, repot)
+maps the same keyframes at the same cut as a user runs it (RePOT with the built-in 3D
+dictionary, a transfer every 4th keyframe; its build is not timed): the rows "mapping BHM" and
+"mapping RePOT", whose time is the mapper's per keyframe (gathering, transfer, update) against
+that experiment's OctoMap 0.2 m. Their scores are on every 4th held-out sample (the mapper
+keeps a quarter), the experiment's on all of them.
 """
 import argparse
 import json
@@ -46,6 +54,17 @@ def run(build, drive, cut, keyframes, source, methods, extra):
     return data
 
 
+def run_mapping(build, drive, cut, keyframes, source, method):
+    out = tempfile.mkdtemp()
+    cmd = [os.path.join(build, "tools", "potmap"), "mapping", os.path.join(DRIVES, drive),
+           "--method", method, "--range-cut", str(cut), "--first", str(source), "--max-scans",
+           str(keyframes - source), "--checkpoint-every", "0", "-q", "-o", out, "--json", "-"]
+    print("bench/drive3d.py:", " ".join(cmd[1:]), file=sys.stderr, flush=True)
+    done = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True)
+    subprocess.run(["rm", "-rf", out], check=True)
+    return json.loads(done.stdout)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default=os.path.join(HERE, "..", "build"))
@@ -54,6 +73,8 @@ def main():
     ap.add_argument("--keyframes", type=int, default=30)
     ap.add_argument("--source", type=int, default=10)
     ap.add_argument("--methods", default="ogm,bhm")
+    ap.add_argument("--mapping", default="bhm,repot",
+                    help="potmap mapping methods run after each experiment ('' for none)")
     ap.add_argument("--out", default="drive3d-speed.json")
     ap.add_argument("extra", nargs="*", help="more potmap experiment intra options (after --)")
     a = ap.parse_args()
@@ -70,6 +91,14 @@ def main():
                              "ms_per_keyframe": r["ms_per_scan"],
                              "ratio_to_octomap_0.2": r["ms_per_scan"] / base,
                              "keyframes": r["scans"], "n_test": r["n_test"]})
+            for m in [x for x in a.mapping.split(",") if x]:
+                j = run_mapping(a.build, drive, cut, a.keyframes, a.source, m)
+                rows.append({"drive": drive, "cut_m": float(cut), "method": "mapping " + j["method"],
+                             "auc": j["scores"]["auc"], "nll": j["scores"]["nll"],
+                             "acc": j["scores"]["acc"], "ms_per_keyframe": j["ms_per_keyframe"],
+                             "ratio_to_octomap_0.2": j["ms_per_keyframe"] / base,
+                             "keyframes": j["keyframes"], "n_test": j["scores"]["n"],
+                             "transfer_ms_per_keyframe": j.get("transfer_ms_per_keyframe", 0)})
     head = "| drive | cut | method | AUC | NLL | ms / keyframe | x OctoMap 0.2 m |"
     print(head)
     print("|---|---|---|---|---|---|---|")

@@ -17,6 +17,20 @@ EXPERIMENTS = [
     ("sim2real", "Sim-to-real: atoms from the simulated 3D towns (4 scans of each)"),
 ]
 METHODS = ["OGM 0.1 m", "OGM 0.2 m", "BHM", "POT", "RePOT"]
+# The single frames' settings (experiment::frame_setup_3d), chosen from the sensors' geometry
+# and the cost, not from held-out beams.
+FRAMES_SETTINGS = [
+    "Settings (`frame_setup_3d`, `include/potmap/experiments/experiment_frames.hpp`): 0.5 free",
+    "samples per metre (a frame has 17,000 to 35,000 beams; at 1 a metre free samples dominate",
+    "the data and the joint BHM's time); the joint BHM with kernels 1 m apart (about the vertical",
+    "spacing of the rings at 10-20 m on both the simulated and the nuScenes sensor), gamma =",
+    "-ln(0.19) / 1 m^2, prior variance 10, a bias; POT's atoms hold kernels at their own samples",
+    "thinned to 1 m, a wall clearance of 1 m, 8 rotations about z, 5 sectors; RePOT is the",
+    "frame's joint BHM seeded by the transported kernels where no sample reached. The simulated",
+    "source sensor (`sim_options_3d`): 32 rings from -30 to +10 degrees at 1.84 m, 1 degree",
+    "azimuth steps, 20 m range (the nuScenes roof LIDAR's geometry); 4 scans per town, 4 m apart.",
+    "",
+]
 CUTS = [20, 40]
 
 
@@ -55,11 +69,11 @@ def drive_table(d, cut):
     return out
 
 
-def figures(d, results_dir, page_dir):
+def figures(d, page_dir):
     out = []
     for c in d.get("compare_figures", []):
-        rel = os.path.relpath(os.path.join(results_dir, "figures", os.path.basename(c["file"])),
-                              page_dir)
+        # The runner's path, relative to the repository root the script runs in.
+        rel = os.path.relpath(os.path.abspath(c["file"]), page_dir)
         out.append("![%s: %s](%s)" % (c["target"], ", ".join(c["panels"]), rel))
         out.append("")
     return out
@@ -73,6 +87,24 @@ def frames_table(d):
             r["frame"], source_label(src, ""), r["method"], r["auc"], r["nll"], r["acc"],
             r["fit_s"]))
     return out
+
+
+def summary(all_runs):
+    """Per method, the range over every drive case and cut of AUC, NLL and time ratio."""
+    out = ["## Summary", "",
+           "Ranges over every drive case below: both drives, both cuts, intra-domain,",
+           "inter-domain and sim-to-real.", "",
+           "| method | AUC | NLL | x OctoMap 0.2 m |", "|---|---|---|---|"]
+    for m in METHODS:
+        rows = [(r, base) for r, base in all_runs if r["method"] == m]
+        if not rows:
+            continue
+        auc = [r["auc"] for r, _ in rows]
+        nll = [r["nll"] for r, _ in rows]
+        ratio = [r["ms_per_scan"] / base for r, base in rows]
+        out.append("| %s | %.3f-%.3f | %.3f-%.3f | %.2f-%.2f |" % (
+            m, min(auc), max(auc), min(nll), max(nll), min(ratio), max(ratio)))
+    return out + [""]
 
 
 def header(first):
@@ -103,6 +135,7 @@ def main():
     page = sys.argv[2] if len(sys.argv) > 2 else "docs/results-3d.md"
     page_dir = os.path.dirname(os.path.abspath(page))
     lines = None
+    all_runs = []
     for name, title in EXPERIMENTS:
         section = ["## " + title, ""]
         any_cut = False
@@ -117,11 +150,15 @@ def main():
                 section.append("`%s`, and the same at each cut (`--max-range`)." % d["command"])
                 section.append("")
             any_cut = True
-            section += drive_table(d, cut) + [""] + figures(d, results, page_dir)
+            section += drive_table(d, cut) + [""] + figures(d, page_dir)
+            for runs in drive_rows(d).values():
+                base = runs.get("OGM 0.2 m", {}).get("ms_per_scan")
+                all_runs += [(r, base) for r in runs.values() if base]
         if any_cut:
             lines += section
     if lines is None:
         sys.exit("make_results_3d.py: no JSON in " + results)
+    lines[len(header({})):len(header({}))] = summary(all_runs)
     frames = os.path.join(results, "frames.json")
     if os.path.exists(frames):
         d = load(frames)
@@ -130,6 +167,7 @@ def main():
                   "scored; POT and RePOT with atoms from %s." % (
                       d["settings"]["max_range"], ", ".join(d["settings"]["sources"])), ""]
         lines += frames_table(d) + [""]
+        lines += FRAMES_SETTINGS
     with open(page, "w") as f:
         f.write("\n".join(lines).rstrip() + "\n")
     print("wrote", page)

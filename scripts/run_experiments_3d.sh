@@ -10,8 +10,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 potmap=${POTMAP:-build/tools/potmap}
 out=docs/results3d
 fig=$out/figures
-mkdir -p "$fig"
-rm -f "$fig"/*.png  # no stale figures of earlier runs
+rm -rf "$fig"  # no stale figures of earlier runs
 export POTMAP_CACHE_DIR=${POTMAP_CACHE_DIR:-build/kernel-cache}
 drives=(../shared/data/drives3d/riverside-a ../shared/data/drives3d/hku-1)
 # Every method on the same held-out beams; OctoMap at 0.1 and 0.2 m both reported (--ogm-cells
@@ -19,8 +18,9 @@ drives=(../shared/data/drives3d/riverside-a ../shared/data/drives3d/hku-1)
 # drives: learn/drive_mapper.hpp).
 common=(--seeds 0 --methods ogm,bhm,pot,repot --ogm-cells 0.1 0.2 "$@")
 for cut in 20 40; do
+  mkdir -p "$fig/${cut}m"
   "$potmap" experiment intra "${drives[@]}" --scans 20 --source-scans 10 --max-range $cut \
-    --figures "$fig" --json $out/intra-${cut}m.json "${common[@]}"
+    --figures "$fig/${cut}m" --json $out/intra-${cut}m.json "${common[@]}"
   "$potmap" experiment inter "${drives[@]}" --scans 20 --max-range $cut \
     --json $out/inter-${cut}m.json "${common[@]}"
   "$potmap" experiment sim2real "${drives[@]}" --scans 20 --sim-scans 20 --atom-scans 4 \

@@ -102,6 +102,10 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "POT/RePOT: free samples a side in the high-quality transport, thinned evenly")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--transport-points", s.pot.pot.transport_points,
+                  "POT/RePOT: hits a side in the high-quality transport, thinned evenly")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--atom-scans", s.pot.atom_scans,
                   "POT/RePOT: source scans per place cut into atoms, evenly spaced (0: all)")
       ->capture_default_str();

@@ -634,6 +634,8 @@ nlohmann::json settings_json(const Settings& s) {
       {"pot_fine_candidates", s.pot.pot.fine_candidates},
       {"pot_coarse_tolerance", s.pot.pot.coarse_tolerance},
       {"pot_free_tolerance", s.pot.pot.transport_free_tolerance},
+      {"pot_transport_points", s.pot.pot.transport_points},
+      {"pot_free_points", s.pot.pot.transport_free_points},
       {"pot_merge_radius", s.pot.overall.merge_radius},
       {"pot_kernels_at_samples", s.pot.dictionary.kernels_at_samples},
       {"pot_wall_clearance", s.pot.pot.wall_clearance},
