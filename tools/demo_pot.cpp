@@ -134,8 +134,8 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
     // The device builds its programs at their first launch (a few hundred milliseconds on
     // PoCL): the first two scans mapped once and thrown away, so that no scan's time counts it.
     const auto tb = std::chrono::steady_clock::now();
-    const std::vector<Scan> first(target.scans.begin(),
-                                  target.scans.begin() + std::min<std::size_t>(2, target.scans.size()));
+    const std::vector<Scan> first(
+        target.scans.begin(), target.scans.begin() + std::min<std::size_t>(2, target.scans.size()));
     run_map_job(&ctx, dict, first, make_job(a.method != "pot"));
     std::fprintf(human, "device         %s; kernels built in %.1f s (counted in no scan)\n",
                  ctx.info().summary().c_str(), seconds_since(tb));

@@ -34,6 +34,7 @@ PotOptions drive_pot_options() {
   p.placement = PotPlacement::barycentric;
   p.displacement_variance = 0.25;
   p.wall_clearance = 1.0;
+  p.transport_points = 500;
   return p;
 }
 

@@ -51,7 +51,7 @@ std::uint64_t options_fingerprint(const DriveMapperOptions& o) {
                         double(p.rotations.size()), double(p.ranking),
                         double(p.placement),        p.displacement_variance,
                         p.wall_clearance,           double(p.index_neighbours),
-                        double(p.fine_candidates)};
+                        double(p.fine_candidates),  double(p.transport_points)};
     bytes.append(reinterpret_cast<const char*>(r), sizeof r);
   }
   return detail::fnv1a64(bytes);

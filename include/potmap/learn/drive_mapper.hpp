@@ -45,7 +45,10 @@ JointBhmOptions drive_bhm_options();
 /// RePOT's transfer on a drive: the indexed ranking (nearest atoms by signature: its time
 /// barely grows with the dictionary), 8 rotations, kernels at the barycentric images of the
 /// atoms' (they reach past the keyframe's samples, where seeds matter) with 0.25 weight variance
-/// per m^2 moved, free-space kernels dropped within 1 m (one kernel spacing) of a hit.
+/// per m^2 moved, free-space kernels dropped within 1 m (one kernel spacing) of a hit, and 500
+/// hits a side in the transport (the 2D cap of 1500 makes a 3D sector's transport 9 times the
+/// work: riverside-a at 20 m, POT 79 ms a keyframe with 500 for AUC / NLL 0.977 / 0.132, 439 ms
+/// with 1500 for 0.978 / 0.124).
 PotOptions drive_pot_options();
 
 struct DriveMapperOptions {
