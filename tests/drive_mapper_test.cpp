@@ -96,7 +96,7 @@ TEST(DriveMapper, RepotSeedsWhereNoSampleReachesAndScoresAsBhm) {
   o.range_cut = 20;
   o.test_stride = 16;
   DriveMapper bhm(o);
-  o.dictionary = test::drive_atoms("drives3d/riverside-a", 4);
+  o.dictionary = test::drive_atoms("drives3d/riverside-a", test::sized(4u, 2u));
   o.transfer_every = 2;
   ASSERT_GT(o.dictionary->size(), 4u);
   DriveMapper repot(o);
