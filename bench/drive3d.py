@@ -2,7 +2,7 @@
 """3D drives: the continuous maps against OctoMap, keyframe by keyframe, in one run.
 
 Usage: bench/drive3d.py [--build build] [--drives riverside-a,hku-1] [--cuts 20,40]
-                        [--keyframes 30] [--source 10] [--methods ogm,bhm]
+                        [--keyframes 30] [--source 10] [--methods ogm,bhm,pot,repot]
                         [--mapping bhm,repot] [--out docs/drive3d-speed.json]
                         [-- EXTRA potmap experiment options]
 
@@ -72,7 +72,7 @@ def main():
     ap.add_argument("--cuts", default="20,40")
     ap.add_argument("--keyframes", type=int, default=30)
     ap.add_argument("--source", type=int, default=10)
-    ap.add_argument("--methods", default="ogm,bhm")
+    ap.add_argument("--methods", default="ogm,bhm,pot,repot")
     ap.add_argument("--mapping", default="bhm,repot",
                     help="potmap mapping methods run after each experiment ('' for none)")
     ap.add_argument("--out", default="drive3d-speed.json")

@@ -144,3 +144,32 @@ TEST(DriveReader, RefusesBadTimesAndUnknownFolders) {
   EXPECT_FALSE(is_drive(empty));
   expect_input_error([&] { open_drive(empty); }, {empty, "not a drive folder"});
 }
+
+TEST(DriveReader, ReadsAKittiSequenceInTheBenchmarksLayout) {
+  // dataset/sequences/07/{velodyne/*.bin, calib.txt} and dataset/poses/07.txt two folders up,
+  // with a pose more than the frames downloaded (the benchmark's poses cover the whole
+  // sequence).
+  const std::string root = test::temp_dir("kitti_layout");
+  const std::string seq = root + "/dataset/sequences/07";
+  std::filesystem::create_directories(seq + "/velodyne");
+  const float pts[8] = {1, 0, 0, 0.5f, 0, 2, 0, 0.5f};  // x y z reflectance, sensor frame
+  for (const char* f : {"/velodyne/000000.bin", "/velodyne/000001.bin"})
+    write_file(seq, f, std::string(reinterpret_cast<const char*>(pts), sizeof pts));
+  write_file(seq, "calib.txt", "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nTr: 1 0 0 0 0 1 0 0 0 0 1 0\n");
+  std::filesystem::create_directories(root + "/dataset/poses");
+  write_file(root + "/dataset/poses", "07.txt",
+             std::string(kIdentity) + "1 0 0 5 0 1 0 0 0 0 1 0\n" + kIdentity);
+  const Drive d = open_drive(seq);
+  EXPECT_EQ(d.layout, "kitti");
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_NE(d.poses_file.find("poses/07.txt"), std::string::npos) << d.poses_file;
+  const Scan k = read_keyframe(d, 1);
+  ASSERT_EQ(k.dim, 3);
+  ASSERT_EQ(k.num_hits(), 2u);
+  EXPECT_NEAR(k.hits[0], 6.0, 1e-6);  // (1, 0, 0) moved 5 m along x
+  EXPECT_NEAR(k.hits[4], 2.0, 1e-6);
+  EXPECT_NEAR(k.origin()[0], 5.0, 1e-12);
+  // Without poses: an error naming both places looked in.
+  std::filesystem::remove(root + "/dataset/poses/07.txt");
+  expect_input_error([&] { open_drive(seq); }, {"without poses", "poses.txt", "07.txt"});
+}

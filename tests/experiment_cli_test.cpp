@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <map>
 #include <set>
 
+#include "potmap/experiments/figure_panels.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -143,8 +145,14 @@ void check_structure(const json& j, std::size_t cases) {
     ASSERT_GT(panel.first, 0u) << c;
     const std::size_t n = c["panels"].size();
     const auto got = png_size(file);
-    EXPECT_EQ(got.first, n * panel.first + 4 * (n - 1)) << file;
-    EXPECT_EQ(got.second, panel.second) << file;
+    // Titles above, the legend below, the panels between.
+    EXPECT_EQ(got.first,
+              std::max<std::size_t>(experiment::kComparisonMinWidth,
+                                    n * panel.first + experiment::kComparisonGap * (n - 1)))
+        << file;
+    EXPECT_EQ(got.second,
+              experiment::kComparisonTitleRows + panel.second + experiment::kComparisonLegendRows)
+        << file;
   }
 }
 

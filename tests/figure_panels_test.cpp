@@ -78,8 +78,8 @@ TEST(FigurePanels, ComparisonHasTitlesAndALegendBelowThePanels) {
   png_image img{};
   img.version = PNG_IMAGE_VERSION;
   ASSERT_TRUE(png_image_begin_read_from_file(&img, path.c_str())) << img.message;
-  EXPECT_EQ(img.width, 2 * 300 + 4u);
-  EXPECT_EQ(img.height, 22 + a.height + 56);  // titles, the panels, the legend
+  EXPECT_EQ(img.width, 2 * 300 + kComparisonGap);
+  EXPECT_EQ(img.height, kComparisonTitleRows + a.height + kComparisonLegendRows);
   png_image_free(&img);
   EXPECT_THROW(write_comparison({&a}, {}, path), ArgumentError);
   EXPECT_THROW(write_comparison({}, {}, path), ArgumentError);

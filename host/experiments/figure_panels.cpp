@@ -171,7 +171,8 @@ void write_comparison(const std::vector<const Picture*>& panels,
   if (panels.size() != titles.size())
     throw ArgumentError("write_comparison: " + std::to_string(panels.size()) + " panels, " +
                         std::to_string(titles.size()) + " titles");
-  const std::size_t gap = 4, title_h = 22, legend_h = 56;
+  const std::size_t gap = kComparisonGap, title_h = kComparisonTitleRows,
+                    legend_h = kComparisonLegendRows;
   std::size_t w = 0, h = 0;
   double mpp = 0;
   for (const Picture* p : panels) {
@@ -184,7 +185,7 @@ void write_comparison(const std::vector<const Picture*>& panels,
   }
   if (w == 0) throw ArgumentError("write_comparison: no panel to write");
   Picture fig;
-  fig.width = std::max<std::size_t>(w, 480);
+  fig.width = std::max<std::size_t>(w, kComparisonMinWidth);
   fig.height = title_h + h + legend_h;
   fig.rgb.assign(fig.width * fig.height * 3, 255);
   std::size_t x = 0;

@@ -50,6 +50,10 @@ DriveMapper::DriveMapper(const DriveMapperOptions& options)
   if (o_.dictionary && o_.dictionary->dim != 3)
     throw ArgumentError("drive mapper: the dictionary is " + std::to_string(o_.dictionary->dim) +
                         "D, a drive needs 3D atoms");
+  // The indexed ranking's index of the atoms, built once here: a transfer without it builds
+  // one from the whole dictionary (270 ms of a 290 ms transfer on hku-1 with the built-in one).
+  if (o_.dictionary && o_.pot.ranking == PotRanking::indexed && !o_.pot.index)
+    o_.pot.index = std::make_shared<const AtomIndex>(*o_.dictionary);
   if (o_.transfer_every == 0)
     throw ArgumentError("drive mapper: transfer_every must be at least 1");
   if (!(o_.seed_min_variance >= 0) || !std::isfinite(o_.seed_min_variance))
