@@ -69,6 +69,18 @@ experiment::Picture town_picture(const Town& town, const std::vector<double>& ro
   return p;
 }
 
+// The device builds its programs at their first launch (a few hundred milliseconds on PoCL):
+// the first two scans mapped once and thrown away, so that no scan's time counts it.
+void build_programs(Context& ctx, const Dictionary& dict, const std::vector<Scan>& scans,
+                    const MapJob& job, std::FILE* human) {
+  const auto tb = std::chrono::steady_clock::now();
+  const std::vector<Scan> first(scans.begin(),
+                                scans.begin() + std::min<std::size_t>(2, scans.size()));
+  run_map_job(&ctx, dict, first, job);
+  std::fprintf(human, "device         %s; kernels built in %.1f s (counted in no scan)\n",
+               ctx.info().summary().c_str(), seconds_since(tb));
+}
+
 }  // namespace
 
 int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
@@ -130,16 +142,7 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
     job.verbose = false;
     return job;
   };
-  {
-    // The device builds its programs at their first launch (a few hundred milliseconds on
-    // PoCL): the first two scans mapped once and thrown away, so that no scan's time counts it.
-    const auto tb = std::chrono::steady_clock::now();
-    const std::vector<Scan> first(
-        target.scans.begin(), target.scans.begin() + std::min<std::size_t>(2, target.scans.size()));
-    run_map_job(&ctx, dict, first, make_job(a.method != "pot"));
-    std::fprintf(human, "device         %s; kernels built in %.1f s (counted in no scan)\n",
-                 ctx.info().summary().c_str(), seconds_since(tb));
-  }
+  build_programs(ctx, dict, target.scans, make_job(a.method != "pot"), human);
   for (const bool refine : {false, true}) {
     if ((refine && a.method == "pot") || (!refine && a.method == "repot")) continue;
     const std::string name = refine ? "RePOT" : "POT";
