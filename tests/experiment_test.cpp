@@ -181,3 +181,24 @@ TEST(Experiment, RepotMapIgnoresHeldOutBeams) {
   // And the map is a map: held-out hits above held-out free samples.
   EXPECT_GT(score_map(f1, test1).auc, 0.65);  // measured 0.74
 }
+
+TEST(Experiment, AWholeDriveBoxSaysWhereWholeDrivesAreMapped) {
+  // A 2.4 km drive's box at 1 m kernels is more than the bounded joint BHM may hold.
+  experiment::BhmSetup s;
+  s.joint = true;
+  s.spacing = 1;
+  const double lo[3] = {0, 0, -10}, hi[3] = {2400, 1800, 40};
+  LabelledPoints one;
+  one.dim = 3;
+  one.position = {1, 1, 1};
+  one.label = {1};
+  one.scan = {0};
+  try {
+    experiment::learn_bhm(nullptr, s, 3, lo, hi, one);
+    FAIL() << "no ArgumentError";
+  } catch (const ArgumentError& e) {
+    const std::string m = e.what();
+    for (const char* n : {"too many kernels", "2400 m x 1800 m x 50 m", "potmap mapping DRIVE"})
+      EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
+  }
+}

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
+#include <string>
 
 #include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
@@ -95,6 +97,20 @@ JointBhmOptions joint_bhm_options(const BhmSetup& setup) {
   return o;
 }
 
+namespace {
+
+std::string box_text(int dim, const double lo[3], const double hi[3]) {
+  std::string t;
+  for (int k = 0; k < dim; ++k) {
+    char b[48];
+    std::snprintf(b, sizeof b, "%s%.0f m", k ? " x " : "", hi[k] - lo[k]);
+    t += b;
+  }
+  return t;
+}
+
+}  // namespace
+
 KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
                     const double hi[3], const LabelledPoints& samples, double* spacing_out,
                     double* gamma_out) {
@@ -108,7 +124,20 @@ KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double l
   if (setup.joint) {
     JointBhmOptions o = joint_bhm_options(setup);
     o.spacing = spacing;
-    JointBhm learner(dim, lo, hi, o);
+    // The experiments' joint BHM covers the task's whole box: a long 3D drive's box holds
+    // more kernels than it may (riverside-a's 2.4 km: billions at 1 m), which `potmap mapping`
+    // maps a keyframe at a time with tiles made where samples are and retired behind.
+    std::optional<JointBhm> bounded;
+    try {
+      bounded.emplace(dim, lo, hi, o);
+    } catch (const ArgumentError& e) {
+      throw ArgumentError(std::string(e.what()) + " over the task's box of " +
+                          box_text(dim, lo, hi) +
+                          (dim == 3 ? "; map a whole drive with potmap mapping DRIVE, or take "
+                                      "fewer keyframes (--scans)"
+                                    : "; take fewer scans (--scans) or a wider spacing"));
+    }
+    JointBhm& learner = *bounded;
     learner.update_by_scan(setup.voxel > 0 ? aggregate_voxels(samples, setup.voxel) : samples);
     if (gamma_out) *gamma_out = learner.gamma();
     return learner.map();
