@@ -64,10 +64,8 @@ void bind_drive(py::module_& m) {
       "line and value (InputError).");
 }
 
-}  // namespace
-
-void bind_drives(py::module_& m) {
-  bind_drive(m);
+// DriveMapperOptions and KeyframeStats: what a DriveMapper is made with and reports.
+void bind_drive_options(py::module_& m) {
   py::class_<DriveMapperOptions> opt(m, "DriveMapperOptions",
                                      "How a 3D drive is mapped; the defaults are `potmap "
                                      "mapping DRIVE`'s (docs/drives-3d.md).");
@@ -121,7 +119,13 @@ void bind_drives(py::module_& m) {
       .def_readonly("transfer_ms", &KeyframeStats::transfer_ms, "RePOT's transfer and seeding")
       .def_readonly("seeded", &KeyframeStats::seeded, "kernels RePOT seeded")
       .def_readonly("memory_bytes", &KeyframeStats::memory_bytes, "held after it");
+}
 
+}  // namespace
+
+void bind_drives(py::module_& m) {
+  bind_drive(m);
+  bind_drive_options(m);
   py::class_<PyDriveMapper>(m, "DriveMapper",
                             "The joint BHM over a 3D drive, a keyframe at a time, in memory that\n"
                             "follows the place (tiles the sensor left are retired).")
