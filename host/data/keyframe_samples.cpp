@@ -162,10 +162,10 @@ std::vector<data::VoxelSum> gather_on_host(const data::KeyframePlan& plan, doubl
   return out;
 }
 
-}  // namespace
-
-KeyframeSamples gather_keyframe_reference(const Scan& scan, std::int64_t scan_index,
-                                          const LabelOptions& options, double voxel) {
+// The keyframe planned once; its training beams gathered on `ctx` when it has what the
+// kernel needs, else on the host (the same result).
+KeyframeSamples gather(const Scan& scan, std::int64_t scan_index, const LabelOptions& options,
+                       double voxel, Context* ctx) {
   data::check_inputs(scan, voxel, options);
   data::KeyframePlan plan = data::plan_keyframe(scan, scan_index, options);
   KeyframeSamples out = std::move(plan.out);
@@ -177,26 +177,24 @@ KeyframeSamples gather_keyframe_reference(const Scan& scan, std::int64_t scan_in
     out.train = aggregate_voxels(split.train, voxel);
     return out;
   }
-  std::vector<data::VoxelSum> voxels = gather_on_host(plan, voxel);
+  std::vector<data::VoxelSum> voxels;
+  if (ctx && ctx->info().has_fp64 && ctx->info().has_int64_atomics)
+    out.on_device = data::gather_on_device(*ctx, plan, voxel, voxels);
+  if (!out.on_device) voxels = gather_on_host(plan, voxel);
   out.train = data::voxels_to_samples(voxels, voxel, scan_index);
   return out;
 }
 
+}  // namespace
+
+KeyframeSamples gather_keyframe_reference(const Scan& scan, std::int64_t scan_index,
+                                          const LabelOptions& options, double voxel) {
+  return gather(scan, scan_index, options, voxel, nullptr);
+}
+
 KeyframeSamples gather_keyframe(const Scan& scan, std::int64_t scan_index,
                                 const LabelOptions& options, double voxel, Context* ctx) {
-  if (!ctx || !ctx->info().has_fp64 || !ctx->info().has_int64_atomics)
-    return gather_keyframe_reference(scan, scan_index, options, voxel);
-  data::check_inputs(scan, voxel, options);
-  data::KeyframePlan plan = data::plan_keyframe(scan, scan_index, options);
-  if (!data::plan_fits_keys(plan, voxel))
-    return gather_keyframe_reference(scan, scan_index, options, voxel);
-  KeyframeSamples out = std::move(plan.out);
-  out.samples = plan.samples;
-  std::vector<data::VoxelSum> voxels;
-  out.on_device = data::gather_on_device(*ctx, plan, voxel, voxels);
-  if (!out.on_device) voxels = gather_on_host(plan, voxel);
-  out.train = data::voxels_to_samples(voxels, voxel, scan_index);
-  return out;
+  return gather(scan, scan_index, options, voxel, ctx);
 }
 
 }  // namespace potmap
