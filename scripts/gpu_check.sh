@@ -2,9 +2,9 @@
 # The GPU checks in one prepared run, on a machine with an NVIDIA driver and nothing of
 # potmap's build (scripts/gpu_bundle.sh packs what it needs into .dev/; run this from the
 # checkout's root there): finds the driver's OpenCL library and registers it with the bundled
-# ICD loader, runs the test suite on the GPU (sharded), the README's benchmarks, POT at 200
-# atoms on town2 (pipelined and one scan at a time), the tuning sweep, and raster jobs end to
-# end. Every stage has its own limit inside BUDGET seconds (default 560); the log goes to
+# ICD loader, runs the test suite on the GPU (sharded), docs/performance.md's benchmarks, POT
+# at 200 atoms on town2 (pipelined and one scan at a time), the tuning sweep, and raster jobs end
+# to end. Every stage has its own limit inside BUDGET seconds (default 560); the log goes to
 # $OUT/run.log and stdout, results (at most 8 files) to $OUT.
 # LOCAL_DRY=1 runs the same stages on this machine's default device (a check of the script).
 set -u -o pipefail
@@ -98,7 +98,7 @@ grep -h -E "^\[  FAILED  \] [A-Za-z]" /tmp/t*.log | sort -u | head -60
 grep -h -E "^\[ RUN      \]" /tmp/t*.log >/tmp/started.txt
 grep -h -E "^\[       OK \]|^\[  FAILED  \]|^\[  SKIPPED \]" /tmp/t*.log | wc -l | xargs echo "finished tests:"
 
-# 2. The README's tables on the GPU (the CPU reference rows on this machine's 16 cores).
+# 2. docs/performance.md's tables on the GPU (the CPU reference rows on this machine's 16 cores).
 stage bench_town1 "${T_TOWN1:-70}" build/bench/potmap_bench \
   '--benchmark_filter=^BM_Town1(GridOpenCL/|GridOpenCLFine|PointsOpenCL|Reference)' \
   --benchmark_min_time=0.3 --benchmark_out="$OUT/bench_gpu_town1.json" --benchmark_out_format=json 2>&1 |

@@ -1,5 +1,5 @@
 // `potmap mapping LOG`: a real log to a map, pictures, a ROS map and scores in one command, with
-// the built-in default dictionary (README, "Map your own log").
+// the built-in default dictionary (README, "Map your own 2D log").
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 

@@ -113,7 +113,7 @@ def test_reads_the_authors_map(data_dir, ctx):
     assert m.dim == 2 and len(m) == 92372
     pts = potmap.read_labelled_csv(f"{data_dir}/carla/town1_test2k.csv")
     s = potmap.score(m.evaluate(pts.positions, ctx).prob, pts.labels)
-    assert abs(s.auc - 0.865) < 0.001 and abs(s.acc - 0.811) < 0.001  # the README's figures
+    assert abs(s.auc - 0.865) < 0.001 and abs(s.acc - 0.811) < 0.001  # docs/commands.md's figures
 
 
 def test_metrics_on_known_values():
