@@ -381,6 +381,60 @@ TEST(JointBhm, UpdateOnTheHostTeamIsTheSameBitForBit) {
   expect_same(grow_alone.map(), grow_team.map(), "wall, growable");
 }
 
+// The features and sums on the device (kernels/learn/bhm_joint_sums.cl) against the host's:
+// the same samples, rows and solves, sums taken in another order (relative 1e-10 after the
+// solves' own tolerance is met the same way: the CG counts agree within one an update).
+void expect_close(const KernelMap& a, const KernelMap& b, double tol, const char* what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  ASSERT_GT(a.size(), 0u) << what;
+  double worst_mean = 0, worst_var = 0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    worst_mean =
+        std::max(worst_mean, std::abs(a.w_mean[k] - b.w_mean[k]) / (1.0 + std::abs(a.w_mean[k])));
+    worst_var = std::max(worst_var, std::abs(a.w_var[k] - b.w_var[k]) / a.w_var[k]);
+  }
+  EXPECT_LT(worst_mean, tol) << what;
+  EXPECT_LT(worst_var, tol) << what;
+  EXPECT_NEAR(a.bias_mean, b.bias_mean, tol * (1 + std::abs(a.bias_mean))) << what;
+}
+
+TEST(JointBhm, SumsOnTheDeviceMatchTheHost) {
+  Context& ctx = test::context();
+  if (!ctx.info().has_fp64) GTEST_SKIP() << "the device has no doubles";
+  LabelledPoints held_out;
+  const experiment::MapTask task = intel_task(test::sized(16, 10), held_out);
+  JointBhmOptions on_device;
+  on_device.sums = JointBhmSums::device;
+  JointBhm host(2), device(2, on_device);
+  for (std::size_t i = 0; i < task.train_scans.size(); ++i) {
+    const LabelledPoints s = experiment::scan_training_samples(task, i, 0);
+    host.update(s, &ctx);
+    device.update(s, &ctx);
+    EXPECT_FALSE(host.last_stats().sums_on_device);
+    EXPECT_TRUE(device.last_stats().sums_on_device);
+    EXPECT_EQ(device.last_stats().samples, host.last_stats().samples) << "scan " << i;
+    EXPECT_EQ(device.last_stats().active, host.last_stats().active) << "scan " << i;
+    EXPECT_NEAR(double(device.last_stats().cg_iterations), double(host.last_stats().cg_iterations),
+                3.0)
+        << "scan " << i;
+  }
+  expect_close(host.map(), device.map(), 1e-6, "Intel, growable");
+
+  // Bounded, weighted, with samples outside the grid and one not finite.
+  const double lo3[3] = {-9, -27, 0}, hi3[3] = {9, 27, 0};
+  JointBhm bounded_host(2, lo3, hi3), bounded_device(2, lo3, hi3, on_device);
+  for (int t = 0; t < 4; ++t) {
+    LabelledPoints s = long_wall_scan(20 + t, t, -20 + 2 * t, 14 + 2 * t);
+    s.weight.assign(s.size(), 1.0);
+    for (std::size_t i = 0; i < s.size(); i += 3) s.weight[i] = 2.5;
+    s.position[0] = std::nan("");
+    bounded_host.update(s, &ctx);
+    bounded_device.update(s, &ctx);
+    EXPECT_EQ(bounded_device.last_stats().samples, bounded_host.last_stats().samples);
+  }
+  expect_close(bounded_host.map(), bounded_device.map(), 1e-6, "wall, bounded, weighted");
+}
+
 // The growable map's means and variances against the exact posterior of its own precision
 // (sparse Cholesky), at points on both sides of tile borders.
 TEST(JointBhm, GrowableMatchesItsExactPosterior) {

@@ -206,6 +206,11 @@ void register_mapping(CLI::App& app, Runner& runner) {
                   "reaches them)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--sums", a->drive.sums,
+                  "3D drives: where the joint BHM's features and sums run: auto (the device "
+                  "when it is a GPU with doubles, else the host), host or device")
+      ->check(CLI::IsMember({"auto", "host", "device"}))
+      ->capture_default_str();
   cmd->add_option("--checkpoint-every", a->drive.checkpoint_every,
                   "3D drives: write DIR/map.ckpt after every N keyframes (0: never)")
       ->capture_default_str();

@@ -70,6 +70,9 @@ DriveMapperOptions mapper_options(const DriveMappingArgs& a, std::string* dict_f
   DriveMapperOptions o;
   o.range_cut = a.range_cut;
   o.labels.seed = a.seed;
+  o.bhm.sums = a.sums == "host"     ? JointBhmSums::host
+               : a.sums == "device" ? JointBhmSums::device
+                                    : JointBhmSums::automatic;
   if (a.method == "repot") {
     o.transfer_every = a.transfer_every;
     *dict_file = a.dict;
@@ -159,9 +162,13 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
     // The device's programs are built at their first launch (seconds on PoCL): a throwaway
     // mapper maps the first keyframe once, so that no keyframe's time counts a build.
     const auto t_build = std::chrono::steady_clock::now();
-    DriveMapper(mo).add(read_keyframe(drive, at), std::int64_t(at), &ctx);
-    std::fprintf(human, "device         %s; kernels built in %.1f s (counted in no keyframe)\n",
-                 ctx.info().summary().c_str(), seconds_since(t_build));
+    const KeyframeStats first =
+        DriveMapper(mo).add(read_keyframe(drive, at), std::int64_t(at), &ctx);
+    std::fprintf(human,
+                 "device         %s; kernels built in %.1f s (counted in no keyframe); the "
+                 "learner's sums on the %s\n",
+                 ctx.info().summary().c_str(), seconds_since(t_build),
+                 first.sums_on_device ? "device" : "host");
   }
   DriveProgress progress;
   progress.total = end - at;
@@ -217,6 +224,7 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
   j["device"] = ctx.info().summary();
+  j["sums_on_device"] = mapper.learner().last_stats().sums_on_device;
   j["outputs"] = outs.json;
   write_scores_and_list(dir, j, files, a.json, human);
   std::error_code ec;

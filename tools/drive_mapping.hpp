@@ -22,6 +22,8 @@ struct DriveMappingArgs {
   std::size_t picture_pixels = 1200;  ///< along the longer side (as 2D mapping's pictures)
   std::size_t checkpoint_every = 25;  ///< keyframes (0: no checkpoints)
   std::size_t transfer_every = 4;     ///< RePOT: keyframes between transfers
+  /// Where the joint BHM's features and sums run: "auto", "host" or "device" (JointBhmSums).
+  std::string sums = "auto";
   bool resume = false, keep_checkpoint = false, quiet = false;
 };
 

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "bhm_detail.hpp"
+#include "bhm_joint_device.hpp"
 #include "map/kernel_index.hpp"
 #include "potmap/error.hpp"
 #include "runtime/host_team.hpp"
@@ -313,6 +314,12 @@ void JointBhm::for_each_tile_part(const std::int64_t a[3], const std::int64_t b[
         }
         f(t, ca, cb);
       }
+}
+
+bool JointBhm::sample_span(const double* x, std::int64_t a[3], std::int64_t b[3]) const {
+  bool finite = true;
+  for (int d = 0; d < dim_; ++d) finite = finite && std::isfinite(x[d]);
+  return finite && feature_span(x, a, b);
 }
 
 bool JointBhm::feature_span(const double* x, std::int64_t a[3], std::int64_t b[3]) const {
@@ -970,28 +977,36 @@ double JointBhm::solve(const std::vector<std::uint32_t>& rows, std::vector<doubl
   return std::sqrt(rr / std::max(ee, 1e-300));
 }
 
-void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
+void JointBhm::check_samples(const LabelledPoints& samples) const {
   if (samples.dim != dim_)
     throw ArgumentError("joint BHM: samples are " + std::to_string(samples.dim) + "D, the map " +
                         std::to_string(dim_) + "D");
   if (samples.position.size() != samples.size() * std::size_t(dim_))
     throw ArgumentError("joint BHM: sample positions and labels disagree in number");
-  const bool weighted = !samples.weight.empty();
-  if (weighted && samples.weight.size() != samples.size())
+  if (!samples.weight.empty() && samples.weight.size() != samples.size())
     throw ArgumentError("joint BHM: " + std::to_string(samples.weight.size()) + " weights for " +
                         std::to_string(samples.size()) + " samples");
   for (double w : samples.weight)
     if (!(w >= 0) || !std::isfinite(w))
       throw ArgumentError("joint BHM: a sample weight of " + std::to_string(w) +
                           " (weights are finite and not negative)");
+}
+
+void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
+  check_samples(samples);
   stats_ = {};
   if (samples.empty()) return;
-  const auto hs = static_cast<std::size_t>(half_slots_);
+  if (ctx && detail::sums_on_device(o_.sums, ctx->info()))
+    update_on_device(samples, *ctx);
+  else
+    update_on_host(samples, ctx);
+}
+
+void JointBhm::list_features(const LabelledPoints& samples, Context* ctx) {
   // The scan's features, flat: each sample's kernels, phi and stencil-linear cells, and its
   // runs of consecutive cells (add_outer()). Computed once for every EM iteration.
   Scratch& sc = scratch_;
-  // The update runs some fifty short parts on the helper, with host work between them.
-  const detail::HelperHold hold(ctx);
+  const bool weighted = !samples.weight.empty();
   const std::size_t ns = samples.size();
   auto clear = [](FeatureList& out) {
     out.kernel.clear();
@@ -1029,10 +1044,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
     out.yc.push_back(samples.label[i] ? 0.5 * w : -0.5 * w);
   };
   auto span = [&](std::size_t i, std::int64_t a[3], std::int64_t b[3]) {
-    const double* x = &samples.position[i * dim_];
-    bool finite = true;
-    for (int d = 0; d < dim_; ++d) finite = finite && std::isfinite(x[d]);
-    return finite && feature_span(x, a, b);
+    return sample_span(&samples.position[i * dim_], a, b);
   };
   // Tiles are made in the order of the samples (their storage order), before any change to the
   // posterior: a new tile holds the prior, so a throw (too many kernels) leaves the model as it
@@ -1047,49 +1059,49 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
       span_tiles(&samples.position[i * dim_], a, b, true, tiles);
       list(sc, i, a, b, tiles);
     }
-  } else {
-    // The tiles first, on this thread; then the features of each half of the samples into its
-    // own list, the second appended to the first: the lists of one pass over the samples.
-    constexpr std::int32_t kNoSpan = -2;
-    sc.sample_tiles.resize(ns * 8);
-    for (std::size_t i = 0; i < ns; ++i) {
-      std::int32_t* tiles = &sc.sample_tiles[i * 8];
-      std::int64_t a[3], b[3];
-      if (!span(i, a, b))
-        tiles[0] = kNoSpan;
-      else
-        span_tiles(&samples.position[i * dim_], a, b, true, tiles);
-    }
-    detail::for_each_item(ctx, 2, [&](std::size_t h) {
-      FeatureList& out = h == 0 ? static_cast<FeatureList&>(sc) : sc.second;
-      clear(out);
-      for (std::size_t i = h * ns / 2; i < (h + 1) * ns / 2; ++i) {
-        const std::int32_t* tiles = &sc.sample_tiles[i * 8];
-        std::int64_t a[3], b[3];
-        if (tiles[0] == kNoSpan || !span(i, a, b)) continue;
-        list(out, i, a, b, tiles);
-      }
-    });
-    const FeatureList& s2 = sc.second;
-    const auto nf = static_cast<std::uint32_t>(sc.kernel.size());
-    const auto nr = static_cast<std::uint32_t>(sc.runs.size() / 2);
-    sc.kernel.insert(sc.kernel.end(), s2.kernel.begin(), s2.kernel.end());
-    sc.phi.insert(sc.phi.end(), s2.phi.begin(), s2.phi.end());
-    sc.lin.insert(sc.lin.end(), s2.lin.begin(), s2.lin.end());
-    sc.yc.insert(sc.yc.end(), s2.yc.begin(), s2.yc.end());
-    sc.w.insert(sc.w.end(), s2.w.begin(), s2.w.end());
-    for (std::size_t k = 1; k < s2.start.size(); ++k) sc.start.push_back(s2.start[k] + nf);
-    for (std::size_t k = 1; k < s2.run_start.size(); ++k)
-      sc.run_start.push_back(s2.run_start[k] + nr);
-    for (std::size_t k = 0; k < s2.runs.size(); k += 2)
-      sc.runs.insert(sc.runs.end(), {s2.runs[k] + nf, s2.runs[k + 1]});
+    return;
   }
-  const std::size_t n = sc.yc.size();
-  stats_.samples = n;
-  if (n == 0) return;
+  // The tiles first, on this thread; then the features of each half of the samples into its
+  // own list, the second appended to the first: the lists of one pass over the samples.
+  constexpr std::int32_t kNoSpan = -2;
+  sc.sample_tiles.resize(ns * 8);
+  for (std::size_t i = 0; i < ns; ++i) {
+    std::int32_t* tiles = &sc.sample_tiles[i * 8];
+    std::int64_t a[3], b[3];
+    if (!span(i, a, b))
+      tiles[0] = kNoSpan;
+    else
+      span_tiles(&samples.position[i * dim_], a, b, true, tiles);
+  }
+  detail::for_each_item(ctx, 2, [&](std::size_t h) {
+    FeatureList& out = h == 0 ? static_cast<FeatureList&>(sc) : sc.second;
+    clear(out);
+    for (std::size_t i = h * ns / 2; i < (h + 1) * ns / 2; ++i) {
+      const std::int32_t* tiles = &sc.sample_tiles[i * 8];
+      std::int64_t a[3], b[3];
+      if (tiles[0] == kNoSpan || !span(i, a, b)) continue;
+      list(out, i, a, b, tiles);
+    }
+  });
+  const FeatureList& s2 = sc.second;
+  const auto nf = static_cast<std::uint32_t>(sc.kernel.size());
+  const auto nr = static_cast<std::uint32_t>(sc.runs.size() / 2);
+  sc.kernel.insert(sc.kernel.end(), s2.kernel.begin(), s2.kernel.end());
+  sc.phi.insert(sc.phi.end(), s2.phi.begin(), s2.phi.end());
+  sc.lin.insert(sc.lin.end(), s2.lin.begin(), s2.lin.end());
+  sc.yc.insert(sc.yc.end(), s2.yc.begin(), s2.yc.end());
+  sc.w.insert(sc.w.end(), s2.w.begin(), s2.w.end());
+  for (std::size_t k = 1; k < s2.start.size(); ++k) sc.start.push_back(s2.start[k] + nf);
+  for (std::size_t k = 1; k < s2.run_start.size(); ++k)
+    sc.run_start.push_back(s2.run_start[k] + nr);
+  for (std::size_t k = 0; k < s2.runs.size(); k += 2)
+    sc.runs.insert(sc.runs.end(), {s2.runs[k] + nf, s2.runs[k + 1]});
+}
 
-  // Rows to solve: the kernels the scan reaches, grown by the margin (stored kernels only: an
-  // unstored one couples to nothing and stays at its prior mean 0).
+void JointBhm::reach_rows(Scratch& sc) {
+  // Rows to solve: the kernels the scan reaches (in the order the features first reach them),
+  // grown by the margin (stored kernels only: an unstored one couples to nothing and stays at
+  // its prior mean 0).
   std::vector<std::uint32_t>& reached = sc.reached;
   reached.clear();
   for (std::uint32_t k : sc.kernel)
@@ -1119,12 +1131,45 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
         yield_seed(k, true);
         mark_dirty(k);
       }
+}
 
+double JointBhm::prepare_solve(Scratch& sc) {
+  // The bias row's products with the kernels outside the rows, whose means and couplings the
+  // scan leaves as they are: once, not once a solve (a pass over every stored kernel). Then
+  // the box of the solves (the rows are those of every EM iteration): box_rows() says whether
+  // it took them.
+  double bias_outside = 0;
+  if (o_.bias) {
+    for (std::uint32_t k : sc.rows) mark_[k] = 1;
+    for (std::size_t a = 0; a < mean_.size(); ++a)
+      if (!mark_[a]) bias_outside += bcoup_[a] * mean_[a];
+    for (std::uint32_t k : sc.rows) mark_[k] = 0;
+  }
+  return bias_outside;
+}
+
+void JointBhm::update_on_host(const LabelledPoints& samples, Context* ctx) {
+  // The update runs some fifty short parts on the helper, with host work between them.
+  const detail::HelperHold hold(ctx);
+  Scratch& sc = scratch_;
+  list_features(samples, ctx);
+  const std::size_t n = sc.yc.size();
+  stats_.samples = n;
+  if (n == 0) return;
+  reach_rows(sc);
   for (std::size_t i = 0; i < n; ++i) {
     for (std::uint32_t u = sc.start[i]; u < sc.start[i + 1]; ++u)
       eta_[sc.kernel[u]] += sc.yc[i] * sc.phi[u];
     if (o_.bias) etab_ += sc.yc[i];
   }
+  const double bias_outside = prepare_solve(sc);
+  em_on_host(bias_outside, box_rows(sc.rows, sc), ctx);
+}
+
+void JointBhm::em_on_host(double bias_outside, bool boxed, Context* ctx) {
+  Scratch& sc = scratch_;
+  const std::size_t n = sc.yc.size();
+  const auto hs = static_cast<std::size_t>(half_slots_);
   // xi from the posterior before this scan; variances by the diagonal of the precision (a lower
   // bound of the marginal ones, cheap, and enough for the bound's curvature).
   // (Sample i's mean logit phi_i . x is kept in sc.mu: the carried residual below needs it.)
@@ -1138,20 +1183,10 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
     sc.mu[i] = mu;
     return std::sqrt(mu * mu + s2);
   };
-  // The box of the solves (the rows are those of every EM iteration), and its two parts: each
-  // row's part in mark_ (zero again at the end), and each sample's parts (the parts of its
-  // features' kernels: every one is a row). Each part adds the products to its own rows of P,
-  // each in the order of the samples, so the precision is the same whoever runs which part.
-  // The bias row's products with the kernels outside the rows, whose means and couplings the
-  // scan leaves as they are: once, not once a solve (a pass over every stored kernel).
-  double bias_outside = 0;
-  if (o_.bias) {
-    for (std::uint32_t k : rows) mark_[k] = 1;
-    for (std::size_t a = 0; a < mean_.size(); ++a)
-      if (!mark_[a]) bias_outside += bcoup_[a] * mean_[a];
-    for (std::uint32_t k : rows) mark_[k] = 0;
-  }
-  const bool boxed = box_rows(rows, sc);
+  // The box's two parts: each row's part in mark_ (zero again at the end), and each sample's
+  // parts (the parts of its features' kernels: every one is a row). Each part adds the
+  // products to its own rows of P, each in the order of the samples, so the precision is the
+  // same whoever runs which part.
   std::vector<std::uint8_t>& parts = sc.sample_parts;
   parts.assign(n, 1);
   if (boxed && ctx) {  // (alone, the outer products take every sample in one pass)
@@ -1202,7 +1237,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
           sc.r[sc.kernel[u]] -= cs * sc.phi[u];
         if (o_.bias) sc.rb -= cs;
       }
-      stats_.residual = solve(rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
+      stats_.residual = solve(sc.rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
                               &stats_.cg_iterations, sc, true, ctx, &bias_outside, carry);
     }
   } catch (...) {

@@ -99,6 +99,7 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
   }
   const auto t1 = std::chrono::steady_clock::now();
   learner_.update(train, ctx);
+  st.sums_on_device = learner_.last_stats().sums_on_device;
   const double radius = o_.retire_radius < 0 ? o_.range_cut + 16 : o_.retire_radius;
   const auto at = keyframe.origin();
   st.retired = learner_.retire_far(at.data(), radius);

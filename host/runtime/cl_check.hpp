@@ -29,11 +29,32 @@ inline void cl_check(cl_int status, const char* where) {
   if (status != CL_SUCCESS) throw OpenCLError(status, where);
 }
 
+/// A struct passed to a kernel by value (its bytes as the argument; the kernel's struct must
+/// have the same layout).
+template <class T>
+struct ByValue {
+  const T& value;
+};
+template <class T>
+ByValue<T> by_value(const T& value) {
+  return {value};
+}
+
 /// Sets argument `index` of kernel `k` (named `name` in the error).
 template <class T>
 void set_kernel_arg(boost::compute::kernel& k, const char* name, cl_uint index, const T& value) {
   try {
     k.set_arg(index, value);
+  } catch (const boost::compute::opencl_error& e) {
+    throw OpenCLError(e.error_code(),
+                      std::string("clSetKernelArg(") + name + ", " + std::to_string(index) + ")");
+  }
+}
+template <class T>
+void set_kernel_arg(boost::compute::kernel& k, const char* name, cl_uint index,
+                    const ByValue<T>& arg) {
+  try {
+    k.set_arg(index, sizeof(T), &arg.value);
   } catch (const boost::compute::opencl_error& e) {
     throw OpenCLError(e.error_code(),
                       std::string("clSetKernelArg(") + name + ", " + std::to_string(index) + ")");

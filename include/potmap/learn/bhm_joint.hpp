@@ -44,12 +44,25 @@
 // restores the private state (Mapper::save_state).
 namespace potmap::detail {
 struct JointBhmState;
-}
+struct JointDeviceScan;
+}  // namespace potmap::detail
 
 POTMAP_CXX_API_BEGIN
 namespace potmap {
 
 class Context;
+
+/// Where update() lists a scan's features and adds its sums (the precision's outer products,
+/// eta, the bias's couplings, each EM round's bound) when it is given a Context.
+enum class JointBhmSums {
+  /// On the context's device when it is a GPU with doubles (cl_khr_fp64), else on the host:
+  /// on a CPU device the host's loops, vectorised along runs of cells and split over the
+  /// context's two host threads, are faster than the same sums through OpenCL (the device
+  /// path also copies each round's precision rows back to the host, where the solve runs).
+  automatic,
+  host,    ///< on the host (the reference the device path is tested against)
+  device,  ///< on the device whatever its type (it needs cl_khr_fp64; the host otherwise)
+};
 
 struct JointBhmOptions {
   /// Grid spacing of the kernels, metres (default 0.5: the hinge spacing of the BHM authors'
@@ -109,6 +122,10 @@ struct JointBhmOptions {
   /// holds its half precision stencil: 1 + (m - 1) / 2 doubles, m the grid points within
   /// 2 sqrt(tau / gamma) of a kernel (23 in 2D, 126 in 3D at the defaults), and 4 more.
   std::size_t max_kernels = std::size_t(1) << 26;
+  /// Where the sums run (default automatic: a GPU's device, else the host; see JointBhmSums).
+  /// Either way the posterior is the same up to the rounding of sums taken in another order
+  /// (relative 1e-12 in the tests).
+  JointBhmSums sums = JointBhmSums::automatic;
 };
 
 /// Counters of the last update() (for tests, benchmarks and progress).
@@ -117,6 +134,7 @@ struct JointBhmStats {
   std::size_t active = 0;         ///< kernels solved for
   std::size_t cg_iterations = 0;  ///< summed over the EM iterations
   double residual = 0;            ///< relative residual at the end of the last solve
+  bool sums_on_device = false;    ///< the features and sums ran on the context's device
 };
 
 /// The online learner. Not thread-safe (map() fills a cache; two threads may not call even
@@ -139,8 +157,9 @@ class JointBhm {
   ///
   /// `ctx` (default null: this thread alone): the update's host work is split in two parts that
   /// run on the calling thread and the context's host helper (Context::host_parallel_for); the
-  /// context's device is not used. The parts are the same with or without a context, so the
-  /// result is the same bit for bit either way.
+  /// parts are the same with or without a context, so the result is the same bit for bit
+  /// either way. Where options.sums puts them on the device, the scan's features and sums run
+  /// on ctx's device (kernels/learn/bhm_joint_sums.cl) and the solve on the host.
   void update(const LabelledPoints& samples, Context* ctx = nullptr);
 
   /// Adds the samples of every scan index in increasing order, one update() per scan.
@@ -248,6 +267,7 @@ class JointBhm {
     std::vector<std::uint32_t> part_rows[2], part_around[2];
     std::vector<std::int64_t> part_at[2], part_around_at[2];
     std::vector<std::uint8_t> sample_parts;  // update(): per sample, bit p: a feature in part p
+    std::vector<std::uint32_t> row_of;       // update_on_device(): per reached kernel, its row
     std::int64_t box_lo[3] = {0, 0, 0}, box_n[3] = {1, 1, 1};
     std::int64_t box_split = 0, box_reach = 1;
     bool boxed = false;  // box_rows() accepted the rows
@@ -270,6 +290,8 @@ class JointBhm {
   // two an axis, indexed ((tz - ta_z) * 2 + ty - ta_y) * 2 + tx - ta_x from the span's first
   // tile), and emit(kernel, cell, phi) for each kernel within the cut-off, in raster order.
   bool feature_span(const double* x, std::int64_t a[3], std::int64_t b[3]) const;
+  // feature_span() of a sample, false too where a coordinate is not finite.
+  bool sample_span(const double* x, std::int64_t a[3], std::int64_t b[3]) const;
   void span_tiles(const double* x, const std::int64_t a[3], const std::int64_t b[3], bool create,
                   std::int32_t tile_id[8]);
   template <class Emit>
@@ -281,6 +303,19 @@ class JointBhm {
   // pbb_); `part` >= 0: only the rows of the kernels of that part of the box (mark_ holds each
   // row's part during update()).
   void add_outer(const Scratch& f, std::size_t i, double c, int part);
+  // update()'s parts: the input's checks; the scan's features listed on the host (into the
+  // scratch); the kernels they reach and the rows of the solve (seeds in them yield); the
+  // bias's products with the kernels outside the rows, and the rows' box; the EM rounds on the
+  // host. update_on_device() (bhm_joint_device.cpp) lists and sums on the device instead.
+  void check_samples(const LabelledPoints& samples) const;
+  void list_features(const LabelledPoints& samples, Context* ctx);
+  void reach_rows(Scratch& sc);
+  double prepare_solve(Scratch& sc);
+  void update_on_host(const LabelledPoints& samples, Context* ctx);
+  void em_on_host(double bias_outside, bool boxed, Context* ctx);
+  void update_on_device(const LabelledPoints& samples, Context& ctx);
+  void list_on_device(const LabelledPoints& samples, detail::JointDeviceScan& dev);
+  void apply_device_round(detail::JointDeviceScan& dev, int round);
   // Returns seeded kernel k, which no sample has reached, to its prior (its mean to 0 too
   // with `with_mean`).
   void yield_seed(std::uint32_t k, bool with_mean);

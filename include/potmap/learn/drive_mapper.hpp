@@ -102,6 +102,7 @@ struct KeyframeStats {
   std::size_t held_out = 0;      ///< held-out samples kept
   double label_ms = 0;           ///< cut, labelling and gathering
   bool on_device = false;        ///< the samples were gathered on the device (gather_keyframe)
+  bool sums_on_device = false;   ///< the learner's features and sums ran on the device
   double update_ms = 0;          ///< the learner's update and the retiring of tiles left
   double transfer_ms = 0;        ///< RePOT's transfer and seeding (0 without a dictionary)
   std::size_t seeded = 0;        ///< kernels RePOT seeded
