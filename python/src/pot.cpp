@@ -54,11 +54,10 @@ std::vector<Scan> scans_arg(py::handle scans) {
   return scans.cast<std::vector<Scan>>();
 }
 
-}  // namespace
+using release = py::call_guard<py::gil_scoped_release>;
 
-void bind_pot(py::module_& m) {
-  using release = py::call_guard<py::gil_scoped_release>;
-
+// SectorOptions, Sector and Atom: how scans are cut, and the atoms cut from them.
+void bind_pot_sectors(py::module_& m) {
   py::class_<SectorOptions> sec(m, "SectorOptions", "How scans are cut into sectors.");
   sec.def(py::init([](const py::kwargs& kw) {
        return options_from<SectorOptions>(kw, "SectorOptions");
@@ -91,7 +90,10 @@ void bind_pot(py::module_& m) {
       .def_readonly("kernels", &Atom::kernels, "KernelMap, positions (h - centre) * scale")
       .def_readonly("scan_index", &Atom::scan_index)
       .def_readonly("source", &Atom::source, "provenance text");
+}
 
+// DictionaryOptions, Dictionary, and building, reading and writing one.
+void bind_pot_dictionary(py::module_& m) {
   py::class_<DictionaryOptions> dopt(m, "DictionaryOptions", "How build_dictionary() proceeds.");
   dopt.def(py::init([](const py::kwargs& kw) {
         return options_from<DictionaryOptions>(kw, "DictionaryOptions");
@@ -152,7 +154,10 @@ void bind_pot(py::module_& m) {
       "(kernels_at_samples=0 m, max_weight_variance=1000, ...).");
   m.def("read_dictionary", &read_dictionary, "path"_a, release());
   m.def("write_dictionary", &write_dictionary, "dictionary"_a, "path"_a, release());
+}
 
+// PotOptions: how one scan is transferred.
+void bind_pot_options(py::module_& m) {
   py::class_<PotOptions> pot(m, "PotOptions",
                              "Transfer settings (SPEC section 4); the defaults are the authors'.");
   pot.def(py::init([](const py::kwargs& kw) { return options_from<PotOptions>(kw, "PotOptions"); }))
@@ -219,7 +224,10 @@ void bind_pot(py::module_& m) {
       .def_readwrite("refine_joint", &PotOptions::refine_joint, "joint E-step (True)")
       .def_readwrite("seed", &PotOptions::seed, "subsampling seed (0)");
   add_fields_repr(pot);
+}
 
+// OverallMapOptions and MapperOptions: how a Mapper merges and maps.
+void bind_pot_mapper_options(py::module_& m) {
   py::class_<OverallMapOptions> oopt(m, "OverallMapOptions", "Merging of POT's overall map.");
   oopt.def(py::init([](const py::kwargs& kw) {
         return options_from<OverallMapOptions>(kw, "OverallMapOptions");
@@ -266,7 +274,10 @@ void bind_pot(py::module_& m) {
                      "RePOT's persistent update in two parts on the context's host helper, the "
                      "same map either way (False: slower on a 2-core virtual machine)");
   add_fields_repr(mopt);
+}
 
+// transfer_scan() and what it reports.
+void bind_pot_transfer(py::module_& m) {
   py::class_<SectorTransfer>(m, "SectorTransfer", "What happened to one target sector.")
       .def_readonly("sector", &SectorTransfer::sector)
       .def_readonly("target_hits", &SectorTransfer::target_hits)
@@ -314,7 +325,11 @@ void bind_pot(py::module_& m) {
       "options"_a = py::none(),
       "Transfers one scan's training samples (LabelledPoints, world frame) seen from sensor\n"
       "(metres) with heading (radians). ctx None: the CPU reference. Returns a ScanTransfer.");
+}
 
+// OverallMap, and MappedScan: one scan's instantaneous map and what it did to the
+// overall map.
+void bind_pot_overall_map(py::module_& m) {
   py::class_<OverallMap>(m, "OverallMap", "POT's overall map: instantaneous maps merged.")
       .def(py::init([](int dim, const py::kwargs& kw) {
              return OverallMap(dim, options_from<OverallMapOptions>(kw, "OverallMap"));
@@ -350,7 +365,10 @@ void bind_pot(py::module_& m) {
                std::to_string(s.scan.transfer.map.size()) + " kernels, " +
                std::to_string(s.scan.transfer.timing.total_ms()) + " ms>";
       });
+}
 
+// The Mapper, under its lock.
+void bind_pot_mapper(py::module_& m) {
   py::class_<LockedMapper>(
       m, "Mapper",
       "Incremental POT / RePOT mapping: add_scan() maps one scan and adds it to the\n"
@@ -432,6 +450,18 @@ void bind_pot(py::module_& m) {
           "Restores a state written by save_state(). InputError (naming the file) for a\n"
           "missing, truncated or corrupt file, or a state of another dictionary or other\n"
           "options; the mapper is unchanged then.");
+}
+
+}  // namespace
+
+void bind_pot(py::module_& m) {
+  bind_pot_sectors(m);
+  bind_pot_dictionary(m);
+  bind_pot_options(m);
+  bind_pot_mapper_options(m);
+  bind_pot_transfer(m);
+  bind_pot_overall_map(m);
+  bind_pot_mapper(m);
 }
 
 }  // namespace potmap::python
