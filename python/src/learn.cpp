@@ -66,9 +66,8 @@ BhmOptions bhm_options(const py::kwargs& kw) {
   return options_from<BhmOptions>(kw, "BhmOptions");
 }
 
-}  // namespace
-
-void bind_learn(py::module_& m) {
+// The diagonal BHM: its options, a grid prior and an update.
+void bind_learn_bhm(py::module_& m) {
   py::class_<BhmOptions> bhm_opt(m, "BhmOptions", "EM settings of a BHM update.");
   bhm_opt
       .def(py::init([](const py::kwargs& kw) { return bhm_options(kw); }),
@@ -114,7 +113,10 @@ void bind_learn(py::module_& m) {
       "sums (default None: the double-precision CPU reference). sequential: scan by scan in\n"
       "increasing scan index, each posterior the next prior (online BHM). Keyword arguments:\n"
       "BhmOptions fields (em_iterations=3, xi_init=1, tau=18).");
+}
 
+// JointBhmOptions and JointBhmStats: how the joint BHM learns and what it reports.
+void bind_learn_joint_bhm_options(py::module_& m) {
   py::class_<JointBhmOptions> jopt(m, "JointBhmOptions", "Settings of the online joint BHM.");
   jopt.def(py::init([](const py::kwargs& kw) {
         return options_from<JointBhmOptions>(kw, "JointBhmOptions");
@@ -151,7 +153,10 @@ void bind_learn(py::module_& m) {
       .def_readonly("active", &JointBhmStats::active, "kernels solved for")
       .def_readonly("cg_iterations", &JointBhmStats::cg_iterations)
       .def_readonly("residual", &JointBhmStats::residual);
+}
 
+// The online joint BHM, under its lock.
+void bind_learn_joint_bhm(py::module_& m) {
   py::class_<PyJointBhm>(
       m, "JointBhm",
       "Online Bayesian Hilbert map with the joint posterior: overlapping grid\n"
@@ -213,8 +218,10 @@ void bind_learn(py::module_& m) {
       .def_property_readonly("gamma", unlocked(&JointBhm::gamma), "kernel width, 1/m^2")
       .def_property_readonly("options", unlocked(&JointBhm::options))
       .def_property_readonly("last_stats", unlocked(&JointBhm::last_stats));
+}
 
-  // ABHM.
+// AbhmPrior and AbhmParams: ABHM's model.
+void bind_learn_abhm_params(py::module_& m) {
   py::class_<AbhmPrior> prior(m, "AbhmPrior", "Priors of ABHM (SPEC section 3).");
   prior.def(py::init([](const py::kwargs& kw) { return options_from<AbhmPrior>(kw, "AbhmPrior"); }))
       .def_readwrite("w_sd", &AbhmPrior::w_sd, "sd of the weights' Normal prior (default 900)")
@@ -255,7 +262,10 @@ void bind_learn(py::module_& m) {
           "v"_a)
       .def("to_map", &AbhmParams::to_map, "mean_gamma"_a = false,
            "The KernelMap of q's means (gamma the LogNormal's median; mean_gamma: its mean).");
+}
 
+// ABHM's starting kernels, parameter files and training.
+void bind_learn_abhm_training(py::module_& m) {
   m.def(
       "abhm_init_grid",
       [](const std::vector<double>& lo, const std::vector<double>& hi, double spacing,
@@ -324,6 +334,16 @@ void bind_learn(py::module_& m) {
       "mc_samples: noise draws per step (1); prior: AbhmPrior (default its defaults);\n"
       "progress: callable(step, elbo) every report_every steps (100); checkpoint: file written\n"
       "every checkpoint_every steps (500) and read to resume; max_steps_this_call: 0 no limit.");
+}
+
+}  // namespace
+
+void bind_learn(py::module_& m) {
+  bind_learn_bhm(m);
+  bind_learn_joint_bhm_options(m);
+  bind_learn_joint_bhm(m);
+  bind_learn_abhm_params(m);
+  bind_learn_abhm_training(m);
 }
 
 }  // namespace potmap::python
