@@ -78,11 +78,10 @@ LabelOptions label_options(double free_per_metre, double holdout, std::uint64_t 
   return o;
 }
 
-}  // namespace
+using release = py::call_guard<py::gil_scoped_release>;
 
-void bind_data(py::module_& m) {
-  using release = py::call_guard<py::gil_scoped_release>;
-
+// LabelledPoints and Scan.
+void bind_data_scans(py::module_& m) {
   py::class_<LabelledPoints>(m, "LabelledPoints",
                              "Positions with an occupancy label (1 = hit, 0 = free) and the scan\n"
                              "index each came from. Array properties return copies.")
@@ -142,7 +141,10 @@ void bind_data(py::module_& m) {
         return "<potmap.Scan " + std::to_string(s.dim) + "D, " + std::to_string(s.num_hits()) +
                " hits, " + std::to_string(s.num_no_return()) + " no-returns>";
       });
+}
 
+// The dataset readers and what they return.
+void bind_data_readers(py::module_& m) {
   py::class_<ReadStats>(m, "ReadStats", "What a reader saw besides the scans.")
       .def_readonly("lines_skipped", &ReadStats::lines_skipped)
       .def_readonly("points_dropped", &ReadStats::points_dropped, "NaN or Inf points dropped");
@@ -188,7 +190,10 @@ void bind_data(py::module_& m) {
   m.def("slice_2d", &slice_2d, "scan"_a, "z_min"_a = -0.1, "z_max"_a = 0.1,
         "The 2D slice of a 3D scan: points whose height above the sensor is in [z_min, z_max]\n"
         "metres (default +-0.1), projected on the ground plane.");
+}
 
+// Labelling and the train / held-out split of scans.
+void bind_data_labelling(py::module_& m) {
   py::class_<LabelledSplit>(m, "LabelledSplit", "Training and held-out samples of scans.")
       .def_readonly("train", &LabelledSplit::train, "LabelledPoints of the kept beams")
       .def_readonly("test", &LabelledSplit::test, "LabelledPoints of the held-out beams")
@@ -233,7 +238,10 @@ void bind_data(py::module_& m) {
       "scan"_a, "index"_a = 0, "holdout"_a = 0.2, "seed"_a = 0, "held_out"_a = false,
       "The scan with only its training beams (or, held_out=True, only its held-out beams)\n"
       "under label()'s split.");
+}
 
+// The town simulator.
+void bind_data_simulator(py::module_& m) {
   py::class_<Town>(m, "Town", "A procedural town for the LIDAR simulator (metres).")
       .def_static("builtin", &Town::builtin, "name"_a, "seed"_a = 0,
                   "'town1' (regular terraces), 'town2' (large L-shaped blocks, leafy) or 'town3'\n"
@@ -281,6 +289,15 @@ void bind_data(py::module_& m) {
       "Drives a seeded route through town and scans at every stop: scans (default 100),\n"
       "spacing metres between scans (1), max_range metres (20), step_deg degrees between\n"
       "beams (1), three_d for a 16-ring sensor, moving_vehicles other cars, seed the route.");
+}
+
+}  // namespace
+
+void bind_data(py::module_& m) {
+  bind_data_scans(m);
+  bind_data_readers(m);
+  bind_data_labelling(m);
+  bind_data_simulator(m);
 }
 
 }  // namespace potmap::python
