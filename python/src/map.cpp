@@ -143,11 +143,62 @@ Scores score_any(py::handle prob, py::handle labels) {
   return score(p, l);
 }
 
-}  // namespace
+// The evaluations of a KernelMap: on a device, exactly on the CPU, and on a raster window.
+void define_kernel_map_evaluation(py::class_<KernelMap>& kernel_map) {
+  kernel_map
+      .def(
+          "evaluate",
+          [](KernelMap k, py::handle points, Context& ctx, double tau) {
+            std::unique_ptr<Evaluator> ev;
+            {
+              py::gil_scoped_release release;
+              ev = std::make_unique<Evaluator>(ctx, k, tau);
+            }
+            return evaluate_points(*ev, points);
+          },
+          "points"_a, "ctx"_a, "tau"_a = kDefaultCutoffTau,
+          "Probability, mean and variance (float32 arrays of n) at points ((n, dim) float64 or\n"
+          "float32, metres) on the device of ctx. tau: cut-off exponent (default 18: terms with\n"
+          "gamma d^2 > 18 are dropped, each below 1.5e-8 of its weight). Uploads the map on\n"
+          "every call: use Evaluator for repeated queries.")
+      .def(
+          "evaluate_exact",
+          [](KernelMap k, py::handle points) {
+            Points p = points_arg(points, k.dim, "points");
+            MapValuesExact v;
+            {
+              py::gil_scoped_release release;
+              k.validate();
+              v = evaluate_exact(k, p.data, p.n);
+            }
+            auto n = static_cast<py::ssize_t>(p.n);
+            return Values{to_array(v.prob, {n}), to_array(v.mean, {n}), to_array(v.var, {n})};
+          },
+          "points"_a,
+          "The exact reference: a dense double-precision sum over every kernel (no cut-off),\n"
+          "on the CPU. Probability, mean and variance as float64 arrays of n.")
+      .def(
+          "raster",
+          [](KernelMap k, const std::vector<double>& bounds, double res, Context& ctx, double z,
+             double tau) {
+            std::unique_ptr<Evaluator> ev;
+            {
+              py::gil_scoped_release release;
+              ev = std::make_unique<Evaluator>(ctx, k, tau);
+            }
+            return raster_values(*ev, bounds, res, z);
+          },
+          "bounds"_a, "res"_a, "ctx"_a, "z"_a = 0.0, "tau"_a = kDefaultCutoffTau,
+          "Probability, mean and variance on the window bounds = (xmin, xmax, ymin, ymax)\n"
+          "(metres) with cells res metres wide: float32 arrays of shape (height, width),\n"
+          "row 0 the top (largest y), as `potmap raster` writes its .npy files (show with\n"
+          "imshow(origin='upper')). Cell (r, c) is centred at x = xmin + (c + 0.5) res,\n"
+          "y = ymin + (height - 1 - r + 0.5) res; width = ceil((xmax - xmin) / res).\n"
+          "z: height of the slice of a 3D map, metres (default 0).");
+}
 
-void bind_map(py::module_& m) {
-  bind_values(m);
-
+// KernelMap: kernels read and assigned as whole arrays.
+void bind_kernel_map(py::module_& m) {
   py::class_<KernelMap> kernel_map(
       m, "KernelMap",
       "A continuous occupancy map: M squared-exponential kernels with Gaussian\n"
@@ -206,61 +257,16 @@ void bind_map(py::module_& m) {
             return py::make_tuple(std::vector<double>(lo, lo + k.dim),
                                   std::vector<double>(hi, hi + k.dim));
           },
-          "(lo, hi): axis-aligned bounds of the kernel positions, metres (zeros when empty).")
-      .def(
-          "evaluate",
-          [](KernelMap k, py::handle points, Context& ctx, double tau) {
-            std::unique_ptr<Evaluator> ev;
-            {
-              py::gil_scoped_release release;
-              ev = std::make_unique<Evaluator>(ctx, k, tau);
-            }
-            return evaluate_points(*ev, points);
-          },
-          "points"_a, "ctx"_a, "tau"_a = kDefaultCutoffTau,
-          "Probability, mean and variance (float32 arrays of n) at points ((n, dim) float64 or\n"
-          "float32, metres) on the device of ctx. tau: cut-off exponent (default 18: terms with\n"
-          "gamma d^2 > 18 are dropped, each below 1.5e-8 of its weight). Uploads the map on\n"
-          "every call: use Evaluator for repeated queries.")
-      .def(
-          "evaluate_exact",
-          [](KernelMap k, py::handle points) {
-            Points p = points_arg(points, k.dim, "points");
-            MapValuesExact v;
-            {
-              py::gil_scoped_release release;
-              k.validate();
-              v = evaluate_exact(k, p.data, p.n);
-            }
-            auto n = static_cast<py::ssize_t>(p.n);
-            return Values{to_array(v.prob, {n}), to_array(v.mean, {n}), to_array(v.var, {n})};
-          },
-          "points"_a,
-          "The exact reference: a dense double-precision sum over every kernel (no cut-off),\n"
-          "on the CPU. Probability, mean and variance as float64 arrays of n.")
-      .def(
-          "raster",
-          [](KernelMap k, const std::vector<double>& bounds, double res, Context& ctx, double z,
-             double tau) {
-            std::unique_ptr<Evaluator> ev;
-            {
-              py::gil_scoped_release release;
-              ev = std::make_unique<Evaluator>(ctx, k, tau);
-            }
-            return raster_values(*ev, bounds, res, z);
-          },
-          "bounds"_a, "res"_a, "ctx"_a, "z"_a = 0.0, "tau"_a = kDefaultCutoffTau,
-          "Probability, mean and variance on the window bounds = (xmin, xmax, ymin, ymax)\n"
-          "(metres) with cells res metres wide: float32 arrays of shape (height, width),\n"
-          "row 0 the top (largest y), as `potmap raster` writes its .npy files (show with\n"
-          "imshow(origin='upper')). Cell (r, c) is centred at x = xmin + (c + 0.5) res,\n"
-          "y = ymin + (height - 1 - r + 0.5) res; width = ceil((xmax - xmin) / res).\n"
-          "z: height of the slice of a 3D map, metres (default 0).");
+          "(lo, hi): axis-aligned bounds of the kernel positions, metres (zeros when empty).");
+  define_kernel_map_evaluation(kernel_map);
 
   kernel_property(kernel_map, "gamma", &KernelMap::gamma, "(M,) kernel widths, 1/m^2");
   kernel_property(kernel_map, "w_mean", &KernelMap::w_mean, "(M,) weight means");
   kernel_property(kernel_map, "w_var", &KernelMap::w_var, "(M,) weight variances");
+}
 
+// Evaluator, and rasterize() to files.
+void bind_map_evaluator(py::module_& m) {
   py::class_<Evaluator>(m, "Evaluator",
                         "A map uploaded once to a device, evaluated any number of times.\n"
                         "Keeps its Context alive. Threads sharing one take turns.")
@@ -313,7 +319,10 @@ void bind_map(py::module_& m) {
       "in bands of at most band_cells cells (default 4 Mi, about 80 MB). Files appear only when\n"
       "all are complete. Returns a dict: width, height, cells, bands, seconds, prob_min/max,\n"
       "var_min/max, files.");
+}
 
+// The probit probability and the scores of predictions.
+void bind_map_scores(py::module_& m) {
   m.def("probit_probability", &probit_probability, "mean"_a, "var"_a,
         "sigmoid(mean / sqrt(1 + pi var / 8)).");
 
@@ -331,7 +340,10 @@ void bind_map(py::module_& m) {
         "1 occupied, 0 free; bool or integer): ACC (p >= 0.5 counts as occupied), AUC\n"
         "(Mann-Whitney, ties one half) and mean NLL (p clipped to [1e-6, 1 - 1e-6]). Empty\n"
         "input: NaN. ArgumentError for NaN or out-of-range probabilities.");
+}
 
+// The built-in synthetic scene.
+void bind_map_synthetic(py::module_& m) {
   py::class_<SyntheticScene>(m, "SyntheticScene", "A built-in 2D yard with a hand-fitted map.")
       .def_readonly("map", &SyntheticScene::map, "the KernelMap")
       .def_readonly("test", &SyntheticScene::test, "labelled test points (LabelledPoints)")
@@ -343,6 +355,17 @@ void bind_map(py::module_& m) {
         "test_points"_a = 2000,
         "A deterministic scene: kernels spacing metres apart (default 0.5), test_points\n"
         "labelled points (default 2000), seed for the obstacles and points (default 1).");
+}
+
+}  // namespace
+
+void bind_map(py::module_& m) {
+  bind_values(m);
+
+  bind_kernel_map(m);
+  bind_map_evaluator(m);
+  bind_map_scores(m);
+  bind_map_synthetic(m);
 }
 
 }  // namespace potmap::python
