@@ -22,12 +22,8 @@ std::vector<Scan> scan_list(py::handle scans) {
   return scans.cast<std::vector<Scan>>();
 }
 
-}  // namespace
-
-void bind_experiments(py::module_& m) {
-  py::module_ e =
-      m.def_submodule("experiment", "The paper's comparisons (Sec. IV): tasks and methods.");
-
+// MapTask and making one from scans.
+void bind_experiment_tasks(py::module_& e) {
   py::class_<ex::MapTask>(e, "MapTask",
                           "What a method may learn from (never the held-out samples).")
       .def_readonly("dim", &ex::MapTask::dim)
@@ -72,7 +68,10 @@ void bind_experiments(py::module_& m) {
       "the transfer methods.");
   e.def("limit_range", &ex::limit_range, "scan"_a, "max_range"_a,
         "The scan with returns beyond max_range metres turned into no-returns.");
+}
 
+// FittedMap and Method: what a method learns, and the method itself.
+void bind_experiment_method_types(py::module_& e) {
   py::class_<ex::FittedMap>(e, "FittedMap", "A learned map as the evaluation sees it.")
       .def(
           "query",
@@ -112,7 +111,10 @@ void bind_experiments(py::module_& m) {
           },
           "ctx"_a, "task"_a, py::keep_alive<0, 2>(),
           "Learns a map from the task (ctx None: CPU references where the method has them).");
+}
 
+// BhmSetup, AbhmSetup and PotSetup: the methods' settings.
+void bind_experiment_setups(py::module_& e) {
   py::class_<ex::BhmSetup> bhm(e, "BhmSetup", "BHM settings of the experiments.");
   bhm.def(py::init([](const py::kwargs& kw) { return options_from<ex::BhmSetup>(kw, "BhmSetup"); }))
       .def_readwrite("joint", &ex::BhmSetup::joint, "joint posterior (True) or diagonal")
@@ -149,7 +151,10 @@ void bind_experiments(py::module_& m) {
       .def_readwrite("overall", &ex::PotSetup::overall, "OverallMapOptions")
       .def_readwrite("pipeline", &ex::PotSetup::pipeline, "(True)");
   add_fields_repr(potset);
+}
 
+// The methods, and scoring and drawing what they learn.
+void bind_experiment_methods(py::module_& e) {
   e.def("ogm_method", &ex::ogm_method, "resolution"_a, "OctoMap occupancy grid, cells in metres.");
   e.def(
       "bhm_method",
@@ -201,6 +206,18 @@ void bind_experiments(py::module_& m) {
       "PREFIX_prob.png, PREFIX_var.png, PREFIX_kernels.png of a fitted map of dimension dim (0: "
       "its kernels', else 2; a 3D map at the height halfway between lo and hi); returns the "
       "files.");
+}
+
+}  // namespace
+
+void bind_experiments(py::module_& m) {
+  py::module_ e =
+      m.def_submodule("experiment", "The paper's comparisons (Sec. IV): tasks and methods.");
+
+  bind_experiment_tasks(e);
+  bind_experiment_method_types(e);
+  bind_experiment_setups(e);
+  bind_experiment_methods(e);
 }
 
 }  // namespace potmap::python
