@@ -47,9 +47,8 @@ std::vector<SinkhornResult> run_batch(const SinkhornBatch& b, Context& ctx, cons
   return copy.run(ctx, o);
 }
 
-}  // namespace
-
-void bind_ot(py::module_& m) {
+// SinkhornProblem, built from NumPy arrays.
+void bind_ot_problem(py::module_& m) {
   py::class_<SinkhornProblem> prob(
       m, "SinkhornProblem",
       "One entropic OT problem between point sets (rows of n x dim).\n"
@@ -97,7 +96,10 @@ void bind_ot(py::module_& m) {
             p.extra_points = matrix_arg(v, static_cast<int>(p.source.cols()), "extra_points");
           },
           "(k, dim) points sent through the out-of-sample map");
+}
 
+// SinkhornOptions: how a batch is solved.
+void bind_ot_options(py::module_& m) {
   py::class_<SinkhornOptions> opt(m, "SinkhornOptions",
                                   "How a batch is solved (defaults suit PoCL).");
   opt.def(py::init([](const py::kwargs& kw) {
@@ -118,7 +120,10 @@ void bind_ot(py::module_& m) {
       .def_readwrite("work_group", &SinkhornOptions::work_group,
                      "work-items per problem (0: device default)");
   add_fields_repr(opt);
+}
 
+// SinkhornResult: what one problem came to.
+void bind_ot_result(py::module_& m) {
   py::class_<SinkhornResult>(m, "SinkhornResult", "What one problem came to.")
       .def_readonly("cost", &SinkhornResult::cost, "<P, C> with the cost used")
       .def_readonly("iterations", &SinkhornResult::iterations)
@@ -137,7 +142,10 @@ void bind_ot(py::module_& m) {
                ", marginal_error=" + std::to_string(r.marginal_error) +
                ", converged=" + (r.converged ? "True" : "False") + ")";
       });
+}
 
+// SinkhornBatch: problems solved in one launch.
+void bind_ot_batch(py::module_& m) {
   py::class_<SinkhornBatch>(m, "SinkhornBatch",
                             "Independent OT problems solved in one device launch.")
       .def(py::init<>())
@@ -158,7 +166,10 @@ void bind_ot(py::module_& m) {
       .def("run", &run_batch, "ctx"_a,
            "Solves every problem on ctx's device (GIL released); results in problem order.\n"
            "Keyword arguments: SinkhornOptions fields (want_coupling, want_barycentric, ...).");
+}
 
+// sinkhorn() over lists of arrays, the CPU reference, the cost and the out-of-sample map.
+void bind_ot_functions(py::module_& m) {
   m.def(
       "sinkhorn",
       [](Context& ctx, const py::list& sources, const py::list& targets, py::object options,
@@ -195,6 +206,16 @@ void bind_ot(py::module_& m) {
       "problem"_a, "barycentric"_a, "points"_a,
       "SPEC step 4's map: each row h of points goes to T_k + R (h - x_k), x_k the nearest source "
       "sample.");
+}
+
+}  // namespace
+
+void bind_ot(py::module_& m) {
+  bind_ot_problem(m);
+  bind_ot_options(m);
+  bind_ot_result(m);
+  bind_ot_batch(m);
+  bind_ot_functions(m);
 }
 
 }  // namespace potmap::python
