@@ -91,42 +91,167 @@ bool AveragedMap::set_slot(const std::int64_t c[3], std::uint32_t slot) {
   return true;
 }
 
-POTMAP_WIDER_VECTORS void AveragedMap::add(const KernelMap& inst) {
-  if (inst.dim != dim_)
-    throw ArgumentError("AveragedMap::add: a " + std::to_string(inst.dim) + "D map added to a " +
-                        std::to_string(dim_) + "D map");
-  inst.validate("AveragedMap::add");
-  if (inst.empty()) return;
-  const int d = dim_;
-  const double h = opt_.spacing;
-  const double gmin = *std::min_element(inst.gamma.begin(), inst.gamma.end());
-  const double reach = std::sqrt(kCut / gmin);
-  const std::int64_t span = static_cast<std::int64_t>(std::ceil(reach / h));
+namespace {
 
-  // A dense box of cells over the scan's footprint (plus the solve's stencil around it): the
-  // sums and sweeps below index it directly instead of hashing every neighbour.
+// Two doubles at a time (GCC's and Clang's vector extension: SSE2 on x86-64, NEON on arm64,
+// without naming an instruction set).
+typedef double Pair __attribute__((vector_size(16)));
+
+inline Pair load(const double* p) {
+  Pair v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// The weights' Gram matrix on the grid as a stencil over the dense box: on the grid Phi
+// depends on the offset and the width only, so one table per width serves every anchor, and
+// the stencil is walked over dense copies of the box (contiguous loads, no per-neighbour lists).
+//  - Phi is even, so each run of the stencil along x is paired with its mirror image through
+//    the centre and the pair summed before one multiply; runs are padded with a zero entry to
+//    whole pairs of doubles, so a dot has half the multiplies and no scalar tails.
+//  - The centre's own row is summed apart, one double at a time and its nearest cells last:
+//    the sweep has just written the cell before, and its weight is the one term that waits
+//    for the last update, so it enters after the rest of the sum (a pair load over the fresh
+//    store would also wait for the store to reach the cache).
+class Stencil {
+ public:
+  // ws: the stencil's radius in cells; n: the box's cells along each axis.
+  Stencil(std::int64_t ws, const std::int64_t n[3], int d, double h) : ws_(ws), h_(h) {
+    for (std::int64_t dz = 0; dz <= (d == 3 ? ws : 0); ++dz)
+      for (std::int64_t dy = dz == 0 ? 1 : -ws; dy <= ws; ++dy) {
+        const std::int64_t q = dy * dy + dz * dz;
+        if (q > ws * ws) continue;
+        const auto hx = std::int64_t(std::floor(std::sqrt(double(ws * ws - q))));
+        runs_.push_back({-hx + n[0] * (dy + n[1] * dz), -hx - n[0] * (dy + n[1] * dz), q2_.size(),
+                         std::size_t(2 * hx + 2)});
+        for (std::int64_t dx = -hx; dx <= hx; ++dx) q2_.push_back(dx * dx + q);
+        q2_.push_back(-1);
+      }
+    gram.resize(q2_.size());
+    gram2.resize(q2_.size());
+    row.assign(std::size_t(std::max<std::int64_t>(ws, 1) + 1), 0.0);
+    row2 = row;
+  }
+
+  // Fills the tables for kernels of this width.
+  void set_gamma(double gamma) {
+    // An anchor's width is an average of equal widths, equal to the last up to rounding: a
+    // table rebuilt for every ulp cost more than the sweeps. 1e-9 relative changes a weight by
+    // less than 1e-8 of itself.
+    if (std::abs(gamma - gamma_) <= 1e-9 * gamma) return;
+    for (std::size_t e = 0; e < q2_.size(); ++e) {
+      gram[e] = q2_[e] < 0 ? 0.0 : std::exp(-gamma * h_ * h_ * double(q2_[e]));
+      gram2[e] = gram[e] * gram[e];
+    }
+    for (std::int64_t k = 1; k <= ws_; ++k) {
+      row[std::size_t(k)] = std::exp(-gamma * h_ * h_ * double(k * k));
+      row2[std::size_t(k)] = row[std::size_t(k)] * row[std::size_t(k)];
+    }
+    gamma_ = gamma;
+  }
+
+  // The sum over the runs of box[i + offset] * wt: two pairs of partial sums, so that the adds
+  // do not wait on each other.
+  double runs_dot(const double* box, std::size_t i, const std::vector<double>& wt) const {
+    Pair s0 = {0, 0}, s1 = {0, 0};
+    for (const Run& run : runs_) {
+      const double* b = box + std::int64_t(i) + run.offset;
+      const double* m = box + std::int64_t(i) + run.mirror;
+      const double* w = wt.data() + run.first;
+      std::size_t e = 0;
+      for (; e + 4 <= run.length; e += 4) {
+        s0 += (load(b + e) + load(m + e)) * load(w + e);
+        s1 += (load(b + e + 2) + load(m + e + 2)) * load(w + e + 2);
+      }
+      if (e < run.length) s0 += (load(b + e) + load(m + e)) * load(w + e);
+    }
+    const Pair s = s0 + s1;
+    return s[0] + s[1];
+  }
+
+  // The centre row's sum from ws cells out in to 2 (the caller adds the nearest two, last).
+  double row_dot(const double* box, std::size_t i, const std::vector<double>& wt) const {
+    double r = 0;
+    for (std::int64_t k = ws_; k >= 2; --k) r += wt[std::size_t(k)] * (box[i - k] + box[i + k]);
+    return r;
+  }
+
+  // The sums over the runs of has[i + offset] * gram and * gram2, in one pass.
+  void runs_partition(const double* has, std::size_t i, double& p_sum, double& p2_sum) const {
+    Pair p = {0, 0}, p2 = {0, 0};
+    for (const Run& run : runs_) {
+      const double* b = has + std::int64_t(i) + run.offset;
+      const double* m = has + std::int64_t(i) + run.mirror;
+      for (std::size_t e = 0; e < run.length; e += 2) {
+        const Pair both = load(b + e) + load(m + e);
+        p += both * load(gram.data() + run.first + e);
+        p2 += both * load(gram2.data() + run.first + e);
+      }
+    }
+    p_sum = p[0] + p[1];
+    p2_sum = p2[0] + p2[1];
+  }
+
+  // Gram entries of the runs and their squares; row[k], row2[k]: the centre row's at k cells
+  // (k from 1 to ws; row[1] is 0 when ws is).
+  std::vector<double> gram, gram2, row, row2;
+
+ private:
+  struct Run {
+    std::int64_t offset;  // box offset of the run's first cell from the centre cell
+    std::int64_t mirror;  // its mirror image's first cell
+    std::size_t first;    // its first entry in the weights
+    std::size_t length;   // 2 hx + 1 cells and one entry of padding
+  };
+  std::int64_t ws_;
+  double h_;
+  double gamma_ = -1;
+  std::vector<Run> runs_;         // the rows off the centre's, one of each mirrored pair
+  std::vector<std::int64_t> q2_;  // squared grid distance of each entry, -1 for padding
+};
+
+}  // namespace
+
+// A dense box of cells over the scan's footprint (plus the solve's stencil around it): the
+// sums and sweeps index it directly instead of hashing every neighbour.
+struct AveragedMap::Box {
+  double gmin;        // the scan's narrowest kernel's width
+  std::int64_t span;  // cells a kernel reaches along an axis
   std::int64_t lo[3] = {0, 0, 0}, n[3] = {1, 1, 1};
+  std::size_t cells;
+};
+
+AveragedMap::Box AveragedMap::footprint(const KernelMap& inst) const {
+  const int d = dim_;
+  Box box;
+  box.gmin = *std::min_element(inst.gamma.begin(), inst.gamma.end());
+  const double reach = std::sqrt(kCut / box.gmin);
+  box.span = static_cast<std::int64_t>(std::ceil(reach / opt_.spacing));
   for (int a = 0; a < d; ++a) {
     double mn = HUGE_VAL, mx = -HUGE_VAL;
     for (std::size_t k = 0; k < inst.size(); ++k) {
       mn = std::min(mn, inst.position[k * d + a]);
       mx = std::max(mx, inst.position[k * d + a]);
     }
-    lo[a] = cell(mn) - 2 * span;
-    n[a] = cell(mx) + 2 * span - lo[a] + 1;
+    box.lo[a] = cell(mn) - 2 * box.span;
+    box.n[a] = cell(mx) + 2 * box.span - box.lo[a] + 1;
   }
-  const std::size_t cells = std::size_t(n[0] * n[1] * n[2]);
+  box.cells = std::size_t(box.n[0] * box.n[1] * box.n[2]);
+  return box;
+}
 
-  // The scan's logit, variance and support at every cell centre within reach of its kernels,
-  // scattered kernel by kernel (each touches only its own neighbourhood of cells).
+POTMAP_WIDER_VECTORS void AveragedMap::scatter(const KernelMap& inst, const Box& box) {
+  const int d = dim_;
+  const double h = opt_.spacing;
+  const std::int64_t span = box.span;
+  const std::int64_t *lo = box.lo, *n = box.n;
   Workspace& work = ws_;
-  work.m.assign(cells, 0);
-  work.v.assign(cells, 0);
-  work.sup.assign(cells, 0);
-  work.sg.assign(cells, 0);
+  work.m.assign(box.cells, 0);
+  work.v.assign(box.cells, 0);
+  work.sup.assign(box.cells, 0);
+  work.sg.assign(box.cells, 0);
   std::vector<double>&m = work.m, &v = work.v, &sup = work.sup, &sg = work.sg;
   const std::int64_t zs = d == 3 ? span : 0;
-  double x[3] = {0, 0, 0};
   // On the grid a Gaussian is the product of one factor an axis, and along an axis each factor
   // is the last times a ratio that itself shrinks by exp(-2 g h^2) a cell: 3 d + 1 exponentials
   // a kernel instead of 2 span + 1 an axis (the product drifts by a few ulp over a span). The
@@ -190,6 +315,16 @@ POTMAP_WIDER_VECTORS void AveragedMap::add(const KernelMap& inst) {
       }
     }
   }
+}
+
+POTMAP_WIDER_VECTORS void AveragedMap::place_anchors(const Box& box) {
+  const int d = dim_;
+  const double h = opt_.spacing;
+  const std::int64_t *lo = box.lo, *n = box.n;
+  const std::size_t cells = box.cells;
+  Workspace& work = ws_;
+  const std::vector<double>&m = work.m, &v = work.v, &sup = work.sup, &sg = work.sg;
+  double x[3] = {0, 0, 0};
   // Every cell's anchor over the box (-1: none), read a block row at a time.
   work.slot.resize(cells);
   std::vector<std::int64_t>& slot = work.slot;
@@ -230,91 +365,22 @@ POTMAP_WIDER_VECTORS void AveragedMap::add(const KernelMap& inst) {
     map_.gamma[a] = sum_sg_[a] / sum_s_[a];
     active.push_back(i);
   }
+}
 
-  // Weights: Gauss-Seidel on (Phi + ridge I) w = v over the footprint, neighbours outside it
-  // held. On the grid Phi depends on the offset and the width only; the row's own width stands
-  // for its neighbours' (equal wherever the atoms share one width, as BHM atoms do). The
-  // stencil (offsets within the solve's cut) is walked over dense copies of the box's weights
-  // (0 where no anchor) and of where anchors are: contiguous loads, no per-neighbour lists.
-  //  - Phi is even, so each run of the stencil along x is paired with its mirror image through
-  //    the centre and the pair summed before one multiply; runs are padded with a zero entry to
-  //    whole pairs of doubles, so a dot has half the multiplies and no scalar tails.
-  //  - The centre's own row is summed apart, one double at a time and its nearest cells last:
-  //    the sweep has just written the cell before, and its weight is the one term that waits
-  //    for the last update, so it enters after the rest of the sum (a pair load over the fresh
-  //    store would also wait for the store to reach the cache).
-  const std::int64_t ws =
-      std::min<std::int64_t>(span, std::int64_t(std::floor(std::sqrt(kSolveCut / (gmin * h * h)))));
-  struct Run {
-    std::int64_t offset;  // box offset of the run's first cell from the centre cell
-    std::int64_t mirror;  // its mirror image's first cell
-    std::size_t first;    // its first entry in the weights
-    std::size_t length;   // 2 hx + 1 cells and one entry of padding
-  };
-  std::vector<Run> runs;         // the rows off the centre's, one of each mirrored pair
-  std::vector<std::int64_t> q2;  // squared grid distance of each entry, -1 for padding
-  for (std::int64_t dz = 0; dz <= (d == 3 ? ws : 0); ++dz)
-    for (std::int64_t dy = dz == 0 ? 1 : -ws; dy <= ws; ++dy) {
-      const std::int64_t q = dy * dy + dz * dz;
-      if (q > ws * ws) continue;
-      const auto hx = std::int64_t(std::floor(std::sqrt(double(ws * ws - q))));
-      runs.push_back({-hx + n[0] * (dy + n[1] * dz), -hx - n[0] * (dy + n[1] * dz), q2.size(),
-                      std::size_t(2 * hx + 2)});
-      for (std::int64_t dx = -hx; dx <= hx; ++dx) q2.push_back(dx * dx + q);
-      q2.push_back(-1);
-    }
-  // Gram entries of the runs and their squares; row[k], row2[k]: the centre row's at k cells
-  // (k from 1 to ws; row[1] is 0 when ws is).
-  std::vector<double> gram(q2.size()), gram2(q2.size());
-  std::vector<double> row(std::size_t(std::max<std::int64_t>(ws, 1) + 1), 0.0), row2(row);
-  double table_gamma = -1;
-  auto weights_of = [&](double gamma) {
-    // An anchor's width is an average of equal widths, equal to the last up to rounding: a
-    // table rebuilt for every ulp cost more than the sweeps. 1e-9 relative changes a weight by
-    // less than 1e-8 of itself.
-    if (std::abs(gamma - table_gamma) <= 1e-9 * gamma) return;
-    for (std::size_t e = 0; e < q2.size(); ++e) {
-      gram[e] = q2[e] < 0 ? 0.0 : std::exp(-gamma * h * h * double(q2[e]));
-      gram2[e] = gram[e] * gram[e];
-    }
-    for (std::int64_t k = 1; k <= ws; ++k) {
-      row[std::size_t(k)] = std::exp(-gamma * h * h * double(k * k));
-      row2[std::size_t(k)] = row[std::size_t(k)] * row[std::size_t(k)];
-    }
-    table_gamma = gamma;
-  };
-  // Two doubles at a time (GCC's and Clang's vector extension: SSE2 on x86-64, NEON on arm64,
-  // without naming an instruction set).
-  typedef double Pair __attribute__((vector_size(16)));
-  const auto load = [](const double* p) {
-    Pair v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-  };
-  // The sum over the runs of box[i + offset] * wt: two pairs of partial sums, so that the adds
-  // do not wait on each other.
-  auto runs_dot = [&](const double* box, std::size_t i, const std::vector<double>& wt) {
-    Pair s0 = {0, 0}, s1 = {0, 0};
-    for (const Run& run : runs) {
-      const double* b = box + std::int64_t(i) + run.offset;
-      const double* m = box + std::int64_t(i) + run.mirror;
-      const double* w = wt.data() + run.first;
-      std::size_t e = 0;
-      for (; e + 4 <= run.length; e += 4) {
-        s0 += (load(b + e) + load(m + e)) * load(w + e);
-        s1 += (load(b + e + 2) + load(m + e + 2)) * load(w + e + 2);
-      }
-      if (e < run.length) s0 += (load(b + e) + load(m + e)) * load(w + e);
-    }
-    const Pair s = s0 + s1;
-    return s[0] + s[1];
-  };
-  // The centre row's sum from ws cells out in to 2 (the caller adds the nearest two, last).
-  auto row_dot = [&](const double* box, std::size_t i, const std::vector<double>& wt) {
-    double r = 0;
-    for (std::int64_t k = ws; k >= 2; --k) r += wt[std::size_t(k)] * (box[i - k] + box[i + k]);
-    return r;
-  };
+// Weights: Gauss-Seidel on (Phi + ridge I) w = v over the footprint, neighbours outside it
+// held. The row's own width stands for its neighbours' in Phi (equal wherever the atoms share
+// one width, as BHM atoms do).
+POTMAP_WIDER_VECTORS void AveragedMap::solve_weights(const Box& box) {
+  const double h = opt_.spacing;
+  const std::size_t cells = box.cells;
+  Workspace& work = ws_;
+  const std::vector<std::int64_t>& slot = work.slot;
+  const std::vector<std::size_t>& active = work.active;
+  std::vector<double>& change = work.change;
+  const std::int64_t ws = std::min<std::int64_t>(
+      box.span, std::int64_t(std::floor(std::sqrt(kSolveCut / (box.gmin * h * h)))));
+  Stencil stencil(ws, box.n, dim_, h);
+  const std::vector<double>&row = stencil.row, &row2 = stencil.row2;
   // The box arrays end in two zeros: a run's padding may read one cell past the last.
   work.has.resize(cells + 2);
   work.w.resize(cells + 2);
@@ -328,20 +394,12 @@ POTMAP_WIDER_VECTORS void AveragedMap::add(const KernelMap& inst) {
   std::vector<double>&part = work.part, &s2 = work.s2;
   for (std::size_t t = 0; t < active.size(); ++t) {
     const std::size_t i = active[t];
-    weights_of(map_.gamma[std::size_t(slot[i])]);
-    Pair p = {0, 0}, p2 = {0, 0};
-    for (const Run& run : runs) {
-      const double* b = has.data() + std::int64_t(i) + run.offset;
-      const double* m = has.data() + std::int64_t(i) + run.mirror;
-      for (std::size_t e = 0; e < run.length; e += 2) {
-        const Pair both = load(b + e) + load(m + e);
-        p += both * load(gram.data() + run.first + e);
-        p2 += both * load(gram2.data() + run.first + e);
-      }
-    }
+    stencil.set_gamma(map_.gamma[std::size_t(slot[i])]);
+    double p, p2;
+    stencil.runs_partition(has.data(), i, p, p2);
     const double near = has[i - 1] + has[i + 1];
-    part[t] = 1.0 + (p[0] + p[1]) + row_dot(has.data(), i, row) + row[1] * near;
-    s2[t] = 1.0 + (p2[0] + p2[1]) + row_dot(has.data(), i, row2) + row2[1] * near;
+    part[t] = 1.0 + p + stencil.row_dot(has.data(), i, row) + row[1] * near;
+    s2[t] = 1.0 + p2 + stencil.row_dot(has.data(), i, row2) + row2[1] * near;
   }
   // Start the sweeps from the weights moved by each average's change over its partition (the
   // Nadaraya-Watson step): Gauss-Seidel alone removes smooth errors slowly, and a scan's change
@@ -359,9 +417,10 @@ POTMAP_WIDER_VECTORS void AveragedMap::add(const KernelMap& inst) {
   for (int sweep = 0; sweep < opt_.sweeps; ++sweep)
     for (std::size_t t = 0; t < active.size(); ++t) {
       const std::size_t i = active[t];
-      weights_of(map_.gamma[std::size_t(slot[i])]);
+      stencil.set_gamma(map_.gamma[std::size_t(slot[i])]);
       const double va = target[t];
-      const double rest = va - (runs_dot(wbox.data(), i, gram) + row_dot(wbox.data(), i, row));
+      const double rest = va - (stencil.runs_dot(wbox.data(), i, stencil.gram) +
+                                stencil.row_dot(wbox.data(), i, row));
       const double r = rest - row[1] * (wbox[i - 1] + wbox[i + 1]);
       // Projected onto the average's sign: a weight of the other sign would only cancel its
       // neighbours' tails, and past the last anchors it rings into space no scan saw.
@@ -374,6 +433,18 @@ POTMAP_WIDER_VECTORS void AveragedMap::add(const KernelMap& inst) {
     const std::size_t a = std::size_t(slot[active[t]]);
     map_.w_var[a] = sum_sv_[a] / sum_s_[a] / s2[t];
   }
+}
+
+void AveragedMap::add(const KernelMap& inst) {
+  if (inst.dim != dim_)
+    throw ArgumentError("AveragedMap::add: a " + std::to_string(inst.dim) + "D map added to a " +
+                        std::to_string(dim_) + "D map");
+  inst.validate("AveragedMap::add");
+  if (inst.empty()) return;
+  const Box box = footprint(inst);
+  scatter(inst, box);
+  place_anchors(box);
+  solve_weights(box);
 }
 
 std::size_t AveragedMap::memory_bytes() const {

@@ -74,6 +74,15 @@ class AveragedMap {
   void slots_along_x(const std::int64_t c[3], std::size_t count, std::int64_t* out) const;
   /// Makes `slot` the anchor of cell c; false (and nothing changed) when c has one already.
   bool set_slot(const std::int64_t c[3], std::uint32_t slot);
+  // The steps of add(), over the box of cells the scan reaches (defined in averaged_map.cpp).
+  struct Box;
+  Box footprint(const KernelMap& instantaneous) const;
+  /// The scan's logit, variance and support sums at every cell of the box into ws_.
+  void scatter(const KernelMap& instantaneous, const Box& box);
+  /// Anchors where the scan's support is enough, and their running sums updated.
+  void place_anchors(const Box& box);
+  /// The anchors' weights and variances solved over the box.
+  void solve_weights(const Box& box);
 
   int dim_;
   AveragedMapOptions opt_;
