@@ -154,6 +154,172 @@ void average_halves(const float* in, std::size_t w, std::size_t h, float* out) {
     }
 }
 
+// The staging GTiff, empty: tiled, uncompressed, georeferenced, its bands named.
+Dataset create_staging(const std::string& path, const GeoTiffSpec& spec, const std::string& staging,
+                       const std::string& wkt) {
+  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
+  Options o;
+  o.set("TILED", "YES")
+      .set("BLOCKXSIZE", std::to_string(spec.block))
+      .set("BLOCKYSIZE", std::to_string(spec.block))
+      .set("COMPRESS", "NONE")
+      .set("INTERLEAVE", "BAND")
+      .set("BIGTIFF", "IF_SAFER");
+  const int nb = static_cast<int>(spec.band_names.size());
+  Dataset ds(GDALCreate(gtiff, staging.c_str(), static_cast<int>(spec.width),
+                        static_cast<int>(spec.height), nb, GDT_Float32, o.get()));
+  if (!ds) fail(path, "cannot create the staging file " + staging);
+  double gt[6] = {spec.left, spec.pixel, 0, spec.top, 0, -spec.pixel};
+  GDALSetGeoTransform(ds.get(), gt);
+  GDALSetProjection(ds.get(), wkt.c_str());
+  for (const auto& [k, v] : spec.metadata)
+    GDALSetMetadataItem(ds.get(), k.c_str(), v.c_str(), nullptr);
+  for (int b = 0; b < nb; ++b) {
+    GDALRasterBandH band = GDALGetRasterBand(ds.get(), b + 1);
+    GDALSetDescription(band, spec.band_names[b].c_str());
+    GDALSetRasterNoDataValue(band, std::nan(""));
+  }
+  return ds;
+}
+
+// The overviews live in the uncompressed staging file, where the COG driver takes them as they
+// are (OVERVIEWS=AUTO); left to it, it would compute them into a compressed temporary file of
+// its own and compress them again into the COG. Levels as the COG driver picks them: halve
+// until both sides fit in one block. Their directories are made first, empty ("NONE"), so that
+// the first level is written from each block while it is in memory rather than read back from
+// the whole image (0.8 s of a 5.5 s job at 64 M cells). Returns the levels' factors.
+std::vector<int> add_empty_overviews(GDALDatasetH ds, const std::string& path,
+                                     const GeoTiffSpec& spec, const std::string& staging) {
+  std::vector<int> factors;
+  for (int f = 2; spec.overviews; f *= 2) {
+    factors.push_back(f);
+    if ((spec.width + f - 1) / f <= spec.block && (spec.height + f - 1) / f <= spec.block) break;
+  }
+  if (spec.width <= spec.block && spec.height <= spec.block) factors.clear();
+  if (!factors.empty() &&
+      GDALBuildOverviews(ds, "NONE", static_cast<int>(factors.size()), factors.data(), 0, nullptr,
+                         nullptr, nullptr) != CE_None)
+    fail(path, "making the overviews of " + staging);
+  return factors;
+}
+
+// Every block of every band from fill(), with its first overview level when there are
+// overviews.
+void write_staging_blocks(GDALDatasetH ds, const std::string& path, const GeoTiffSpec& spec,
+                          const std::string& staging, const BlockFill& fill, bool overviews,
+                          const std::function<void(double)>& progress) {
+  const int nb = static_cast<int>(spec.band_names.size());
+  std::vector<std::vector<float>> buf(nb, std::vector<float>(spec.block * spec.block));
+  std::vector<float> half((spec.block / 2) * (spec.block / 2));
+  std::vector<float*> ptr(nb);
+  const std::size_t bx = (spec.width + spec.block - 1) / spec.block;
+  const std::size_t by = (spec.height + spec.block - 1) / spec.block;
+  for (std::size_t r = 0; r < by; ++r)
+    for (std::size_t c = 0; c < bx; ++c) {
+      const std::size_t x0 = c * spec.block, y0 = r * spec.block;
+      const std::size_t w = std::min(spec.block, spec.width - x0);
+      const std::size_t h = std::min(spec.block, spec.height - y0);
+      for (int b = 0; b < nb; ++b) ptr[b] = buf[b].data();
+      fill(x0, y0, w, h, ptr);
+      for (int b = 0; b < nb; ++b) {
+        GDALRasterBandH band = GDALGetRasterBand(ds, b + 1);
+        if (GDALRasterIO(band, GF_Write, int(x0), int(y0), int(w), int(h), ptr[b], int(w), int(h),
+                         GDT_Float32, 0, 0) != CE_None)
+          fail(path, "writing block at pixel (" + std::to_string(x0) + ", " + std::to_string(y0) +
+                         ") of " + staging);
+        if (!overviews) continue;
+        const std::size_t hw = (w + 1) / 2, hh = (h + 1) / 2;
+        average_halves(ptr[b], w, h, half.data());
+        if (GDALRasterIO(GDALGetOverview(band, 0), GF_Write, int(x0 / 2), int(y0 / 2), int(hw),
+                         int(hh), half.data(), int(hw), int(hh), GDT_Float32, 0, 0) != CE_None)
+          fail(path, "writing the overview of the block at pixel (" + std::to_string(x0) + ", " +
+                         std::to_string(y0) + ") of " + staging);
+      }
+      if (progress) progress(0.6 * double(r * bx + c + 1) / double(bx * by));
+    }
+}
+
+// The coarser levels from the first (a quarter of the image), each averaged over its cells.
+void regenerate_coarser_overviews(GDALDatasetH ds, const std::string& path, int bands,
+                                  const std::string& staging,
+                                  const std::function<void(double)>& progress) {
+  struct Ctx {
+    const std::function<void(double)>* progress;
+    int band, bands;
+  } pctx{&progress, 0, bands};
+  GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
+    auto* c = static_cast<Ctx*>(arg);
+    if (*c->progress) (*c->progress)(0.6 + 0.1 * (c->band + f) / c->bands);
+    return TRUE;
+  };
+  for (int b = 0; b < bands; ++b) {
+    pctx.band = b;
+    GDALRasterBandH band = GDALGetRasterBand(ds, b + 1);
+    std::vector<GDALRasterBandH> coarser;
+    for (int i = 1; i < GDALGetOverviewCount(band); ++i)
+      coarser.push_back(GDALGetOverview(band, i));
+    if (GDALRegenerateOverviews(GDALGetOverview(band, 0), static_cast<int>(coarser.size()),
+                                coarser.data(), "AVERAGE", pf, &pctx) != CE_None)
+      fail(path, "computing the overviews in " + staging);
+  }
+}
+
+// Stage: a tiled GTiff written block by block, uncompressed: it is read once, right away (from
+// the page cache, as a rule), and float32 maps barely compress, so DEFLATE here would cost a
+// whole pass of compression for little disk. It takes 4 bytes a cell and band on disk until
+// the COG is written.
+void write_staging(const std::string& path, const GeoTiffSpec& spec, const std::string& staging,
+                   const std::string& wkt, const BlockFill& fill,
+                   const std::function<void(double)>& progress) {
+  Dataset ds = create_staging(path, spec, staging, wkt);
+  const std::vector<int> factors = add_empty_overviews(ds.get(), path, spec, staging);
+  write_staging_blocks(ds.get(), path, spec, staging, fill, !factors.empty(), progress);
+  if (factors.size() > 1)
+    regenerate_coarser_overviews(ds.get(), path, static_cast<int>(spec.band_names.size()), staging,
+                                 progress);
+  GDALFlushCache(ds.get());
+  ds.reset();  // closing writes the last blocks: its failure must show below too
+  if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
+}
+
+// The COG layout: overviews and blocks in the order readers expect. Level 1 with the
+// floating-point predictor: float32 maps are mostly mantissa noise to a compressor without it,
+// and higher levels buy a few per cent of size for several times the time
+// (docs/raster-scale.md). Blocks are compressed on every core; GDAL writes them in order, so the
+// file is the same for the same input whatever the thread count (no time stamp either).
+void write_cog_copy(const std::string& path, const GeoTiffSpec& spec, const std::string& staging,
+                    const std::string& final_temp, const std::function<void(double)>& progress) {
+  GDALDriverH cog = GDALGetDriverByName("COG");
+  Dataset src(GDALOpen(staging.c_str(), GA_ReadOnly));
+  if (!src) fail(path, "cannot reopen " + staging);
+  const std::string& compression = spec.compression;
+  Options o;
+  o.set("BLOCKSIZE", std::to_string(spec.block))
+      .set("COMPRESS", compression)
+      .set("NUM_THREADS", "ALL_CPUS")
+      .set("OVERVIEWS", spec.overviews ? "AUTO" : "NONE")
+      .set("RESAMPLING", "AVERAGE")
+      .set("BIGTIFF", "IF_SAFER");
+  if (compression == "ZSTD" || compression == "DEFLATE") o.set("LEVEL", "1");
+  if (compression != "NONE") o.set("PREDICTOR", "YES");
+  struct Ctx {
+    const std::function<void(double)>* progress;
+  } pctx{&progress};
+  GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
+    auto* c = static_cast<Ctx*>(arg);
+    if (*c->progress) (*c->progress)(0.7 + 0.3 * f);
+    return TRUE;
+  };
+  CPLErrorReset();
+  Dataset out(GDALCreateCopy(cog, final_temp.c_str(), src.get(), FALSE, o.get(), pf, &pctx));
+  if (!out) fail(path, "the COG driver could not write " + final_temp);
+  GDALFlushCache(out.get());
+  // GDAL 3.6's GDALClose returns nothing: a write that fails while closing (the last blocks,
+  // the directory) shows only as the last error.
+  out.reset();
+  if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + final_temp);
+}
+
 }  // namespace
 
 void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
@@ -167,147 +333,17 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
                         std::to_string(spec.height) + " pixels, " + std::to_string(nb) +
                         " bands, block " + std::to_string(spec.block) +
                         ": needs pixels, a band and a block that is a multiple of 16");
-  const std::string& compression = spec.compression;
-  check_compression(compression, path);
+  check_compression(spec.compression, path);
   const std::string wkt = crs_wkt(spec.crs, path);
-  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
-  GDALDriverH cog = GDALGetDriverByName("COG");
-  if (!gtiff || !cog) fail(path, "GDAL lacks the GTiff or COG driver");
+  if (!GDALGetDriverByName("GTiff") || !GDALGetDriverByName("COG"))
+    fail(path, "GDAL lacks the GTiff or COG driver");
 
-  // Stage: a tiled GTiff written block by block, uncompressed: it is read once, right away
-  // (from the page cache, as a rule), and float32 maps barely compress, so DEFLATE here would
-  // cost a whole pass of compression for little disk. It takes 4 bytes a cell and band on disk
-  // until the COG is written.
   const std::string staging = temp_name(path, "staging");
   RemoveOnExit remove_staging{staging};
-  {
-    Options o;
-    o.set("TILED", "YES")
-        .set("BLOCKXSIZE", std::to_string(spec.block))
-        .set("BLOCKYSIZE", std::to_string(spec.block))
-        .set("COMPRESS", "NONE")
-        .set("INTERLEAVE", "BAND")
-        .set("BIGTIFF", "IF_SAFER");
-    Dataset ds(GDALCreate(gtiff, staging.c_str(), static_cast<int>(spec.width),
-                          static_cast<int>(spec.height), nb, GDT_Float32, o.get()));
-    if (!ds) fail(path, "cannot create the staging file " + staging);
-    double gt[6] = {spec.left, spec.pixel, 0, spec.top, 0, -spec.pixel};
-    GDALSetGeoTransform(ds.get(), gt);
-    GDALSetProjection(ds.get(), wkt.c_str());
-    for (const auto& [k, v] : spec.metadata)
-      GDALSetMetadataItem(ds.get(), k.c_str(), v.c_str(), nullptr);
-    for (int b = 0; b < nb; ++b) {
-      GDALRasterBandH band = GDALGetRasterBand(ds.get(), b + 1);
-      GDALSetDescription(band, spec.band_names[b].c_str());
-      GDALSetRasterNoDataValue(band, std::nan(""));
-    }
-    // The overviews live in the uncompressed staging file, where the COG driver takes them as
-    // they are (OVERVIEWS=AUTO); left to it, it would compute them into a compressed temporary
-    // file of its own and compress them again into the COG. Levels as the COG driver picks
-    // them: halve until both sides fit in one block. Their directories are made first, empty
-    // ("NONE"), so that the first level is written from each block while it is in memory
-    // rather than read back from the whole image (0.8 s of a 5.5 s job at 64 M cells).
-    std::vector<int> factors;
-    for (int f = 2; spec.overviews; f *= 2) {
-      factors.push_back(f);
-      if ((spec.width + f - 1) / f <= spec.block && (spec.height + f - 1) / f <= spec.block) break;
-    }
-    if (spec.width <= spec.block && spec.height <= spec.block) factors.clear();
-    if (!factors.empty() &&
-        GDALBuildOverviews(ds.get(), "NONE", static_cast<int>(factors.size()), factors.data(), 0,
-                           nullptr, nullptr, nullptr) != CE_None)
-      fail(path, "making the overviews of " + staging);
-    std::vector<std::vector<float>> buf(nb, std::vector<float>(spec.block * spec.block));
-    std::vector<float> half((spec.block / 2) * (spec.block / 2));
-    std::vector<float*> ptr(nb);
-    const std::size_t bx = (spec.width + spec.block - 1) / spec.block;
-    const std::size_t by = (spec.height + spec.block - 1) / spec.block;
-    for (std::size_t r = 0; r < by; ++r)
-      for (std::size_t c = 0; c < bx; ++c) {
-        const std::size_t x0 = c * spec.block, y0 = r * spec.block;
-        const std::size_t w = std::min(spec.block, spec.width - x0);
-        const std::size_t h = std::min(spec.block, spec.height - y0);
-        for (int b = 0; b < nb; ++b) ptr[b] = buf[b].data();
-        fill(x0, y0, w, h, ptr);
-        for (int b = 0; b < nb; ++b) {
-          GDALRasterBandH band = GDALGetRasterBand(ds.get(), b + 1);
-          if (GDALRasterIO(band, GF_Write, int(x0), int(y0), int(w), int(h), ptr[b], int(w), int(h),
-                           GDT_Float32, 0, 0) != CE_None)
-            fail(path, "writing block at pixel (" + std::to_string(x0) + ", " + std::to_string(y0) +
-                           ") of " + staging);
-          if (factors.empty()) continue;
-          const std::size_t hw = (w + 1) / 2, hh = (h + 1) / 2;
-          average_halves(ptr[b], w, h, half.data());
-          if (GDALRasterIO(GDALGetOverview(band, 0), GF_Write, int(x0 / 2), int(y0 / 2), int(hw),
-                           int(hh), half.data(), int(hw), int(hh), GDT_Float32, 0, 0) != CE_None)
-            fail(path, "writing the overview of the block at pixel (" + std::to_string(x0) + ", " +
-                           std::to_string(y0) + ") of " + staging);
-        }
-        if (progress) progress(0.6 * double(r * bx + c + 1) / double(bx * by));
-      }
-    // The coarser levels from the first (a quarter of the image), each averaged over its cells.
-    if (factors.size() > 1) {
-      struct Ctx {
-        const std::function<void(double)>* progress;
-        int band, bands;
-      } pctx{&progress, 0, nb};
-      GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
-        auto* c = static_cast<Ctx*>(arg);
-        if (*c->progress) (*c->progress)(0.6 + 0.1 * (c->band + f) / c->bands);
-        return TRUE;
-      };
-      for (int b = 0; b < nb; ++b) {
-        pctx.band = b;
-        GDALRasterBandH band = GDALGetRasterBand(ds.get(), b + 1);
-        std::vector<GDALRasterBandH> coarser;
-        for (int i = 1; i < GDALGetOverviewCount(band); ++i)
-          coarser.push_back(GDALGetOverview(band, i));
-        if (GDALRegenerateOverviews(GDALGetOverview(band, 0), static_cast<int>(coarser.size()),
-                                    coarser.data(), "AVERAGE", pf, &pctx) != CE_None)
-          fail(path, "computing the overviews in " + staging);
-      }
-    }
-    GDALFlushCache(ds.get());
-    ds.reset();  // closing writes the last blocks: its failure must show below too
-    if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
-  }
-
-  // The COG layout: overviews and blocks in the order readers expect. Level 1 with the
-  // floating-point predictor: float32 maps are mostly mantissa noise to a compressor without
-  // it, and higher levels buy a few per cent of size for several times the time
-  // (docs/raster-scale.md). Blocks are compressed on every core; GDAL writes them in order, so
-  // the file is the same for the same input whatever the thread count (no time stamp either).
+  write_staging(path, spec, staging, wkt, fill, progress);
   const std::string final_temp = temp_name(path, "partial");
   RemoveOnExit remove_partial{final_temp};
-  {
-    Dataset src(GDALOpen(staging.c_str(), GA_ReadOnly));
-    if (!src) fail(path, "cannot reopen " + staging);
-    Options o;
-    o.set("BLOCKSIZE", std::to_string(spec.block))
-        .set("COMPRESS", compression)
-        .set("NUM_THREADS", "ALL_CPUS")
-        .set("OVERVIEWS", spec.overviews ? "AUTO" : "NONE")
-        .set("RESAMPLING", "AVERAGE")
-        .set("BIGTIFF", "IF_SAFER");
-    if (compression == "ZSTD" || compression == "DEFLATE") o.set("LEVEL", "1");
-    if (compression != "NONE") o.set("PREDICTOR", "YES");
-    struct Ctx {
-      const std::function<void(double)>* progress;
-    } pctx{&progress};
-    GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
-      auto* c = static_cast<Ctx*>(arg);
-      if (*c->progress) (*c->progress)(0.7 + 0.3 * f);
-      return TRUE;
-    };
-    CPLErrorReset();
-    Dataset out(GDALCreateCopy(cog, final_temp.c_str(), src.get(), FALSE, o.get(), pf, &pctx));
-    if (!out) fail(path, "the COG driver could not write " + final_temp);
-    GDALFlushCache(out.get());
-    // GDAL 3.6's GDALClose returns nothing: a write that fails while closing (the last blocks,
-    // the directory) shows only as the last error.
-    out.reset();
-    if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + final_temp);
-  }
+  write_cog_copy(path, spec, staging, final_temp, progress);
   sync_file(path, final_temp);
   std::error_code ec;
   std::filesystem::rename(final_temp, path, ec);
