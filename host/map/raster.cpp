@@ -88,6 +88,139 @@ void palette_indices(const float* v, std::size_t n, std::uint8_t* idx) {
   }
 }
 
+// The output files of one rasterize(), open while the bands are written.
+struct RasterFiles {
+  std::unique_ptr<detail::PngWriter> prob_png, var_png;
+  std::unique_ptr<detail::NpyWriter> prob_npy, var_npy;
+
+  RasterFiles(const std::string& out_prefix, std::size_t W, std::size_t H,
+              const RasterOptions& options) {
+    if (options.write_png) {
+      prob_png = std::make_unique<detail::PngWriter>(out_prefix + "_prob.png", W, H,
+                                                     palette(options.prob_colormap));
+      var_png = std::make_unique<detail::PngWriter>(out_prefix + "_var.png", W, H,
+                                                    palette(options.var_colormap));
+    }
+    if (options.write_npy) {
+      prob_npy = std::make_unique<detail::NpyWriter>(out_prefix + "_prob.npy", H, W);
+      var_npy = std::make_unique<detail::NpyWriter>(out_prefix + "_var.npy", H, W);
+    }
+  }
+
+  // Puts the files in place only now that every one is complete and synced: a full disk fails
+  // one of the complete() calls, before any rename, so the previous files all stay as they
+  // were. Should a rename itself then fail (rare: same folder), the files already renamed by
+  // this run are removed, so no mixed set of old and new is left behind. Returns the files.
+  std::vector<std::string> install(const std::string& out_prefix) {
+    if (prob_png) prob_png->complete();
+    if (var_png) var_png->complete();
+    if (prob_npy) prob_npy->complete();
+    if (var_npy) var_npy->complete();
+    std::vector<std::string> done;
+    try {
+      if (prob_png) prob_png->finish(), done.push_back(out_prefix + "_prob.png");
+      if (var_png) var_png->finish(), done.push_back(out_prefix + "_var.png");
+      if (prob_npy) prob_npy->finish(), done.push_back(out_prefix + "_prob.npy");
+      if (var_npy) var_npy->finish(), done.push_back(out_prefix + "_var.npy");
+    } catch (...) {
+      for (const std::string& f : done) std::remove(f.c_str());
+      throw;
+    }
+    return done;
+  }
+};
+
+// One band's rows, top row first, to one quantity's writers; each quantity has its own index
+// row so that probability and variance encode at once.
+void write_rows(const float* band, std::size_t W, std::size_t rows, detail::NpyWriter* npy,
+                detail::PngWriter* png, bool variance, MinMax& stat,
+                std::vector<std::uint8_t>& idx) {
+  idx.resize(W);
+  for (std::size_t j = rows; j-- > 0;) {
+    const float* v = band + j * W;
+    stat.add(v, W);
+    if (npy) npy->write_row(v);
+    if (!png) continue;
+    if (variance)
+      palette_indices<true>(v, W, idx.data());
+    else
+      palette_indices<false>(v, W, idx.data());
+    png->write_row(idx.data());
+  }
+}
+
+// Evaluates the window band by band into the files; returns the number of bands.
+//
+// Bands run top to bottom (image order) but are cut on a lattice of whole 64-row blocks counted
+// from the window's bottom; the evaluator's tiles (RasterTuning::tile: 16, 32 or 64) divide 64,
+// so every band is evaluated by exactly the tiles a single pass would use: the values do not
+// depend on the band size. Encoding and writing band k (two threads: probability and variance)
+// overlap the evaluation of band k + 1; two sets of buffers take turns.
+std::size_t write_bands(MapEvaluator& ev, int dim, const RasterSpec& spec,
+                        const RasterOptions& options, RasterFiles& files, MinMax& pstat,
+                        MinMax& vstat) {
+  const std::size_t W = spec.width(), H = spec.height();
+  const std::size_t band_rows = std::max<std::size_t>(1, options.max_band_cells / W);
+  constexpr std::size_t kTileRows = 64;
+  const std::size_t band = std::max<std::size_t>(kTileRows, band_rows / kTileRows * kTileRows);
+  std::vector<float> var[2], prob[2];
+  std::vector<std::uint8_t> idx_p, idx_v;
+  std::future<void> writing_p, writing_v;
+  auto wait_writers = [&] {
+    // Both are waited for before either error propagates, so no thread outlives its buffers.
+    std::exception_ptr err;
+    for (std::future<void>* f : {&writing_p, &writing_v}) {
+      if (!f->valid()) continue;
+      try {
+        f->get();
+      } catch (...) {
+        if (!err) err = std::current_exception();
+      }
+    }
+    if (err) std::rethrow_exception(err);
+  };
+  std::size_t bands = 0;
+  int slot = 0;
+  std::size_t j_hi = H;  // rows counted from the bottom (y up): image row r is j = H - 1 - r
+  try {
+    while (j_hi > 0) {
+      const std::size_t j_lo = (j_hi - 1) / band * band;
+      GridSpec g;
+      g.dim = dim;
+      g.resolution = spec.resolution;
+      g.origin[0] = spec.xmin;
+      g.origin[1] = spec.ymin + double(j_lo) * spec.resolution;
+      g.origin[2] = spec.z - 0.5 * spec.resolution;  // one layer centred on z (3D maps)
+      g.count[0] = W;
+      g.count[1] = j_hi - j_lo;
+      g.count[2] = 1;
+      const std::size_t n = g.cells(), rows = j_hi - j_lo;
+      var[slot].resize(n);
+      prob[slot].resize(n);
+      ev.evaluate_grid(g, nullptr, var[slot].data(), prob[slot].data());
+      wait_writers();
+      writing_p = std::async(std::launch::async, [&, rows, pr = prob[slot].data()] {
+        write_rows(pr, W, rows, files.prob_npy.get(), files.prob_png.get(), false, pstat, idx_p);
+      });
+      writing_v = std::async(std::launch::async, [&, rows, vr = var[slot].data()] {
+        write_rows(vr, W, rows, files.var_npy.get(), files.var_png.get(), true, vstat, idx_v);
+      });
+      slot ^= 1;
+      ++bands;
+      if (options.progress) options.progress(double(H - j_lo) / double(H));
+      j_hi = j_lo;
+    }
+    wait_writers();
+  } catch (...) {
+    try {
+      wait_writers();
+    } catch (...) {
+    }
+    throw;
+  }
+  return bands;
+}
+
 }  // namespace
 
 std::size_t RasterSpec::width() const {
@@ -122,132 +255,17 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   const auto t0 = std::chrono::steady_clock::now();
   spec.validate();
   if (out_prefix.empty()) throw ArgumentError("raster: empty output prefix");
-  const int dim = map.dim;
   MapEvaluator ev(ctx, map, options.eval);  // validates the map
 
   RasterSummary sum;
-  const std::size_t W = spec.width(), H = spec.height();
-  sum.width = W;
-  sum.height = H;
-  sum.cells = W * H;
-
+  sum.width = spec.width();
+  sum.height = spec.height();
+  sum.cells = sum.width * sum.height;
   // Writers first: an unwritable folder fails before any device work.
-  std::unique_ptr<detail::PngWriter> prob_png, var_png;
-  std::unique_ptr<detail::NpyWriter> prob_npy, var_npy;
-  if (options.write_png) {
-    prob_png = std::make_unique<detail::PngWriter>(out_prefix + "_prob.png", W, H,
-                                                   palette(options.prob_colormap));
-    var_png = std::make_unique<detail::PngWriter>(out_prefix + "_var.png", W, H,
-                                                  palette(options.var_colormap));
-  }
-  if (options.write_npy) {
-    prob_npy = std::make_unique<detail::NpyWriter>(out_prefix + "_prob.npy", H, W);
-    var_npy = std::make_unique<detail::NpyWriter>(out_prefix + "_var.npy", H, W);
-  }
-
-  const std::size_t band_rows = std::max<std::size_t>(1, options.max_band_cells / W);
+  RasterFiles files(out_prefix, sum.width, sum.height, options);
   MinMax pstat, vstat;
-
-  // One band's rows, top row first, to one quantity's writers; each quantity has its own index
-  // row so that probability and variance encode at once.
-  auto write_rows = [W](const float* band, std::size_t rows, detail::NpyWriter* npy,
-                        detail::PngWriter* png, bool variance, MinMax& stat,
-                        std::vector<std::uint8_t>& idx) {
-    idx.resize(W);
-    for (std::size_t j = rows; j-- > 0;) {
-      const float* v = band + j * W;
-      stat.add(v, W);
-      if (npy) npy->write_row(v);
-      if (!png) continue;
-      if (variance)
-        palette_indices<true>(v, W, idx.data());
-      else
-        palette_indices<false>(v, W, idx.data());
-      png->write_row(idx.data());
-    }
-  };
-
-  // Bands run top to bottom (image order) but are cut on a lattice of whole 64-row blocks counted
-  // from the window's bottom; the evaluator's tiles (RasterTuning::tile: 16, 32 or 64) divide 64,
-  // so every band is evaluated by exactly the tiles a single pass would use: the values do not
-  // depend on the band size. Encoding and writing band k (two threads: probability and variance)
-  // overlap the evaluation of band k + 1; two sets of buffers take turns.
-  constexpr std::size_t kTileRows = 64;
-  const std::size_t band = std::max<std::size_t>(kTileRows, band_rows / kTileRows * kTileRows);
-  std::vector<float> var[2], prob[2];
-  std::vector<std::uint8_t> idx_p, idx_v;
-  std::future<void> writing_p, writing_v;
-  auto wait_writers = [&] {
-    // Both are waited for before either error propagates, so no thread outlives its buffers.
-    std::exception_ptr err;
-    for (std::future<void>* f : {&writing_p, &writing_v}) {
-      if (!f->valid()) continue;
-      try {
-        f->get();
-      } catch (...) {
-        if (!err) err = std::current_exception();
-      }
-    }
-    if (err) std::rethrow_exception(err);
-  };
-  int slot = 0;
-  std::size_t j_hi = H;  // rows counted from the bottom (y up): image row r is j = H - 1 - r
-  try {
-    while (j_hi > 0) {
-      const std::size_t j_lo = (j_hi - 1) / band * band;
-      GridSpec g;
-      g.dim = dim;
-      g.resolution = spec.resolution;
-      g.origin[0] = spec.xmin;
-      g.origin[1] = spec.ymin + double(j_lo) * spec.resolution;
-      g.origin[2] = spec.z - 0.5 * spec.resolution;  // one layer centred on z (3D maps)
-      g.count[0] = W;
-      g.count[1] = j_hi - j_lo;
-      g.count[2] = 1;
-      const std::size_t n = g.cells(), rows = j_hi - j_lo;
-      var[slot].resize(n);
-      prob[slot].resize(n);
-      ev.evaluate_grid(g, nullptr, var[slot].data(), prob[slot].data());
-      wait_writers();
-      writing_p = std::async(std::launch::async, [&, rows, pr = prob[slot].data()] {
-        write_rows(pr, rows, prob_npy.get(), prob_png.get(), false, pstat, idx_p);
-      });
-      writing_v = std::async(std::launch::async, [&, rows, vr = var[slot].data()] {
-        write_rows(vr, rows, var_npy.get(), var_png.get(), true, vstat, idx_v);
-      });
-      slot ^= 1;
-      ++sum.bands;
-      if (options.progress) options.progress(double(H - j_lo) / double(H));
-      j_hi = j_lo;
-    }
-    wait_writers();
-  } catch (...) {
-    try {
-      wait_writers();
-    } catch (...) {
-    }
-    throw;
-  }
-
-  // Put the files in place only now that every one is complete and synced: a full disk fails
-  // one of the complete() calls, before any rename, so the previous files all stay as they were.
-  // Should a rename itself then fail (rare: same folder), the files already renamed by this run
-  // are removed, so no mixed set of old and new is left behind.
-  if (prob_png) prob_png->complete();
-  if (var_png) var_png->complete();
-  if (prob_npy) prob_npy->complete();
-  if (var_npy) var_npy->complete();
-  std::vector<std::string> done;
-  try {
-    if (prob_png) prob_png->finish(), done.push_back(out_prefix + "_prob.png");
-    if (var_png) var_png->finish(), done.push_back(out_prefix + "_var.png");
-    if (prob_npy) prob_npy->finish(), done.push_back(out_prefix + "_prob.npy");
-    if (var_npy) var_npy->finish(), done.push_back(out_prefix + "_var.npy");
-  } catch (...) {
-    for (const std::string& f : done) std::remove(f.c_str());
-    throw;
-  }
-  sum.files = done;
+  sum.bands = write_bands(ev, map.dim, spec, options, files, pstat, vstat);
+  sum.files = files.install(out_prefix);
   sum.prob_min = pstat.min();
   sum.prob_max = pstat.max();
   sum.var_min = vstat.min();
