@@ -123,6 +123,145 @@ LabelledPoints scan_training_samples(const MapTask& task, std::size_t i, double 
   return samples_of(task, off[i], off[i + 1], task.train_scans[i].origin(), range);
 }
 
+namespace {
+
+// The dictionary of the task's source places, built once per source_key: the experiments fit
+// several methods and tasks on the same source.
+std::shared_ptr<const Dictionary> source_dictionary(Context* ctx, const MapTask& task,
+                                                    const PotSetup& setup, AtomCache& cache,
+                                                    double& atoms_s) {
+  auto hit =
+      task.source_key.empty() ? cache.dictionaries.end() : cache.dictionaries.find(task.source_key);
+  if (hit != cache.dictionaries.end()) {
+    atoms_s = cache.build_seconds[task.source_key];
+    return hit->second;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  auto dict = std::make_shared<const Dictionary>(build_atoms(ctx, task.source, setup, task.seed));
+  atoms_s = seconds_since(t0);
+  if (!task.source_key.empty()) {
+    cache.dictionaries[task.source_key] = dict;
+    cache.build_seconds[task.source_key] = atoms_s;
+  }
+  return dict;
+}
+
+// The transfer's options for the task. With RePOT's persistent map, also that map (into
+// learner), which then does the refinement in place of the per-scan one.
+PotOptions task_pot_options(const PotSetup& setup, const MapTask& task, const Dictionary& dict,
+                            std::unique_ptr<JointBhm>& learner) {
+  PotOptions po = setup.pot;
+  po.seed = task.seed;
+  if (po.ranking == PotRanking::indexed && !po.index)
+    po.index = std::make_shared<const AtomIndex>(dict);
+  if (po.refine && setup.persistent_refine) {
+    po.refine = false;
+    po.placement = setup.seed_placement;
+    po.displacement_variance = setup.seed_displacement_variance;
+    JointBhmOptions jo = joint_bhm_options(setup.target_bhm);
+    jo.seeds_yield = setup.seeds_yield;
+    jo.seeds_yield_fully = setup.seeds_yield_fully;
+    learner = std::make_unique<JointBhm>(task.dim, task.lo, task.hi, jo);
+  }
+  return po;
+}
+
+// What mapping a task's scans came to.
+struct PotRun {
+  std::shared_ptr<KernelMap> map;
+  PotTiming timing;  // summed over the scans
+  std::size_t sectors = 0, inst_kernels = 0;
+  double combine_ms = 0;
+  double seconds = 0;
+};
+
+// Transfers the task's scans one after another and combines them into the overall map (the
+// persistent learner's when there is one), with the stages of consecutive scans overlapped.
+PotRun map_task_scans(Context* ctx, const MapTask& task, const PotSetup& setup,
+                      const Dictionary& dict, const PotOptions& po, JointBhm* learner,
+                      double range) {
+  const auto off = scan_offsets(task);
+  // warm: the atoms of the last scan finished (PotOptions::warm_candidates).
+  auto prepare = [&](std::size_t i, std::vector<long> warm) {
+    const Scan& s = task.train_scans[i];
+    const auto sensor = s.origin();
+    return prepare_transfer(dict, samples_of(task, off[i], off[i + 1], sensor, range), sensor,
+                            scan_heading(s), task.first_index + std::int64_t(i), po, warm, ctx);
+  };
+
+  const auto t0 = std::chrono::steady_clock::now();
+  OverallMap overall(task.dim, setup.overall);
+  AveragedMap averaged(task.dim, setup.averaged);
+  const bool average = setup.combine == PotSetup::Combine::average;
+  const auto launch = setup.pipeline ? std::launch::async : std::launch::deferred;
+  const std::size_t n = task.train_scans.size();
+  std::vector<long> warm;
+  std::future<PreparedTransfer> next = std::async(launch, prepare, std::size_t{0}, warm);
+  PotRun run;
+  double refine_ms = 0;
+  // What a scan adds to the overall map (RePOT's update, POT's averaged or summed map) runs
+  // beside the next scan's transfer: the transfer never reads the overall map, which takes
+  // the scans in order, so the maps are those of a serial run.
+  std::future<void> merging;
+  auto merge = [&](std::size_t i, KernelMap transported) {
+    const auto c0 = std::chrono::steady_clock::now();
+    if (learner) {
+      learner->seed_unreached(transported, setup.seed_min_variance);
+      learner->update(samples_of(task, off[i], off[i + 1], {0, 0, 0}, 0));
+      refine_ms += 1e3 * seconds_since(c0);
+      return;
+    }
+    if (transported.empty()) return;
+    if (average)
+      averaged.add(transported);
+    else
+      overall.add(transported);
+    run.combine_ms += 1e3 * seconds_since(c0);
+  };
+  auto finish_scan = [&](std::size_t i, ScanTransfer t) {
+    if (setup.on_scan) setup.on_scan(i, t);
+    run.sectors += t.sectors.size();
+    run.inst_kernels += t.map.size();
+    run.timing.prepare_ms += t.timing.prepare_ms;
+    run.timing.ranking_ms += t.timing.ranking_ms;
+    run.timing.transport_ms += t.timing.transport_ms;
+    run.timing.placement_ms += t.timing.placement_ms;
+    run.timing.refine_ms += t.timing.refine_ms;
+    if (merging.valid()) merging.get();
+    merging = std::async(launch, merge, i, std::move(t.map));
+  };
+  // A scan's kernels are placed (host) beside the next scan's ranking and transport (device),
+  // as map_scans() does; not with the per-scan refinement, which uses the device too.
+  const bool overlap = setup.pipeline && !po.refine;
+  std::future<ScanTransfer> placing;
+  for (std::size_t i = 0; i < n; ++i) {
+    PreparedTransfer cur = next.get();
+    if (i + 1 < n) next = std::async(launch, prepare, i + 1, warm);
+    SolvedTransfer solved = solve_transfer(ctx, dict, std::move(cur), po);
+    warm = chosen_atoms(solved);
+    auto place = [ctx, &dict, &po](SolvedTransfer s) {
+      return place_transfer(ctx, dict, std::move(s), po);
+    };
+    if (!overlap) {
+      finish_scan(i, place(std::move(solved)));
+      continue;
+    }
+    std::future<ScanTransfer> placed = std::async(std::launch::async, place, std::move(solved));
+    if (placing.valid()) finish_scan(i - 1, placing.get());
+    placing = std::move(placed);
+  }
+  if (placing.valid()) finish_scan(n - 1, placing.get());
+  if (merging.valid()) merging.get();
+  run.timing.refine_ms += refine_ms;
+  run.seconds = seconds_since(t0);
+  run.map = std::make_shared<KernelMap>(learner   ? learner->map()
+                                        : average ? averaged.map()
+                                                  : overall.map());
+  return run;
+}
+
+}  // namespace
+
 Method pot_method(const PotSetup& setup, const std::string& name,
                   std::shared_ptr<AtomCache> cache) {
   Method m;
@@ -131,132 +270,29 @@ Method pot_method(const PotSetup& setup, const std::string& name,
   if (!cache) cache = std::make_shared<AtomCache>();
   m.fit = [setup, cache](Context* ctx, const MapTask& task) {
     if (task.source.empty()) throw ArgumentError("POT: the task has no source scans");
-    std::shared_ptr<const Dictionary> dict;
     double atoms_s = 0;
-    auto hit = task.source_key.empty() ? cache->dictionaries.end()
-                                       : cache->dictionaries.find(task.source_key);
-    if (hit != cache->dictionaries.end()) {
-      dict = hit->second;
-      atoms_s = cache->build_seconds[task.source_key];
-    } else {
-      const auto t0 = std::chrono::steady_clock::now();
-      dict = std::make_shared<const Dictionary>(build_atoms(ctx, task.source, setup, task.seed));
-      atoms_s = seconds_since(t0);
-      if (!task.source_key.empty()) {
-        cache->dictionaries[task.source_key] = dict;
-        cache->build_seconds[task.source_key] = atoms_s;
-      }
-    }
+    const std::shared_ptr<const Dictionary> dict =
+        source_dictionary(ctx, task, setup, *cache, atoms_s);
     if (dict->empty()) throw InputError("POT: the source gave no atoms");
-
-    PotOptions po = setup.pot;
-    po.seed = task.seed;
-    if (po.ranking == PotRanking::indexed && !po.index)
-      po.index = std::make_shared<const AtomIndex>(*dict);
-    const bool persistent = po.refine && setup.persistent_refine;
     std::unique_ptr<JointBhm> learner;
-    if (persistent) {
-      po.refine = false;  // the persistent map does the refinement
-      po.placement = setup.seed_placement;
-      po.displacement_variance = setup.seed_displacement_variance;
-      JointBhmOptions jo = joint_bhm_options(setup.target_bhm);
-      jo.seeds_yield = setup.seeds_yield;
-      jo.seeds_yield_fully = setup.seeds_yield_fully;
-      learner = std::make_unique<JointBhm>(task.dim, task.lo, task.hi, jo);
-    }
+    const PotOptions po = task_pot_options(setup, task, *dict, learner);
     const double range = po.max_range > 0 ? po.max_range : dict->max_range;
-    const auto off = scan_offsets(task);
-    // warm: the atoms of the last scan finished (PotOptions::warm_candidates).
-    auto prepare = [&](std::size_t i, std::vector<long> warm) {
-      const Scan& s = task.train_scans[i];
-      const auto sensor = s.origin();
-      return prepare_transfer(*dict, samples_of(task, off[i], off[i + 1], sensor, range), sensor,
-                              scan_heading(s), task.first_index + std::int64_t(i), po, warm, ctx);
-    };
+    const PotRun run = map_task_scans(ctx, task, setup, *dict, po, learner.get(), range);
 
-    const auto t0 = std::chrono::steady_clock::now();
-    OverallMap overall(task.dim, setup.overall);
-    AveragedMap averaged(task.dim, setup.averaged);
-    const bool average = setup.combine == PotSetup::Combine::average;
-    const auto launch = setup.pipeline ? std::launch::async : std::launch::deferred;
-    const std::size_t n = task.train_scans.size();
-    std::vector<long> warm;
-    std::future<PreparedTransfer> next = std::async(launch, prepare, std::size_t{0}, warm);
-    PotTiming timing;
-    std::size_t sectors = 0, inst_kernels = 0;
-    double combine_ms = 0, refine_ms = 0;
-    // What a scan adds to the overall map (RePOT's update, POT's averaged or summed map) runs
-    // beside the next scan's transfer: the transfer never reads the overall map, which takes
-    // the scans in order, so the maps are those of a serial run.
-    std::future<void> merging;
-    auto merge = [&](std::size_t i, KernelMap transported) {
-      const auto c0 = std::chrono::steady_clock::now();
-      if (learner) {
-        learner->seed_unreached(transported, setup.seed_min_variance);
-        learner->update(samples_of(task, off[i], off[i + 1], {0, 0, 0}, 0));
-        refine_ms += 1e3 * seconds_since(c0);
-        return;
-      }
-      if (transported.empty()) return;
-      if (average)
-        averaged.add(transported);
-      else
-        overall.add(transported);
-      combine_ms += 1e3 * seconds_since(c0);
-    };
-    auto finish_scan = [&](std::size_t i, ScanTransfer t) {
-      if (setup.on_scan) setup.on_scan(i, t);
-      sectors += t.sectors.size();
-      inst_kernels += t.map.size();
-      timing.prepare_ms += t.timing.prepare_ms;
-      timing.ranking_ms += t.timing.ranking_ms;
-      timing.transport_ms += t.timing.transport_ms;
-      timing.placement_ms += t.timing.placement_ms;
-      timing.refine_ms += t.timing.refine_ms;
-      if (merging.valid()) merging.get();
-      merging = std::async(launch, merge, i, std::move(t.map));
-    };
-    // A scan's kernels are placed (host) beside the next scan's ranking and transport (device),
-    // as map_scans() does; not with the per-scan refinement, which uses the device too.
-    const bool overlap = setup.pipeline && !po.refine;
-    std::future<ScanTransfer> placing;
-    for (std::size_t i = 0; i < n; ++i) {
-      PreparedTransfer cur = next.get();
-      if (i + 1 < n) next = std::async(launch, prepare, i + 1, warm);
-      SolvedTransfer solved = solve_transfer(ctx, *dict, std::move(cur), po);
-      warm = chosen_atoms(solved);
-      auto place = [ctx, &dict, &po](SolvedTransfer s) {
-        return place_transfer(ctx, *dict, std::move(s), po);
-      };
-      if (!overlap) {
-        finish_scan(i, place(std::move(solved)));
-        continue;
-      }
-      std::future<ScanTransfer> placed = std::async(std::launch::async, place, std::move(solved));
-      if (placing.valid()) finish_scan(i - 1, placing.get());
-      placing = std::move(placed);
-    }
-    if (placing.valid()) finish_scan(n - 1, placing.get());
-    if (merging.valid()) merging.get();
-    timing.refine_ms += refine_ms;
-    const double secs = seconds_since(t0);
-    auto map = std::make_shared<KernelMap>(learner   ? learner->map()
-                                           : average ? averaged.map()
-                                                     : overall.map());
-    FittedMap f = kernel_fitted_map(ctx, map);
-    f.fit_seconds = secs;
-    const double dn = double(std::max<std::size_t>(n, 1));
-    f.info["kernels"] = double(map->size());
+    FittedMap f = kernel_fitted_map(ctx, run.map);
+    f.fit_seconds = run.seconds;
+    const double dn = double(std::max<std::size_t>(task.train_scans.size(), 1));
+    f.info["kernels"] = double(run.map->size());
     f.info["atoms"] = double(dict->size());
     f.info["atoms_s"] = atoms_s;
-    f.info["sectors_per_scan"] = double(sectors) / dn;
-    f.info["kernels_per_scan"] = double(inst_kernels) / dn;
-    f.info["prepare_ms"] = timing.prepare_ms / dn;
-    f.info["ranking_ms"] = timing.ranking_ms / dn;
-    f.info["transport_ms"] = timing.transport_ms / dn;
-    f.info["placement_ms"] = timing.placement_ms / dn;
-    f.info["refine_ms"] = timing.refine_ms / dn;
-    f.info["combine_ms"] = combine_ms / dn;
+    f.info["sectors_per_scan"] = double(run.sectors) / dn;
+    f.info["kernels_per_scan"] = double(run.inst_kernels) / dn;
+    f.info["prepare_ms"] = run.timing.prepare_ms / dn;
+    f.info["ranking_ms"] = run.timing.ranking_ms / dn;
+    f.info["transport_ms"] = run.timing.transport_ms / dn;
+    f.info["placement_ms"] = run.timing.placement_ms / dn;
+    f.info["refine_ms"] = run.timing.refine_ms / dn;
+    f.info["combine_ms"] = run.combine_ms / dn;
     f.info["range_m"] = range;
     f.info["atom_map_abhm"] = setup.atom_map == "abhm" ? 1.0 : 0.0;
     return f;
