@@ -20,7 +20,8 @@ namespace {
 using exp::Harness;
 using exp::Settings;
 
-void add_common(CLI::App* cmd, Settings& s) {
+// Which seeds, scans and methods a comparison runs.
+void add_run_options(CLI::App* cmd, Settings& s) {
   cmd->add_option(
          "--seeds", s.seeds,
          "Seeds of the beam split, free samples, simulated routes and ABHM (default 0 1 2)")
@@ -31,6 +32,10 @@ void add_common(CLI::App* cmd, Settings& s) {
   cmd->add_option("--ogm-cells", s.ogm_cells, "OGM cell sizes, metres; the best by AUC is reported")
       ->expected(1, -1)
       ->capture_default_str();
+}
+
+// The BHM and ABHM methods' settings.
+void add_learner_options(CLI::App* cmd, Settings& s) {
   cmd->add_option("--bhm-joint", s.bhm.joint,
                   "BHM posterior: true = joint (overlapping kernels, sparse precision), false = "
                   "diagonal (narrow disjoint kernels)")
@@ -66,6 +71,10 @@ void add_common(CLI::App* cmd, Settings& s) {
   cmd->add_option("--abhm-steps", s.abhm.steps, "ABHM Adam steps")->capture_default_str();
   cmd->add_option("--abhm-gamma0", s.abhm.gamma0, "ABHM starting kernel width, 1/m^2")
       ->capture_default_str();
+}
+
+// POT and RePOT: the atoms and the transfer of a scan.
+void add_pot_transfer_options(CLI::App* cmd, Settings& s) {
   cmd->add_option("--atom-map", s.pot.atom_map,
                   "POT/RePOT: map the atoms' kernels come from, learned on the source: bhm "
                   "(fast) or abhm (the paper's, varied widths)")
@@ -120,6 +129,10 @@ void add_common(CLI::App* cmd, Settings& s) {
                   "POT/RePOT: atoms hold kernels at their own samples thinned to this cell, "
                   "metres (0: the source map's kernels)")
       ->capture_default_str();
+}
+
+// POT and RePOT: where transported kernels go and how the scans' maps combine.
+void add_pot_map_options(CLI::App* cmd, Settings& s) {
   cmd->add_option("--pot-wall-clearance", s.pot.pot.wall_clearance,
                   "POT/RePOT: drop free-space kernels landing this close to the target's hits "
                   "and wall kernels landing farther, metres (0: off)")
@@ -181,6 +194,10 @@ void add_common(CLI::App* cmd, Settings& s) {
   cmd->add_option("--merge-radius", s.pot.overall.merge_radius,
                   "POT/RePOT: overall map merge radius (d^2 * gamma; 0: no merging)")
       ->capture_default_str();
+}
+
+// The scans' range, the simulated drives, the device and what is written.
+void add_data_and_output_options(CLI::App* cmd, Settings& s) {
   cmd->add_option("--max-range", s.max_range,
                   "Cut every scan at this range, metres, for every method (POT's sector "
                   "radius; 0: each scan's own)")
@@ -199,6 +216,15 @@ void add_common(CLI::App* cmd, Settings& s) {
       ->capture_default_str();
   cmd->add_flag("--cpu", s.cpu, "CPU references instead of OpenCL for the kernel maps");
   cmd->add_option("--device", s.device, "OpenCL device (substring of its name)");
+}
+
+// In the order --help lists them.
+void add_common(CLI::App* cmd, Settings& s) {
+  add_run_options(cmd, s);
+  add_learner_options(cmd, s);
+  add_pot_transfer_options(cmd, s);
+  add_pot_map_options(cmd, s);
+  add_data_and_output_options(cmd, s);
 }
 
 constexpr const char* kDatasetHelp =
