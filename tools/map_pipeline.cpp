@@ -40,6 +40,85 @@ bool resume(const MapCheckpointing& c, Mapper& mapper, MapRunTotals& totals, std
   return true;
 }
 
+// Resumes from the checkpoint where there is one; says what it did, and what a stopped run's
+// checkpoint will come to, on stderr.
+void start_or_resume(const MapCheckpointing& ck, Mapper& mapper, MapRunTotals& t, std::size_t scans,
+                     MapJobResult& r) {
+  if (!ck.path.empty()) remove_stale_temporaries(ck.path);
+  if (resume(ck, mapper, t, scans)) {
+    r.resumed_at = mapper.scans();
+    std::fprintf(stderr, "potmap map: resumed from %s at scan %zu/%zu (%zu scans mapped before)\n",
+                 ck.path.c_str(), r.resumed_at + 1, scans, r.resumed_at);
+  } else if (ck.resume) {
+    std::fprintf(stderr, "potmap map: no checkpoint at %s; starting from scan 1\n",
+                 ck.path.c_str());
+  } else if (std::error_code ec; !ck.path.empty() && std::filesystem::exists(ck.path, ec)) {
+    std::fprintf(stderr,
+                 "potmap map: %s exists (a stopped run?) and will be replaced; --resume would "
+                 "continue it\n",
+                 ck.path.c_str());
+  }
+}
+
+// The instantaneous map on its own scan's held-out samples (exact sum: a few thousand points),
+// kept for the run's scores, and those samples kept to score the overall map at the end.
+void add_held_out(const MappedScan& m, MapRunTotals& t) {
+  if (!m.test.empty()) {
+    const MapValuesExact v = evaluate_exact(m.transfer.map, m.test.position.data(), m.test.size());
+    for (std::size_t j = 0; j < m.test.size(); ++j) {
+      t.inst_prob.push_back(static_cast<float>(v.prob[j]));
+      t.labels.push_back(m.test.label[j]);
+    }
+    LabelledPoints& test = t.test;
+    test.position.insert(test.position.end(), m.test.position.begin(), m.test.position.end());
+    test.label.insert(test.label.end(), m.test.label.begin(), m.test.label.end());
+    test.scan.insert(test.scan.end(), m.test.scan.begin(), m.test.scan.end());
+  }
+}
+
+void add_to_totals(MapRunTotals& t, const MappedScan& done) {
+  const ScanTransfer& tr = done.transfer;
+  t.timing.prepare_ms += tr.timing.prepare_ms;
+  t.timing.ranking_ms += tr.timing.ranking_ms;
+  t.timing.transport_ms += tr.timing.transport_ms;
+  t.timing.placement_ms += tr.timing.placement_ms;
+  t.timing.refine_ms += tr.timing.refine_ms;
+  t.wall_ms += done.wall_ms;
+  t.max_wall_ms = std::max(t.max_wall_ms, done.wall_ms);
+  t.kernels += tr.map.size();
+  ++t.scans;
+}
+
+// The per-scan means, and the overall map scored on every scan's held-out samples.
+void summarise(MapJobResult& r, const MapRunTotals& t, Context* ctx) {
+  r.scans = t.scans;
+  if (r.scans > 0) {
+    const double n = double(r.scans);
+    r.mean_timing.prepare_ms = t.timing.prepare_ms / n;
+    r.mean_timing.ranking_ms = t.timing.ranking_ms / n;
+    r.mean_timing.transport_ms = t.timing.transport_ms / n;
+    r.mean_timing.placement_ms = t.timing.placement_ms / n;
+    r.mean_timing.refine_ms = t.timing.refine_ms / n;
+    r.mean_wall_ms = t.wall_ms / n;
+    r.max_wall_ms = t.max_wall_ms;
+    r.kernels_per_scan = t.kernels / r.scans;
+  }
+  r.instantaneous = score(t.inst_prob, t.labels);
+  const LabelledPoints& test = t.test;
+  if (!test.empty()) {
+    std::vector<float> prob(test.size());
+    const KernelMap& overall = r.overall_map();
+    if (ctx && !overall.empty()) {
+      MapEvaluator ev(*ctx, overall);
+      ev.evaluate(test.position.data(), test.size(), nullptr, nullptr, prob.data());
+    } else {
+      const MapValuesExact v = evaluate_exact(overall, test.position.data(), test.size());
+      for (std::size_t j = 0; j < test.size(); ++j) prob[j] = static_cast<float>(v.prob[j]);
+    }
+    r.overall_scores = score(prob, test.label);
+  }
+}
+
 }  // namespace
 
 nlohmann::json MapJobResult::to_json() const {
@@ -71,20 +150,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   const MapCheckpointing& ck = job.checkpoint;
   MapRunTotals t;
   t.test.dim = dict.dim;
-  if (!ck.path.empty()) remove_stale_temporaries(ck.path);
-  if (resume(ck, mapper, t, scans.size())) {
-    r.resumed_at = mapper.scans();
-    std::fprintf(stderr, "potmap map: resumed from %s at scan %zu/%zu (%zu scans mapped before)\n",
-                 ck.path.c_str(), r.resumed_at + 1, scans.size(), r.resumed_at);
-  } else if (ck.resume) {
-    std::fprintf(stderr, "potmap map: no checkpoint at %s; starting from scan 1\n",
-                 ck.path.c_str());
-  } else if (std::error_code ec; !ck.path.empty() && std::filesystem::exists(ck.path, ec)) {
-    std::fprintf(stderr,
-                 "potmap map: %s exists (a stopped run?) and will be replaced; --resume would "
-                 "continue it\n",
-                 ck.path.c_str());
-  }
+  start_or_resume(ck, mapper, t, scans.size(), r);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_checkpoint = t0;
   if (!job.instantaneous_dir.empty()) std::filesystem::create_directories(job.instantaneous_dir);
@@ -94,20 +160,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   // the scans still reach the mapper one at a time and in order, so the maps are a serial
   // run's.
   auto merge_scan = [&](MappedScan&& m) {
-    // The instantaneous map on its own scan's held-out samples (exact sum: a few thousand
-    // points).
-    if (!m.test.empty()) {
-      const MapValuesExact v =
-          evaluate_exact(m.transfer.map, m.test.position.data(), m.test.size());
-      for (std::size_t j = 0; j < m.test.size(); ++j) {
-        t.inst_prob.push_back(static_cast<float>(v.prob[j]));
-        t.labels.push_back(m.test.label[j]);
-      }
-      LabelledPoints& test = t.test;
-      test.position.insert(test.position.end(), m.test.position.begin(), m.test.position.end());
-      test.label.insert(test.label.end(), m.test.label.begin(), m.test.label.end());
-      test.scan.insert(test.scan.end(), m.test.scan.begin(), m.test.scan.end());
-    }
+    add_held_out(m, t);
     mapper.add_mapped(std::move(m));
     const MappedScan& done = mapper.last();
     const ScanTransfer& tr = done.transfer;
@@ -116,15 +169,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
       std::snprintf(name, sizeof name, "scan_%06zu.potmap", done.index);
       write_map(tr.map, (std::filesystem::path(job.instantaneous_dir) / name).string());
     }
-    t.timing.prepare_ms += tr.timing.prepare_ms;
-    t.timing.ranking_ms += tr.timing.ranking_ms;
-    t.timing.transport_ms += tr.timing.transport_ms;
-    t.timing.placement_ms += tr.timing.placement_ms;
-    t.timing.refine_ms += tr.timing.refine_ms;
-    t.wall_ms += done.wall_ms;
-    t.max_wall_ms = std::max(t.max_wall_ms, done.wall_ms);
-    t.kernels += tr.map.size();
-    ++t.scans;
+    add_to_totals(t, done);
     if (job.verbose) {
       std::fprintf(stderr,
                    "potmap map: scan %zu/%zu: %zu sectors, %zu kernels, %.1f ms (ranking "
@@ -162,32 +207,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
       },
       mapper.continuation());
   if (merging.valid()) merging.get();
-  r.scans = t.scans;
-  if (r.scans > 0) {
-    const double n = double(r.scans);
-    r.mean_timing.prepare_ms = t.timing.prepare_ms / n;
-    r.mean_timing.ranking_ms = t.timing.ranking_ms / n;
-    r.mean_timing.transport_ms = t.timing.transport_ms / n;
-    r.mean_timing.placement_ms = t.timing.placement_ms / n;
-    r.mean_timing.refine_ms = t.timing.refine_ms / n;
-    r.mean_wall_ms = t.wall_ms / n;
-    r.max_wall_ms = t.max_wall_ms;
-    r.kernels_per_scan = t.kernels / r.scans;
-  }
-  r.instantaneous = score(t.inst_prob, t.labels);
-  const LabelledPoints& test = t.test;
-  if (!test.empty()) {
-    std::vector<float> prob(test.size());
-    const KernelMap& overall = r.overall_map();
-    if (ctx && !overall.empty()) {
-      MapEvaluator ev(*ctx, overall);
-      ev.evaluate(test.position.data(), test.size(), nullptr, nullptr, prob.data());
-    } else {
-      const MapValuesExact v = evaluate_exact(overall, test.position.data(), test.size());
-      for (std::size_t j = 0; j < test.size(); ++j) prob[j] = static_cast<float>(v.prob[j]);
-    }
-    r.overall_scores = score(prob, test.label);
-  }
+  summarise(r, t, ctx);
   r.total_seconds = t.seconds + seconds_since(t0);
   return r;
 }
