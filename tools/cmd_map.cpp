@@ -91,11 +91,9 @@ nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const 
           {"device", a.cpu ? std::string("CPU reference") : device}};
 }
 
-int run_map(const MapArgs& a, const std::string& device) {
-  std::string dict_file = a.dict;
-  const Dictionary dict = a.dict.empty() ? default_dictionary(&dict_file) : read_dictionary(a.dict);
-  if (a.dict.empty())
-    std::cerr << "potmap map: the default dictionary (" << default_dictionary_recipe() << ")\n";
+// The scans from --first, at most --max-scans of them, checked against the dictionary.
+std::vector<Scan> scans_to_map(const MapArgs& a, const Dictionary& dict,
+                               const std::string& dict_file) {
   std::vector<Scan> all = read_scans(a.scans, a.range_cut);
   if (a.first >= all.size())
     throw ArgumentError("map: --first " + std::to_string(a.first) + " but " + a.scans + " has " +
@@ -106,7 +104,11 @@ int run_map(const MapArgs& a, const std::string& device) {
     throw ArgumentError("map: " + a.scans + " holds " + std::to_string(scans.front().dim) +
                         "D scans, the dictionary " + dict_file + " is " + std::to_string(dict.dim) +
                         "D");
+  return scans;
+}
 
+// The mapper's and the overall map's options from the command line (checkpoints apart).
+MapJob map_job(const MapArgs& a) {
   MapJob job;
   PotOptions& po = job.mapper.pot;
   po.sectors = a.sectors;
@@ -138,6 +140,33 @@ int run_map(const MapArgs& a, const std::string& device) {
   job.overall.max_kernels = a.max_kernels;
   job.instantaneous_dir = a.instantaneous;
   job.verbose = !a.quiet;
+  return job;
+}
+
+void print_summary(std::FILE* human, const MapArgs& a, const MapJobResult& r) {
+  std::fprintf(human, "scans          %zu (%s)\n", r.scans, a.refine ? "RePOT" : "POT");
+  std::fprintf(human, "overall map    %zu kernels, %.1f MB%s -> %s\n", r.overall_kernels(),
+               r.overall_memory_bytes() / 1e6, r.persistent() ? " (persistent joint BHM)" : "",
+               a.out.c_str());
+  std::fprintf(human, "instantaneous  ACC %.4f  AUC %.4f  NLL %.4f  (%zu held-out samples)\n",
+               r.instantaneous.acc, r.instantaneous.auc, r.instantaneous.nll, r.instantaneous.n);
+  std::fprintf(human, "overall        ACC %.4f  AUC %.4f  NLL %.4f\n", r.overall_scores.acc,
+               r.overall_scores.auc, r.overall_scores.nll);
+  std::fprintf(human,
+               "time per scan  %.1f ms solve (max %.1f): ranking %.1f, transport %.1f, "
+               "placement %.1f, refine %.1f; preparation %.1f (overlapped)\n",
+               r.mean_wall_ms, r.max_wall_ms, r.mean_timing.ranking_ms, r.mean_timing.transport_ms,
+               r.mean_timing.placement_ms, r.mean_timing.refine_ms, r.mean_timing.prepare_ms);
+}
+
+int run_map(const MapArgs& a, const std::string& device) {
+  std::string dict_file = a.dict;
+  const Dictionary dict = a.dict.empty() ? default_dictionary(&dict_file) : read_dictionary(a.dict);
+  if (a.dict.empty())
+    std::cerr << "potmap map: the default dictionary (" << default_dictionary_recipe() << ")\n";
+  const std::vector<Scan> scans = scans_to_map(a, dict, dict_file);
+
+  MapJob job = map_job(a);
 
   std::unique_ptr<Context> ctx;
   if (!a.cpu) ctx = std::make_unique<Context>(make_context(device));
@@ -157,19 +186,7 @@ int run_map(const MapArgs& a, const std::string& device) {
   write_map(overall, a.out);
 
   std::FILE* human = a.json == "-" ? stderr : stdout;
-  std::fprintf(human, "scans          %zu (%s)\n", r.scans, a.refine ? "RePOT" : "POT");
-  std::fprintf(human, "overall map    %zu kernels, %.1f MB%s -> %s\n", r.overall_kernels(),
-               r.overall_memory_bytes() / 1e6, r.persistent() ? " (persistent joint BHM)" : "",
-               a.out.c_str());
-  std::fprintf(human, "instantaneous  ACC %.4f  AUC %.4f  NLL %.4f  (%zu held-out samples)\n",
-               r.instantaneous.acc, r.instantaneous.auc, r.instantaneous.nll, r.instantaneous.n);
-  std::fprintf(human, "overall        ACC %.4f  AUC %.4f  NLL %.4f\n", r.overall_scores.acc,
-               r.overall_scores.auc, r.overall_scores.nll);
-  std::fprintf(human,
-               "time per scan  %.1f ms solve (max %.1f): ranking %.1f, transport %.1f, "
-               "placement %.1f, refine %.1f; preparation %.1f (overlapped)\n",
-               r.mean_wall_ms, r.max_wall_ms, r.mean_timing.ranking_ms, r.mean_timing.transport_ms,
-               r.mean_timing.placement_ms, r.mean_timing.refine_ms, r.mean_timing.prepare_ms);
+  print_summary(human, a, r);
 
   nlohmann::json j = r.to_json();
   j["dictionary"] = a.dict.empty() ? "default: " + dict_file : a.dict;
