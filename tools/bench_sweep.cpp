@@ -163,17 +163,24 @@ GridSpec raster_grid(const MapInput& in, const SweepOptions& o) {
   return GridSpec::covering(2, lo, hi, res);
 }
 
-RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
-  const Tuning base = ctx.tuning();
-  const GridSpec grid = raster_grid(in, o);
+// A raster routine's sweep, before its points: cells per second against raster.rows_per_item.
+RoutineSweep raster_sweep(const Tuning& base, const MapInput& in, const GridSpec& grid,
+                          const char* name, const char* x_label) {
   RoutineSweep r;
   r.start = to_string(base);
-  r.name = "raster";
+  r.name = name;
   r.unit = "cells/s";
-  r.x_label = "cells per launch (band)";
+  r.x_label = x_label;
   r.series_label = "raster.rows_per_item";
   r.input = in.label + ", grid " + std::to_string(grid.count[0]) + " x " +
             std::to_string(grid.count[1]) + " cells";
+  return r;
+}
+
+RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
+  const Tuning base = ctx.tuning();
+  const GridSpec grid = raster_grid(in, o);
+  RoutineSweep r = raster_sweep(base, in, grid, "raster", "cells per launch (band)");
   const std::vector<long long> bands =
       o.quick ? std::vector<long long>{1 << 16, 1 << 18, 1 << 20, 1 << 22}
               : std::vector<long long>{1 << 14, 1 << 16, 1 << 18, 1 << 20, 1 << 22};
@@ -208,14 +215,7 @@ RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& 
 RoutineSweep sweep_raster_tile(Context& ctx, const MapInput& in, const SweepOptions& o, int reps) {
   const Tuning base = ctx.tuning();
   const GridSpec grid = raster_grid(in, o);
-  RoutineSweep r;
-  r.start = to_string(base);
-  r.name = "raster_tile";
-  r.unit = "cells/s";
-  r.x_label = "tile edge, cells (raster.tile)";
-  r.series_label = "raster.rows_per_item";
-  r.input = in.label + ", grid " + std::to_string(grid.count[0]) + " x " +
-            std::to_string(grid.count[1]) + " cells";
+  RoutineSweep r = raster_sweep(base, in, grid, "raster_tile", "tile edge, cells (raster.tile)");
   std::vector<float> mean(grid.cells()), var(grid.cells()), prob(grid.cells());
   const std::vector<int> rows = o.quick ? std::vector<int>{8, 16} : std::vector<int>{4, 8, 16};
   for (int rpi : rows)
