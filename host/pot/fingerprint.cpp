@@ -2,6 +2,7 @@
 
 #include <cstring>
 #include <string>
+#include <type_traits>
 
 #include "runtime/hash.hpp"
 
@@ -28,6 +29,12 @@ class Fnv {
     u64(r.size());
     for (double x : r) f64(x);
   }
+  // Each value as the member above its type takes: i64 or u64 (the same bytes for an integer),
+  // f64, or f64s for a range of doubles.
+  template <class... T>
+  void values(const T&... v) {
+    (value(v), ...);
+  }
   void text(const std::string& s) {
     u64(s.size());
     h_ = detail::fnv1a64(s, h_);
@@ -35,6 +42,16 @@ class Fnv {
   std::uint64_t value() const { return h_; }
 
  private:
+  template <class T>
+  void value(const T& v) {
+    if constexpr (std::is_floating_point_v<T>)
+      f64(v);
+    else if constexpr (std::is_integral_v<T>)
+      i64(static_cast<std::int64_t>(v));
+    else
+      f64s(v);
+  }
+
   std::uint64_t h_ = detail::fnv1a64("");
 };
 
@@ -93,75 +110,32 @@ std::uint64_t fingerprint(const std::vector<Scan>& scans) {
 std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overall) {
   Fnv f;
   const PotOptions& p = o.pot;
-  f.i64(p.sectors);
-  f.f64(p.max_range);
-  f.u64(p.min_samples);
-  f.f64(p.max_sample_distance);
-  f.f64s(p.rotations);
-  f.u64(p.rank_hits);
-  f.u64(p.rank_free);
-  f.f64(p.rank_epsilon);
-  f.i64(p.rank_max_iterations);
-  f.f64(p.rank_tolerance);
-  f.u64(p.transport_points);
-  f.u64(p.transport_free_points);
-  f.f64(p.transport_epsilon);
-  f.i64(p.transport_max_iterations);
-  f.f64(p.transport_tolerance);
-  f.i64(p.transport_free);
-  f.f64(p.wall_clearance);
-  f.f64(p.displacement_variance);
+  f.values(p.sectors, p.max_range, p.min_samples, p.max_sample_distance, p.rotations, p.rank_hits,
+           p.rank_free, p.rank_epsilon, p.rank_max_iterations, p.rank_tolerance, p.transport_points,
+           p.transport_free_points, p.transport_epsilon, p.transport_max_iterations,
+           p.transport_tolerance, p.transport_free, p.wall_clearance, p.displacement_variance);
   if (p.placement != PotPlacement::barycentric) {  // earlier fingerprints stay valid
     f.i64(static_cast<int>(p.placement));
     f.f64(p.anchor_spacing);
   }
   f.i64(static_cast<int>(p.ranking));
-  f.u64(p.candidates);
-  f.u64(p.index_neighbours);
-  f.i64(p.index_rotations);
-  f.i64(p.index_anchors);
-  f.i64(p.snap_rotations);
-  f.u64(p.coarse_hits);
-  f.u64(p.coarse_free);
+  f.values(p.candidates, p.index_neighbours, p.index_rotations, p.index_anchors, p.snap_rotations,
+           p.coarse_hits, p.coarse_free);
   // The coarse stage solved to rank_tolerance before it had its own: those fingerprints stay.
   if (p.coarse_tolerance != p.rank_tolerance) f.f64(p.coarse_tolerance);
   // The free plan solved to transport_tolerance before it had its own: those fingerprints stay.
   if (p.transport_free_tolerance != p.transport_tolerance) f.f64(p.transport_free_tolerance);
-  f.u64(p.fine_candidates);
-  f.i64(p.warm_candidates);
-  f.i64(p.refine);
-  f.i64(p.refine_bhm.em_iterations);
-  f.f64(p.refine_bhm.xi_init);
-  f.f64(p.refine_bhm.tau);
-  f.f64(p.refine_min_variance);
-  f.i64(p.refine_joint);
-  f.u64(p.seed);
+  f.values(p.fine_candidates, p.warm_candidates, p.refine, p.refine_bhm.em_iterations,
+           p.refine_bhm.xi_init, p.refine_bhm.tau, p.refine_min_variance, p.refine_joint, p.seed);
   const LabelOptions& l = o.labels;
-  f.f64(l.free_per_metre);
-  f.i64(l.max_free_per_beam);
-  f.f64(l.holdout_fraction);
-  f.u64(l.seed);
-  f.i64(o.persistent_refine);
+  f.values(l.free_per_metre, l.max_free_per_beam, l.holdout_fraction, l.seed, o.persistent_refine);
   const JointBhmOptions& j = o.refine_map;
-  f.f64(j.spacing);
-  f.f64(j.gamma);
-  f.f64(j.neighbour_phi);
-  f.f64(j.prior_var);
-  f.i64(j.bias);
-  f.i64(j.em_iterations);
-  f.f64(j.tau);
-  f.f64(j.cg_tolerance);
-  f.i64(j.cg_max_iterations);
-  f.i64(j.solve_margin);
-  f.u64(j.max_kernels);
-  f.i64(j.seeds_yield);
+  f.values(j.spacing, j.gamma, j.neighbour_phi, j.prior_var, j.bias, j.em_iterations, j.tau,
+           j.cg_tolerance, j.cg_max_iterations, j.solve_margin, j.max_kernels, j.seeds_yield);
   // Appended only when on, so that states saved before it existed keep their fingerprint.
   if (j.seeds_yield_fully) f.i64(7);
-  f.f64(o.seed_min_variance);
-  f.f64(overall.merge_radius);
-  f.f64(overall.gamma_ratio);
-  f.u64(overall.max_kernels);
-  f.f64(overall.retire_to);
+  f.values(o.seed_min_variance, overall.merge_radius, overall.gamma_ratio, overall.max_kernels,
+           overall.retire_to);
   // Appended only when on, so that states saved before the averaged map keep their fingerprint.
   if (o.average_overall) {
     f.i64(1);
