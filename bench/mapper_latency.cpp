@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "option_pairs.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/experiments/experiment.hpp"
@@ -46,29 +47,19 @@ struct Args {
 };
 
 bool parse_args(int argc, char** argv, Args& a) {
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--dict")
-      a.dict = v;
-    else if (k == "--target")
-      a.target = v;
-    else if (k == "--log")
-      a.log = v;
-    else if (k == "--first")
-      a.first = std::stoul(v);
-    else if (k == "--scans")
-      a.scans = std::stoul(v);
-    else if (k == "--repeat")
-      a.repeat = std::stoul(v);
-    else if (k == "--out")
-      a.out = v;
-    else if (k == "--method")
-      a.method = v;
-    else {
-      std::fprintf(stderr, "mapper_latency: unknown option %s\n", k.c_str());
-      return false;
-    }
-  }
+  if (!bench::parse_option_pairs(
+          argc, argv, "mapper_latency",
+          {
+              {"--dict", [&](const std::string& v) { a.dict = v; }},
+              {"--target", [&](const std::string& v) { a.target = v; }},
+              {"--log", [&](const std::string& v) { a.log = v; }},
+              {"--first", [&](const std::string& v) { a.first = std::stoul(v); }},
+              {"--scans", [&](const std::string& v) { a.scans = std::stoul(v); }},
+              {"--repeat", [&](const std::string& v) { a.repeat = std::stoul(v); }},
+              {"--out", [&](const std::string& v) { a.out = v; }},
+              {"--method", [&](const std::string& v) { a.method = v; }},
+          }))
+    return false;
   if (a.dict.empty() || argc % 2 == 0 || a.repeat == 0 ||
       (a.method != "both" && a.method != "pot" && a.method != "repot")) {
     std::fprintf(stderr,

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "option_pairs.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/pot/mapper.hpp"
@@ -39,29 +40,19 @@ struct CurveArgs {
 };
 
 bool parse_args(int argc, char** argv, CurveArgs& a) {
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--log")
-      a.log = v;
-    else if (k == "--method")
-      a.method = v;
-    else if (k == "--ranking")
-      a.ranking = v;
-    else if (k == "--out")
-      a.out = v;
-    else if (k == "--loops")
-      a.loops = std::stoul(v);
-    else if (k == "--first")
-      a.first = std::stoul(v);
-    else if (k == "--every")
-      a.every = std::stoul(v);
-    else if (k == "--max-scans")
-      a.max_scans = std::stoul(v);
-    else {
-      std::fprintf(stderr, "memory_curve: unknown option %s\n", k.c_str());
-      return false;
-    }
-  }
+  if (!bench::parse_option_pairs(
+          argc, argv, "memory_curve",
+          {
+              {"--log", [&](const std::string& v) { a.log = v; }},
+              {"--method", [&](const std::string& v) { a.method = v; }},
+              {"--ranking", [&](const std::string& v) { a.ranking = v; }},
+              {"--out", [&](const std::string& v) { a.out = v; }},
+              {"--loops", [&](const std::string& v) { a.loops = std::stoul(v); }},
+              {"--first", [&](const std::string& v) { a.first = std::stoul(v); }},
+              {"--every", [&](const std::string& v) { a.every = std::stoul(v); }},
+              {"--max-scans", [&](const std::string& v) { a.max_scans = std::stoul(v); }},
+          }))
+    return false;
   if (a.log.empty() || (a.method != "pot" && a.method != "repot") ||
       (a.ranking != "indexed" && a.ranking != "exhaustive") || a.every == 0 || a.loops == 0) {
     std::fprintf(stderr,
