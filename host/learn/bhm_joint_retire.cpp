@@ -3,15 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "bhm_joint_grid.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 
 namespace potmap {
 
 namespace {
-
-int neighbour_slot(const std::int64_t dt[3]) {
-  return int((dt[0] + 1) + 3 * (dt[1] + 1) + 9 * (dt[2] + 1));
-}
 
 // Keeps the elements of v whose block (of `per` elements) stays, in order, in a vector of
 // exactly that size (so the memory of the blocks that go is returned).
@@ -103,7 +100,7 @@ void JointBhm::compact(const std::vector<std::uint8_t>& going) {
         for (std::int64_t dx = -1; dx <= 1; ++dx) {
           const std::int64_t dt[3] = {dx, dy, dz};
           const std::int64_t u[3] = {tile.coord[0] + dx, tile.coord[1] + dy, tile.coord[2] + dz};
-          tile.nb[neighbour_slot(dt)] =
+          tile.nb[joint_grid::nb_slot(dt)] =
               (dim_ == 2 && dz != 0) ? -1 : static_cast<std::int32_t>(find_tile(u));
         }
   std::fill(std::begin(recent_key_), std::end(recent_key_), ~0ull);
