@@ -9,6 +9,11 @@
 namespace potmap::capi {
 namespace {
 
+static_assert(int(potmap::JointBhmSums::automatic) == POTMAP_SUMS_AUTOMATIC &&
+                  int(potmap::JointBhmSums::host) == POTMAP_SUMS_HOST &&
+                  int(potmap::JointBhmSums::device) == POTMAP_SUMS_DEVICE,
+              "potmap_sums follows JointBhmSums");
+
 potmap_drive_mapper_options default_options() {
   const potmap::DriveMapperOptions d;
   potmap_drive_mapper_options o{};
@@ -20,6 +25,7 @@ potmap_drive_mapper_options default_options() {
   o.voxel = d.voxel;
   o.retire_radius = d.retire_radius;
   o.transfer_every = d.transfer_every;
+  o.sums = int(d.bhm.sums);
   return o;
 }
 
@@ -39,6 +45,7 @@ potmap::DriveMapperOptions to_options(const potmap_drive_mapper_options* in) {
   if (!(o.retire_radius >= -1) || !std::isfinite(o.retire_radius))
     bad("retire_radius", o.retire_radius);
   if (o.transfer_every < 1) bad("transfer_every", double(o.transfer_every));
+  if (o.sums < POTMAP_SUMS_AUTOMATIC || o.sums > POTMAP_SUMS_DEVICE) bad("sums", double(o.sums));
   potmap::DriveMapperOptions r;
   r.range_cut = o.range_cut;
   r.labels.free_per_metre = o.free_per_metre;
@@ -47,6 +54,7 @@ potmap::DriveMapperOptions to_options(const potmap_drive_mapper_options* in) {
   r.voxel = o.voxel;
   r.retire_radius = o.retire_radius < 0 ? -1 : o.retire_radius;
   r.transfer_every = o.transfer_every;
+  r.bhm.sums = static_cast<potmap::JointBhmSums>(o.sums);
   return r;
 }
 
@@ -123,6 +131,7 @@ potmap_status potmap_drive_mapper_add_keyframe(potmap_drive_mapper* mapper,
     st.update_ms = k.update_ms;
     st.transfer_ms = k.transfer_ms;
     st.seeded = k.seeded;
+    st.sums_on_device = k.sums_on_device ? 1 : 0;
     write_struct(stats, st, kKeyframeStatsV1, "stats", POTMAP_ERROR_BUFFER_TOO_SMALL);
   });
 }

@@ -581,7 +581,15 @@ typedef struct potmap_drive_mapper_options {
   /** RePOT (potmap_drive_mapper_create_repot): transfer every this many keyframes, >= 1
    *  (default 4: seeds last until data reaches them). */
   size_t transfer_every;
+  /** Where the joint BHM's features and sums run (enum potmap_sums): POTMAP_SUMS_AUTOMATIC
+   *  (default: the device when it is a GPU with doubles, else the host), POTMAP_SUMS_HOST or
+   *  POTMAP_SUMS_DEVICE (any device with doubles). The map is the same up to the rounding of
+   *  sums taken in another order. */
+  int sums;
 } potmap_drive_mapper_options;
+
+/** potmap_drive_mapper_options::sums. */
+enum potmap_sums { POTMAP_SUMS_AUTOMATIC = 0, POTMAP_SUMS_HOST = 1, POTMAP_SUMS_DEVICE = 2 };
 
 /** Fills *options with the defaults above; struct_size as for potmap_scan_init. */
 POTMAP_EXPORT potmap_status potmap_drive_mapper_options_init(potmap_drive_mapper_options* options,
@@ -619,6 +627,7 @@ typedef struct potmap_keyframe_stats {
   double update_ms;    /**< the joint BHM's update and the retiring */
   double transfer_ms;  /**< RePOT's transfer and seeding (0 without a dictionary) */
   size_t seeded;       /**< kernels RePOT seeded */
+  int sums_on_device;  /**< 1: the joint BHM's features and sums ran on the device */
 } potmap_keyframe_stats;
 
 /** Adds keyframe `index` (a 3D scan in the world frame: hits moved by the pose, which gives

@@ -611,6 +611,12 @@ class JointBhmOptions:
         ...
     @max_kernels.setter
     def max_kernels(self, value: Any) -> None: ...
+    @property
+    def sums(self) -> str:
+        """where update(samples, ctx) lists features and adds the sums: 'automatic' (default: the device when it is a GPU with doubles, else the host), 'host' or 'device'"""
+        ...
+    @sums.setter
+    def sums(self, value: Any) -> None: ...
 
 class JointBhmStats:
     """Counters of the last JointBhm.update()."""
@@ -629,6 +635,10 @@ class JointBhmStats:
         ...
     @property
     def residual(self) -> float:
+        ...
+    @property
+    def sums_on_device(self) -> bool:
+        """the features and sums ran on the context's device"""
         ...
 
 class KernelMap:
@@ -764,6 +774,14 @@ class KeyframeStats:
     @property
     def seeded(self) -> int:
         """kernels RePOT seeded"""
+        ...
+    @property
+    def on_device(self) -> bool:
+        """samples gathered on the device"""
+        ...
+    @property
+    def sums_on_device(self) -> bool:
+        """the learner's features and sums ran on the device"""
         ...
     @property
     def memory_bytes(self) -> int:

@@ -118,6 +118,9 @@ void bind_drive_options(py::module_& m) {
       .def_readonly("update_ms", &KeyframeStats::update_ms, "update and retiring")
       .def_readonly("transfer_ms", &KeyframeStats::transfer_ms, "RePOT's transfer and seeding")
       .def_readonly("seeded", &KeyframeStats::seeded, "kernels RePOT seeded")
+      .def_readonly("on_device", &KeyframeStats::on_device, "samples gathered on the device")
+      .def_readonly("sums_on_device", &KeyframeStats::sums_on_device,
+                    "the learner's features and sums ran on the device")
       .def_readonly("memory_bytes", &KeyframeStats::memory_bytes, "held after it");
 }
 

@@ -145,14 +145,32 @@ void bind_learn_joint_bhm_options(py::module_& m) {
                      "a seed yields, its mean too, when its kernel enters a scan's solve: "
                      "RePOT then equals BHM near the data (default True)")
       .def_readwrite("max_kernels", &JointBhmOptions::max_kernels,
-                     "stored-kernel guard (default 2^26)");
+                     "stored-kernel guard (default 2^26)")
+      .def_property(
+          "sums",
+          [](const JointBhmOptions& o) {
+            return o.sums == JointBhmSums::host     ? "host"
+                   : o.sums == JointBhmSums::device ? "device"
+                                                    : "automatic";
+          },
+          [](JointBhmOptions& o, const std::string& v) {
+            if (v != "automatic" && v != "host" && v != "device")
+              throw ArgumentError("sums must be 'automatic', 'host' or 'device', not '" + v + "'");
+            o.sums = v == "host"     ? JointBhmSums::host
+                     : v == "device" ? JointBhmSums::device
+                                     : JointBhmSums::automatic;
+          },
+          "where update(samples, ctx) lists features and adds the sums: 'automatic' (default: "
+          "the device when it is a GPU with doubles, else the host), 'host' or 'device'");
   add_fields_repr(jopt);
 
   py::class_<JointBhmStats>(m, "JointBhmStats", "Counters of the last JointBhm.update().")
       .def_readonly("samples", &JointBhmStats::samples)
       .def_readonly("active", &JointBhmStats::active, "kernels solved for")
       .def_readonly("cg_iterations", &JointBhmStats::cg_iterations)
-      .def_readonly("residual", &JointBhmStats::residual);
+      .def_readonly("residual", &JointBhmStats::residual)
+      .def_readonly("sums_on_device", &JointBhmStats::sums_on_device,
+                    "the features and sums ran on the context's device");
 }
 
 // The online joint BHM, under its lock.

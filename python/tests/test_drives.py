@@ -80,3 +80,23 @@ def test_repot_drive_mapper_seeds_from_a_dictionary_of_the_drive(ctx):
     flat = potmap.Dictionary()
     with pytest.raises(ValueError, match="3D atoms"):
         potmap.DriveMapper(dictionary=flat)
+
+
+
+def test_the_learners_sums_run_where_the_options_say(ctx):
+    # The PoCL device has doubles: 'device' runs the features and sums there, 'host' on the host,
+    # the same keyframes give the same samples and kernels, and scores to rounding.
+    d = potmap.open_drive(HKU)
+    runs = {}
+    for where in ("host", "device"):
+        bhm = potmap.DriveMapperOptions().bhm
+        bhm.sums = where
+        m = potmap.DriveMapper(range_cut=20, bhm=bhm)
+        for i in range(2):
+            st = m.add(d.keyframe(i), i, ctx)
+            assert st.sums_on_device == (where == "device")
+        t = m.held_out
+        runs[where] = (len(m.map()), potmap.score(m.map().evaluate(t.positions, ctx).prob, t.labels))
+    assert runs["host"][0] == runs["device"][0] > 1000
+    assert abs(runs["host"][1].auc - runs["device"][1].auc) < 1e-4
+    assert abs(runs["host"][1].nll - runs["device"][1].nll) < 1e-4

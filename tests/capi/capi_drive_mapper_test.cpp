@@ -34,7 +34,12 @@ TEST(CApiDriveMapper, OptionsInitToTheDriveDefaults) {
   EXPECT_EQ(o.holdout_fraction, 0.2);
   EXPECT_EQ(o.voxel, 0.5);
   EXPECT_EQ(o.retire_radius, -1.0);
+  EXPECT_EQ(o.sums, POTMAP_SUMS_AUTOMATIC);
   potmap_drive_mapper* m = nullptr;
+  o.sums = 3;
+  POTMAP_EXPECT_FAIL(potmap_drive_mapper_create(nullptr, &o, &m), POTMAP_ERROR_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(potmap_last_error(), "sums")) << potmap_last_error();
+  o.sums = POTMAP_SUMS_AUTOMATIC;
   o.range_cut = -1;
   POTMAP_EXPECT_FAIL(potmap_drive_mapper_create(nullptr, &o, &m), POTMAP_ERROR_INVALID_ARGUMENT);
   EXPECT_TRUE(contains(potmap_last_error(), "range_cut")) << potmap_last_error();
@@ -163,5 +168,38 @@ TEST(CApiDriveMapper, RepotSeedsFromADictionaryOfTheDrive) {
   POTMAP_ASSERT_OK(potmap_map_destroy(map));
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m));
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(src));
+  POTMAP_ASSERT_OK(potmap_dataset_destroy(data));
+}
+
+// Where the joint BHM's sums run is the caller's choice, and the stats say where they ran: on
+// the device and on the host, the same keyframes give the same held-out samples and map size.
+TEST(CApiDriveMapper, SumsRunWhereTheOptionsSay) {
+  potmap_dataset* data = nullptr;
+  POTMAP_ASSERT_OK(potmap_dataset_load(shared_data("drives3d/hku-1").c_str(), &data));
+  potmap_scan s;
+  POTMAP_ASSERT_OK(potmap_scan_init(&s, sizeof s));
+  size_t kernels[2] = {0, 0};
+  for (int device = 0; device < 2; ++device) {
+    potmap_drive_mapper_options o;
+    POTMAP_ASSERT_OK(potmap_drive_mapper_options_init(&o, sizeof o));
+    o.sums = device ? POTMAP_SUMS_DEVICE : POTMAP_SUMS_HOST;
+    potmap_drive_mapper* m = nullptr;
+    POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), &o, &m));
+    potmap_keyframe_stats st;
+    st.struct_size = sizeof st;
+    for (size_t i = 0; i < 2; ++i) {
+      POTMAP_ASSERT_OK(potmap_dataset_scan(data, i, &s));
+      POTMAP_ASSERT_OK(potmap_drive_mapper_add_keyframe(m, &s, int64_t(i), &st));
+      EXPECT_EQ(st.sums_on_device, device);  // the PoCL device has doubles
+    }
+    potmap_map* map = nullptr;
+    POTMAP_ASSERT_OK(potmap_drive_mapper_map(m, &map));
+    int dim = 0;
+    POTMAP_ASSERT_OK(potmap_map_size(map, &dim, &kernels[device]));
+    POTMAP_ASSERT_OK(potmap_map_destroy(map));
+    POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m));
+  }
+  EXPECT_GT(kernels[0], 1000u);
+  EXPECT_EQ(kernels[0], kernels[1]);
   POTMAP_ASSERT_OK(potmap_dataset_destroy(data));
 }
