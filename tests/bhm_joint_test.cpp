@@ -343,11 +343,13 @@ TEST(JointBhm, GrowableEqualsBoundedAcrossTileBorders) {
               mean_err, scale, var_err);
 }
 
-// The update split in two parts on a context's host team gives the map of the update on this
-// thread alone, bit for bit (the parts are the same either way), on the Intel log's scans and
-// across the growable map's tile borders, bounded and growable.
+// The host's update split in two parts on a context's host team gives the map of the update on
+// this thread alone, bit for bit (the parts are the same either way), on the Intel log's scans
+// and across the growable map's tile borders, bounded and growable.
 TEST(JointBhm, UpdateOnTheHostTeamIsTheSameBitForBit) {
   Context& ctx = test::context();
+  JointBhmOptions on_host;
+  on_host.sums = JointBhmSums::host;
   LabelledPoints held_out;
   const experiment::MapTask task = intel_task(16, held_out);
   ASSERT_EQ(task.train_scans.size(), 6u);
@@ -359,17 +361,19 @@ TEST(JointBhm, UpdateOnTheHostTeamIsTheSameBitForBit) {
     EXPECT_EQ(a.bias_mean, b.bias_mean) << what;
     EXPECT_EQ(a.bias_var, b.bias_var) << what;
   };
-  JointBhm alone(2), team(2);
+  JointBhm alone(2), team(2, on_host);
   for (std::size_t i = 0; i < task.train_scans.size(); ++i) {
     const LabelledPoints s = experiment::scan_training_samples(task, i, 0);
     alone.update(s);
     team.update(s, &ctx);
+    EXPECT_FALSE(team.last_stats().sums_on_device);
     EXPECT_EQ(team.last_stats().cg_iterations, alone.last_stats().cg_iterations) << "scan " << i;
   }
   expect_same(alone.map(), team.map(), "Intel, growable");
 
   const double lo3[3] = {-9, -27, 0}, hi3[3] = {9, 27, 0};
-  JointBhm bounded_alone(2, lo3, hi3), bounded_team(2, lo3, hi3), grow_alone(2), grow_team(2);
+  JointBhm bounded_alone(2, lo3, hi3), bounded_team(2, lo3, hi3, on_host), grow_alone(2),
+      grow_team(2, on_host);
   for (int t = 0; t < 4; ++t) {
     const LabelledPoints s = long_wall_scan(20 + t, t, -20 + 2 * t, 14 + 2 * t);
     bounded_alone.update(s);
@@ -403,9 +407,9 @@ TEST(JointBhm, SumsOnTheDeviceMatchTheHost) {
   if (!ctx.info().has_fp64) GTEST_SKIP() << "the device has no doubles";
   LabelledPoints held_out;
   const experiment::MapTask task = intel_task(test::sized(16, 10), held_out);
-  JointBhmOptions on_device;
-  on_device.sums = JointBhmSums::device;
-  JointBhm host(2), device(2, on_device);
+  JointBhmOptions on_host, on_device;  // (automatic: the device, which has doubles)
+  on_host.sums = JointBhmSums::host;
+  JointBhm host(2, on_host), device(2, on_device);
   for (std::size_t i = 0; i < task.train_scans.size(); ++i) {
     const LabelledPoints s = experiment::scan_training_samples(task, i, 0);
     host.update(s, &ctx);
@@ -422,7 +426,7 @@ TEST(JointBhm, SumsOnTheDeviceMatchTheHost) {
 
   // Bounded, weighted, with samples outside the grid and one not finite.
   const double lo3[3] = {-9, -27, 0}, hi3[3] = {9, 27, 0};
-  JointBhm bounded_host(2, lo3, hi3), bounded_device(2, lo3, hi3, on_device);
+  JointBhm bounded_host(2, lo3, hi3, on_host), bounded_device(2, lo3, hi3, on_device);
   for (int t = 0; t < 4; ++t) {
     LabelledPoints s = long_wall_scan(20 + t, t, -20 + 2 * t, 14 + 2 * t);
     s.weight.assign(s.size(), 1.0);

@@ -259,9 +259,9 @@ TEST(PotMapper, AsyncMergeGivesTheSynchronousMaps) {
   }
 }
 
-// MapperOptions::refine_on_host_team: RePOT's persistent update in two parts on the host helper
-// gives the persistent map of the update on the mapper's thread, bit for bit, synchronous and
-// with the merge behind add_scan.
+// MapperOptions::refine_on_host_team with the host's sums: RePOT's persistent update in two
+// parts on the host helper gives the persistent map of the update on the mapper's thread, bit
+// for bit, synchronous and with the merge behind add_scan.
 TEST(PotMapper, RepotUpdateOnTheHostTeamGivesTheSameMap) {
   const MapperScene s;
   const std::vector<Scan> targets(s.sim.scans.begin() + 2, s.sim.scans.end());
@@ -269,6 +269,7 @@ TEST(PotMapper, RepotUpdateOnTheHostTeamGivesTheSameMap) {
     SCOPED_TRACE(async ? "async merge" : "sync merge");
     MapperOptions o = test::small_mapper_options(true);
     o.async_merge = async;
+    o.refine_map.sums = JointBhmSums::host;
     Mapper alone(&test::context(), s.dict, o);
     o.refine_on_host_team = true;
     Mapper team(&test::context(), s.dict, o);

@@ -24,8 +24,7 @@ using detail::to_device;
 namespace detail {
 
 bool sums_on_device(JointBhmSums sums, const DeviceInfo& info) {
-  if (!info.has_fp64 || sums == JointBhmSums::host) return false;
-  return sums == JointBhmSums::device || info.is_gpu;
+  return info.has_fp64 && sums != JointBhmSums::host;
 }
 
 }  // namespace detail

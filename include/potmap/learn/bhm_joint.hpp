@@ -55,13 +55,14 @@ class Context;
 /// Where update() lists a scan's features and adds its sums (the precision's outer products,
 /// eta, the bias's couplings, each EM round's bound) when it is given a Context.
 enum class JointBhmSums {
-  /// On the context's device when it is a GPU with doubles (cl_khr_fp64), else on the host:
-  /// on a CPU device the host's loops, vectorised along runs of cells and split over the
-  /// context's two host threads, are faster than the same sums through OpenCL (the device
-  /// path also copies each round's precision rows back to the host, where the solve runs).
+  /// On the context's device when it has doubles (cl_khr_fp64), else on the host. Even PoCL's
+  /// CPU device beats the host's loops (split over the context's two host threads), as its
+  /// work-items take whole rows with no part boundaries: on the 2-core EPYC an update took
+  /// 0.6-0.9 times the host's time on riverside-a keyframes at 40 m, 0.5-0.7 on hku-1's and
+  /// 0.8-0.9 on the Intel log's scans (potmap mapping --sums host|device).
   automatic,
   host,    ///< on the host (the reference the device path is tested against)
-  device,  ///< on the device whatever its type (it needs cl_khr_fp64; the host otherwise)
+  device,  ///< on the device (the host when the device has no doubles)
 };
 
 struct JointBhmOptions {
@@ -122,7 +123,7 @@ struct JointBhmOptions {
   /// holds its half precision stencil: 1 + (m - 1) / 2 doubles, m the grid points within
   /// 2 sqrt(tau / gamma) of a kernel (23 in 2D, 126 in 3D at the defaults), and 4 more.
   std::size_t max_kernels = std::size_t(1) << 26;
-  /// Where the sums run (default automatic: a GPU's device, else the host; see JointBhmSums).
+  /// Where the sums run (default automatic: a device with doubles; see JointBhmSums).
   /// Either way the posterior is the same up to the rounding of sums taken in another order
   /// (relative 1e-12 in the tests).
   JointBhmSums sums = JointBhmSums::automatic;
@@ -155,11 +156,12 @@ class JointBhm {
   /// Throws ArgumentError on a dimension mismatch or when the map would pass
   /// options.max_kernels stored kernels (the posterior is unchanged then).
   ///
-  /// `ctx` (default null: this thread alone): the update's host work is split in two parts that
-  /// run on the calling thread and the context's host helper (Context::host_parallel_for); the
-  /// parts are the same with or without a context, so the result is the same bit for bit
-  /// either way. Where options.sums puts them on the device, the scan's features and sums run
-  /// on ctx's device (kernels/learn/bhm_joint_sums.cl) and the solve on the host.
+  /// `ctx` (default null: this thread alone): the scan's features and sums run on ctx's device
+  /// (kernels/learn/bhm_joint_sums.cl; options.sums), the solve on the host, split in two
+  /// parts on the calling thread and the context's host helper (Context::host_parallel_for).
+  /// The device's sums are taken in a fixed order, so the same input gives the same posterior
+  /// bit for bit on one device; the host's (options.sums = host) are the same bit for bit with
+  /// or without a context, and differ from the device's by rounding.
   void update(const LabelledPoints& samples, Context* ctx = nullptr);
 
   /// Adds the samples of every scan index in increasing order, one update() per scan.

@@ -78,11 +78,12 @@ struct MapperOptions {
   /// The persistent map's grid and prior (default JointBhmOptions{}: kernels 0.5 m apart,
   /// prior variance 10; unbounded, tiles allocated as the drive reaches them).
   JointBhmOptions refine_map;
-  /// The persistent map's update in two parts on the context's host helper
-  /// (JointBhm::update's ctx; the same map bit for bit either way). Default false: on the
-  /// 2-core EPYC virtual machine the merge ran slower that way inside the mapper (7.3-8.2
-  /// against 6.6-7.4 ms a town2 scan, alternated rounds), its two parts streaming the
-  /// precision over a memory path the two cores share (docs/pot-scale.md, session 26).
+  /// The persistent map's update given the context (JointBhm::update's ctx: its features and
+  /// sums on the device as refine_map.sums says, its solve in two parts on the context's host
+  /// helper; with refine_map.sums = host the same map bit for bit either way). Default false:
+  /// on the 2-core EPYC virtual machine the host's merge ran slower that way inside the mapper
+  /// (7.3-8.2 against 6.6-7.4 ms a town2 scan, alternated rounds), its two parts streaming the
+  /// precision over a memory path the two cores share (docs/pot-scale.md).
   /// bench/joint_update --team both measures the difference on a machine.
   bool refine_on_host_team = false;
   /// Seeded prior variances are at least this (weight units squared; default 10, the
