@@ -161,6 +161,7 @@ int main(int argc, char** argv) {
       o.pot.wall_clearance = 0.5;
       o.average_overall = true;
       o.pot.placement = auto_placement(o);
+      o.seed_displacement_variance = 0;  // potmap map's seeds
       std::vector<double> sync_ms, async_ms, serial_ms;
       double merge_ms = 0, sync_cpu_ms = 0;
       PotTiming stages;  // sync runs, averaged over the repeats

@@ -92,6 +92,9 @@ int main(int argc, char** argv) {
     mo.pot.refine = a.method == "repot";
     mo.pot.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
     mo.seed_min_variance = setup.seed_min_variance;
+    // RePOT's seeds placed as the scans' kernels are (the curves committed in docs/).
+    mo.seed_placement = mo.pot.placement;
+    mo.seed_displacement_variance = mo.pot.displacement_variance;
     Mapper mapper(&ctx, dict, mo);
 
     nlohmann::json curve = nlohmann::json::array();

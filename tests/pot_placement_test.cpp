@@ -87,7 +87,7 @@ const OtherScan& other_scan() {
 }
 
 PotOptions one_rotation() {
-  PotOptions po;
+  PotOptions po = PotOptions::paper();  // the tests set the placement they check
   po.rotations = {0.0};
   po.wall_clearance = 0.5;
   return po;

@@ -155,7 +155,7 @@ const TownScores& town_scores() {
     const Simulation dst = simulate(Town::builtin("town2"), to);
     TownScores out;
     for (int refine = 0; refine < 2; ++refine) {
-      MapperOptions mo;
+      MapperOptions mo = MapperOptions::paper();  // the paper's rules, whose scores these are
       mo.pot.rotations = {0, M_PI / 2, M_PI, 3 * M_PI / 2};
       mo.pot.transport_points = 300;
       mo.pot.transport_max_iterations = 300;

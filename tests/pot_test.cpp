@@ -51,8 +51,9 @@ TownAtoms town_atoms() {
 }
 
 // Small problems so that the CPU reference stays quick.
+// The paper's rules (the exhaustive ranking), which these tests check.
 PotOptions small_options() {
-  PotOptions o;
+  PotOptions o = PotOptions::paper();
   o.rank_hits = 40;
   o.rank_free = 20;
   o.transport_points = 120;

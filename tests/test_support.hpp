@@ -75,7 +75,8 @@ Sector rotated_sector(const Sector& s, double angle);
 KernelMap grid_around(const std::array<double, 3>& c, double half);
 
 /// Mapper options small enough for tests (40 + 20 ranked samples, 120 transport points, four
-/// rotations, seed 3): a scan maps in a fraction of a second on PoCL.
+/// rotations, seed 3) on the paper's rules (MapperOptions::paper()): a scan maps in a fraction
+/// of a second on PoCL.
 MapperOptions small_mapper_options(bool refine);
 
 /// While alive, no file of this process can grow past `bytes`: the kernel fails a write beyond

@@ -130,14 +130,11 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
   std::vector<std::string> files = {prefix + "_town.png"};
   auto make_job = [&a](bool refine) {
     MapJob job;
+    // `potmap map`'s defaults (the library's, the settings that map the real logs, with
+    // potmap map's seeds: no displacement variance), or the authors' rules.
+    job.mapper = a.map_defaults ? MapperOptions{} : MapperOptions::paper();
+    if (a.map_defaults) job.mapper.seed_displacement_variance = 0;
     job.mapper.pot.refine = refine;
-    if (a.map_defaults) {
-      // `potmap map`'s defaults, the settings that map the real logs.
-      job.mapper.pot.ranking = PotRanking::indexed;
-      job.mapper.pot.wall_clearance = 0.5;
-      job.mapper.pot.placement = refine ? PotPlacement::barycentric : PotPlacement::target_samples;
-      job.mapper.average_overall = true;
-    }
     job.mapper.pot.rotations = evenly_spaced_rotations(a.rotations);
     job.verbose = false;
     return job;

@@ -109,7 +109,13 @@ std::uint64_t fingerprint(const std::vector<Scan>& scans) {
 
 std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overall) {
   Fnv f;
-  const PotOptions& p = o.pot;
+  // The placement the transfer uses: RePOT's persistent map places its seeds by its own fields,
+  // so a state keeps its fingerprint whichever field carried the placement when it was saved.
+  PotOptions p = o.pot;
+  if (persistent_refine(o)) {
+    p.placement = o.seed_placement;
+    p.displacement_variance = o.seed_displacement_variance;
+  }
   f.values(p.sectors, p.max_range, p.min_samples, p.max_sample_distance, p.rotations, p.rank_hits,
            p.rank_free, p.rank_epsilon, p.rank_max_iterations, p.rank_tolerance, p.transport_points,
            p.transport_free_points, p.transport_epsilon, p.transport_max_iterations,

@@ -71,13 +71,6 @@ MapperOptions with_preselector(const Dictionary& dict, MapperOptions o) {
   return o;
 }
 
-// The transfer settings of one scan: the persistent map does RePOT's refinement.
-PotOptions transfer_options(const MapperOptions& o) {
-  PotOptions p = o.pot;
-  if (persistent_refine(o)) p.refine = false;
-  return p;
-}
-
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -114,6 +107,26 @@ MappedScan finish(Context* ctx, const Dictionary& dict, Prepared&& cur, std::siz
 
 }  // namespace
 
+MapperOptions MapperOptions::paper() {
+  MapperOptions o;
+  o.pot = PotOptions::paper();
+  o.average_overall = false;
+  // The authors' seeds: placed as the scan's kernels are, barycentric, with no variance added.
+  o.seed_placement = o.pot.placement;
+  o.seed_displacement_variance = 0;
+  return o;
+}
+
+PotOptions mapper_transfer_options(const MapperOptions& o) {
+  PotOptions p = o.pot;
+  if (persistent_refine(o)) {  // the persistent map does RePOT's refinement; these only seed it
+    p.refine = false;
+    p.placement = o.seed_placement;
+    p.displacement_variance = o.seed_displacement_variance;
+  }
+  return p;
+}
+
 void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
                const MapperOptions& options, const std::function<void(MappedScan&&)>& on_scan) {
   map_scans(ctx, dict, scans, options, on_scan, MapScansStart{});
@@ -124,7 +137,7 @@ void map_scans(Context* ctx, const Dictionary& dict, const std::vector<Scan>& sc
                const MapScansStart& start) {
   if (start.first >= scans.size()) return;
   const MapperOptions& o = with_preselector(dict, options);
-  const PotOptions po = transfer_options(o);
+  const PotOptions po = mapper_transfer_options(o);
   const auto launch = o.pipeline ? std::launch::async : std::launch::deferred;
   // Warm candidates: the atoms of the last scan finished when the next one is prepared (with
   // the pipeline, the scan before the one being solved; without, the same scan, so that both
@@ -206,7 +219,8 @@ const MappedScan& Mapper::add_scan(const Scan& scan) {
   // The preparation and the transfer read the dictionary, the options, the scan count and the
   // warm candidates, never the overall map: they run beside the previous scan's merge.
   Prepared cur = prepare(ctx_, *dict_, scan, scans_, options_, warm_[1]);
-  MappedScan m = finish(ctx_, *dict_, std::move(cur), scans_, options_, transfer_options(options_));
+  MappedScan m =
+      finish(ctx_, *dict_, std::move(cur), scans_, options_, mapper_transfer_options(options_));
   if (!options_.async_merge) {
     add_mapped(std::move(m));
     return last_;

@@ -396,6 +396,14 @@ ScanTransfer transfer_scan(Context* ctx, const Dictionary& dict, const LabelledP
       options);
 }
 
+PotOptions PotOptions::paper() {
+  PotOptions p;
+  p.ranking = PotRanking::exhaustive;
+  p.placement = PotPlacement::barycentric;
+  p.wall_clearance = 0;
+  return p;
+}
+
 std::vector<double> evenly_spaced_rotations(int n) {
   std::vector<double> r;
   for (int i = 0; i < n; ++i) r.push_back(2 * 3.14159265358979323846 * i / n);

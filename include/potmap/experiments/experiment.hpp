@@ -158,22 +158,17 @@ Method abhm_method(const AbhmSetup& setup, const std::string& name = "ABHM");
 /// i, as map_scans does); building the dictionary is offline work and reported in info["atoms_s"].
 struct PotSetup {
   /// Transfer settings; pot.refine switches RePOT on; pot.seed is task.seed. Default: the
-  /// library's, with kernels placed on the target's own samples (PotPlacement::target_samples:
-  /// on the four Radish logs AUC +0.012 to +0.042 and NLL -0.017 to -0.040 over the barycentric
-  /// placement with the averaged overall map, docs/pot-measurements.md) and a wall clearance of
-  /// 0.5 m (about one kernel spacing of the BHM atoms). No displacement variance: with anchors
-  /// on the target's samples the plan's spread of source logits already widens poor matches,
-  /// and the move's variance made NLL worse (CSAIL 0.295 -> 0.312 at 0.25 per m^2). The
-  /// indexed ranking (PotRanking::indexed): with these kernels it scores as the exhaustive one
-  /// at a fraction of its time, and its time barely grows with the dictionary
-  /// (docs/pot-scale.md).
-  PotOptions pot = [] {
-    PotOptions p;
-    p.ranking = PotRanking::indexed;
-    p.wall_clearance = 0.5;
-    p.placement = PotPlacement::target_samples;
-    return p;
-  }();
+  /// library's (PotOptions' defaults are the settings these experiments found best): kernels
+  /// placed on the target's own samples (PotPlacement::target_samples: on the four Radish logs
+  /// AUC +0.012 to +0.042 and NLL -0.017 to -0.040 over the barycentric placement with the
+  /// averaged overall map, docs/pot-measurements.md) and a wall clearance of 0.5 m (about one
+  /// kernel spacing of the BHM atoms). No displacement variance: with anchors on the target's
+  /// samples the plan's spread of source logits already widens poor matches, and the move's
+  /// variance made NLL worse (CSAIL 0.295 -> 0.312 at 0.25 per m^2). The indexed ranking
+  /// (PotRanking::indexed): with these kernels it scores as the exhaustive one at a fraction of
+  /// its time, and its time barely grows with the dictionary (docs/pot-scale.md).
+  /// PotOptions::paper() runs the authors' rules instead.
+  PotOptions pot;
   /// RePOT's seeds: placement and displacement variance of the transported kernels that seed
   /// the persistent map (defaults barycentric and 0.25 per m^2, a kernel moved 2 m gains
   /// variance 1). Seeds matter only where no sample reaches a kernel, which kernels on the

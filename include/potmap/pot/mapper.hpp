@@ -55,7 +55,16 @@ struct MapperState;
 POTMAP_CXX_API_BEGIN
 namespace potmap {
 
+/// The defaults are the settings that map real logs best, those `potmap mapping` runs
+/// (PotOptions' defaults, the averaged overall map, barycentric seeds with a displacement
+/// variance for RePOT's persistent map); paper() gives the authors' rules.
 struct MapperOptions {
+  /// The authors' rules (SPEC section 4, the paper's experiments): PotOptions::paper(), POT's
+  /// instantaneous maps summed with merging (average_overall false) and RePOT's seeds placed as
+  /// pot.placement places kernels, without displacement variance; every other field as the
+  /// defaults.
+  static MapperOptions paper();
+
   PotOptions pot;       ///< transfer settings (PotOptions::refine switches RePOT on)
   LabelOptions labels;  ///< labelling and the held-out split (default: 20 % of beams held out)
   /// Overlap the host's work with the device's (false: one thread, one stage at a time): the
@@ -91,13 +100,24 @@ struct MapperOptions {
   /// Transported variances say how sure the source was, not how well the atom fits here; the
   /// experiments found smaller floors worse on the real logs. Clamped to refine_map.prior_var.
   double seed_min_variance = 10.0;
+  /// Where the transported kernels that seed RePOT's persistent map go (read only with
+  /// persistent_refine(); in place of pot.placement). Default barycentric: seeds matter only
+  /// where no sample reaches a kernel, which kernels on the target's samples never are, while
+  /// barycentric images reach past the scan's samples.
+  PotPlacement seed_placement = PotPlacement::barycentric;
+  /// Weight variance added to those seeds per square metre the transport moved them (weight
+  /// units^2 / m^2; read only with persistent_refine(), in place of pot.displacement_variance).
+  /// Default 0.25, the experiments': a seed moved 2 m gains variance 1, so the farther a poor
+  /// match dragged it, the less it says. paper(): 0.
+  double seed_displacement_variance = 0.25;
   /// POT's overall map (read unless RePOT's persistent map is on): the support-weighted average
-  /// of the instantaneous maps (AveragedMap, true) or their kernels summed with merging
-  /// (OverallMap and the constructor's OverallMapOptions, false, the default: the authors'
-  /// rule). The average with PotOptions::placement = target_samples is what the experiments
-  /// run (docs/pot-measurements.md: on the Radish logs AUC 0.93-0.96 where the sum of
-  /// barycentric kernels gives 0.89-0.94).
-  bool average_overall = false;
+  /// of the instantaneous maps (AveragedMap, true, the default) or their kernels summed with
+  /// merging (OverallMap and the constructor's OverallMapOptions, false: the authors' rule,
+  /// paper()). Why the default: summed kernels let one scan's free space erase another's walls;
+  /// the average with PotOptions::placement = target_samples is what the experiments run
+  /// (docs/pot-measurements.md: on the Radish logs AUC 0.93-0.96 where the sum of barycentric
+  /// kernels gives 0.89-0.94).
+  bool average_overall = true;
   AveragedMapOptions averaged;  ///< the averaged overall map's grid and solve
   /// Mapper::add_scan() returns once the scan is transferred, and its merge into the overall
   /// map (POT's merge, RePOT's persistent update) runs on another thread beside the caller's
@@ -117,12 +137,18 @@ inline bool persistent_refine(const MapperOptions& o) {
   return o.pot.refine && o.persistent_refine;
 }
 
-/// The placement `potmap map` chooses for `o` ("auto"): kernels on the scan's samples, except
-/// for the seeds of RePOT's persistent map, which stay barycentric (kernels on the samples are
-/// all reached by samples and would seed nothing).
+/// The placement `potmap map --placement auto` chooses for `o`: kernels on the scan's samples,
+/// except for the seeds of RePOT's persistent map, which stay barycentric (kernels on the
+/// samples are all reached by samples and would seed nothing). The defaults' placements
+/// (PotOptions::placement, MapperOptions::seed_placement) give the same.
 inline PotPlacement auto_placement(const MapperOptions& o) {
   return persistent_refine(o) ? PotPlacement::barycentric : PotPlacement::target_samples;
 }
+
+/// The transfer settings a mapper transports each scan with: `o.pot`, except that with RePOT's
+/// persistent map (persistent_refine(o)) the kernels are placed by seed_placement with
+/// seed_displacement_variance, and refine is off (the persistent map does the refinement).
+PotOptions mapper_transfer_options(const MapperOptions& o);
 
 /// One mapped scan.
 struct MappedScan {
