@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <set>
 
 #include "commands.hpp"
 #include "dataset_samples.hpp"
@@ -36,6 +37,11 @@ struct MapArgs {
   double wall_clearance = 0.5, displacement_var = 0;
   std::uint64_t seed = 0;
   std::string ranking = "indexed";
+  // default: the library's defaults; paper: MapperOptions::paper() for the options below that
+  // the two presets set apart (--ranking, --placement, --wall-clearance, --average), unless
+  // given on the command line. `given`: those that were.
+  std::string preset = "default";
+  std::set<std::string> given;
   // The experiments' settings (docs/pot-measurements.md); on Intel from the default dictionary,
   // 60 scans: overall AUC / NLL 0.958 / 0.211, against 0.943 / 0.285 with the authors' placement
   // and summed kernels at the same clearance and 0.880 / 1.302 without a clearance.
@@ -56,39 +62,42 @@ struct MapArgs {
 nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const Dictionary& dict,
                           const std::vector<Scan>& scans, const MapJob& job,
                           const std::string& device) {
-  return {{"--dict", dict_file},
-          {"dictionary fingerprint", fingerprint(dict)},
-          {"--scans", a.scans},
-          {"scans fingerprint", fingerprint(scans)},
-          {"scans", scans.size()},
-          {"--first", a.first},
-          {"--max-scans", a.max_scans},
-          {"--range-cut", a.range_cut},
-          {"--refine", a.refine},
-          {"--per-scan-refine", a.per_scan_refine},
-          {"--seeds-yield-fully", a.seeds_yield_fully},
-          {"--refine-spacing", a.refine_spacing},
-          {"--refine-prior-var", a.refine_prior_var},
-          {"--refine-min-variance", a.refine_min_variance},
-          {"--em", a.em},
-          {"--sectors", a.sectors},
-          {"--rotations", a.rotations},
-          {"--ranking", a.ranking},
-          {"--candidates", a.candidates},
-          {"--max-range", a.max_range},
-          {"--free-points", a.free_points},
-          {"--free-tolerance", a.free_tolerance},
-          {"--hits-only", a.hits_only},
-          {"--holdout", a.holdout},
-          {"--seed", a.seed},
-          {"--wall-clearance", a.wall_clearance},
-          {"--displacement-var", a.displacement_var},
-          {"--merge-radius", a.merge_radius},
-          {"--max-kernels", a.max_kernels},
-          {"--placement", a.placement},
-          {"--average", a.average},
-          {"mapper options fingerprint", fingerprint(job.mapper, job.overall)},
-          {"device", a.cpu ? std::string("CPU reference") : device}};
+  nlohmann::json r = {{"--dict", dict_file},
+                      {"dictionary fingerprint", fingerprint(dict)},
+                      {"--scans", a.scans},
+                      {"scans fingerprint", fingerprint(scans)},
+                      {"scans", scans.size()},
+                      {"--first", a.first},
+                      {"--max-scans", a.max_scans},
+                      {"--range-cut", a.range_cut},
+                      {"--refine", a.refine},
+                      {"--per-scan-refine", a.per_scan_refine},
+                      {"--seeds-yield-fully", a.seeds_yield_fully},
+                      {"--refine-spacing", a.refine_spacing},
+                      {"--refine-prior-var", a.refine_prior_var},
+                      {"--refine-min-variance", a.refine_min_variance},
+                      {"--em", a.em},
+                      {"--sectors", a.sectors},
+                      {"--rotations", a.rotations},
+                      {"--ranking", a.ranking},
+                      {"--candidates", a.candidates},
+                      {"--max-range", a.max_range},
+                      {"--free-points", a.free_points},
+                      {"--free-tolerance", a.free_tolerance},
+                      {"--hits-only", a.hits_only},
+                      {"--holdout", a.holdout},
+                      {"--seed", a.seed},
+                      {"--wall-clearance", a.wall_clearance},
+                      {"--displacement-var", a.displacement_var},
+                      {"--merge-radius", a.merge_radius},
+                      {"--max-kernels", a.max_kernels},
+                      {"--placement", a.placement},
+                      {"--average", a.average},
+                      {"mapper options fingerprint", fingerprint(job.mapper, job.overall)},
+                      {"device", a.cpu ? std::string("CPU reference") : device}};
+  // Only when set: the checkpoints of runs without it stay resumable.
+  if (a.preset != "default") r["--preset"] = a.preset;
+  return r;
 }
 
 // The scans from --first, at most --max-scans of them, checked against the dictionary.
@@ -110,6 +119,10 @@ std::vector<Scan> scans_to_map(const MapArgs& a, const Dictionary& dict,
 // The mapper's and the overall map's options from the command line (checkpoints apart).
 MapJob map_job(const MapArgs& a) {
   MapJob job;
+  // Under --preset paper the options the presets set apart keep the paper's values unless given.
+  const bool paper = a.preset == "paper";
+  auto set = [&](const char* option) { return !paper || a.given.count(option) > 0; };
+  if (paper) job.mapper = MapperOptions::paper();
   PotOptions& po = job.mapper.pot;
   po.sectors = a.sectors;
   po.max_range = a.max_range;
@@ -122,16 +135,22 @@ MapJob map_job(const MapArgs& a) {
   po.refine_min_variance = a.refine_min_variance;
   po.refine_bhm.em_iterations = a.em;
   po.candidates = a.candidates;
-  po.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
+  if (set("--ranking"))
+    po.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
   po.transport_free_points = a.free_points;
   po.transport_free_tolerance = a.free_tolerance;
   po.transport_free = !a.hits_only;
-  po.wall_clearance = a.wall_clearance;
+  if (set("--wall-clearance")) po.wall_clearance = a.wall_clearance;
+  // One displacement variance for the scans' kernels and RePOT's seeds, whichever are placed.
   po.displacement_variance = a.displacement_var;
-  po.placement = a.placement == "auto"             ? auto_placement(job.mapper)
-                 : a.placement == "target_samples" ? PotPlacement::target_samples
-                                                   : PotPlacement::barycentric;
-  job.mapper.average_overall = a.average;
+  job.mapper.seed_displacement_variance = a.displacement_var;
+  if (set("--placement")) {  // auto: the defaults' (on the samples; RePOT's seeds barycentric)
+    po.placement =
+        a.placement == "barycentric" ? PotPlacement::barycentric : PotPlacement::target_samples;
+    job.mapper.seed_placement =
+        a.placement == "target_samples" ? PotPlacement::target_samples : PotPlacement::barycentric;
+  }
+  if (set("--average")) job.mapper.average_overall = a.average;
   po.seed = a.seed;
   job.mapper.labels.holdout_fraction = a.holdout;
   job.mapper.labels.seed = a.seed;
@@ -241,6 +260,24 @@ void add_seed_rule_flag(CLI::App* cmd, bool* yield_fully) {
                 "starts that scan's bound (higher F1, at times lower AUC than BHM)");
 }
 
+// --checkpoint and the options of when to write one and whether to resume it.
+void add_checkpoint_options(CLI::App* cmd, MapArgs& a) {
+  cmd->add_option("--checkpoint", a.checkpoint,
+                  "Checkpoint file: the overall map and everything needed to continue the run, "
+                  "replaced atomically (default: OUT.ckpt; removed when the run ends well)");
+  cmd->add_option("--checkpoint-every", a.checkpoint_every,
+                  "Write the checkpoint after every N scans (default 0: not by count)");
+  cmd->add_option("--checkpoint-seconds", a.checkpoint_seconds,
+                  "Write it when T seconds have passed since the last one (default 30; 0: not by "
+                  "time). With both 0 no checkpoint is written")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--resume", a.resume,
+                "Continue from the checkpoint (if there is one) and end with the same overall "
+                "map as a run that was never stopped; the same input and options are required");
+  cmd->add_flag("--keep-checkpoint", a.keep_checkpoint,
+                "Keep the checkpoint after the run ends (default: removed)");
+}
+
 void register_map(CLI::App& app, Runner& runner) {
   CLI::App* cmd = app.add_subcommand(
       "map",
@@ -275,6 +312,13 @@ void register_map(CLI::App& app, Runner& runner) {
       ->check(CLI::PositiveNumber);
   cmd->add_option("--rotations", a->rotations, "Rotations tried, evenly spaced (default 8)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--preset", a->preset,
+                  "default (the library's defaults, which map real logs best) or paper (the "
+                  "authors' rules, MapperOptions::paper(): exhaustive ranking, barycentric "
+                  "placement, no wall clearance, summed overall map, for the options among "
+                  "--ranking, --placement, --wall-clearance and --average not given)")
+      ->check(CLI::IsMember({"default", "paper"}))
+      ->capture_default_str();
   cmd->add_option("--ranking", a->ranking,
                   "exhaustive: every atom at every rotation (the paper's); indexed: nearest "
                   "atoms by signature at estimated rotations, coarse to fine (the default: the "
@@ -344,22 +388,12 @@ void register_map(CLI::App& app, Runner& runner) {
                 "One scan at a time: no preparing the next scan, and no merging or RePOT update of "
                 "the last one, beside the current scan's transfer (same maps)");
   cmd->add_flag("-q,--quiet", a->quiet, "No line per scan (a progress bar on a terminal)");
-  cmd->add_option("--checkpoint", a->checkpoint,
-                  "Checkpoint file: the overall map and everything needed to continue the run, "
-                  "replaced atomically (default: OUT.ckpt; removed when the run ends well)");
-  cmd->add_option("--checkpoint-every", a->checkpoint_every,
-                  "Write the checkpoint after every N scans (default 0: not by count)");
-  cmd->add_option("--checkpoint-seconds", a->checkpoint_seconds,
-                  "Write it when T seconds have passed since the last one (default 30; 0: not by "
-                  "time). With both 0 no checkpoint is written")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_flag("--resume", a->resume,
-                "Continue from the checkpoint (if there is one) and end with the same overall "
-                "map as a run that was never stopped; the same input and options are required");
-  cmd->add_flag("--keep-checkpoint", a->keep_checkpoint,
-                "Keep the checkpoint after the run ends (default: removed)");
-  cmd->callback(
-      [&runner, a, device] { runner.action = [a, device] { return run_map(*a, *device); }; });
+  add_checkpoint_options(cmd, *a);
+  cmd->callback([&runner, a, device, cmd] {
+    for (const char* o : {"--ranking", "--placement", "--wall-clearance", "--average"})
+      if (cmd->count(o) > 0) a->given.insert(o);
+    runner.action = [a, device] { return run_map(*a, *device); };
+  });
 }
 
 }  // namespace potmap::cli

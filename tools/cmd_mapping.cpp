@@ -1,5 +1,6 @@
 // `potmap mapping LOG`: from a raw log to the map, its pictures, a ROS map and the scores, with
-// the settings that map the real logs (the experiments' PotSetup) and the default dictionary.
+// the library's defaults (MapperOptions{}: the settings that map the real logs, as the
+// experiments' PotSetup) and the default dictionary.
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
@@ -28,7 +29,8 @@ namespace potmap::cli {
 namespace {
 
 struct MappingArgs {
-  std::string log, out, dict, method, json, ranking = "indexed";  // method "": by the input
+  // method "": by the input; ranking "": the preset's; preset: 2D logs' MapperOptions
+  std::string log, out, dict, method, json, ranking, preset = "default";
   double range_cut = -1, ros_res = 0.05;  // range_cut -1: 20 m in 2D, 40 m for a 3D drive
   std::size_t first = 0, max_scans = 0, picture_pixels = 1200;
   int rotations = 8;
@@ -64,7 +66,10 @@ int run_drive(const MappingArgs& a, const std::string& device) {
 }
 
 int run_mapping(const MappingArgs& args, const std::string& device) {
-  if (is_drive(args.log)) return run_drive(args, device);
+  if (is_drive(args.log)) {
+    if (args.preset != "default") throw ArgumentError("mapping: --preset is for 2D logs");
+    return run_drive(args, device);
+  }
   MappingArgs a = args;
   if (a.method.empty()) a.method = "repot";
   if (a.method != "pot" && a.method != "repot")
@@ -87,26 +92,17 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
                         "D scans, the dictionary " + dict_file + " is " + std::to_string(dict.dim) +
                         "D");
 
-  // The experiments' settings (README, Map quality), not copies of them.
-  const experiment::PotSetup setup;
+  // The library's defaults are the settings that map the real logs (README, Map quality);
+  // --preset paper the authors' rules.
   MapJob job;
-  job.mapper.pot = setup.pot;
+  job.mapper = a.preset == "paper" ? MapperOptions::paper() : MapperOptions{};
   job.mapper.pot.refine = a.method == "repot";
   job.mapper.pot.seed = a.seed;
-  job.mapper.pot.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
+  if (!a.ranking.empty())
+    job.mapper.pot.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
   job.mapper.pot.rotations = evenly_spaced_rotations(a.rotations);
-  job.mapper.persistent_refine = setup.persistent_refine;
-  job.mapper.average_overall = setup.combine == experiment::PotSetup::Combine::average;
-  job.mapper.averaged = setup.averaged;
-  if (persistent_refine(job.mapper)) {  // RePOT's seeds, as the experiments place them
-    job.mapper.pot.placement = setup.seed_placement;
-    job.mapper.pot.displacement_variance = setup.seed_displacement_variance;
-  }
-  job.mapper.seed_min_variance = setup.seed_min_variance;
   job.mapper.refine_map.seeds_yield_fully = a.seeds_yield_fully;
   job.mapper.labels.seed = a.seed;
-  job.mapper.pipeline = setup.pipeline;
-  job.overall = setup.overall;
   job.verbose = !a.quiet;
 
   Context ctx = make_context(device);
@@ -148,7 +144,8 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   nlohmann::json j = r.to_json();
   j["log"] = a.log;
   j["method"] = a.method == "repot" ? "RePOT" : "POT";
-  j["ranking"] = a.ranking;
+  j["ranking"] = job.mapper.pot.ranking == PotRanking::indexed ? "indexed" : "exhaustive";
+  if (a.preset != "default") j["preset"] = a.preset;
   j["seed_rule"] = a.seeds_yield_fully ? "yield-fully" : "keep-start";
   j["dictionary"] = a.dict.empty() ? "default: " + default_dictionary_recipe() : a.dict;
   j["range_cut"] = range_cut;
@@ -221,12 +218,17 @@ void register_mapping(CLI::App& app, Runner& runner) {
   cmd->add_option("--first", a->first, "Skip this many scans")->capture_default_str();
   cmd->add_option("--max-scans", a->max_scans, "Map at most this many scans (0: all)")
       ->capture_default_str();
+  cmd->add_option("--preset", a->preset,
+                  "2D logs: default (the library's defaults, which map real logs best) or paper "
+                  "(the authors' rules: exhaustive ranking, barycentric kernels summed with "
+                  "merging, no wall clearance; MapperOptions::paper())")
+      ->check(CLI::IsMember({"default", "paper"}))
+      ->capture_default_str();
   cmd->add_option("--ranking", a->ranking,
                   "exhaustive: every atom at every rotation (the paper's); indexed: nearest "
                   "atoms by signature at estimated rotations, coarse to fine (potmap map's "
-                  "--ranking)")
-      ->check(CLI::IsMember({"exhaustive", "indexed"}))
-      ->capture_default_str();
+                  "--ranking; default: the preset's, indexed for default, exhaustive for paper)")
+      ->check(CLI::IsMember({"exhaustive", "indexed"}));
   cmd->add_option("--rotations", a->rotations, "Rotations tried per atom")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
