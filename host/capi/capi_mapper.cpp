@@ -13,8 +13,18 @@ namespace {
 constexpr int kMaxRotations = 3600;    // 0.1 degree steps: beyond, a typo rather than a choice
 constexpr int kMaxEmIterations = 100;  // each a solve per scan: beyond, a typo rather than a choice
 
-potmap_mapper_options default_mapper_options() {
-  const potmap::MapperOptions m;
+// The C placement of `m`'s two placements (the scans' kernels, RePOT's persistent seeds).
+int c_placement(const potmap::MapperOptions& m) {
+  using potmap::PotPlacement;
+  if (m.pot.placement == PotPlacement::target_samples &&
+      m.seed_placement == PotPlacement::barycentric)
+    return POTMAP_PLACEMENT_AUTO;
+  return m.pot.placement == PotPlacement::target_samples ? POTMAP_PLACEMENT_TARGET_SAMPLES
+                                                         : POTMAP_PLACEMENT_BARYCENTRIC;
+}
+
+// `m` in the C struct (the overall map's options: OverallMapOptions{}).
+potmap_mapper_options c_options(const potmap::MapperOptions& m) {
   const potmap::OverallMapOptions ov;
   potmap_mapper_options o{};
   o.struct_size = sizeof o;
@@ -32,9 +42,7 @@ potmap_mapper_options default_mapper_options() {
   o.persistent_refine = m.persistent_refine ? 1 : 0;
   o.ranking = m.pot.ranking == potmap::PotRanking::indexed ? POTMAP_RANKING_INDEXED
                                                            : POTMAP_RANKING_EXHAUSTIVE;
-  o.placement = m.pot.placement == potmap::PotPlacement::target_samples
-                    ? POTMAP_PLACEMENT_TARGET_SAMPLES
-                    : POTMAP_PLACEMENT_BARYCENTRIC;
+  o.placement = c_placement(m);
   o.anchor_spacing = m.pot.anchor_spacing;
   o.wall_clearance = m.pot.wall_clearance;
   o.average_overall = m.average_overall ? 1 : 0;
@@ -43,16 +51,18 @@ potmap_mapper_options default_mapper_options() {
   o.refine_spacing = m.refine_map.spacing;
   o.refine_prior_var = m.refine_map.prior_var;
   o.refine_em_iterations = m.refine_map.em_iterations;
+  o.seed_displacement_variance = m.seed_displacement_variance;
   return o;
 }
 
-// tools/cmd_map.cpp's defaults for the fields the C API has.
+potmap_mapper_options default_mapper_options() {
+  return c_options(potmap::MapperOptions{});
+}
+
+// tools/cmd_map.cpp's defaults for the fields the C API has: the library's, with its seeds.
 potmap_mapper_options map_default_options() {
   potmap_mapper_options o = default_mapper_options();
-  o.ranking = POTMAP_RANKING_INDEXED;
-  o.placement = POTMAP_PLACEMENT_AUTO;
-  o.wall_clearance = 0.5;
-  o.average_overall = 1;
+  o.seed_displacement_variance = 0;
   return o;
 }
 
@@ -99,6 +109,8 @@ Options to_options(const potmap_mapper_options* in) {
     bad("refine_prior_var", o.refine_prior_var);
   if (o.refine_em_iterations < 1 || o.refine_em_iterations > kMaxEmIterations)
     bad("refine_em_iterations", o.refine_em_iterations);
+  if (!(o.seed_displacement_variance >= 0) || !std::isfinite(o.seed_displacement_variance))
+    bad("seed_displacement_variance", o.seed_displacement_variance);
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
@@ -107,10 +119,13 @@ Options to_options(const potmap_mapper_options* in) {
   r.mapper.persistent_refine = o.persistent_refine == 1;
   p.ranking = o.ranking == POTMAP_RANKING_INDEXED ? potmap::PotRanking::indexed
                                                   : potmap::PotRanking::exhaustive;
-  p.placement = o.placement == POTMAP_PLACEMENT_AUTO ? potmap::auto_placement(r.mapper)
-                : o.placement == POTMAP_PLACEMENT_TARGET_SAMPLES
-                    ? potmap::PotPlacement::target_samples
-                    : potmap::PotPlacement::barycentric;
+  // AUTO: kernels on the samples, RePOT's persistent seeds barycentric; otherwise both alike.
+  p.placement = o.placement == POTMAP_PLACEMENT_BARYCENTRIC ? potmap::PotPlacement::barycentric
+                                                            : potmap::PotPlacement::target_samples;
+  r.mapper.seed_placement = o.placement == POTMAP_PLACEMENT_TARGET_SAMPLES
+                                ? potmap::PotPlacement::target_samples
+                                : potmap::PotPlacement::barycentric;
+  r.mapper.seed_displacement_variance = o.seed_displacement_variance;
   p.anchor_spacing = o.anchor_spacing;
   p.wall_clearance = o.wall_clearance;
   r.mapper.average_overall = o.average_overall == 1;
@@ -148,6 +163,13 @@ extern "C" {
 potmap_status potmap_mapper_options_init(potmap_mapper_options* options, size_t struct_size) {
   return guard("potmap_mapper_options_init", POTMAP_ERROR_INTERNAL, [&] {
     init_struct(options, struct_size, default_mapper_options(), kMapperOptionsV1, "options");
+  });
+}
+
+potmap_status potmap_mapper_options_init_paper(potmap_mapper_options* options, size_t struct_size) {
+  return guard("potmap_mapper_options_init_paper", POTMAP_ERROR_INTERNAL, [&] {
+    init_struct(options, struct_size, c_options(potmap::MapperOptions::paper()), kMapperOptionsV1,
+                "options");
   });
 }
 

@@ -385,7 +385,9 @@ POTMAP_EXPORT potmap_status potmap_dictionary_info(const potmap_dictionary* dict
 /* ---- mappers (POT / RePOT) ------------------------------------------------------------- */
 
 /** How a mapper transports and accumulates (potmap/pot/transfer.hpp, labelling.hpp,
- * overall_map.hpp). */
+ * overall_map.hpp). The defaults are the library's (MapperOptions{}): the settings that map real
+ * logs best, those `potmap mapping` runs; potmap_mapper_options_init_paper gives the authors'
+ * rules. */
 typedef struct potmap_mapper_options {
   size_t struct_size; /**< the caller's sizeof (potmap_mapper_options_init sets it) */
   int sectors;        /**< target sectors per scan, >= 1 (default 5) */
@@ -410,31 +412,33 @@ typedef struct potmap_mapper_options {
    *  scan on its own and merges the refined maps (merge_radius, gamma_ratio, max_kernels). */
   int persistent_refine;
   /* ---- appended in version 3 ---- */
-  /** How each sector's atom is chosen: POTMAP_RANKING_EXHAUSTIVE (default: the paper's eq. 6,
-   *  every atom at every rotation; its cost grows with atoms x rotations) or
-   *  POTMAP_RANKING_INDEXED (the atoms nearest the sector in an index of rotation-invariant
-   *  signatures and the previous scan's atoms, at estimated rotations: the exhaustive
-   *  ranking's held-out scores at a fraction of its time on dictionaries of hundreds of atoms;
-   *  built once per mapper). */
+  /** How each sector's atom is chosen: POTMAP_RANKING_INDEXED (default: the atoms nearest the
+   *  sector in an index of rotation-invariant signatures and the previous scan's atoms, at
+   *  estimated rotations: the exhaustive ranking's held-out scores in 3.5 to 9 times less time
+   *  on dictionaries of hundreds of atoms; built once per mapper) or POTMAP_RANKING_EXHAUSTIVE
+   *  (the paper's eq. 6, every atom at every rotation; its cost grows with atoms x rotations).
+   *  A caller whose struct predates this field gets the default. */
   int ranking;
-  /** Where transported kernels go: POTMAP_PLACEMENT_BARYCENTRIC (default: each atom kernel at
-   *  its sample's barycentric image, the authors' rule), POTMAP_PLACEMENT_TARGET_SAMPLES (on the
-   *  scan's own samples thinned to anchor_spacing, each reading the atom's logit through the
-   *  plan: walls stay on the scan's walls), or POTMAP_PLACEMENT_AUTO (target samples for POT
-   *  and per-scan RePOT; barycentric for the persistent RePOT map's seeds, since kernels on the
-   *  samples are all reached by samples and would seed nothing). */
+  /** Where transported kernels go: POTMAP_PLACEMENT_AUTO (default: target samples for POT and
+   *  per-scan RePOT; barycentric for the persistent RePOT map's seeds, since kernels on the
+   *  samples are all reached by samples and would seed nothing), POTMAP_PLACEMENT_BARYCENTRIC
+   *  (each atom kernel at its sample's barycentric image, the authors' rule) or
+   *  POTMAP_PLACEMENT_TARGET_SAMPLES (on the scan's own samples thinned to anchor_spacing, each
+   *  reading the atom's logit through the plan: walls stay on the scan's walls). */
   int placement;
   /** With target-sample placement: metres between kernels of one class, > 0 (default 0.5, the
    *  BHM's kernel spacing). */
   double anchor_spacing;
-  /** Metres, >= 0 (default 0: off). A transported free-space kernel within this distance of a
-   *  hit of its sector, or a wall kernel farther than this from every hit, is dropped, so that
-   *  the free space beside an atom's wall does not erase the scan's wall. */
+  /** Metres, >= 0 (default 0.5, about the atoms' kernel spacing; 0: off, the authors' rule). A
+   *  transported free-space kernel within this distance of a hit of its sector, or a wall
+   *  kernel farther than this from every hit, is dropped, so that the free space beside an
+   *  atom's wall does not erase the scan's wall. */
   double wall_clearance;
-  /** POT's overall map: 0 (default) the instantaneous maps' kernels summed with merging
-   *  (merge_radius, gamma_ratio, max_kernels); 1 their support-weighted average on a 0.25 m
-   *  grid, which with target-sample placement depicts the Radish logs best
-   *  (docs/pot-measurements.md). Not read by the persistent RePOT map. */
+  /** POT's overall map: 1 (default) the instantaneous maps' support-weighted average on a
+   *  0.25 m grid, which with target-sample placement depicts the Radish logs best
+   *  (docs/pot-measurements.md); 0 their kernels summed with merging (merge_radius,
+   *  gamma_ratio, max_kernels; the authors' rule, in which one scan's free space erases another
+   *  scan's walls). Not read by the persistent RePOT map. */
   int average_overall;
   /* ---- appended in version 4 ---- */
   /** 1: potmap_mapper_add_scan returns once the scan is transferred, and its merge into the
@@ -464,6 +468,12 @@ typedef struct potmap_mapper_options {
   /** Jaakkola-Jordan EM rounds per scan, 1 to 100 (default 3: each round costs a solve; more
    *  tighten the bound on the scan's samples). */
   int refine_em_iterations;
+  /* ---- appended in version 7 ---- */
+  /** RePOT's persistent map (refine 1, persistent_refine 1): weight variance added to its seeds
+   *  per square metre the transport moved them, >= 0 (weight units^2 / m^2; default 0.25: a
+   *  seed moved 2 m gains variance 1, so a poor match dragged far says less; the paper's rules
+   *  0). */
+  double seed_displacement_variance;
 } potmap_mapper_options;
 
 /** Values of potmap_mapper_options::ranking. */
@@ -476,16 +486,22 @@ enum potmap_placement {
   POTMAP_PLACEMENT_AUTO = 2
 };
 
-/** Fills *options with the defaults above (the paper's rules); struct_size: the caller's
- *  sizeof(*options). */
+/** Fills *options with the defaults above (the library's, which map real logs best: on the
+ *  Intel log, 60 scans, the default dictionary, overall AUC / NLL 0.958 / 0.211 against
+ *  0.880 / 1.302 with the paper's rules); struct_size: the caller's sizeof(*options). */
 POTMAP_EXPORT potmap_status potmap_mapper_options_init(potmap_mapper_options* options,
                                                        size_t struct_size);
 
-/** Fills *options with the settings `potmap map` maps real logs with: the defaults above, then
- *  ranking INDEXED, placement AUTO, wall_clearance 0.5 and average_overall 1 (on the Intel log,
- *  60 scans, the default dictionary: overall AUC / NLL 0.958 / 0.211 against 0.880 / 1.302 with
- *  the paper's rules). Set refine afterwards as wanted; struct_size as for _init. A caller whose
- *  struct predates version 3 gets only the fields it has. */
+/** Fills *options with the paper's rules (MapperOptions::paper()): the defaults above, then
+ *  ranking EXHAUSTIVE, placement BARYCENTRIC, wall_clearance 0, average_overall 0 and
+ *  seed_displacement_variance 0. For reproducing the paper; set refine afterwards as wanted.
+ *  struct_size as for _init; a caller whose struct predates a field gets only those it has. */
+POTMAP_EXPORT potmap_status potmap_mapper_options_init_paper(potmap_mapper_options* options,
+                                                             size_t struct_size);
+
+/** Fills *options with the settings `potmap map` maps real logs with: the defaults above with
+ *  its RePOT seeds, seed_displacement_variance 0. Set refine afterwards as wanted; struct_size
+ *  as for _init. A caller whose struct predates version 3 gets only the fields it has. */
 POTMAP_EXPORT potmap_status potmap_mapper_options_init_map_defaults(potmap_mapper_options* options,
                                                                     size_t struct_size);
 

@@ -142,23 +142,42 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.gamma_ratio, 2.0);
   EXPECT_EQ(m.max_kernels, 0u);
   EXPECT_EQ(m.persistent_refine, 1);
-  EXPECT_EQ(m.ranking, POTMAP_RANKING_EXHAUSTIVE);
-  EXPECT_EQ(m.placement, POTMAP_PLACEMENT_BARYCENTRIC);
+  // The library's defaults, which map real logs best.
+  EXPECT_EQ(m.ranking, POTMAP_RANKING_INDEXED);
+  EXPECT_EQ(m.placement, POTMAP_PLACEMENT_AUTO);
   EXPECT_EQ(m.anchor_spacing, 0.5);
-  EXPECT_EQ(m.wall_clearance, 0.0);
-  EXPECT_EQ(m.average_overall, 0);
+  EXPECT_EQ(m.wall_clearance, 0.5);
+  EXPECT_EQ(m.average_overall, 1);
   EXPECT_EQ(m.async_merge, 0);
   EXPECT_EQ(m.seeds_yield_fully, 1);
   EXPECT_EQ(m.refine_spacing, 0.5);
   EXPECT_EQ(m.refine_prior_var, 10.0);
   EXPECT_EQ(m.refine_em_iterations, 3);
-  // `potmap map`'s settings: the defaults but for the four it sets.
+  EXPECT_EQ(m.seed_displacement_variance, 0.25);
+  // The paper's rules: the defaults but for the five the preset sets.
+  potmap_mapper_options mp;
+  POTMAP_ASSERT_OK(potmap_mapper_options_init_paper(&mp, sizeof mp));
+  EXPECT_EQ(mp.ranking, POTMAP_RANKING_EXHAUSTIVE);
+  EXPECT_EQ(mp.placement, POTMAP_PLACEMENT_BARYCENTRIC);
+  EXPECT_EQ(mp.wall_clearance, 0.0);
+  EXPECT_EQ(mp.average_overall, 0);
+  EXPECT_EQ(mp.seed_displacement_variance, 0.0);
+  EXPECT_EQ(mp.sectors, m.sectors);
+  EXPECT_EQ(mp.rotations, m.rotations);
+  EXPECT_EQ(mp.holdout_fraction, m.holdout_fraction);
+  EXPECT_EQ(mp.merge_radius, m.merge_radius);
+  EXPECT_EQ(mp.persistent_refine, m.persistent_refine);
+  EXPECT_EQ(mp.refine_spacing, m.refine_spacing);
+  POTMAP_EXPECT_FAIL(potmap_mapper_options_init_paper(nullptr, sizeof mp),
+                     POTMAP_ERROR_NULL_ARGUMENT);
+  // `potmap map`'s settings: the defaults but for its seeds' displacement variance.
   potmap_mapper_options md;
   POTMAP_ASSERT_OK(potmap_mapper_options_init_map_defaults(&md, sizeof md));
-  EXPECT_EQ(md.ranking, POTMAP_RANKING_INDEXED);
-  EXPECT_EQ(md.placement, POTMAP_PLACEMENT_AUTO);
-  EXPECT_EQ(md.wall_clearance, 0.5);
-  EXPECT_EQ(md.average_overall, 1);
+  EXPECT_EQ(md.ranking, m.ranking);
+  EXPECT_EQ(md.placement, m.placement);
+  EXPECT_EQ(md.wall_clearance, m.wall_clearance);
+  EXPECT_EQ(md.average_overall, m.average_overall);
+  EXPECT_EQ(md.seed_displacement_variance, 0.0);
   // Field by field (a struct's padding bytes are not its value).
   EXPECT_EQ(md.sectors, m.sectors);
   EXPECT_EQ(md.rotations, m.rotations);
@@ -733,12 +752,8 @@ TEST(CApiMapper, MapDefaultsMapAsThePotmapMapCommand) {
     o.seed = 5;
     potmap_mapper* m = nullptr;
     POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &m));
-    potmap::MapperOptions mo = cpp_options(refine);
-    mo.pot.ranking = potmap::PotRanking::indexed;
-    mo.pot.placement =
-        refine ? potmap::PotPlacement::barycentric : potmap::PotPlacement::target_samples;
-    mo.pot.wall_clearance = 0.5;
-    mo.average_overall = true;
+    potmap::MapperOptions mo = cpp_options(refine);  // the library's defaults are potmap map's
+    mo.seed_displacement_variance = 0;               // but for its seeds
     potmap::Mapper cpp(&cpp_context(), dict, mo);
     potmap::MapperOptions paper = mo;  // the same but for the four settings
     paper.pot.ranking = potmap::PotRanking::exhaustive;
