@@ -10,23 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "potmap/data/labelled_points.hpp"
-#include "potmap/pot/transfer.hpp"
+#include "potmap/pot/map_run.hpp"
 
 namespace potmap::cli {
 
-/// The per-scan totals of a mapping run (map_pipeline.cpp): what a resumed run needs to end
-/// with the summary of an uninterrupted one.
-struct MapRunTotals {
-  std::vector<float> inst_prob;      ///< held-out samples on their instantaneous maps
-  std::vector<std::uint8_t> labels;  ///< their labels
-  LabelledPoints test;               ///< the held-out samples, scored on the overall map
-  PotTiming timing;                  ///< sums over the scans
-  double wall_ms = 0, max_wall_ms = 0;
-  std::size_t kernels = 0;  ///< instantaneous kernels, summed
-  std::size_t scans = 0;
-  double seconds = 0;  ///< wall-clock time of the earlier stretches of the run (resumed ones)
-};
+/// The per-scan totals of a mapping run (potmap/pot/map_run.hpp).
+using MapRunTotals = potmap::MapRunTotals;
 
 /// The extra bytes of a checkpoint: `run` (the run's record) and the totals, with `seconds` the
 /// wall-clock time of the whole run so far in place of totals.seconds.

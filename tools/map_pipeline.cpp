@@ -3,12 +3,10 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <future>
 
 #include "map_checkpoint.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/map/evaluate.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {
@@ -60,63 +58,16 @@ void start_or_resume(const MapCheckpointing& ck, Mapper& mapper, MapRunTotals& t
   }
 }
 
-// The instantaneous map on its own scan's held-out samples (exact sum: a few thousand points),
-// kept for the run's scores, and those samples kept to score the overall map at the end.
-void add_held_out(const MappedScan& m, MapRunTotals& t) {
-  if (!m.test.empty()) {
-    const MapValuesExact v = evaluate_exact(m.transfer.map, m.test.position.data(), m.test.size());
-    for (std::size_t j = 0; j < m.test.size(); ++j) {
-      t.inst_prob.push_back(static_cast<float>(v.prob[j]));
-      t.labels.push_back(m.test.label[j]);
-    }
-    LabelledPoints& test = t.test;
-    test.position.insert(test.position.end(), m.test.position.begin(), m.test.position.end());
-    test.label.insert(test.label.end(), m.test.label.begin(), m.test.label.end());
-    test.scan.insert(test.scan.end(), m.test.scan.begin(), m.test.scan.end());
-  }
-}
-
-void add_to_totals(MapRunTotals& t, const MappedScan& done) {
-  const ScanTransfer& tr = done.transfer;
-  t.timing.prepare_ms += tr.timing.prepare_ms;
-  t.timing.ranking_ms += tr.timing.ranking_ms;
-  t.timing.transport_ms += tr.timing.transport_ms;
-  t.timing.placement_ms += tr.timing.placement_ms;
-  t.timing.refine_ms += tr.timing.refine_ms;
-  t.wall_ms += done.wall_ms;
-  t.max_wall_ms = std::max(t.max_wall_ms, done.wall_ms);
-  t.kernels += tr.map.size();
-  ++t.scans;
-}
-
 // The per-scan means, and the overall map scored on every scan's held-out samples.
 void summarise(MapJobResult& r, const MapRunTotals& t, Context* ctx) {
-  r.scans = t.scans;
-  if (r.scans > 0) {
-    const double n = double(r.scans);
-    r.mean_timing.prepare_ms = t.timing.prepare_ms / n;
-    r.mean_timing.ranking_ms = t.timing.ranking_ms / n;
-    r.mean_timing.transport_ms = t.timing.transport_ms / n;
-    r.mean_timing.placement_ms = t.timing.placement_ms / n;
-    r.mean_timing.refine_ms = t.timing.refine_ms / n;
-    r.mean_wall_ms = t.wall_ms / n;
-    r.max_wall_ms = t.max_wall_ms;
-    r.kernels_per_scan = t.kernels / r.scans;
-  }
-  r.instantaneous = score(t.inst_prob, t.labels);
-  const LabelledPoints& test = t.test;
-  if (!test.empty()) {
-    std::vector<float> prob(test.size());
-    const KernelMap& overall = r.overall_map();
-    if (ctx && !overall.empty()) {
-      MapEvaluator ev(*ctx, overall);
-      ev.evaluate(test.position.data(), test.size(), nullptr, nullptr, prob.data());
-    } else {
-      const MapValuesExact v = evaluate_exact(overall, test.position.data(), test.size());
-      for (std::size_t j = 0; j < test.size(); ++j) prob[j] = static_cast<float>(v.prob[j]);
-    }
-    r.overall_scores = score(prob, test.label);
-  }
+  const MapRunSummary s = summarise_run(ctx, *r.mapper, t);
+  r.scans = s.scans;
+  r.mean_timing = s.mean_timing;
+  r.mean_wall_ms = s.mean_wall_ms;
+  r.max_wall_ms = s.max_wall_ms;
+  r.kernels_per_scan = s.kernels_per_scan;
+  r.instantaneous = s.instantaneous;
+  r.overall_scores = s.overall;
 }
 
 }  // namespace
@@ -155,21 +106,15 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   auto last_checkpoint = t0;
   if (!job.instantaneous_dir.empty()) std::filesystem::create_directories(job.instantaneous_dir);
   auto progress = job.verbose ? std::function<void(double)>() : terminal_progress("map");
-  // Everything after a scan's transfer (its scores, the overall map's merge or RePOT's update,
-  // the checkpoint) runs on a worker beside the next scan's transfer, which reads none of it;
-  // the scans still reach the mapper one at a time and in order, so the maps are a serial
-  // run's.
-  auto merge_scan = [&](MappedScan&& m) {
-    add_held_out(m, t);
-    mapper.add_mapped(std::move(m));
-    const MappedScan& done = mapper.last();
+  // After each scan's merge (on map_scored's worker, beside the next scan's transfer): its
+  // instantaneous map, its line or the progress bar, and the checkpoint.
+  auto after_scan = [&](const MappedScan& done) {
     const ScanTransfer& tr = done.transfer;
     if (!job.instantaneous_dir.empty()) {
       char name[64];
       std::snprintf(name, sizeof name, "scan_%06zu.potmap", done.index);
       write_map(tr.map, (std::filesystem::path(job.instantaneous_dir) / name).string());
     }
-    add_to_totals(t, done);
     if (job.verbose) {
       std::fprintf(stderr,
                    "potmap map: scan %zu/%zu: %zu sectors, %zu kernels, %.1f ms (ranking "
@@ -195,18 +140,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
     ++r.checkpoints;
     r.checkpoint_seconds += std::chrono::duration<double>(last_checkpoint - now).count();
   };
-  const auto launch = mapper.options().pipeline ? std::launch::async : std::launch::deferred;
-  std::future<void> merging;
-  // The mapper's options carry the ranking's preselector or index, built once.
-  map_scans(
-      ctx, dict, scans, mapper.options(),
-      [&](MappedScan&& m) {
-        if (merging.valid()) merging.get();
-        merging = std::async(
-            launch, [&merge_scan, m = std::move(m)]() mutable { merge_scan(std::move(m)); });
-      },
-      mapper.continuation());
-  if (merging.valid()) merging.get();
+  map_scored(ctx, mapper, scans, t, after_scan);
   summarise(r, t, ctx);
   r.total_seconds = t.seconds + seconds_since(t0);
   return r;
