@@ -1,48 +1,22 @@
 #pragma once
-// The built-in default dictionaries of `potmap map` and `potmap mapping` without --dict: atoms
-// cut from drives through the three built-in towns (2D: the towns' 2D laser; 3D: the 32-ring
-// LIDAR of the 3D frames), built once and cached in the user's cache folder.
-#include <functional>
+// The built-in default dictionaries of `potmap map` and `potmap mapping` without --dict: the
+// library's (potmap/experiments/default_dictionary.hpp), with the command's notes on stderr and
+// a progress bar on a terminal while one is built.
 #include <string>
 
-#include "potmap/pot/atoms.hpp"
+#include "potmap/experiments/default_dictionary.hpp"
 
 namespace potmap::cli {
 
-/// Version of the recipe below; the cached file is named after it, so a new recipe never reads
-/// an old file. Bump it whenever the towns, the drives or the atom settings change.
-constexpr int kDefaultDictionaryVersion = 2;  // 2: atoms take the source map's bias (PotSetup)
+using experiment::build_default_dictionary;
+using experiment::build_default_dictionary_3d;
+using experiment::default_dictionary_path;
+using experiment::default_dictionary_recipe;
+using experiment::kDefaultDictionary3dVersion;
+using experiment::kDefaultDictionaryVersion;
 
-/// Version of the 3D recipe (build_default_dictionary_3d), as kDefaultDictionaryVersion.
-constexpr int kDefaultDictionary3dVersion = 1;
-
-/// What the default dictionary of dimension `dim` (2 or 3) is made of, in words (stored as
-/// every atom's source).
-std::string default_dictionary_recipe(int dim = 2);
-
-/// The default dictionary built from scratch: towns town1, town2 and town3 (seed 0), each
-/// driven for `scans` scans 2 m apart (route seed 0), scans cut at 20 m, the experiments'
-/// atoms (experiment::build_atoms with PotSetup's defaults, seed 0): a joint BHM of each town,
-/// atoms from 10 scans of each. Deterministic: no device is used. `progress`, when set, is
-/// called with the fraction done (0 to 1) after each town (the build takes about a minute).
-Dictionary build_default_dictionary(std::size_t scans = 200,
-                                    const std::function<void(double)>& progress = {});
-
-/// The 3D default dictionary built from scratch: towns town1, town2 and town3 (seed 0), each
-/// driven for `scans` scans 4 m apart with the 3D frames' sensor (experiment::sim_options_3d:
-/// 32 rings, 20 m), atoms from 10 scans of each by experiment::frame_setup_3d()'s settings
-/// (kernels at the atoms' samples thinned to 1 m, the drive BHM's spacing). Deterministic: no
-/// device is used. `progress` as above (the build takes a few minutes on 2 cores).
-Dictionary build_default_dictionary_3d(std::size_t scans = 20,
-                                       const std::function<void(double)>& progress = {});
-
-/// The cached file (user_cache_dir("dictionaries")/default-vN.potdict, 3D:
-/// default-3d-vN.potdict); empty without a cache folder.
-std::string default_dictionary_path(int dim = 2);
-
-/// The default dictionary of dimension `dim` (2 or 3): read from the cache, or built (a note
-/// on stderr) and written there when missing or unreadable. `where` receives the file it came
-/// from ("" when built without a cache folder).
+/// experiment::default_dictionary(dim, where) with its notes on stderr ("potmap: ...") and a
+/// progress bar on a terminal while it builds.
 Dictionary default_dictionary(std::string* where = nullptr, int dim = 2);
 
 }  // namespace potmap::cli

@@ -2,11 +2,12 @@
 // The user's cache folder of the potmap command (compiled kernels, the default dictionary).
 #include <string>
 
+#include "potmap/experiments/default_dictionary.hpp"
+
 namespace potmap::cli {
 
-/// `sub` under the user's cache root, $XDG_CACHE_HOME/potmap, else $HOME/.cache/potmap (the XDG
-/// base directory rule). Empty when neither variable is set (no cache). Nothing is created here.
-std::string user_cache_dir(const std::string& sub);
+/// `sub` under the user's cache root (potmap/experiments/default_dictionary.hpp).
+using experiment::user_cache_dir;
 
 /// Where the command's compiled kernels go: POTMAP_CACHE_DIR when set (the library reads it
 /// itself), else user_cache_dir("kernels"), so that a second run skips the OpenCL compiler.
