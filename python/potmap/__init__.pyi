@@ -880,10 +880,9 @@ class Mapper:
     def __init__(self, ctx: Context, dictionary: Dictionary, refine: bool = False, options: Any = None, overall: Any = None) -> None:
         """ctx: the device (None: the CPU reference, slow); dictionary: a Dictionary;
         refine: RePOT (default False: POT; same as options.pot.refine = True); options:
-        MapperOptions (default: the library's: 20 % of beams held out, 5 sectors, 8
-        rotations, ...; `potmap map`'s, which map real logs, are ranking='indexed',
-        placement='target_samples' and wall_clearance=0.5 in options.pot and
-        average_overall=True);
+        MapperOptions (default: the library's, which map real logs best, as `potmap
+        mapping`: 20 % of beams held out, 5 sectors, 8 rotations, indexed ranking, ...;
+        MapperOptions.paper() for the authors' rules);
         overall: OverallMapOptions of POT's summed map (default merge_radius 0.25)."""
         ...
     def add_scan(self, scan: Scan) -> MappedScan:
@@ -925,8 +924,14 @@ class Mapper:
         ...
 
 class MapperOptions:
-    """Settings of a Mapper."""
+    """Settings of a Mapper; the defaults map real logs best (what
+    `potmap mapping` runs); MapperOptions.paper(): the authors'."""
     def __init__(self, **kwargs: Any) -> None:
+        ...
+    @staticmethod
+    def paper() -> MapperOptions:
+        """The authors' rules: PotOptions.paper(), average_overall False, RePOT's
+        seeds barycentric without displacement variance."""
         ...
     @property
     def pot(self) -> PotOptions:
@@ -971,8 +976,20 @@ class MapperOptions:
     @seed_min_variance.setter
     def seed_min_variance(self, value: Any) -> None: ...
     @property
+    def seed_placement(self) -> str:
+        """RePOT's persistent map: where its seeds go ('barycentric', default: they reach past the scan's samples)"""
+        ...
+    @seed_placement.setter
+    def seed_placement(self, value: Any) -> None: ...
+    @property
+    def seed_displacement_variance(self) -> float:
+        """RePOT's persistent map: weight variance per m^2 a seed moved (0.25; the paper's 0)"""
+        ...
+    @seed_displacement_variance.setter
+    def seed_displacement_variance(self, value: Any) -> None: ...
+    @property
     def average_overall(self) -> bool:
-        """POT's overall map the support-weighted average of the scans' maps (False: summed kernels; True maps real logs)"""
+        """POT's overall map the support-weighted average of the scans' maps (True, which maps real logs; False: summed kernels, the paper's)"""
         ...
     @average_overall.setter
     def average_overall(self, value: Any) -> None: ...
@@ -1060,8 +1077,14 @@ class OverallMapOptions:
     def retire_to(self, value: Any) -> None: ...
 
 class PotOptions:
-    """Transfer settings (SPEC section 4); the defaults are the authors'."""
+    """Transfer settings (SPEC section 4); the defaults map real logs best
+    (what `potmap mapping` runs); PotOptions.paper(): the authors'."""
     def __init__(self, **kwargs: Any) -> None:
+        ...
+    @staticmethod
+    def paper() -> PotOptions:
+        """The authors' rules: ranking 'exhaustive', placement 'barycentric',
+        wall_clearance 0; every other field as the defaults."""
         ...
     @property
     def sectors(self) -> int:
@@ -1167,25 +1190,25 @@ class PotOptions:
     def transport_free(self, value: Any) -> None: ...
     @property
     def wall_clearance(self) -> float:
-        """metres (0: off; 0.5 maps real logs)"""
+        """metres (0.5, about the atoms' kernel spacing; 0: off, the paper's)"""
         ...
     @wall_clearance.setter
     def wall_clearance(self, value: Any) -> None: ...
     @property
     def displacement_variance(self) -> float:
-        """weight variance per m^2 moved (0; 0.25 maps real logs)"""
+        """weight variance per m^2 moved (0)"""
         ...
     @displacement_variance.setter
     def displacement_variance(self, value: Any) -> None: ...
     @property
     def placement(self) -> str:
-        """'barycentric' (the authors') or 'target_samples' (kernels on the scan's samples; what maps real logs)"""
+        """'target_samples' (default: kernels on the scan's samples, which maps real logs best) or 'barycentric' (the authors')"""
         ...
     @placement.setter
     def placement(self, value: Any) -> None: ...
     @property
     def ranking(self) -> str:
-        """'exhaustive' (every atom at every rotation, the paper's) or 'indexed' (the index's nearest atoms at estimated rotations, coarse to fine; what `potmap map` runs)"""
+        """'indexed' (default: the index's nearest atoms at estimated rotations, coarse to fine; the exhaustive ranking's scores in 3.5 to 9 times less time) or 'exhaustive' (every atom at every rotation, the paper's)"""
         ...
     @ranking.setter
     def ranking(self, value: Any) -> None: ...
@@ -1267,6 +1290,50 @@ class ReadStats:
     @property
     def points_dropped(self) -> int:
         """NaN or Inf points dropped"""
+        ...
+
+class RecordingMap:
+    """A recording mapped by map_recording()."""
+    def __init__(self, *args: Any, **kwargs: Any) -> Any:
+        """Initialize self.  See help(type(self)) for accurate signature."""
+        ...
+    @property
+    def map(self) -> KernelMap:
+        """the overall KernelMap (copy)"""
+        ...
+    @property
+    def overall(self) -> Scores:
+        """Scores of every scan's held-out samples on the overall map"""
+        ...
+    @property
+    def instantaneous(self) -> Scores:
+        """Scores of every scan's held-out samples on its own instantaneous map"""
+        ...
+    @property
+    def scans(self) -> int:
+        """scans mapped"""
+        ...
+    @property
+    def ms_per_scan(self) -> float:
+        """mean solve time of a scan, milliseconds"""
+        ...
+    @property
+    def timing(self) -> PotTiming:
+        """PotTiming: per-stage means, milliseconds"""
+        ...
+    @property
+    def overall_kernels(self) -> int:
+        ...
+    @property
+    def dictionary(self) -> str:
+        """the atoms' file"""
+        ...
+    @property
+    def atoms(self) -> int:
+        ...
+    @property
+    def seconds(self) -> float:
+        """wall-clock time of the mapping"""
         ...
 
 class Scan:
@@ -1757,6 +1824,16 @@ def build_dictionary(scans: numpy.typing.ArrayLike, map: KernelMap, options: Any
     """Atoms cut from source scans (list of Scan or a Dataset) and a map learned over the same
     place (world frame). options: DictionaryOptions, or its fields as keyword arguments
     (kernels_at_samples=0 m, max_weight_variance=1000, ...)."""
+    ...
+
+def default_dictionary(dim: int = 2) -> Dictionary:
+    """The built-in dictionary of dimension dim (2 or 3): atoms of the three simulated towns,
+    built once and cached in $XDG_CACHE_HOME/potmap/dictionaries (else ~/.cache/potmap),
+    the same file `potmap dict default`, `potmap map` and `potmap mapping` read."""
+    ...
+
+def default_dictionary_path(dim: int = 2) -> str:
+    """Where the default dictionary of dimension dim is cached ('' without a cache folder)."""
     ...
 
 def devices() -> List[DeviceInfo]:

@@ -52,14 +52,11 @@ def test_mapper_equals_potmap_map(source, cli, ctx, tmp_path, refine):
         "-o", out, "-q", *(["--refine"] if refine else []))
     theirs = potmap.read_map(str(out))
     d = potmap.Dictionary.load(str(source / "town1.potdict"))
-    # `potmap map`'s defaults: the indexed ranking, kernels on the scans' samples for POT
-    # (RePOT's seeds keep the barycentric placement), the averaged overall map, a wall
-    # clearance of 0.5 m.
+    # `potmap map`'s defaults are the library's (the indexed ranking, kernels on the scans'
+    # samples for POT, RePOT's seeds barycentric, the averaged overall map, a wall clearance of
+    # 0.5 m), but for its seeds' displacement variance (--displacement-var, 0).
     o = mapper_options()
-    o.pot.ranking = "indexed"
-    o.pot.wall_clearance = 0.5
-    o.pot.placement = "barycentric" if refine else "target_samples"
-    o.average_overall = True
+    o.seed_displacement_variance = 0
     mapper = potmap.Mapper(ctx, d, refine=refine, options=o)
     del d  # the mapper keeps the dictionary
     stats = [mapper.add_scan(s) for s in potmap.read_dataset(str(source / "dst" / "scans.log"))]
@@ -88,8 +85,11 @@ def test_transfer_scan_matches_the_mapper_instantaneous_map(source, ctx):
     mapper = potmap.Mapper(ctx, d, refine=True, options=mapper_options())
     first = mapper.add_scan(scan)
     assert len(first.train) > 0  # RePOT's persistent map hands back the training samples
-    t = potmap.transfer_scan(ctx, d, first.train, scan.origin, scan.pose[2], 0,
-                             options=mapper_options().pot)
+    # RePOT's persistent map transfers with its seeds' placement and displacement variance.
+    o = mapper_options()
+    po = o.pot
+    po.placement, po.displacement_variance = o.seed_placement, o.seed_displacement_variance
+    t = potmap.transfer_scan(ctx, d, first.train, scan.origin, scan.pose[2], 0, options=po)
     assert len(t.map) == len(first.map) > 0
     np.testing.assert_allclose(t.map.positions, first.map.positions, atol=1e-9)
     np.testing.assert_allclose(t.map.w_mean, first.map.w_mean, atol=1e-9)
