@@ -56,9 +56,11 @@ def test_map_recording_scores_as_potmap_mapping(default_dictionary, data_dir, ct
     log = f"{data_dir}/radish/intel-corrected.log.gz"
     r = potmap.map_recording(log, out_dir=tmp_path / "py", ctx=ctx, max_scans=SCANS)
     assert r.scans == SCANS and r.overall_kernels > 0 and len(r.map) > 0
-    # Measured: overall AUC 0.95, NLL 0.26 on these scans (pocl, CPU).
-    assert r.overall.auc > 0.93 and r.overall.nll < 0.35
-    assert r.instantaneous.n == r.overall.n > 1000
+    # Measured on PoCL (CPU): overall AUC 0.981, NLL 0.131 on 6170 held-out samples;
+    # instantaneous AUC 0.922.
+    assert r.overall.auc > 0.97 and r.overall.nll < 0.16
+    assert r.instantaneous.auc > 0.9
+    assert r.instantaneous.n == r.overall.n > 6000
     theirs = cli("mapping", log, "-o", tmp_path / "cli", "--max-scans", SCANS, "-q", "--json", "-",
                  json_out=True)
     assert theirs["scans"] == SCANS
@@ -83,6 +85,9 @@ def test_map_recording_paper_preset_is_the_commands(default_dictionary, data_dir
                  "--preset", "paper", "-q", "--json", "-", json_out=True)
     assert theirs["ranking"] == "exhaustive" and theirs["overall_kind"] == "merged kernels"
     assert theirs["overall"]["auc"] == pytest.approx(r.overall.auc, abs=1e-6)
+    # Measured: overall AUC 0.903, NLL 1.65 (the summed barycentric kernels erase walls; the
+    # defaults score 0.98 on these scans).
+    assert 0.85 < r.overall.auc < 0.95
 
 
 def test_map_recording_refuses_what_it_cannot_map(data_dir, ctx):
