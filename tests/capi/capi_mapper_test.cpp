@@ -101,18 +101,20 @@ std::shared_ptr<potmap::Dictionary> cpp_dictionary(const Source& src) {
   return dict;
 }
 
+// The paper's rules (the summed overall map, whose merges the tests count), four rotations.
 potmap_mapper_options fast_options(int refine) {
   potmap_mapper_options o;
-  potmap_mapper_options_init(&o, sizeof o);
+  potmap_mapper_options_init_paper(&o, sizeof o);
   o.rotations = 4;
   o.refine = refine;
   o.seed = 5;
   return o;
 }
 
-// What fast_options(refine) asks of the C++ Mapper.
-potmap::MapperOptions cpp_options(int refine) {
-  potmap::MapperOptions mo;
+// What fast_options(refine) asks of the C++ Mapper (from `base`'s other settings).
+potmap::MapperOptions cpp_options(
+    int refine, const potmap::MapperOptions& base = potmap::MapperOptions::paper()) {
+  potmap::MapperOptions mo = base;
   mo.pot.rotations = {0, kPi / 2, kPi, 3 * kPi / 2};
   mo.pot.refine = refine == 1;
   mo.pot.seed = mo.labels.seed = 5;
@@ -752,8 +754,9 @@ TEST(CApiMapper, MapDefaultsMapAsThePotmapMapCommand) {
     o.seed = 5;
     potmap_mapper* m = nullptr;
     POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &m));
-    potmap::MapperOptions mo = cpp_options(refine);  // the library's defaults are potmap map's
-    mo.seed_displacement_variance = 0;               // but for its seeds
+    // The library's defaults are potmap map's, but for its seeds.
+    potmap::MapperOptions mo = cpp_options(refine, potmap::MapperOptions{});
+    mo.seed_displacement_variance = 0;
     potmap::Mapper cpp(&cpp_context(), dict, mo);
     potmap::MapperOptions paper = mo;  // the same but for the four settings
     paper.pot.ranking = potmap::PotRanking::exhaustive;

@@ -240,7 +240,8 @@ TEST(CApiSoak, AStreamOfScansKeepsResidentMemoryFlat) {
             POTMAP_SUCCESS)
       << potmap_last_error();
   potmap_mapper_options o;
-  potmap_mapper_options_init(&o, sizeof o);
+  // The paper's rules: the summed overall map, which max_kernels caps.
+  potmap_mapper_options_init_paper(&o, sizeof o);
   o.rotations = 2;
   o.sectors = 3;
   o.max_kernels = cap;
