@@ -68,7 +68,7 @@ TEST(Pot3d, ScanOntoItselfPutsKernelsBackAtTheirHeight) {
   build_dictionary({scan}, map, dopt, dict);
   ASSERT_GE(dict.size(), 3u);
   EXPECT_EQ(dict.dim, 3);
-  PotOptions opt;
+  PotOptions opt = PotOptions::paper();  // barycentric images: kernels back at their samples
   opt.rotations = {0, test::kPi / 2, test::kPi, 3 * test::kPi / 2};
   opt.rank_hits = 100000;
   opt.rank_free = 100000;
@@ -103,7 +103,7 @@ TEST(Pot3d, MapsAnotherSimulatedTown) {
   ASSERT_GT(dict.size(), 5u);
   const Simulation tgt = simulate(Town::builtin("town2"), small3d(3, 7));
   for (const bool refine : {false, true}) {
-    MapperOptions mo;
+    MapperOptions mo = MapperOptions::paper();  // the rules the scores above were measured with
     mo.pot.refine = refine;
     OverallMap overall(3);
     LabelledPoints test;
