@@ -30,6 +30,20 @@ TEST(Context, UnknownDeviceNameListsDevices) {
   }
 }
 
+// A device is picked by its platform's vendor too ("pocl" for Debian's PoCL, whose platform is
+// named "Portable Computing Language").
+TEST(Context, PicksADeviceByItsPlatformsVendor) {
+  const DeviceInfo first = list_devices().at(0);
+  ASSERT_FALSE(first.platform_vendor.empty());
+  ContextOptions o;
+  o.device = first.platform_vendor;
+  EXPECT_EQ(Context(o).info().platform_vendor, first.platform_vendor);
+  if (first.platform_vendor.find("pocl") != std::string::npos) {
+    o.device = "PoCL";
+    EXPECT_EQ(Context(o).info().name, first.name);
+  }
+}
+
 TEST(Context, EveryEmbeddedKernelCompilesOnItsOwn) {
   const auto names = embedded_kernel_names();
   ASSERT_FALSE(names.empty());

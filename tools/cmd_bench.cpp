@@ -22,7 +22,8 @@ struct BenchArgs {
 
 void add_sweep_options(CLI::App* cmd, BenchArgs& a) {
   cmd->add_option("--device", a.device,
-                  "OpenCL device: substring of platform or device name (default: POTMAP_DEVICE, "
+                  "OpenCL device: substring of the platform's name or vendor or the device's name "
+                  "(default: POTMAP_DEVICE, "
                   "else first GPU, else first CPU)");
   cmd->add_flag("--quick", a.sweep.quick,
                 "fewer settings and smaller inputs (under a minute on a 2-core CPU)");

@@ -8,7 +8,8 @@ namespace potmap::cli {
 std::shared_ptr<std::string> add_device_option(CLI::App* cmd) {
   auto dev = std::make_shared<std::string>();
   cmd->add_option("--device", *dev,
-                  "OpenCL device: substring of platform or device name (default: POTMAP_DEVICE, "
+                  "OpenCL device: substring of the platform's name or vendor or the device's name "
+                  "(default: POTMAP_DEVICE, "
                   "else first GPU, else first CPU)");
   return dev;
 }

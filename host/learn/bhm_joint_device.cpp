@@ -17,7 +17,6 @@ namespace potmap {
 
 namespace bc = boost::compute;
 using detail::device_buffer;
-using detail::JointDeviceScan;
 using detail::round_up;
 using detail::to_device;
 
@@ -43,19 +42,21 @@ std::vector<std::uint32_t> starts_of(const std::vector<std::uint32_t>& count) {
 
 }  // namespace
 
-void JointBhm::list_on_device(const LabelledPoints& samples, JointDeviceScan& dev) {
+namespace detail {
+
+void JointBhmDevice::list(JointBhm& m, const LabelledPoints& samples, JointDeviceScan& dev) {
   // Spans and tiles on the host (tiles are made in the order of the samples, as on the host
   // path: a throw leaves the model as it was), the features on the device.
   const bool weighted = !samples.weight.empty();
   std::vector<double> pos;
   std::vector<cl_int> span, tiles;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    const double* x = &samples.position[i * dim_];
+    const double* x = &samples.position[i * m.dim_];
     std::int64_t a[3], b[3];
     std::int32_t t[8];
-    if (!sample_span(x, a, b)) continue;
-    span_tiles(x, a, b, true, t);
-    pos.insert(pos.end(), x, x + dim_);
+    if (!m.sample_span(x, a, b)) continue;
+    m.span_tiles(x, a, b, true, t);
+    pos.insert(pos.end(), x, x + m.dim_);
     for (int d = 0; d < 3; ++d) span.push_back(static_cast<cl_int>(a[d]));
     for (int d = 0; d < 3; ++d) span.push_back(static_cast<cl_int>(b[d]));
     tiles.insert(tiles.end(), t, t + 8);
@@ -70,14 +71,14 @@ void JointBhm::list_on_device(const LabelledPoints& samples, JointDeviceScan& de
   bc::context& cx = ctx.context();
   bc::command_queue& q = ctx.queue();
   detail::JointGridArgs g{};
-  for (int d = 0; d < 3; ++d) g.lo[d] = lo_[d];
-  g.h = o_.spacing;
-  g.gamma = gamma_;
-  g.tau = o_.tau;
-  g.dim = dim_;
-  g.tile = static_cast<std::int32_t>(tile_);
-  g.tile_cells = static_cast<std::int32_t>(tile_cells_);
-  g.box = static_cast<std::int32_t>(box_);
+  for (int d = 0; d < 3; ++d) g.lo[d] = m.lo_[d];
+  g.h = m.o_.spacing;
+  g.gamma = m.gamma_;
+  g.tau = m.o_.tau;
+  g.dim = m.dim_;
+  g.tile = static_cast<std::int32_t>(m.tile_);
+  g.tile_cells = static_cast<std::int32_t>(m.tile_cells_);
+  g.box = static_cast<std::int32_t>(m.box_);
   bc::buffer pos_b = to_device(ctx, pos, "joint BHM: sample positions"),
              span_b = to_device(ctx, span, "joint BHM: sample spans"),
              tiles_b = to_device(ctx, tiles, "joint BHM: sample tiles"),
@@ -107,23 +108,23 @@ void JointBhm::list_on_device(const LabelledPoints& samples, JointDeviceScan& de
                       pos_b, span_b, tiles_b, nu, dev.start_b, dev.fkernel_b, dev.fphi_b,
                       dev.flocal_b, dev.fsample_b);
   }
-  scratch_.kernel.resize(nf);
-  detail::from_device(q, dev.fkernel_b, scratch_.kernel);
+  m.scratch_.kernel.resize(nf);
+  detail::from_device(q, dev.fkernel_b, m.scratch_.kernel);
 }
 
-void JointBhm::update_on_device(const LabelledPoints& samples, Context& ctx) {
-  Scratch& sc = scratch_;
+void JointBhmDevice::update(JointBhm& m, const LabelledPoints& samples, Context& ctx) {
+  JointBhm::Scratch& sc = m.scratch_;
   JointDeviceScan dev(ctx);
-  list_on_device(samples, dev);
-  stats_.sums_on_device = true;
+  list(m, samples, dev);
+  m.stats_.sums_on_device = true;
   std::size_t n = 0;
   for (std::uint8_t h : dev.has) n += h;
-  stats_.samples = n;
+  m.stats_.samples = n;
   if (n == 0) return;
-  reach_rows(sc);
+  m.reach_rows(sc);
   // Each feature's row: its kernel's place among the reached ones.
   const std::size_t nrows = sc.reached.size(), nf = dev.features;
-  if (sc.row_of.size() < mean_.size()) sc.row_of.resize(mean_.size());
+  if (sc.row_of.size() < m.mean_.size()) sc.row_of.resize(m.mean_.size());
   for (std::size_t r = 0; r < nrows; ++r) sc.row_of[sc.reached[r]] = static_cast<std::uint32_t>(r);
   std::vector<std::uint32_t> frow(nf);
   for (std::size_t u = 0; u < nf; ++u) frow[u] = sc.row_of[sc.kernel[u]];
@@ -150,41 +151,42 @@ void JointBhm::update_on_device(const LabelledPoints& samples, Context& ctx) {
   }
   dev.w_b = to_device(ctx, dev.w, "joint BHM: sample weights");
   dev.yc_b = to_device(ctx, dev.yc, "joint BHM: sample labels");
-  dev.half_at_b = to_device(ctx, half_at_, "joint BHM: half stencil slots");
+  dev.half_at_b = to_device(ctx, m.half_at_, "joint BHM: half stencil slots");
   dev.lambda_b = to_device(ctx, std::vector<double>(dev.samples, 0.0), "joint BHM: lambda");
   dev.c_b = device_buffer(cx, dev.samples * 8, "joint BHM: curvature changes");
   dev.mu_b = device_buffer(cx, dev.samples * 8, "joint BHM: sample means");
-  const auto hs = static_cast<std::size_t>(half_slots_);
+  const auto hs = static_cast<std::size_t>(m.half_slots_);
   dev.dprec_b = device_buffer(cx, nrows * hs * 8, "joint BHM: precision increments");
   dev.drow_b = device_buffer(cx, nrows * 3 * 8, "joint BHM: row increments");
   dev.row_mean_b = device_buffer(cx, nrows * 8, "joint BHM: row means");
   dev.row_diag_b = device_buffer(cx, nrows * 8, "joint BHM: row diagonals");
-  const double bias_outside = prepare_solve(sc);
-  const bool boxed = box_rows(sc.rows, sc);
-  (void)boxed;  // solve() reads the box from the scratch
-  for (int it = 0; it < o_.em_iterations; ++it) {
-    apply_device_round(dev, it);
-    stats_.residual = solve(sc.rows, mean_, meanb_, o_.cg_tolerance, o_.cg_max_iterations,
-                            &stats_.cg_iterations, sc, true, &ctx, &bias_outside, it > 0);
+  const double bias_outside = m.prepare_solve(sc);
+  const bool boxed = m.box_rows(sc.rows, sc);
+  (void)boxed;  // m.solve() reads the box from the scratch
+  for (int it = 0; it < m.o_.em_iterations; ++it) {
+    apply_round(m, dev, it);
+    m.stats_.residual =
+        m.solve(sc.rows, m.mean_, m.meanb_, m.o_.cg_tolerance, m.o_.cg_max_iterations,
+                &m.stats_.cg_iterations, sc, true, &ctx, &bias_outside, it > 0);
   }
 }
 
-void JointBhm::apply_device_round(JointDeviceScan& dev, int round) {
+void JointBhmDevice::apply_round(JointBhm& m, JointDeviceScan& dev, int round) {
   // One EM round's bound and sums on the device, added here in the host path's order: eta (the
   // first round) and the bias's terms per sample, the rows' increments per row.
-  Scratch& sc = scratch_;
+  JointBhm::Scratch& sc = m.scratch_;
   Context& ctx = dev.ctx;
   bc::command_queue& q = ctx.queue();
   const std::size_t nrows = sc.reached.size(), n = dev.samples;
-  const auto hs = static_cast<std::size_t>(half_slots_);
+  const auto hs = static_cast<std::size_t>(m.half_slots_);
   std::vector<double> row_mean(nrows), row_diag(nrows);
   for (std::size_t r = 0; r < nrows; ++r) {
-    row_mean[r] = mean_[sc.reached[r]];
-    row_diag[r] = prec_[std::size_t(sc.reached[r]) * hs];
+    row_mean[r] = m.mean_[sc.reached[r]];
+    row_diag[r] = m.prec_[std::size_t(sc.reached[r]) * hs];
   }
   detail::upload(ctx, dev.row_mean_b, row_mean, "joint BHM: row means");
   detail::upload(ctx, dev.row_diag_b, row_diag, "joint BHM: row diagonals");
-  const double mean_b = o_.bias ? meanb_ : 0.0, var_b = o_.bias ? 1.0 / pbb_ : 0.0;
+  const double mean_b = m.o_.bias ? m.meanb_ : 0.0, var_b = m.o_.bias ? 1.0 / m.pbb_ : 0.0;
   {
     KernelLease k = ctx.lend_kernel(kProgram, "joint_bound");
     detail::launch_1d(q, *k, "joint_bound", round_up(n, kGroup), kGroup, dev.start_b, dev.frow_b,
@@ -195,8 +197,8 @@ void JointBhm::apply_device_round(JointDeviceScan& dev, int round) {
     KernelLease k = ctx.lend_kernel(kProgram, "joint_rows");
     detail::launch_1d(q, *k, "joint_rows", round_up(nrows, kGroup), kGroup, dev.rstart_b,
                       dev.rlist_b, static_cast<cl_uint>(nrows), dev.start_b, dev.fsample_b,
-                      dev.fphi_b, dev.flocal_b, dev.half_at_b, static_cast<cl_int>(centre_lin_),
-                      static_cast<cl_int>(half_slots_), dev.c_b, dev.mu_b, dev.yc_b,
+                      dev.fphi_b, dev.flocal_b, dev.half_at_b, static_cast<cl_int>(m.centre_lin_),
+                      static_cast<cl_int>(m.half_slots_), dev.c_b, dev.mu_b, dev.yc_b,
                       static_cast<cl_int>(round == 0), dev.dprec_b, dev.drow_b);
   }
   dev.c.resize(n);
@@ -214,19 +216,20 @@ void JointBhm::apply_device_round(JointDeviceScan& dev, int round) {
   const bool carry = round > 0;
   for (std::size_t i = 0; i < n; ++i) {
     if (!dev.has[i]) continue;
-    if (round == 0 && o_.bias) etab_ += dev.yc[i];
-    pbb_ += dev.c[i];
-    if (carry && o_.bias) sc.rb -= dev.c[i] * dev.mu[i];
+    if (round == 0 && m.o_.bias) m.etab_ += dev.yc[i];
+    m.pbb_ += dev.c[i];
+    if (carry && m.o_.bias) sc.rb -= dev.c[i] * dev.mu[i];
   }
   for (std::size_t r = 0; r < nrows; ++r) {
     const std::size_t k = sc.reached[r];
-    double* row = &prec_[k * hs];
+    double* row = &m.prec_[k * hs];
     const double* d = &dev.dprec[r * hs];
     for (std::size_t t = 0; t < hs; ++t) row[t] += d[t];
-    bcoup_[k] += dev.drow[3 * r];
+    m.bcoup_[k] += dev.drow[3 * r];
     if (carry) sc.r[k] -= dev.drow[3 * r + 1];
-    if (round == 0) eta_[k] += dev.drow[3 * r + 2];
+    if (round == 0) m.eta_[k] += dev.drow[3 * r + 2];
   }
 }
 
+}  // namespace detail
 }  // namespace potmap

@@ -22,6 +22,16 @@ struct JointGridArgs {
 };
 static_assert(sizeof(JointGridArgs) == 64, "JointGrid's layout");
 
+struct JointDeviceScan;
+
+/// The device's update, a friend of JointBhm (hidden, as every detail type: no exported
+/// member names it).
+struct JointBhmDevice {
+  static void update(JointBhm& m, const LabelledPoints& samples, Context& ctx);
+  static void list(JointBhm& m, const LabelledPoints& samples, JointDeviceScan& dev);
+  static void apply_round(JointBhm& m, JointDeviceScan& dev, int round);
+};
+
 struct JointDeviceScan {
   explicit JointDeviceScan(Context& c) : ctx(c) {}
   Context& ctx;

@@ -36,7 +36,7 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   stats_ = {};
   if (samples.empty()) return;
   if (ctx && detail::sums_on_device(o_.sums, ctx->info()))
-    update_on_device(samples, *ctx);
+    detail::JointBhmDevice::update(*this, samples, *ctx);
   else
     update_on_host(samples, ctx);
 }

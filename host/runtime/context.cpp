@@ -49,6 +49,7 @@ DeviceInfo describe(const bc::device& d) {
   info.max_work_group_size = d.max_work_group_size();
   info.global_mem_bytes = d.global_memory_size();
   info.max_alloc_bytes = d.get_info<cl_ulong>(CL_DEVICE_MAX_MEM_ALLOC_SIZE);
+  info.platform_vendor = p.vendor();
   return info;
 }
 
@@ -77,7 +78,8 @@ bc::device pick_device(const std::string& wanted) {
   if (!wanted.empty()) {
     const std::string w = lower(wanted);
     for (const bc::device& d : devices) {
-      const std::string hay = lower(d.platform().name() + " " + d.name());
+      const std::string hay =
+          lower(d.platform().name() + " " + d.platform().vendor() + " " + d.name());
       if (hay.find(w) != std::string::npos) return d;
     }
     std::ostringstream msg;

@@ -141,9 +141,9 @@ class Context:
     def __init__(self, device: str = '', cache_dir: str = '', disk_cache: bool = True, build_options: str = '', dump_kernels: bool = False, host_helper: bool = True) -> None:
         """Picks a device and sets it up.
         
-        device: case-insensitive substring of the platform or device name ('pocl',
-            'nvidia', 'cpu'); default '': $POTMAP_DEVICE, else the first GPU, else the first
-            CPU, else any device. potmap.Error if none matches.
+        device: case-insensitive substring of the platform's name or vendor or the
+            device's name ('pocl', 'nvidia', 'cpu'); default '': $POTMAP_DEVICE, else the
+            first GPU, else the first CPU, else any device. potmap.Error if none matches.
         cache_dir: folder for compiled program binaries; default '': $POTMAP_CACHE_DIR,
             else none (an unwritable folder is ignored with one warning).
         disk_cache: False turns the binary cache off whatever cache_dir says (default True).

@@ -56,9 +56,9 @@ void bind_runtime(py::module_& m) {
            "device"_a = "", "cache_dir"_a = "", "disk_cache"_a = true, "build_options"_a = "",
            "dump_kernels"_a = false, "host_helper"_a = true,
            "Picks a device and sets it up.\n\n"
-           "device: case-insensitive substring of the platform or device name ('pocl',\n"
-           "    'nvidia', 'cpu'); default '': $POTMAP_DEVICE, else the first GPU, else the first\n"
-           "    CPU, else any device. potmap.Error if none matches.\n"
+           "device: case-insensitive substring of the platform's name or vendor or the\n"
+           "    device's name ('pocl', 'nvidia', 'cpu'); default '': $POTMAP_DEVICE, else the\n"
+           "    first GPU, else the first CPU, else any device. potmap.Error if none matches.\n"
            "cache_dir: folder for compiled program binaries; default '': $POTMAP_CACHE_DIR,\n"
            "    else none (an unwritable folder is ignored with one warning).\n"
            "disk_cache: False turns the binary cache off whatever cache_dir says (default True).\n"

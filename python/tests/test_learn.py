@@ -45,14 +45,19 @@ def test_joint_bhm_scan_by_scan_equals_the_command(samples, cli, tmp_path):
 
 
 def test_joint_bhm_with_the_host_helper_is_the_same_bit_for_bit(samples, ctx):
+    # The host's sums on the host team; the default sums run on the device, to rounding.
     pts, _ = samples
-    alone, team = potmap.JointBhm(2), potmap.JointBhm(2)
+    alone, team = potmap.JointBhm(2), potmap.JointBhm(2, sums="host")
+    device = potmap.JointBhm(2)
     for t in np.unique(pts.scan):
         m = pts.scan == t
         s = potmap.LabelledPoints(pts.positions[m], pts.labels[m], pts.scan[m])
         alone.update(s)
         team.update(s, ctx)
+        device.update(s, ctx)
+        assert device.last_stats.sums_on_device and not team.last_stats.sums_on_device
     same_map(alone.map(), team.map())  # rtol = atol = 0
+    same_map(alone.map(), device.map(), rtol=1e-6, atol=1e-9)
 
 
 def test_diagonal_bhm_on_the_device_equals_the_command(samples, cli, ctx, tmp_path):

@@ -44,7 +44,7 @@
 // restores the private state (Mapper::save_state).
 namespace potmap::detail {
 struct JointBhmState;
-struct JointDeviceScan;
+struct JointBhmDevice;
 }  // namespace potmap::detail
 
 POTMAP_CXX_API_BEGIN
@@ -226,6 +226,7 @@ class JointBhm {
 
  private:
   friend struct detail::JointBhmState;
+  friend struct detail::JointBhmDevice;
   static constexpr std::uint32_t kNone = 0xffffffffu;
   struct Feature {
     std::uint32_t kernel;  // storage index (kNone: not stored, at its prior)
@@ -269,7 +270,7 @@ class JointBhm {
     std::vector<std::uint32_t> part_rows[2], part_around[2];
     std::vector<std::int64_t> part_at[2], part_around_at[2];
     std::vector<std::uint8_t> sample_parts;  // update(): per sample, bit p: a feature in part p
-    std::vector<std::uint32_t> row_of;       // update_on_device(): per reached kernel, its row
+    std::vector<std::uint32_t> row_of;       // the device's update: per reached kernel, its row
     std::int64_t box_lo[3] = {0, 0, 0}, box_n[3] = {1, 1, 1};
     std::int64_t box_split = 0, box_reach = 1;
     bool boxed = false;  // box_rows() accepted the rows
@@ -308,16 +309,13 @@ class JointBhm {
   // update()'s parts: the input's checks; the scan's features listed on the host (into the
   // scratch); the kernels they reach and the rows of the solve (seeds in them yield); the
   // bias's products with the kernels outside the rows, and the rows' box; the EM rounds on the
-  // host. update_on_device() (bhm_joint_device.cpp) lists and sums on the device instead.
+  // host. detail::JointBhmDevice (bhm_joint_device.cpp) lists and sums on the device instead.
   void check_samples(const LabelledPoints& samples) const;
   void list_features(const LabelledPoints& samples, Context* ctx);
   void reach_rows(Scratch& sc);
   double prepare_solve(Scratch& sc);
   void update_on_host(const LabelledPoints& samples, Context* ctx);
   void em_on_host(double bias_outside, bool boxed, Context* ctx);
-  void update_on_device(const LabelledPoints& samples, Context& ctx);
-  void list_on_device(const LabelledPoints& samples, detail::JointDeviceScan& dev);
-  void apply_device_round(detail::JointDeviceScan& dev, int round);
   // Returns seeded kernel k, which no sample has reached, to its prior (its mean to 0 too
   // with `with_mean`).
   void yield_seed(std::uint32_t k, bool with_mean);

@@ -29,7 +29,8 @@ namespace potmap {
 
 /// How to pick and set up the device.
 struct ContextOptions {
-  /// Case-insensitive substring of the platform or device name ("pocl", "nvidia", "cpu").
+  /// Case-insensitive substring of the platform's name or vendor or the device's name ("pocl",
+  /// "nvidia", "cpu").
   /// Empty: the POTMAP_DEVICE environment variable if set, else the first GPU, else the first
   /// CPU device, else any device.
   std::string device;
@@ -82,6 +83,9 @@ struct DeviceInfo {
   std::size_t max_work_group_size = 0;
   std::size_t global_mem_bytes = 0;
   std::size_t max_alloc_bytes = 0;
+  /// Platform vendor, e.g. "The pocl project" or "NVIDIA Corporation": a device is picked by
+  /// it too (Debian's PoCL platform is named "Portable Computing Language").
+  std::string platform_vendor;
   std::string summary() const;  ///< "device name (platform, driver x)" for logs and benchmarks
 };
 

@@ -1,0 +1,27 @@
+#pragma once
+// Map pictures a person reads: the probability (viridis) and the logit variance (magma) of a
+// grid of cells, never-observed cells grey, each above a strip with its titled colour bar, the
+// grey of unknown space and a scale bar in metres. The height band of a 3D drive and the
+// pictures of `potmap map` / `potmap mapping` share them.
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace potmap::cli {
+
+struct LegendPictures {
+  std::size_t width = 0, height = 0;  ///< pixels of the map part
+  double metres_per_pixel = 0;
+  double var_max = 0;  ///< the variance colour bar's top (the known pixels' 99th percentile)
+};
+
+/// `prob` and `var`: nx x ny cells of `cell` metres, row-major from the lower-left cell, prob <
+/// 0 where the cell is unknown. A pixel takes k x k cells (their largest probability, and the
+/// variance there). Writes `prob_path` and `var_path` (PNG) titled as given (capitals: the
+/// pixel font has no lower case). Throws potmap::Error when a file cannot be written.
+LegendPictures write_legend_pictures(const std::vector<float>& prob, const std::vector<float>& var,
+                                     std::size_t nx, std::size_t ny, std::size_t k, double cell,
+                                     const std::string& prob_path, const std::string& var_path,
+                                     const std::string& prob_title, const std::string& var_title);
+
+}  // namespace potmap::cli
