@@ -4,7 +4,7 @@
 Usage: bench/drive3d.py [--build build] [--drives riverside-a,hku-1] [--cuts 20,40]
                         [--keyframes 30] [--source 10] [--methods ogm,bhm,pot,repot]
                         [--mapping bhm,repot] [--out docs/drive3d-speed.json]
-                        [-- EXTRA potmap experiment options]
+                        [--doc docs/drives-3d.md] [-- EXTRA potmap experiment options]
 
 For every drive of ../shared/data/drives3d and every cut (a horizontal range, metres, applied
 to every method alike), `potmap experiment intra` maps keyframes [source, keyframes) of the
@@ -21,6 +21,9 @@ dictionary, a transfer every 4th keyframe; its build is not timed): the rows "ma
 "mapping RePOT", whose time is the mapper's per keyframe (gathering, transfer, update) against
 that experiment's OctoMap 0.2 m. Their scores are on every 4th held-out sample (the mapper
 keeps a quarter), the experiment's on all of them.
+
+--doc FILE puts the table into FILE between the lines "<!-- bench/drive3d.py table -->" and
+"<!-- end of bench/drive3d.py table -->", so the page shows the last run's figures.
 """
 import argparse
 import json
@@ -65,6 +68,21 @@ def run_mapping(build, drive, cut, keyframes, source, method):
     return json.loads(done.stdout)
 
 
+def put_table(doc, table, device):
+    """Replaces the marked table of `doc` (a temporary file renamed into place)."""
+    start, end = "<!-- bench/drive3d.py table -->", "<!-- end of bench/drive3d.py table -->"
+    with open(doc) as f:
+        text = f.read()
+    if start not in text or end not in text:
+        sys.exit("bench/drive3d.py: %s has no lines %r and %r" % (doc, start, end))
+    head, rest = text.split(start, 1)
+    tail = rest.split(end, 1)[1]
+    body = "\n".join(["", "Device: %s, %d CPUs." % (device, os.cpu_count()), ""] + table + [""])
+    with open(doc + ".tmp", "w") as f:
+        f.write(head + start + body + end + tail)
+    os.replace(doc + ".tmp", doc)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default=os.path.join(HERE, "..", "build"))
@@ -76,6 +94,7 @@ def main():
     ap.add_argument("--mapping", default="bhm,repot",
                     help="potmap mapping methods run after each experiment ('' for none)")
     ap.add_argument("--out", default="drive3d-speed.json")
+    ap.add_argument("--doc", default="", help="page whose marked table this run replaces")
     ap.add_argument("extra", nargs="*", help="more potmap experiment intra options (after --)")
     a = ap.parse_args()
     rows, device = [], ""
@@ -99,13 +118,15 @@ def main():
                              "ratio_to_octomap_0.2": j["ms_per_keyframe"] / base,
                              "keyframes": j["keyframes"], "n_test": j["scores"]["n"],
                              "transfer_ms_per_keyframe": j.get("transfer_ms_per_keyframe", 0)})
-    head = "| drive | cut | method | AUC | NLL | ms / keyframe | x OctoMap 0.2 m |"
-    print(head)
-    print("|---|---|---|---|---|---|---|")
+    table = ["| drive | cut | method | AUC | NLL | ms / keyframe | x OctoMap 0.2 m |",
+             "|---|---|---|---|---|---|---|"]
     for r in rows:
-        print("| %s | %g m | %s | %.3f | %.3f | %.0f | %.2f |" % (
+        table.append("| %s | %g m | %s | %.3f | %.3f | %.0f | %.2f |" % (
             r["drive"], r["cut_m"], r["method"], r["auc"], r["nll"], r["ms_per_keyframe"],
             r["ratio_to_octomap_0.2"]))
+    print("\n".join(table))
+    if a.doc:
+        put_table(a.doc, table, device)
     meta = {"command": "bench/drive3d.py " + " ".join(sys.argv[1:]), "device": device,
             "machine": platform.processor() or platform.machine(),
             "cpus": os.cpu_count(), "keyframes": a.keyframes, "source": a.source,

@@ -1,4 +1,4 @@
-// The joint BHM's update per scan (issue #15: RePOT's refine stage, BHM's whole cost), replayed
+// The joint BHM's update per scan (RePOT's refine stage, BHM's whole cost), replayed
 // on a real log away from POT's ranking and transport, so that its time can be compared between
 // builds without the noise of the rest of the pipeline. Prints ms per scan by stage and writes
 // the final maps (means, variances, scores) to compare builds' results.

@@ -1,4 +1,4 @@
-// What an embedder's Mapper costs a scan (issue #15): potmap::Mapper::add_scan, one scan at a
+// What an embedder's Mapper costs a scan: potmap::Mapper::add_scan, one scan at a
 // time as a ROS node or SLAM front end calls it, with the merge into the overall map done before
 // add_scan returns (the default) and behind it (MapperOptions::async_merge), alternated on the
 // same scans in the same run. The map is read once at the end, as a planner reading it now and

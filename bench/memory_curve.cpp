@@ -1,4 +1,4 @@
-// Memory over a long drive (issue #17 item 2): the overall map's kernels and bytes and the
+// Memory over a long drive: the overall map's kernels and bytes and the
 // process's resident memory against scans mapped, for POT or RePOT over every scan of a real
 // log, looped. Writes the curve as JSON (bench/memory_curve.py runs the committed rows and draws
 // the PNG).

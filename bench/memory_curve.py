@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Memory over long drives (issue #17 item 2): runs build/bench/memory_curve for POT and RePOT
+"""Memory over long drives: runs build/bench/memory_curve for POT and RePOT
 over every scan of freiburg-079 (4,791 scans) and over ten loops of the intel log, prints a
 table (map and resident memory after warm-up and at the end, growth over the second half) and
 writes the curves as JSON and a PNG.

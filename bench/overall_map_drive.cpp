@@ -1,4 +1,4 @@
-// One hour of driving at 10 scans per second through the overall map (issue #6 item 3): prints
+// One hour of driving at 10 scans per second through the overall map: prints
 // kernels and memory against scans driven and writes the curve as JSON.
 //
 // POT is not needed to measure the map's growth: each scan's instantaneous map is taken as the

@@ -1,4 +1,4 @@
-// POT and RePOT per-scan latency (issue #6): ranking, high-quality transport, placement and
+// POT and RePOT per-scan latency: ranking, high-quality transport, placement and
 // refinement, against the number of atoms and rotations, on 360-beam scans of a built-in town
 // mapped with a dictionary from another. Every row also scores the instantaneous maps on the
 // scans' held-out samples, so the batched OpenCL path and the one-problem-at-a-time CPU

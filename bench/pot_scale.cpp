@@ -1,4 +1,4 @@
-// POT at dictionary scale (issue #15): ms per scan by stage, held-out scores and the agreement of
+// POT at dictionary scale: ms per scan by stage, held-out scores and the agreement of
 // the chosen atoms, exhaustive against indexed ranking, against the number of atoms, beside
 // BHM's time per scan on the same scans in the same run. Prints a table and writes JSON.
 //

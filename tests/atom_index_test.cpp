@@ -193,7 +193,7 @@ TEST(AtomIndex, RejectsBadOptionsAndDimensions) {
                ArgumentError);
 }
 
-// The constructed case of issue #15: a scan turned by 90 degrees. Wherever the exhaustive
+// A constructed case: a scan turned by 90 degrees. Wherever the exhaustive
 // ranking over a small dictionary holding the scan's own atoms picks the scan's own atom of the
 // sector at 90 degrees (a sector with walls; in an open sector another nearly empty atom may
 // cost less, since the entropic cost of a set with itself is not zero), the indexed ranking

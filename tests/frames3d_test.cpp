@@ -35,7 +35,7 @@ Scan real_frame(const std::string& name, std::size_t k) {
 FrameSetup small_setup() {
   FrameSetup s = frame_setup_3d();
   // The kernels fill the cut's ball, so the cut sets the cost. The same 15 m under the
-  // sanitizers: since the joint BHM's own cut-off (session 15) a frame costs a second or two
+  // sanitizers: with the joint BHM's own cut-off a frame costs a second or two
   // there too, and a 10 m cut was a different, thinner test (RePOT's NLL 3e-5 above BHM's).
   s.max_range = 15.0;
   return s;
@@ -93,9 +93,8 @@ void expect_targets(const FrameEvaluation& e, double pot_auc, double pot_nll) {
 // Measured (frame every 8th return, one thinned scan of town1 as source): BHM AUC 0.975 NLL
 // 0.185; POT AUC 0.861 NLL 0.408 (kernels on the frame's samples and the averaged map; with the
 // barycentric placement 0.800 / 1.76; with three towns and the full frame POT reaches 0.888 /
-// 0.447); RePOT AUC 0.975 NLL 0.179 (seeds yield to data). At a 10 m cut (the sanitizers' size
-// before session 15) RePOT's NLL came out 3e-5 above BHM's, and 0.0019 above at 8 m: the margin
-// is thin on small cuts of this frame.
+// 0.447); RePOT AUC 0.975 NLL 0.179 (seeds yield to data). At a 10 m cut RePOT's NLL came out 3e-5
+// above BHM's, and 0.0019 above at 8 m: the margin is thin on small cuts of this frame.
 TEST(Frames3d, NuScenesFromSimulatedTowns) {
   const Scan frame = real_frame("nuscenes_lidar_top_1532402927647951.bin", 8);
   const FrameEvaluation e =

@@ -1,4 +1,4 @@
-// Memory over a drive that keeps returning to the same place (issue #17 item 2): the mapper's
+// Memory over a drive that keeps returning to the same place: the mapper's
 // overall map and the process's resident memory level off after the first pass. The full
 // curves (every scan of freiburg-079, ten loops of intel) are bench/memory_curve.py's, in
 // docs/memory-curve.md; this is the short version on real scans, so that a map or a cache that

@@ -1,4 +1,4 @@
-// Map quality of POT and RePOT on the built-in towns (issue #6 item 7), and RePOT's joint
+// Map quality of POT and RePOT on the built-in towns, and RePOT's joint
 // E-step against a dense solve.
 #include <gtest/gtest.h>
 

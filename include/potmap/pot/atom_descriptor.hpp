@@ -1,6 +1,6 @@
 #pragma once
-// Cheap pre-selection of atoms before the Sinkhorn ranking (issue #6 item 1: large
-// dictionaries must stay usable).
+// Cheap pre-selection of atoms before the Sinkhorn ranking (large dictionaries
+// must stay usable).
 //
 // The ranking compares a target sector with every atom rotated about its centroid (the origin
 // of the sector frame), by the OT cost of squared distances. Rotations about the origin keep

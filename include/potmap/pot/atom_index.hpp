@@ -1,5 +1,5 @@
 #pragma once
-// An index over a dictionary's atoms for the indexed ranking (PotOptions::ranking, issue #15):
+// An index over a dictionary's atoms for the indexed ranking (PotOptions::ranking):
 // candidates for a target sector come from a nearest-neighbour query over rotation-invariant
 // signatures, and each candidate's rotation is estimated by circular cross-correlation of
 // angular histograms instead of trying every rotation with Sinkhorn.

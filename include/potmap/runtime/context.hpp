@@ -102,7 +102,7 @@ std::vector<DeviceInfo> list_devices();
 /// busy (a virtual machine's idle vCPU is reported as preempted) wakes them on the launching
 /// core, where two workers share one core until the load balancer moves one. Pinned, each runs
 /// on its own core at once. A launch of milliseconds after an idle gap pays this most: one
-/// POT scan at a time (issue #15) ranked in 2.9 instead of 3.9 ms (docs/pot-scale.md). The
+/// POT scan at a time ranked in 2.9 instead of 3.9 ms (docs/pot-scale.md). The
 /// `potmap` command and the latency benchmarks call it; an embedder decides for its process.
 bool pin_pocl_workers();
 
