@@ -50,7 +50,7 @@ struct MapArgs {
   // Checkpoints every 30 s of work by default: at most that much is lost whatever a scan costs
   // (a count of scans bounds neither the loss nor the overhead: scans take 1 ms to seconds),
   // and a checkpoint costs a small fraction of it (RePOT's largest, tens of MB, take tenths of
-  // a second; README).
+  // a second; docs/commands.md, Checkpoints and resume).
   std::string checkpoint;  // default: OUT + ".ckpt"
   std::size_t checkpoint_every = 0;
   double checkpoint_seconds = 30;

@@ -92,7 +92,7 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
                         "D scans, the dictionary " + dict_file + " is " + std::to_string(dict.dim) +
                         "D");
 
-  // The library's defaults are the settings that map the real logs (README, Map quality);
+  // The library's defaults are the settings that map the real logs (docs/methods.md);
   // --preset paper the authors' rules.
   MapJob job;
   job.mapper = a.preset == "paper" ? MapperOptions::paper() : MapperOptions{};

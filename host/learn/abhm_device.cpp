@@ -5,6 +5,7 @@
 
 #include "abhm_detail.hpp"
 #include "bhm_detail.hpp"
+#include "pair_buffers.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/abhm.hpp"
 #include "runtime/cl_check.hpp"
@@ -54,21 +55,18 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
              b_kw = to_device(ctx, kw, "ABHM: kernel weights"),
              b_spos = to_device(ctx, spos, "ABHM: sample positions"),
              b_sy = to_device(ctx, sy, "ABHM: sample labels"),
-             b_sstart = to_device(ctx, pairs.sample_start, "ABHM: sample pair starts"),
-             b_slist = to_device(ctx, pairs.sample_kernels, "ABHM: sample pair kernels"),
-             b_kstart = to_device(ctx, pairs.kernel_start, "ABHM: kernel pair starts"),
-             b_klist = to_device(ctx, pairs.kernel_samples, "ABHM: kernel pair samples"),
              b_gf = to_device(ctx, gf, "ABHM: sample logits"),
              b_ll = to_device(ctx, ll, "ABHM: sample log-likelihoods"),
              b_dw = to_device(ctx, dw, "ABHM: weight gradients"),
              b_dg = to_device(ctx, dg, "ABHM: gamma gradients"),
              b_dh = to_device(ctx, dh, "ABHM: position gradients");
+  const detail::PairBuffers pb = detail::upload_pairs(ctx, pairs, "ABHM");
   const std::string defs = "-DDIM=" + std::to_string(dim);
   const std::size_t wg = static_cast<std::size_t>(ctx.tuning().learn.abhm_work_group);
   if (n > 0) {
     KernelLease fwd = ctx.lend_kernel("learn/abhm_grad", "abhm_forward", defs);
     detail::launch_1d(ctx.queue(), *fwd, "abhm_forward", round_up(n, wg), wg, b_kpos, b_kg, b_kw,
-                      b_spos, b_sy, b_sstart, b_slist, static_cast<cl_uint>(n),
+                      b_spos, b_sy, pb.sample_start, pb.sample_kernels, static_cast<cl_uint>(n),
                       static_cast<float>(draw.b), static_cast<float>(scale), b_gf, b_ll);
     from_device(ctx, b_ll, ll);
     from_device(ctx, b_gf, gf);
@@ -83,7 +81,8 @@ double abhm_loss_device(Context& ctx, const AbhmParams& p, const AbhmPrior& prio
   if (m > 0 && n > 0) {
     KernelLease bwd = ctx.lend_kernel("learn/abhm_grad", "abhm_backward", defs);
     detail::launch_1d(ctx.queue(), *bwd, "abhm_backward", round_up(m, wg), wg, b_kpos, b_kg, b_kw,
-                      b_spos, b_gf, b_kstart, b_klist, static_cast<cl_uint>(m), b_dw, b_dg, b_dh);
+                      b_spos, b_gf, pb.kernel_start, pb.kernel_samples, static_cast<cl_uint>(m),
+                      b_dw, b_dg, b_dh);
     from_device(ctx, b_dw, dw);
     from_device(ctx, b_dg, dg);
     from_device(ctx, b_dh, dh);

@@ -6,6 +6,7 @@
 
 #include "bhm_detail.hpp"
 #include "map/split_float.hpp"
+#include "pair_buffers.hpp"
 #include "potmap/learn/bhm.hpp"
 #include "runtime/cl_check.hpp"
 #include "runtime/device_buffers.hpp"
@@ -54,15 +55,12 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
              b_slo = to_device(ctx, slo, "BHM: sample positions (lo)"),
              b_sy = to_device(ctx, sy, "BHM: sample labels"),
              b_lambda = to_device(ctx, lambda, "BHM: sample lambdas"),
-             b_kstart = to_device(ctx, pairs.kernel_start, "BHM: kernel pair starts"),
-             b_klist = to_device(ctx, pairs.kernel_samples, "BHM: kernel pair samples"),
-             b_sstart = to_device(ctx, pairs.sample_start, "BHM: sample pair starts"),
-             b_slist = to_device(ctx, pairs.sample_kernels, "BHM: sample pair kernels"),
              b_a = to_device(ctx, a, "BHM: precision a"),
              b_b = to_device(ctx, b, "BHM: precision b"),
              b_wm = to_device(ctx, wm, "BHM: weight means"),
              b_wv = to_device(ctx, wv, "BHM: weight variances");
 
+  const detail::PairBuffers pb = detail::upload_pairs(ctx, pairs, "BHM");
   const std::string defs = "-DDIM=" + std::to_string(dim);
   KernelLease acc_lease = ctx.lend_kernel("learn/bhm_update", "bhm_accumulate", defs);
   KernelLease lam_lease = ctx.lend_kernel("learn/bhm_update", "bhm_lambda", defs);
@@ -75,8 +73,8 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
   for (int it = 0; it < options.em_iterations; ++it) {
     if (m > 0) {
       detail::launch_1d(ctx.queue(), acc, "bhm_accumulate", round_up(m, wg), wg, b_khi, b_klo, b_kg,
-                        b_shi, b_slo, b_sy, b_lambda, b_kstart, b_klist, static_cast<cl_uint>(m),
-                        b_a, b_b);
+                        b_shi, b_slo, b_sy, b_lambda, pb.kernel_start, pb.kernel_samples,
+                        static_cast<cl_uint>(m), b_a, b_b);
       from_device(ctx, b_a, a);
       from_device(ctx, b_b, b);
     }
@@ -96,7 +94,8 @@ void bhm_update(Context& ctx, KernelMap& map, const LabelledPoints& samples,
     upload(ctx, b_wm, wm, "BHM: weight means");
     upload(ctx, b_wv, wv, "BHM: weight variances");
     detail::launch_1d(ctx.queue(), lam, "bhm_lambda", round_up(n, wg), wg, b_khi, b_klo, b_kg, b_wm,
-                      b_wv, b_shi, b_slo, b_sstart, b_slist, static_cast<cl_uint>(n),
+                      b_wv, b_shi, b_slo, pb.sample_start, pb.sample_kernels,
+                      static_cast<cl_uint>(n),
                       static_cast<float>(map.has_bias ? map.bias_mean : 0.0),
                       static_cast<float>(map.has_bias ? map.bias_var : 0.0), b_lambda);
     from_device(ctx, b_lambda, lambda);

@@ -1873,7 +1873,7 @@ def pin_pocl_workers() -> bool:
     names a value already (POCL_AFFINITY=0 turns it off). PoCL reads it once, at the first
     OpenCL call of the process: call it before the first Context. Returns True when it
     set it. One scan at a time on a virtual machine's CPU, pinned workers rank and
-    transport about a quarter faster (README, 'Choosing the device')."""
+    transport about a quarter faster (docs/performance.md, PoCL's workers pinned)."""
     ...
 
 def probit_probability(mean: float, var: float) -> float:

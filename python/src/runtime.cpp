@@ -34,7 +34,7 @@ void bind_runtime(py::module_& m) {
         "names a value already (POCL_AFFINITY=0 turns it off). PoCL reads it once, at the first\n"
         "OpenCL call of the process: call it before the first Context. Returns True when it\n"
         "set it. One scan at a time on a virtual machine's CPU, pinned workers rank and\n"
-        "transport about a quarter faster (README, 'Choosing the device').");
+        "transport about a quarter faster (docs/performance.md, PoCL's workers pinned).");
 
   py::class_<Context>(m, "Context",
                       "One OpenCL device, its in-order queue and a cache of built programs.\n\n"
