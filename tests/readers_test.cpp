@@ -113,6 +113,31 @@ TEST(Readers, RobotLaser) {
   EXPECT_DOUBLE_EQ(ds.scans[0].timestamp, 77.5);
 }
 
+// Published logs whose FLASER lines end after the odometry pose: read, the scans numbered.
+TEST(Readers, FlaserWithoutTimestamps) {
+  const std::string d = test::temp_dir("readers_flaser_short");
+  const std::string p = write_file(d, "s.log",
+                                   "FLASER 3 1 2 3 0 0 0 0 0 0\n"
+                                   "FLASER 3 1 2 3 1 0 0 1 0 0 55.5 host 55.5\n"
+                                   "FLASER 3 1 2 3 2 0 0 2 0 0\n");
+  const Dataset ds = read_carmen(p, 10);
+  ASSERT_EQ(ds.scans.size(), 3u);
+  EXPECT_EQ(ds.scans[0].timestamp, 0.0);
+  EXPECT_EQ(ds.scans[1].timestamp, 55.5);
+  EXPECT_EQ(ds.scans[2].timestamp, 2.0);
+  EXPECT_EQ(ds.scans[2].pose2d[0], 2.0);
+  EXPECT_EQ(ds.scans[2].num_hits(), 3u);
+}
+
+// A text log in another format is an error naming the file, what it found and what it reads.
+TEST(ReadersMalformed, NoLaserLines) {
+  const std::string d = test::temp_dir("mal_nolaser");
+  const std::string p = write_file(d, "o.log", "# old format\nLASER 3 1 2 3\nODOM 0 0 0\n");
+  expect_input_error([&] { read_carmen(p); }, {p, "no FLASER or ROBOTLASER1", "LASER 3 1 2 3"});
+  const std::string e = write_file(d, "e.log", "");
+  expect_input_error([&] { read_carmen(e); }, {e, "empty"});
+}
+
 TEST(ReadersMalformed, TruncatedLine) {
   const std::string d = test::temp_dir("mal_trunc");
   const std::string p = write_file(d, "t.log", flaser(3, "1 2 3", "0 0 0") + "FLASER 180 1.0 2.0");

@@ -94,6 +94,7 @@ Dataset read_carmen(const std::string& path, double flaser_max_range, double fla
   std::vector<Raw> raws;
   double largest = 0;
   std::size_t line = 0;
+  std::string first_other;  // the first line that is not a laser line, for the error below
   const char* p = bytes.data();
   const char* end = p + bytes.size();
   constexpr long kMaxBeams = 100000;
@@ -108,6 +109,7 @@ Dataset read_carmen(const std::string& path, double flaser_max_range, double fla
     const bool flaser = le - s >= 7 && std::string(s, 7) == "FLASER ";
     const bool robot = le - s >= 12 && std::string(s, 12) == "ROBOTLASER1 ";
     if (!flaser && !robot) {
+      if (first_other.empty()) first_other = std::string(s, std::min<std::size_t>(le - s, 40));
       ++out.stats.lines_skipped;
       continue;
     }
@@ -117,13 +119,14 @@ Dataset read_carmen(const std::string& path, double flaser_max_range, double fla
     if (flaser) {
       f.need(2, "FLASER");
       const long n = f.count(1, "beam count", kMaxBeams);
-      // FLASER n r_1..r_n x y theta odom_x odom_y odom_theta timestamp [host logger_timestamp]
-      f.need(2 + n + 7, "FLASER");
+      // FLASER n r_1..r_n x y theta odom_x odom_y odom_theta [timestamp host logger_timestamp]
+      // (several published logs end after the odometry pose: their scans are numbered).
+      f.need(2 + n + 6, "FLASER");
       r.ranges = read_ranges(f, 2, n);
       r.x = finite_pose(f, 2 + n, "pose x");
       r.y = finite_pose(f, 3 + n, "pose y");
       r.theta = finite_pose(f, 4 + n, "pose theta");
-      r.t = f.num(8 + n, "timestamp");
+      r.t = f.size() > std::size_t(8 + n) ? f.num(8 + n, "timestamp") : double(raws.size());
       r.start = -flaser_fov / 2;
       r.step = n > 1 ? flaser_fov / (n - 1) : 0;
       // 180 beams are 1 degree steps over 180 degrees (the last beam at +89), 181/361 span
@@ -154,6 +157,12 @@ Dataset read_carmen(const std::string& path, double flaser_max_range, double fla
       if (std::isfinite(v)) largest = std::max(largest, v);
     raws.push_back(std::move(r));
   }
+  if (raws.empty())
+    throw InputError(path + ": no FLASER or ROBOTLASER1 line among its " + std::to_string(line) +
+                     " lines" +
+                     (first_other.empty() ? std::string(" (the file is empty)")
+                                          : " (the first reads '" + first_other + "')") +
+                     ": potmap reads a CARMEN log's FLASER and ROBOTLASER1 laser lines");
   // FLASER carries no maximum range; readings at the device's limit are the largest in the log.
   const double auto_max = flaser_max_range > 0 ? flaser_max_range : largest * 0.999;
   out.scans.reserve(raws.size());

@@ -46,15 +46,17 @@ struct Dataset {
 };
 
 /// CARMEN log (plain or gzip, detected by the magic bytes). FLASER lines are read as 180 degree
-/// scans from -90 to +90 degrees around the heading (n beams evenly spaced); ROBOTLASER1 lines
-/// carry their own start angle, field of view and maximum range. Other lines are counted in
-/// stats.lines_skipped. A range >= max_range is a no-return; `flaser_max_range` (metres, default
-/// 0 = automatic: the largest range seen in the file, so readings at the device's limit count
-/// as no-returns) sets it for FLASER lines; `flaser_fov` (radians, default pi) is FLASER's field of
-/// view, centred on the heading (n odd: both ends included; n even: 1 degree steps for 180 beams
-/// over 180 degrees, the last beam one step short of +fov/2). Throws InputError naming file, line
-/// and value for a truncated line, wrong field count, non-numeric value, NaN pose or negative
-/// range.
+/// scans from -90 to +90 degrees around the heading (n beams evenly spaced), with or without the
+/// trailing timestamp, host and logger fields (without: the scan's index is its timestamp);
+/// ROBOTLASER1 lines carry their own start angle, field of view and maximum range. Other lines
+/// are counted in stats.lines_skipped; a file with no laser line is an InputError naming it,
+/// its first line and what is read. A range >= max_range is a no-return; `flaser_max_range`
+/// (metres, default 0 = automatic: the largest range seen in the file, so readings at the device's
+/// limit count as no-returns) sets it for FLASER lines; `flaser_fov` (radians, default pi) is
+/// FLASER's field of view, centred on the heading (n odd: both ends included; n even: 1 degree
+/// steps for 180 beams over 180 degrees, the last beam one step short of +fov/2). Throws InputError
+/// naming file, line and value for a truncated line, wrong field count, non-numeric value, NaN pose
+/// or negative range.
 Dataset read_carmen(const std::string& path, double flaser_max_range = 0,
                     double flaser_fov = 3.14159265358979323846);
 

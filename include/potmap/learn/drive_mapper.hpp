@@ -17,8 +17,9 @@
 //  - feature cut-off gamma d^2 <= 4.5 (features below 1.1 % of a kernel's peak dropped: the
 //    stencil and a sample's features shrink by 40 %, scores unchanged to 0.001), one ring of
 //    solve margin, two EM rounds a keyframe, CG to a relative residual of 1e-4.
-// With them the joint BHM takes 0.4 to 0.7 times OctoMap's (0.2 m) time per keyframe on the
-// ../shared drives at both 20 and 40 m cuts (bench/drive3d.py).
+// With them the joint BHM takes 0.3 to 0.6 times OctoMap's (0.2 m) time per keyframe on the
+// ../shared drives at both 20 and 40 m cuts, its features and sums on the OpenCL device
+// (bench/drive3d.py).
 
 #include <cstddef>
 #include <cstdint>
