@@ -406,7 +406,7 @@ TEST(JointBhm, SumsOnTheDeviceMatchTheHost) {
   Context& ctx = test::context();
   if (!ctx.info().has_fp64) GTEST_SKIP() << "the device has no doubles";
   LabelledPoints held_out;
-  const experiment::MapTask task = intel_task(test::sized(16, 10), held_out);
+  const experiment::MapTask task = intel_task(test::sized(16, 13), held_out);
   JointBhmOptions on_host, on_device;  // (automatic: the device, which has doubles)
   on_host.sums = JointBhmSums::host;
   JointBhm host(2, on_host), device(2, on_device);
