@@ -407,8 +407,9 @@ TEST(JointBhm, SumsOnTheDeviceMatchTheHost) {
   if (!ctx.info().has_fp64) GTEST_SKIP() << "the device has no doubles";
   LabelledPoints held_out;
   const experiment::MapTask task = intel_task(test::sized(16, 13), held_out);
-  JointBhmOptions on_host, on_device;  // (automatic: the device, which has doubles)
+  JointBhmOptions on_host, on_device;
   on_host.sums = JointBhmSums::host;
+  on_device.sums = JointBhmSums::device;
   JointBhm host(2, on_host), device(2, on_device);
   for (std::size_t i = 0; i < task.train_scans.size(); ++i) {
     const LabelledPoints s = experiment::scan_training_samples(task, i, 0);

@@ -205,7 +205,7 @@ void register_mapping(CLI::App& app, Runner& runner) {
       ->check(CLI::PositiveNumber);
   cmd->add_option("--sums", a->drive.sums,
                   "3D drives: where the joint BHM's features and sums run: auto (the device "
-                  "when it has doubles, else the host), host or device")
+                  "when it is a GPU with doubles, else the host), host or device")
       ->check(CLI::IsMember({"auto", "host", "device"}))
       ->capture_default_str();
   cmd->add_option("--checkpoint-every", a->drive.checkpoint_every,

@@ -23,7 +23,8 @@ using detail::to_device;
 namespace detail {
 
 bool sums_on_device(JointBhmSums sums, const DeviceInfo& info) {
-  return info.has_fp64 && sums != JointBhmSums::host;
+  if (!info.has_fp64 || sums == JointBhmSums::host) return false;
+  return sums == JointBhmSums::device || info.is_gpu;
 }
 
 }  // namespace detail

@@ -598,7 +598,7 @@ typedef struct potmap_drive_mapper_options {
    *  (default 4: seeds last until data reaches them). */
   size_t transfer_every;
   /** Where the joint BHM's features and sums run (enum potmap_sums): POTMAP_SUMS_AUTOMATIC
-   *  (default: the device when it has doubles, else the host), POTMAP_SUMS_HOST or
+   *  (default: the device when it is a GPU with doubles, else the host), POTMAP_SUMS_HOST or
    *  POTMAP_SUMS_DEVICE (any device with doubles). The map is the same up to the rounding of
    *  sums taken in another order. */
   int sums;

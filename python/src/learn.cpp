@@ -161,7 +161,7 @@ void bind_learn_joint_bhm_options(py::module_& m) {
                                      : JointBhmSums::automatic;
           },
           "where update(samples, ctx) lists features and adds the sums: 'automatic' (default: "
-          "the device when it has doubles, else the host), 'host' or 'device'");
+          "the device when it is a GPU with doubles, else the host), 'host' or 'device'");
   add_fields_repr(jopt);
 
   py::class_<JointBhmStats>(m, "JointBhmStats", "Counters of the last JointBhm.update().")

@@ -55,14 +55,15 @@ class Context;
 /// Where update() lists a scan's features and adds its sums (the precision's outer products,
 /// eta, the bias's couplings, each EM round's bound) when it is given a Context.
 enum class JointBhmSums {
-  /// On the context's device when it has doubles (cl_khr_fp64), else on the host. Even PoCL's
-  /// CPU device beats the host's loops (split over the context's two host threads), as its
-  /// work-items take whole rows with no part boundaries: on the 2-core EPYC an update took
-  /// 0.6-0.9 times the host's time on riverside-a keyframes at 40 m, 0.5-0.7 on hku-1's and
-  /// 0.8-0.9 on the Intel log's scans (potmap mapping --sums host|device).
+  /// On the context's device when it is a GPU with doubles (cl_khr_fp64), else on the host.
+  /// On a CPU device the host's loops (vectorised along runs of cells, split over the
+  /// context's two host threads) are as fast or faster: on PoCL on a quiet 2-core EPYC the
+  /// device path took 1.0-1.1 times the host's update time on riverside-a keyframes 10-29 at
+  /// 40 m, 1.1-1.2 on hku-1's and 1.5 on the Intel log's scans (potmap mapping --sums
+  /// host|device, alternated runs); a GPU has the bandwidth the sums want.
   automatic,
   host,    ///< on the host (the reference the device path is tested against)
-  device,  ///< on the device (the host when the device has no doubles)
+  device,  ///< on the device whatever its type (the host when it has no doubles)
 };
 
 struct JointBhmOptions {
@@ -123,7 +124,7 @@ struct JointBhmOptions {
   /// holds its half precision stencil: 1 + (m - 1) / 2 doubles, m the grid points within
   /// 2 sqrt(tau / gamma) of a kernel (23 in 2D, 126 in 3D at the defaults), and 4 more.
   std::size_t max_kernels = std::size_t(1) << 26;
-  /// Where the sums run (default automatic: a device with doubles; see JointBhmSums).
+  /// Where the sums run (default automatic: a GPU with doubles; see JointBhmSums).
   /// Either way the posterior is the same up to the rounding of sums taken in another order
   /// (relative 1e-12 in the tests).
   JointBhmSums sums = JointBhmSums::automatic;

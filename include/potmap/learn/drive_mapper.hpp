@@ -18,8 +18,7 @@
 //    stencil and a sample's features shrink by 40 %, scores unchanged to 0.001), one ring of
 //    solve margin, two EM rounds a keyframe, CG to a relative residual of 1e-4.
 // With them the joint BHM takes 0.3 to 0.6 times OctoMap's (0.2 m) time per keyframe on the
-// ../shared drives at both 20 and 40 m cuts, its features and sums on the OpenCL device
-// (bench/drive3d.py).
+// ../shared drives at both 20 and 40 m cuts (bench/drive3d.py).
 
 #include <cstddef>
 #include <cstdint>
