@@ -15,6 +15,9 @@ packages=(
   liboctomap-dev libpcl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libgdal-dev libopenmpi-dev openmpi-bin
+  librosbag-storage-dev libtf2-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
+  libtf2-msgs-dev python3-rosbag python3-sensor-msgs python3-tf2-msgs python3-nav-msgs
+  python3-geometry-msgs
   python3 python3-numpy
   python3-dev pybind11-dev python3-pytest python3-matplotlib
   clang libclang-rt-14-dev

@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "dataset_samples.hpp"
+#include "potmap/data/bag.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/labelling.hpp"
@@ -55,9 +56,46 @@ int drive_info(const std::string& dir) {
   return 0;
 }
 
-int data_info(const std::string& file) {
+int scans_info(const std::string& file, const Dataset& ds);
+
+std::string seconds_text(double s) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3f", s);
+  return b;
+}
+
+// A bag: what its storage holds, what would be mapped and from which poses, then (for laser
+// scans) the scans' summary; a cloud topic's keyframes are summarised as a drive's.
+int bag_info(const std::string& file, const BagOptions& o) {
+  const BagSummary s = summarise_bag(file, o);
+  std::cout << "bag: " << file << " (" << s.format << ", compression " << s.compression << ")\n";
+  std::cout << "time span: " << seconds_text(s.duration) << " s from " << seconds_text(s.start)
+            << "\n";
+  std::cout << "topics:\n";
+  for (const BagTopicSummary& t : s.topics)
+    std::cout << "  " << t.name << "  " << t.type << "  " << t.count << " messages"
+              << (t.frame_id.empty() ? "" : "  frame " + t.frame_id) << "\n";
+  std::cout << "mapped topic: " << s.topic << " (" << s.type << ", " << s.dim << "D)\n";
+  std::cout << "pose source: " << s.pose_source
+            << (o.fixed_frame.empty() ? "" : " (fixed frame " + o.fixed_frame + ")") << "\n";
+  if (s.dim == 3) {
+    DriveOptions d;
+    d.bag = o;
+    const Drive drive = open_drive(file, d);
+    std::cout << "keyframes: " << drive.size() << " (every " << o.keyframe_distance << " m or "
+              << o.keyframe_angle << " rad), poses from " << drive.poses_file << "\n";
+    return 0;
+  }
+  return scans_info(file, read_dataset(file, o));
+}
+
+int data_info(const std::string& file, const BagOptions& bag) {
+  if (is_bag(file)) return bag_info(file, bag);
   if (is_drive(file)) return drive_info(file);
-  const Dataset ds = read_dataset(file);
+  return scans_info(file, read_dataset(file));
+}
+
+int scans_info(const std::string& file, const Dataset& ds) {
   std::size_t bmin = std::numeric_limits<std::size_t>::max(), bmax = 0, hits = 0, none = 0;
   double rmin = HUGE_VAL, rmax = 0, maxr_lo = HUGE_VAL, maxr_hi = 0;
   double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
@@ -111,10 +149,13 @@ void register_data(CLI::App& app, Runner& runner) {
       "info",
       "Summarise a dataset (CARMEN .log[.gz], KITTI/nuScenes .bin, a 3D drive folder: SLAM "
       "keyframes Scans/*.pcd + odom_poses.txt or a KITTI sequence; .pcd/.ply, .npz, labelled "
-      ".csv)");
+      ".csv; a ROS 1 .bag or ROS 2 bag folder: its topics and what would be mapped)");
   auto file = std::make_shared<std::string>();
+  auto bag = std::make_shared<BagOptions>();
   info->add_option("FILE", *file, "dataset file")->required();
-  info->callback([&runner, file] { runner.action = [file] { return data_info(*file); }; });
+  add_bag_options(info, *bag);
+  info->callback(
+      [&runner, file, bag] { runner.action = [file, bag] { return data_info(*file, *bag); }; });
 
   CLI::App* label = data->add_subcommand(
       "label",

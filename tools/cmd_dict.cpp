@@ -144,6 +144,7 @@ struct BuildArgs {
   DictionaryOptions opt;
   std::size_t first = 0, limit = 0;
   double range_cut = 0;
+  BagOptions bag;
   bool kernels_at_samples_given = false, max_weight_var_given = false;
 };
 
@@ -168,7 +169,7 @@ int run_build(BuildArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   std::ostream& human = a.json == "-" ? std::cerr : std::cout;
   Dataset ds;
-  ds.scans = read_scans(a.scans, a.range_cut);
+  ds.scans = read_scans(a.scans, a.range_cut, a.bag);
   if (a.first >= ds.scans.size())
     throw ArgumentError("--first " + std::to_string(a.first) + ": " + a.scans + " has only " +
                         std::to_string(ds.scans.size()) + " scans");
@@ -288,6 +289,7 @@ void register_dict(CLI::App& app, Runner& runner) {
                    "Returns farther than this (metres) become no-returns (0: none)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  add_bag_options(build, b->bag);
   build->add_option("--out", b->out, "Dictionary file to write (.potdict)")->required();
   build->add_option("--sectors", b->opt.sectors.sectors, "Sectors per scan")->capture_default_str();
   build

@@ -37,6 +37,7 @@ struct MapArgs {
   double wall_clearance = 0.5, displacement_var = 0;
   std::uint64_t seed = 0;
   std::string ranking = "indexed";
+  BagOptions bag;
   // default: the library's defaults; paper: MapperOptions::paper() for the options below that
   // the two presets set apart (--ranking, --placement, --wall-clearance, --average), unless
   // given on the command line. `given`: those that were.
@@ -103,7 +104,7 @@ nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const 
 // The scans from --first, at most --max-scans of them, checked against the dictionary.
 std::vector<Scan> scans_to_map(const MapArgs& a, const Dictionary& dict,
                                const std::string& dict_file) {
-  std::vector<Scan> all = read_scans(a.scans, a.range_cut);
+  std::vector<Scan> all = read_scans(a.scans, a.range_cut, a.bag);
   if (a.first >= all.size())
     throw ArgumentError("map: --first " + std::to_string(a.first) + " but " + a.scans + " has " +
                         std::to_string(all.size()) + " scans");
@@ -380,6 +381,7 @@ void register_map(CLI::App& app, Runner& runner) {
                   "Returns farther than this (metres) become no-returns (default 0: none; the "
                   "experiments cut real logs at 20, the towns' range)")
       ->check(CLI::NonNegativeNumber);
+  add_bag_options(cmd, a->bag);
   cmd->add_option("--res", a->res, "Picture resolution, metres per pixel (default 0.25)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--json", a->json, "Write the summary as JSON to this path ('-': stdout)");

@@ -41,10 +41,10 @@ struct MappingArgs {
 
 std::string default_out(const std::string& log) {
   std::string stem = fs::path(log).filename().string();
-  for (const char* ext : {".gz", ".log", ".txt"})
+  for (const char* ext : {".gz", ".log", ".txt", ".bag", ".db3"})
     if (stem.size() > std::strlen(ext) && stem.substr(stem.size() - std::strlen(ext)) == ext)
       stem.resize(stem.size() - std::strlen(ext));
-  if (stem.empty() || stem == "poses") stem = fs::path(log).parent_path().filename().string();
+  if (stem.empty() || stem == "poses" || stem == "metadata.yaml") stem = fs::path(log).parent_path().filename().string();
   return (fs::path("out") / "mapping" / stem).string();
 }
 
@@ -66,7 +66,9 @@ int run_drive(const MappingArgs& a, const std::string& device) {
 }
 
 int run_mapping(const MappingArgs& args, const std::string& device) {
-  if (is_drive(args.log)) {
+  DriveOptions probe;
+  probe.bag = args.drive.bag;
+  if (is_drive(args.log, probe)) {
     if (args.preset != "default") throw ArgumentError("mapping: --preset is for 2D logs");
     return run_drive(args, device);
   }
@@ -79,7 +81,7 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   std::FILE* human = a.json == "-" ? stderr : stdout;
 
   const double range_cut = a.range_cut < 0 ? 20 : a.range_cut;
-  std::vector<Scan> all = read_scans(a.log, range_cut);
+  std::vector<Scan> all = read_scans(a.log, range_cut, a.drive.bag);
   if (a.first >= all.size())
     throw ArgumentError("mapping: --first " + std::to_string(a.first) + " but " + a.log + " has " +
                         std::to_string(all.size()) + " scans");
@@ -215,6 +217,7 @@ void register_mapping(CLI::App& app, Runner& runner) {
                 "3D drives: continue from DIR/map.ckpt when it is there");
   cmd->add_flag("--keep-checkpoint", a->drive.keep_checkpoint,
                 "3D drives: keep DIR/map.ckpt after the run");
+  add_bag_options(cmd, a->drive.bag);
   cmd->add_option("--first", a->first, "Skip this many scans")->capture_default_str();
   cmd->add_option("--max-scans", a->max_scans, "Map at most this many scans (0: all)")
       ->capture_default_str();

@@ -25,6 +25,28 @@ void add_label_options(CLI::App* cmd, LabelArgs& a, const std::string& seed_flag
       ->check(CLI::NonNegativeNumber);
   cmd->add_option(seed_flag, a.labels.seed, "Scans: seed of the free samples and the hold-out")
       ->capture_default_str();
+  add_bag_options(cmd, a.bag);
+}
+
+void add_bag_options(CLI::App* cmd, BagOptions& o) {
+  cmd->add_option("--topic", o.topic,
+                  "ROS bags: the LaserScan, MultiEchoLaserScan or PointCloud2 topic to map "
+                  "(default: the one with the most messages)");
+  cmd->add_option("--fixed-frame", o.fixed_frame,
+                  "ROS bags: the frame to map in (default: map when /tf links it to the "
+                  "sensor, else odom)");
+  cmd->add_option("--pose-topic", o.pose_topic,
+                  "ROS bags: a nav_msgs/Odometry or geometry_msgs/PoseStamped topic to take "
+                  "poses from instead of /tf");
+  cmd->add_option("--keyframe-distance", o.keyframe_distance,
+                  "ROS bags of point clouds: metres between keyframes (0 with --keyframe-angle "
+                  "0: every sweep)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--keyframe-angle", o.keyframe_angle,
+                  "ROS bags of point clouds: radians of turn that also start a keyframe")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
 }
 
 namespace {
@@ -44,8 +66,8 @@ bool is_labelled_file(const std::string& path) {
   return ends_with_nocase(path, ".csv") || ends_with_nocase(path, ".npz");
 }
 
-std::vector<Scan> read_scans(const std::string& path, double range_cut) {
-  Dataset ds = read_dataset(path);
+std::vector<Scan> read_scans(const std::string& path, double range_cut, const BagOptions& bag) {
+  Dataset ds = read_dataset(path, bag);
   if (ds.scans.empty()) throw InputError(path + ": no scans");
   if (range_cut > 0)
     for (Scan& s : ds.scans) s = experiment::limit_range(s, range_cut);
@@ -59,7 +81,7 @@ LabelledSplit read_samples(const std::string& path, const LabelArgs& a) {
     out.test.dim = out.train.dim;
     return out;
   }
-  return label_scans(read_scans(path, a.range_cut), a.labels);
+  return label_scans(read_scans(path, a.range_cut, a.bag), a.labels);
 }
 
 }  // namespace potmap::cli

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "potmap/data/bag_options.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/scan.hpp"
 
@@ -15,9 +16,13 @@ namespace potmap::cli {
 struct LabelArgs {
   LabelOptions labels;   ///< free samples per metre, hold-out fraction, seed (labelling.hpp)
   double range_cut = 0;  ///< metres; returns beyond it become no-returns (0: none)
+  BagOptions bag;        ///< ROS bags: topic, fixed frame, pose topic (add_bag_options)
 };
 
-/// Adds --free-per-metre, --holdout, --range-cut and the seed option (named `seed_flag`: the
+/// Adds --topic, --fixed-frame, --pose-topic and --keyframe-distance (ROS bags) to `cmd`.
+void add_bag_options(CLI::App* cmd, BagOptions& o);
+
+/// Adds --free-per-metre, --holdout, --range-cut, the bag options and the seed option (named `seed_flag`: the
 /// learners have a --seed of their own) to `cmd`, writing into `a`; the defaults shown are a's.
 void add_label_options(CLI::App* cmd, LabelArgs& a, const std::string& seed_flag);
 
@@ -26,7 +31,8 @@ bool is_labelled_file(const std::string& path);
 
 /// The scans of any dataset (read_dataset), each cut at `range_cut` metres when it is > 0 (the
 /// experiments' limit_range). Throws InputError naming the file when it holds no scans.
-std::vector<Scan> read_scans(const std::string& path, double range_cut);
+std::vector<Scan> read_scans(const std::string& path, double range_cut,
+                             const BagOptions& bag = {});
 
 /// Labelled samples of `path`: a labelled file's samples as they are (all in train: its beams
 /// are unknown, so nothing can be held out by beam), or the labelled scans (label_scans).

@@ -128,6 +128,7 @@ nlohmann::json summary_json(const DriveMappingArgs& a, const Drive& drive, const
 int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   DriveOptions dopt;
   dopt.poses = a.poses;
+  dopt.bag = a.bag;
   const Drive drive = open_drive(a.drive, dopt);
   if (a.first >= drive.size())
     throw ArgumentError("mapping: --first " + std::to_string(a.first) + " but " + a.drive +
@@ -152,7 +153,9 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   }
   Context ctx = make_context(device);
   std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), %s\n", a.first,
-               end - 1, a.drive.c_str(), drive.layout == "slam" ? "SLAM keyframes" : "KITTI",
+               end - 1, a.drive.c_str(), drive.layout == "slam"     ? "SLAM keyframes"
+               : drive.layout == "rosbag" ? ("ROS bag, poses from " + drive.poses_file).c_str()
+                                          : "KITTI",
                a.range_cut,
                mo.dictionary ? ("RePOT: the joint BHM seeded from " +
                                 std::to_string(mo.dictionary->size()) + " atoms of " + dict_file)

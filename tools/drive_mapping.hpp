@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <string>
 
+#include "potmap/data/bag_options.hpp"
+
 namespace potmap::cli {
 
 struct DriveMappingArgs {
@@ -24,6 +26,7 @@ struct DriveMappingArgs {
   std::size_t transfer_every = 4;     ///< RePOT: keyframes between transfers
   /// Where the joint BHM's features and sums run: "auto", "host" or "device" (JointBhmSums).
   std::string sums = "auto";
+  BagOptions bag;  ///< ROS bags: topic, fixed frame, poses, keyframe spacing
   bool resume = false, keep_checkpoint = false, quiet = false;
 };
 

@@ -8,10 +8,13 @@
 #include <sstream>
 
 #include "data/file_bytes.hpp"
+#include "potmap/data/bag.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
+
+Scan read_bag_keyframe(const Drive& drive, std::size_t i, std::size_t* dropped);
 
 namespace fs = std::filesystem;
 
@@ -176,7 +179,8 @@ std::vector<std::array<double, 12>> read_pose_rows(const std::string& path) {
   return out;
 }
 
-bool is_drive(const std::string& path) {
+bool is_drive(const std::string& path, const DriveOptions& options) {
+  if (is_bag(path)) return summarise_bag(path, options.bag).dim == 3;
   const fs::path p(path);
   if (!folder_exists(p)) return false;
   if (folder_exists(p / "Scans") &&
@@ -187,6 +191,11 @@ bool is_drive(const std::string& path) {
 }
 
 Drive open_drive(const std::string& path, const DriveOptions& options) {
+  if (is_bag(path)) {
+    BagOptions bag = options.bag;
+    if (bag.max_range == 0) bag.max_range = options.max_range;
+    return open_bag_drive(path, bag);
+  }
   if (!(options.max_range > 0) || !std::isfinite(options.max_range))
     throw ArgumentError("drive: max range must be positive, got " +
                         std::to_string(options.max_range));
@@ -220,8 +229,9 @@ Scan read_keyframe(const Drive& drive, std::size_t i, std::size_t* dropped) {
     throw ArgumentError("keyframe " + std::to_string(i) + " of a drive of " +
                         std::to_string(drive.size()));
   std::size_t drop = 0;
-  Scan s = drive.layout == "kitti" ? read_kitti_bin(drive.frames[i], drive.max_range)
-                                   : read_point_cloud(drive.frames[i], drive.max_range, &drop);
+  Scan s = drive.layout == "kitti"    ? read_kitti_bin(drive.frames[i], drive.max_range)
+           : drive.layout == "rosbag" ? read_bag_keyframe(drive, i, &drop)
+                                      : read_point_cloud(drive.frames[i], drive.max_range, &drop);
   s.max_range = drive.max_range;
   apply_pose(s, drive.poses[i]);
   s.timestamp = drive.times[i];

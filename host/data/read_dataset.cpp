@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "data/file_bytes.hpp"
+#include "potmap/data/bag.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/scan.hpp"
@@ -19,7 +20,8 @@ bool ends_with(const std::string& s, const std::string& e) {
 }
 }  // namespace
 
-Dataset read_dataset(const std::string& path) {
+Dataset read_dataset(const std::string& path, const BagOptions& bag) {
+  if (is_bag(path)) return read_bag(path, bag);
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) {
     // A drive (SLAM keyframes or a KITTI sequence in the benchmark's layout).

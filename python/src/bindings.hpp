@@ -11,6 +11,7 @@ void bind_runtime(pybind11::module_& m);
 void bind_map(pybind11::module_& m);
 void bind_io(pybind11::module_& m);
 void bind_data(pybind11::module_& m);
+void bind_bags(pybind11::module_& m);
 void bind_learn(pybind11::module_& m);
 void bind_ot(pybind11::module_& m);
 void bind_pot(pybind11::module_& m);

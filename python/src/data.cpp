@@ -159,10 +159,11 @@ void bind_data_readers(py::module_& m) {
         return d.scans[static_cast<std::size_t>(i)];
       });
 
-  m.def("read_dataset", &read_dataset, "path"_a, release(),
+  m.def("read_dataset", &read_dataset, "path"_a, "bag"_a = BagOptions{}, release(),
         "Reads any supported file by its name: *.log[.gz] CARMEN, *.bin KITTI or nuScenes,\n"
-        "a KITTI odometry poses.txt, *.npz and *.csv labelled samples. InputError names the\n"
-        "file, line or offset and value.");
+        "a KITTI odometry poses.txt, *.npz and *.csv labelled samples, ROS 1 .bag files and\n"
+        "ROS 2 bag folders (bag: BagOptions, the topic, frame and poses). InputError names\n"
+        "the file, line or offset and value.");
   m.def("read_carmen", &read_carmen, "path"_a, "flaser_max_range"_a = 0.0,
         "flaser_fov"_a = 3.14159265358979323846, release(),
         "CARMEN log (plain or gzip). flaser_max_range: metres (default 0: the largest range in\n"
@@ -295,6 +296,7 @@ void bind_data_simulator(py::module_& m) {
 
 void bind_data(py::module_& m) {
   bind_data_scans(m);
+  bind_bags(m);  // before the readers: read_dataset's default BagOptions needs its type
   bind_data_readers(m);
   bind_data_labelling(m);
   bind_data_simulator(m);

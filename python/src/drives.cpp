@@ -39,7 +39,7 @@ void bind_drive(py::module_& m) {
                     "The index of a 3D drive (SLAM keyframes or a KITTI sequence): names, poses\n"
                     "and times; keyframes are read one at a time with keyframe(i).")
       .def_readonly("path", &Drive::path)
-      .def_readonly("layout", &Drive::layout, "'slam' or 'kitti'")
+      .def_readonly("layout", &Drive::layout, "'slam', 'kitti' or 'rosbag'")
       .def_readonly("poses_file", &Drive::poses_file)
       .def_readonly("frames", &Drive::frames, "keyframe files, in order")
       .def_readonly("times", &Drive::times, "seconds (keyframe indices without times.txt)")
@@ -52,16 +52,19 @@ void bind_drive(py::module_& m) {
           "Keyframe i as a 3D Scan in the world frame (read now).");
   m.def(
       "open_drive",
-      [](const std::string& path, const std::string& poses, double max_range) {
+      [](const std::string& path, const std::string& poses, double max_range,
+         const BagOptions& bag) {
         DriveOptions o;
         o.poses = poses;
         o.max_range = max_range;
+        o.bag = bag;
         return open_drive(path, o);
       },
-      "path"_a, "poses"_a = "odom", "max_range"_a = 120.0, py::call_guard<py::gil_scoped_release>(),
-      "Indexes a drive folder. poses: 'odom' (odom_poses.txt, default), 'optimized' or\n"
-      "'auto'. max_range: the sensor's range, metres (default 120). Errors name the file,\n"
-      "line and value (InputError).");
+      "path"_a, "poses"_a = "odom", "max_range"_a = 120.0, "bag"_a = BagOptions{},
+      py::call_guard<py::gil_scoped_release>(),
+      "Indexes a drive folder, or a ROS bag's point-cloud topic (bag: BagOptions). poses:\n"
+      "'odom' (odom_poses.txt, default), 'optimized' or 'auto'. max_range: the sensor's\n"
+      "range, metres (default 120). Errors name the file, line and value (InputError).");
 }
 
 // DriveMapperOptions and KeyframeStats: what a DriveMapper is made with and reports.

@@ -19,6 +19,9 @@
 #include <string>
 #include <vector>
 
+#include <memory>
+
+#include "potmap/data/bag_options.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/export.h"
 
@@ -35,25 +38,32 @@ struct DriveOptions {
   /// count as no-returns (free space up to it), as Scan::max_range says; mapping cuts far
   /// shorter (DriveMapperOptions::range_cut).
   double max_range = 120;
+  /// ROS bags (potmap/data/bag.hpp): the topic, frame and poses to read; max_range above
+  /// applies when bag.max_range is 0.
+  BagOptions bag;
 };
+
+struct BagFile;  ///< an open bag behind a Drive of layout "rosbag" (opaque)
 
 /// The index of a drive: one entry per keyframe, in order.
 struct Drive {
   std::string path;                           ///< the folder as given
-  std::string layout;                         ///< "slam" or "kitti"
+  std::string layout;                         ///< "slam", "kitti" or "rosbag"
   std::string poses_file;                     ///< the poses file read
   std::vector<std::string> frames;            ///< keyframe files
   std::vector<std::array<double, 12>> poses;  ///< sensor to world, 3 x 4 row-major [R | t]
   std::vector<double> times;                  ///< seconds; keyframe indices when no times.txt
   bool has_times = false;                     ///< whether times came from times.txt
   double max_range = 120;                     ///< metres (DriveOptions::max_range)
+  std::shared_ptr<BagFile> bag;               ///< layout "rosbag": the open bag
   std::size_t size() const { return frames.size(); }
 };
 
-/// Whether `path` is a folder in one of the layouts above.
-bool is_drive(const std::string& path);
+/// Whether `path` is a folder in one of the layouts above, or a ROS bag whose topic (chosen by
+/// options.bag, potmap/data/bag.hpp) holds point clouds.
+bool is_drive(const std::string& path, const DriveOptions& options = {});
 
-/// Indexes a drive folder (either layout). Throws InputError naming the file, line and value
+/// Indexes a drive folder (either layout), or a ROS bag's point-cloud topic (open_bag_drive). Throws InputError naming the file, line and value
 /// for: a poses file with fewer or more rows than keyframes, a row that is not 12 finite
 /// numbers, a rotation that is not one (R^T R off the identity by more than 1e-3, or det < 0),
 /// a times file of another length or with a non-numeric or decreasing time, a folder with no

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "potmap/data/bag_options.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/export.h"
 
@@ -117,8 +118,9 @@ LabelledPoints read_npz_labelled(const std::string& path);
 /// 120 m) or by its folder (the one holding poses.txt), *.pcd and *.ply point-cloud frames, a
 /// point-cloud sequence by its poses file (*.txt whose lines start with a frame name, see
 /// read_point_cloud_sequence) or by its folder (holding such a poses.txt), *.npz and *.csv
-/// labelled samples. Throws InputError naming a folder that holds no poses.txt.
-Dataset read_dataset(const std::string& path);
+/// labelled samples, ROS 1 .bag files and ROS 2 bag folders (read_bag with `bag`'s topic, frame
+/// and poses). Throws InputError naming a folder that holds no poses.txt.
+Dataset read_dataset(const std::string& path, const BagOptions& bag = {});
 
 }  // namespace potmap
 POTMAP_CXX_API_END

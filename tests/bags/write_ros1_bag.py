@@ -1,0 +1,153 @@
+#!/usr/bin/env python3
+"""Writes ROS 1 bags with ROS's own Python tools (Debian's python3-rosbag and message modules),
+for tests that compare potmap's bag reader with the same data read another way.
+
+  write_ros1_bag.py carmen LOG OUT.bag [--scans N] [--compression none|bz2|lz4]
+      The first N FLASER scans of a CARMEN log (plain or .gz) as sensor_msgs/LaserScan on /scan
+      (frame "laser"), the robot's pose as /tf odom -> base_link at each scan's stamp, the laser
+      0.25 m ahead of base_link on /tf_static, and the same poses as nav_msgs/Odometry on /odom.
+  write_ros1_bag.py clouds OUT.bag [--clouds N] [--compression ...]
+      N synthetic sweeps as sensor_msgs/PointCloud2 on /points (frame "os_sensor", x y z
+      intensity float32, every 7th point NaN), base_link moving 0.5 m and turning 0.05 rad per
+      sweep on /tf (odom -> base_link, stamps 0.1 s apart, written a little after each sweep),
+      the sensor 1.5 m above base_link on /tf_static.
+"""
+import argparse
+import gzip
+import math
+import struct
+
+import rosbag
+import rospy
+from geometry_msgs.msg import TransformStamped
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan, PointCloud2, PointField
+from tf2_msgs.msg import TFMessage
+
+LASER_AHEAD = 0.25  # metres, base_link -> laser
+SENSOR_UP = 1.5  # metres, base_link -> os_sensor
+
+
+def quaternion_z(yaw):
+    return 0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)
+
+
+def transform(stamp, parent, child, x, y, z, yaw):
+    t = TransformStamped()
+    t.header.stamp = stamp
+    t.header.frame_id = parent
+    t.child_frame_id = child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = x, y, z
+    q = quaternion_z(yaw)
+    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+     t.transform.rotation.w) = q
+    return t
+
+
+def flaser_lines(path, limit):
+    opener = gzip.open if path.endswith(".gz") else open
+    with opener(path, "rt") as f:
+        for line in f:
+            tok = line.split()
+            if not tok or tok[0] != "FLASER":
+                continue
+            n = int(tok[1])
+            ranges = [float(v) for v in tok[2:2 + n]]
+            x, y, theta = (float(v) for v in tok[2 + n:5 + n])
+            stamp = float(tok[8 + n])
+            yield ranges, x, y, theta, stamp
+            limit -= 1
+            if limit == 0:
+                return
+
+
+def write_carmen(args, bag):
+    scans = list(flaser_lines(args.log, args.scans))
+    # FLASER names no maximum range: readings at the device's limit are the log's largest.
+    largest = max(max(r for r in ranges if math.isfinite(r)) for ranges, *_ in scans)
+    bag.write("/tf_static", TFMessage([transform(rospy.Time.from_sec(scans[0][4]), "base_link",
+                                                 "laser", LASER_AHEAD, 0, 0, 0)]),
+              rospy.Time.from_sec(scans[0][4]))
+    for ranges, x, y, theta, stamp in scans:
+        t = rospy.Time.from_sec(stamp)
+        n = len(ranges)
+        fov = math.pi
+        msg = LaserScan()
+        msg.header.stamp, msg.header.frame_id = t, "laser"
+        msg.angle_min = -fov / 2
+        msg.angle_increment = fov / n if n % 2 == 0 else fov / (n - 1)
+        msg.angle_max = msg.angle_min + msg.angle_increment * (n - 1)
+        msg.range_min, msg.range_max = 0.0, largest * 0.999
+        msg.ranges = ranges
+        # CARMEN's pose is the laser's; base_link sits LASER_AHEAD behind it.
+        bx, by = x - LASER_AHEAD * math.cos(theta), y - LASER_AHEAD * math.sin(theta)
+        bag.write("/tf", TFMessage([transform(t, "odom", "base_link", bx, by, 0, theta)]), t)
+        odom = Odometry()
+        odom.header.stamp, odom.header.frame_id, odom.child_frame_id = t, "odom", "base_link"
+        odom.pose.pose.position.x, odom.pose.pose.position.y = bx, by
+        q = quaternion_z(theta)
+        (odom.pose.pose.orientation.x, odom.pose.pose.orientation.y,
+         odom.pose.pose.orientation.z, odom.pose.pose.orientation.w) = q
+        bag.write("/odom", odom, t)
+        bag.write("/scan", msg, t)
+
+
+def cloud_points(i):
+    """Sweep i's points in the sensor frame: a ring of 360 at 10 m and a wall 5 m ahead."""
+    pts = []
+    for k in range(360):
+        a = math.radians(k)
+        pts.append((10 * math.cos(a), 10 * math.sin(a), -1.0 + 0.01 * (k % 50)))
+    for k in range(100):
+        pts.append((5.0, -2.5 + 0.05 * k, 0.1 * i))
+    return pts
+
+
+def write_clouds(args, bag):
+    t0 = 1000.0
+    bag.write("/tf_static", TFMessage([transform(rospy.Time.from_sec(t0), "base_link",
+                                                 "os_sensor", 0, 0, SENSOR_UP, 0)]),
+              rospy.Time.from_sec(t0))
+    for i in range(args.clouds):
+        t = rospy.Time.from_sec(t0 + 0.1 * i)
+        bag.write("/tf", TFMessage([transform(t, "odom", "base_link", 0.5 * i, 0, 0, 0.05 * i)]), t)
+        msg = PointCloud2()
+        msg.header.stamp, msg.header.frame_id = t, "os_sensor"
+        msg.fields = [PointField(name, 4 * k, PointField.FLOAT32, 1)
+                      for k, name in enumerate(("x", "y", "z", "intensity"))]
+        msg.point_step = 16
+        pts = cloud_points(i)
+        data = bytearray()
+        for k, (x, y, z) in enumerate(pts):
+            if k % 7 == 3:
+                x = float("nan")
+            data += struct.pack("<ffff", x, y, z, float(k))
+        msg.height, msg.width = 1, len(pts)
+        msg.row_step = msg.point_step * msg.width
+        msg.is_bigendian, msg.is_dense = False, False
+        msg.data = bytes(data)
+        # Drivers publish a sweep when it ends; the bag receives it a moment later.
+        bag.write("/points", msg, rospy.Time.from_sec(t0 + 0.1 * i + 0.02))
+    last = rospy.Time.from_sec(t0 + 0.1 * args.clouds)
+    bag.write("/tf", TFMessage([transform(last, "odom", "base_link", 0.5 * args.clouds, 0, 0,
+                                          0.05 * args.clouds)]), last)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    p.add_argument("kind", choices=("carmen", "clouds"))
+    p.add_argument("paths", nargs="+", help="carmen: LOG OUT.bag; clouds: OUT.bag")
+    p.add_argument("--scans", type=int, default=0, help="carmen: first N scans (0: all)")
+    p.add_argument("--clouds", type=int, default=6)
+    p.add_argument("--compression", default="none", choices=("none", "bz2", "lz4"))
+    args = p.parse_args()
+    if args.kind == "carmen":
+        args.log, out = args.paths
+    else:
+        (out,) = args.paths
+    with rosbag.Bag(out, "w", compression=args.compression) as bag:
+        (write_carmen if args.kind == "carmen" else write_clouds)(args, bag)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,162 @@
+// ROS 1 bags written by ROS's own Python tools (tests/bags/write_ros1_bag.py) read as the
+// same data read another way: a CARMEN log's scans through /tf and through an odometry topic,
+// synthetic sweeps through a /tf chain with a static sensor mount.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+
+#include "potmap/data/bag.hpp"
+#include "test_support.hpp"
+
+#ifdef POTMAP_WITH_ROS
+
+namespace potmap::test {
+namespace {
+
+std::string write_bag(const std::string& args, const std::string& name) {
+  const std::string dir = temp_dir("ros1_bag");
+  const std::string out = dir + "/" + name;
+  const std::string cmd = std::string(POTMAP_DEBIAN_PYTHON) + " " +
+                          quoted(source_dir() + "/tests/bags/write_ros1_bag.py") + " " + args +
+                          " " + quoted(out);
+  EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  return out;
+}
+
+std::string intel() { return shared_data("radish/intel-corrected.log.gz"); }
+
+std::string carmen_bag(std::size_t scans, const std::string& compression) {
+  return write_bag("carmen " + quoted(intel()) + " --scans " + std::to_string(scans) +
+                       " --compression " + compression,
+                   "intel_" + compression + ".bag");
+}
+
+// The bag's scans against the log's: stamps, laser poses (the /tf chain odom -> base_link ->
+// laser), and every beam's end point or no-return direction.
+void expect_same_scans(const Dataset& bag, std::size_t n) {
+  ASSERT_EQ(bag.scans.size(), n);
+  // FLASER names no maximum range: the log is read with the bag's (the script's choice).
+  Dataset log = read_carmen(intel(), bag.scans.front().max_range);
+  log.scans.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Scan& a = bag.scans[i];
+    const Scan& b = log.scans[i];
+    ASSERT_EQ(a.dim, 2);
+    EXPECT_NEAR(a.timestamp, b.timestamp, 1e-6) << i;
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.pose2d[k], b.pose2d[k], 1e-6) << i;
+    ASSERT_EQ(a.hits.size(), b.hits.size()) << i;
+    ASSERT_EQ(a.no_return.size(), b.no_return.size()) << i;
+    // Ranges and angles travel as float32 in a LaserScan: 1e-4 m at 80 m.
+    for (std::size_t k = 0; k < a.hits.size(); ++k) EXPECT_NEAR(a.hits[k], b.hits[k], 1e-4) << i;
+    for (std::size_t k = 0; k < a.no_return.size(); ++k)
+      EXPECT_NEAR(a.no_return[k], b.no_return[k], 1e-6) << i;
+  }
+}
+
+TEST(Ros1Bag, LaserScansThroughTfAreTheCarmenLogsScans) {
+  const std::size_t n = sized<std::size_t>(120, 20);
+  for (const std::string c : {"none", "lz4", "bz2"}) {
+    SCOPED_TRACE(c);
+    expect_same_scans(read_bag(carmen_bag(n, c)), n);
+  }
+}
+
+TEST(Ros1Bag, AnOdometryTopicGivesTheSamePoses) {
+  const std::size_t n = sized<std::size_t>(60, 10);
+  BagOptions o;
+  o.pose_topic = "/odom";
+  expect_same_scans(read_bag(carmen_bag(n, "none"), o), n);
+}
+
+TEST(Ros1Bag, SummaryListsTopicsAndPicksTheLaser) {
+  const BagSummary s = summarise_bag(carmen_bag(5, "lz4"));
+  EXPECT_EQ(s.format, "ROS 1 bag");
+  EXPECT_EQ(s.compression, "lz4");
+  EXPECT_EQ(s.topic, "/scan");
+  EXPECT_EQ(s.type, "sensor_msgs/LaserScan");
+  EXPECT_EQ(s.dim, 2);
+  ASSERT_EQ(s.topics.size(), 4u);  // /odom /scan /tf /tf_static, in name order
+  EXPECT_EQ(s.topics[1].name, "/scan");
+  EXPECT_EQ(s.topics[1].count, 5u);
+  EXPECT_EQ(s.topics[1].frame_id, "laser");
+  EXPECT_EQ(s.topics[2].count, 5u);
+  EXPECT_GT(s.duration, 0);
+}
+
+// Sweep i's points, sensor frame, as the script makes them (NaN points left out).
+std::vector<std::array<double, 3>> sweep(int i) {
+  std::vector<std::array<double, 3>> pts;
+  for (int k = 0; k < 460; ++k) {
+    if (k % 7 == 3) continue;
+    if (k < 360) {
+      const double a = k * kPi / 180;
+      pts.push_back({10 * std::cos(a), 10 * std::sin(a), -1.0 + 0.01 * (k % 50)});
+    } else {
+      pts.push_back({5.0, -2.5 + 0.05 * (k - 360), 0.1 * i});
+    }
+  }
+  return pts;
+}
+
+TEST(Ros1Bag, PointCloudsBecomeKeyframesInTheFixedFrame) {
+  const std::string bag = write_bag("clouds --clouds 6 --compression lz4", "clouds.bag");
+  DriveOptions o;
+  EXPECT_TRUE(is_drive(bag, o));
+  const Drive d = open_drive(bag, o);
+  EXPECT_EQ(d.layout, "rosbag");
+  // 0.5 m a sweep and keyframes 1 m apart: every second sweep.
+  ASSERT_EQ(d.size(), 3u);
+  for (std::size_t f = 0; f < d.size(); ++f) {
+    const int i = static_cast<int>(2 * f);
+    const double yaw = 0.05 * i, c = std::cos(yaw), s = std::sin(yaw);
+    EXPECT_NEAR(d.times[f], 1000 + 0.1 * i, 1e-6);
+    std::size_t dropped = 0;
+    const Scan k = read_keyframe(d, f, &dropped);
+    EXPECT_EQ(dropped, 66u);  // every 7th of 460 points is NaN
+    const auto pts = sweep(i);
+    ASSERT_EQ(k.num_hits(), pts.size());
+    for (std::size_t p = 0; p < pts.size(); ++p) {
+      const double x = 0.5 * i + c * pts[p][0] - s * pts[p][1];
+      const double y = s * pts[p][0] + c * pts[p][1];
+      const double z = 1.5 + pts[p][2];
+      EXPECT_NEAR(k.hits[3 * p], x, 1e-5);
+      EXPECT_NEAR(k.hits[3 * p + 1], y, 1e-5);
+      EXPECT_NEAR(k.hits[3 * p + 2], z, 1e-5);
+    }
+    const auto o3 = k.origin();
+    EXPECT_NEAR(o3[0], 0.5 * i, 1e-9);
+    EXPECT_NEAR(o3[2], 1.5, 1e-9);
+  }
+  BagOptions every;
+  every.keyframe_distance = 0;
+  every.keyframe_angle = 0;
+  EXPECT_EQ(open_bag_drive(bag, every).size(), 6u);
+}
+
+TEST(Ros1Bag, BadChoicesAndBadFilesNameWhatIsWrong) {
+  const std::string bag = carmen_bag(5, "none");
+  BagOptions o;
+  o.topic = "/velodyne_points";
+  expect_input_error([&] { read_bag(bag, o); }, {bag, "no topic /velodyne_points", "/scan"});
+  o.topic = "/tf";
+  expect_input_error([&] { read_bag(bag, o); }, {"/tf is tf2_msgs/TFMessage"});
+  o = {};
+  o.fixed_frame = "map";
+  expect_input_error([&] { read_bag(bag, o); }, {"no message on /scan has a pose", "odom"});
+  o = {};
+  o.pose_topic = "/scan";
+  expect_input_error([&] { read_bag(bag, o); }, {"pose topic /scan is sensor_msgs/LaserScan"});
+  expect_input_error([&] { open_bag_drive(bag); }, {"holds 2D laser scans"});
+  // A bag cut short: the header survives, the index does not.
+  const std::string body = file_bytes(bag);
+  const std::string cut = write_file(temp_dir("ros1_bag_cut"), "cut.bag", body.substr(0, 6000));
+  expect_input_error([&] { read_bag(cut); }, {cut});
+  const std::string junk = write_file(temp_dir("ros1_bag_junk"), "junk.bag", "not a bag at all");
+  expect_input_error([&] { read_bag(junk); }, {junk});
+}
+
+}  // namespace
+}  // namespace potmap::test
+
+#endif
