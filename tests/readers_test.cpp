@@ -132,8 +132,10 @@ TEST(Readers, FlaserWithoutTimestamps) {
 // A text log in another format is an error naming the file, what it found and what it reads.
 TEST(ReadersMalformed, NoLaserLines) {
   const std::string d = test::temp_dir("mal_nolaser");
-  const std::string p = write_file(d, "o.log", "# old format\nLASER 3 1 2 3\nODOM 0 0 0\n");
-  expect_input_error([&] { read_carmen(p); }, {p, "no FLASER or ROBOTLASER1", "LASER 3 1 2 3"});
+  const std::string p = write_file(d, "o.log", "# other format\nSONAR 3 1 2 3\nODOM 0 0 0\n");
+  expect_input_error([&] { read_carmen(p); },
+                     {p, "no laser line", "'SONAR 3 1 2 3'", "FLASER", "RLASER", "ROBOTLASER1",
+                      "RAWLASER1-4", "LASER, LASER1-4", "ODOM"});
   const std::string e = write_file(d, "e.log", "");
   expect_input_error([&] { read_carmen(e); }, {e, "empty"});
 }
@@ -229,4 +231,144 @@ TEST(Readers, FlaserFieldOfViewWhenTold) {
   EXPECT_NEAR(ds.scans[0].hits[0], std::sqrt(2.0), 1e-9);
   EXPECT_NEAR(ds.scans[0].hits[1], -std::sqrt(2.0), 1e-9);
   EXPECT_NEAR(ds.scans[0].hits[5], std::sqrt(2.0), 1e-9);
+}
+
+namespace {
+
+// Expects hit k of a 2D scan at (x, y).
+void expect_hit(const Scan& s, std::size_t k, double x, double y) {
+  ASSERT_LT(k, s.num_hits());
+  EXPECT_NEAR(s.hits[2 * k], x, 1e-9) << "hit " << k;
+  EXPECT_NEAR(s.hits[2 * k + 1], y, 1e-9) << "hit " << k;
+}
+
+std::string rawlaser(int n, const std::string& start_fov, int beams, const std::string& ranges,
+                     const std::string& t) {
+  return "RAWLASER" + std::to_string(n) + " 0 " + start_fov + " 0.01 8 0.01 0 " +
+         std::to_string(beams) + " " + ranges + " 0 " + t + " host " + t + "\n";
+}
+
+}  // namespace
+
+// The rear laser looks backwards: three beams over 180 degrees centred on the heading plus pi.
+TEST(Readers, RlaserOnlyLooksBackwards) {
+  const std::string d = test::temp_dir("readers_rlaser");
+  const std::string p =
+      write_file(d, "r.log", "ODOM 0 0 0 0 0 0 1 h 1\nRLASER 3 1 2 3 1 2 0 1 2 0 3.5 host 3.5\n");
+  const Dataset ds = read_carmen(p, 10);
+  ASSERT_EQ(ds.scans.size(), 1u);
+  const Scan& s = ds.scans[0];
+  EXPECT_DOUBLE_EQ(s.timestamp, 3.5);
+  EXPECT_NEAR(std::cos(s.pose2d[2]), -1, 1e-12);  // the sensor's heading: pi
+  ASSERT_EQ(s.num_hits(), 3u);
+  expect_hit(s, 0, 1, 3);   // heading pi - 90 degrees: +y
+  expect_hit(s, 1, -1, 2);  // straight back: -x
+  expect_hit(s, 2, 1, -1);  // heading pi + 90 degrees: -y
+}
+
+// A log with both lasers is read from the front one; the rear lines are skipped and counted.
+TEST(Readers, FlaserAndRlaserReadsFront) {
+  const std::string d = test::temp_dir("readers_front_rear");
+  const std::string p =
+      write_file(d, "fr.log",
+                 "RLASER 3 1 2 3 0 0 0 0 0 0 1 h 1\n" + flaser(3, "1 2 3", "5 0 0") +
+                     "RLASER 3 1 2 3 0 0 0 0 0 0 2 h 2\n");
+  const Dataset ds = read_carmen(p, 10);
+  ASSERT_EQ(ds.scans.size(), 1u);
+  EXPECT_EQ(ds.scans[0].pose2d[0], 5.0);
+  EXPECT_EQ(ds.stats.lines_skipped, 2u);
+  expect_hit(ds.scans[0], 1, 7, 0);  // the middle beam straight ahead
+}
+
+// RAWLASER has no pose: the ODOM lines' pose interpolated at its time, the heading the shorter
+// way across +-pi (3 and -3 radians meet at pi, not at 0). RAWLASER2 (a second laser) is skipped.
+TEST(Readers, RawLaserInterpolatesOdometry) {
+  const std::string d = test::temp_dir("readers_rawlaser");
+  const std::string p = write_file(
+      d, "raw.log",
+      "ODOM 0 0 3 0 0 0 10 h 10\n" + rawlaser(2, "0 1", 1, "1", "10.5") +
+          rawlaser(1, "0 1.5707963267948966", 2, "2 3", "11") + "ODOM 2 4 -3 0 0 0 12 h 12\n");
+  const Dataset ds = read_carmen(p);
+  ASSERT_EQ(ds.scans.size(), 1u);
+  EXPECT_EQ(ds.stats.lines_skipped, 3u);
+  const Scan& s = ds.scans[0];
+  EXPECT_DOUBLE_EQ(s.timestamp, 11);
+  EXPECT_DOUBLE_EQ(s.max_range, 8);
+  EXPECT_NEAR(s.pose2d[0], 1, 1e-12);
+  EXPECT_NEAR(s.pose2d[1], 2, 1e-12);
+  const double heading = 3 + 0.5 * (2 * M_PI - 6);  // half way along the short arc: pi
+  EXPECT_NEAR(std::cos(s.pose2d[2]), std::cos(heading), 1e-12);
+  expect_hit(s, 0, 1 + 2 * std::cos(heading), 2 + 2 * std::sin(heading));  // (-1, 2)
+  expect_hit(s, 1, 1 + 3 * std::cos(heading + M_PI / 2), 2 + 3 * std::sin(heading + M_PI / 2));
+}
+
+// Just outside the ODOM lines' time span the nearest pose is taken; further out, or with no
+// ODOM line, it is an error naming the line and its time.
+TEST(Readers, RawLaserOutsideOdometry) {
+  const std::string d = test::temp_dir("readers_rawgap");
+  const std::string odom = "ODOM 0 0 0 0 0 0 10 h 10\nODOM 2 0 0 0 0 0 12 h 12\n";
+  const Dataset ds =
+      read_carmen(write_file(d, "near.log", odom + rawlaser(1, "0 0", 1, "1", "12.3")));
+  ASSERT_EQ(ds.scans.size(), 1u);
+  expect_hit(ds.scans[0], 0, 3, 0);
+  const std::string far = write_file(d, "far.log", odom + rawlaser(1, "0 0", 1, "1", "13"));
+  expect_input_error([&] { read_carmen(far); }, {far, "line 3", "RAWLASER1", "13", "line 2"});
+  const std::string none =
+      write_file(d, "none.log", "PARAM a b\n" + rawlaser(3, "0 0", 1, "1", "5"));
+  expect_input_error([&] { read_carmen(none); }, {none, "line 2", "RAWLASER3", "no ODOM"});
+  const std::string bad =
+      write_file(d, "bad.log", "ODOM 0 0 abc 0 0 0 1 h 1\n" + rawlaser(1, "0 0", 1, "1", "1"));
+  expect_input_error([&] { read_carmen(bad); }, {bad, "line 1", "abc"});
+  const std::string short_odom =
+      write_file(d, "short.log", "ODOM 0 0 0\n" + rawlaser(1, "0 0", 1, "1", "1"));
+  expect_input_error([&] { read_carmen(short_odom); }, {short_odom, "line 1", "ODOM needs"});
+  const std::string bad_t = write_file(d, "badt.log", odom + rawlaser(1, "0 0", 1, "1", "x1"));
+  expect_input_error([&] { read_carmen(bad_t); }, {bad_t, "line 3", "x1"});
+}
+
+// ROBOTLASER1 as CARMEN writes it, and as converters write it: without the velocity fields,
+// without anything after the poses, with the velocities but no timestamp.
+TEST(Readers, RobotLaserVariants) {
+  const std::string d = test::temp_dir("readers_robot_variants");
+  const std::string head = "ROBOTLASER1 0 0 0 0 8 0.01 0 1 2 0 ";
+  const std::string p = write_file(d, "v.log",
+                                   head + "0 0 0 0 0 0 0 0 0 0 0 77.5 host 77.5\n" +  //
+                                       head + "1 0 0 1 0 0 55.5 host 55.5\n" +        //
+                                       head + "0 1 1.5707963267948966 0 1 0\n" +      //
+                                       head + "3 3 0 3 3 0 0 0 0 0 0\n");
+  const Dataset ds = read_carmen(p);
+  ASSERT_EQ(ds.scans.size(), 4u);
+  EXPECT_DOUBLE_EQ(ds.scans[0].timestamp, 77.5);
+  EXPECT_DOUBLE_EQ(ds.scans[1].timestamp, 55.5);
+  EXPECT_DOUBLE_EQ(ds.scans[2].timestamp, 2);
+  EXPECT_DOUBLE_EQ(ds.scans[3].timestamp, 3);
+  expect_hit(ds.scans[1], 0, 3, 0);
+  expect_hit(ds.scans[2], 0, 0, 3);  // the laser pose faces +y
+  expect_hit(ds.scans[3], 0, 5, 3);
+  const std::string bad = write_file(d, "b.log", head + "0 0 0 0 0 0 1 2 3 4\n");
+  expect_input_error([&] { read_carmen(bad); }, {bad, "line 1", "4 fields after the robot pose"});
+}
+
+// CARMEN's old LASER lines have no pose: each takes the latest ODOM line's before it, with
+// FLASER's geometry (2 beams: -90 and 0 degrees); without a timestamp the scan's index is its
+// time.
+TEST(Readers, OldLaserWithOdometry) {
+  const std::string d = test::temp_dir("readers_oldlaser");
+  const std::string p = write_file(d, "old.log",
+                                   "ODOM 1 2 1.5707963267948966 0 0 0 5 h 5\n"
+                                   "LASER 2 3 4 6 h 6\n"
+                                   "ODOM 2 2 0\n"
+                                   "LASER 2 1 1\n");
+  const Dataset ds = read_carmen(p, 10);
+  ASSERT_EQ(ds.scans.size(), 2u);
+  EXPECT_DOUBLE_EQ(ds.scans[0].timestamp, 6);
+  EXPECT_DOUBLE_EQ(ds.scans[1].timestamp, 1);
+  expect_hit(ds.scans[0], 0, 4, 2);
+  expect_hit(ds.scans[0], 1, 1, 6);
+  expect_hit(ds.scans[1], 0, 2, 1);
+  expect_hit(ds.scans[1], 1, 3, 2);
+  const std::string first = write_file(d, "first.log", "LASER4 2 1 1\nODOM 0 0 0\n");
+  expect_input_error([&] { read_carmen(first); }, {first, "line 1", "LASER4", "no ODOM"});
+  const std::string bad = write_file(d, "bad.log", "ODOM 0 0 0\nLASER 2 1 -1\n");
+  expect_input_error([&] { read_carmen(bad); }, {bad, "line 2", "-1"});
 }

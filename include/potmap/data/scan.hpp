@@ -46,18 +46,39 @@ struct Dataset {
   ReadStats stats;
 };
 
-/// CARMEN log (plain or gzip, detected by the magic bytes). FLASER lines are read as 180 degree
-/// scans from -90 to +90 degrees around the heading (n beams evenly spaced), with or without the
-/// trailing timestamp, host and logger fields (without: the scan's index is its timestamp);
-/// ROBOTLASER1 lines carry their own start angle, field of view and maximum range. Other lines
-/// are counted in stats.lines_skipped; a file with no laser line is an InputError naming it,
-/// its first line and what is read. A range >= max_range is a no-return; `flaser_max_range`
-/// (metres, default 0 = automatic: the largest range seen in the file, so readings at the device's
-/// limit count as no-returns) sets it for FLASER lines; `flaser_fov` (radians, default pi) is
-/// FLASER's field of view, centred on the heading (n odd: both ends included; n even: 1 degree
-/// steps for 180 beams over 180 degrees, the last beam one step short of +fov/2). Throws InputError
-/// naming file, line and value for a truncated line, wrong field count, non-numeric value, NaN pose
-/// or negative range.
+/// CARMEN log (plain or gzip, detected by the magic bytes). A log is read from one kind of
+/// laser line, the first it has of:
+/// - the front laser with its pose: FLASER `n r_1..r_n x y theta odom_x odom_y odom_theta
+///   [timestamp host logger_timestamp]` (without the timestamp, the scan's index is its
+///   timestamp) and ROBOTLASER1 `type start fov res max_range accuracy remission_mode n r.. m
+///   rem.. laser_x laser_y laser_theta robot_x robot_y robot_theta` followed by `tv rv
+///   forward_safety_dist side_safety_dist turn_axis timestamp host logger_timestamp` (CARMEN's
+///   logger), by `timestamp host logger_timestamp`, by the five velocity fields only, or by
+///   nothing (the last two: the scan's index is its timestamp). ROBOTLASER1 beams span its field
+///   of view from its start angle around the laser pose, with its maximum range;
+/// - else the rear laser: RLASER, FLASER's layout, the beams centred on the heading plus pi
+///   (pose2d's yaw is the rear laser's heading). A log with FLASER lines has its RLASER lines
+///   skipped;
+/// - else RAWLASERn `type start fov res max_range accuracy remission_mode n r.. m rem.. timestamp
+///   host logger_timestamp`, the lowest n in the log (1: CARMEN's front laser): the pose is the
+///   ODOM lines' (`ODOM x y theta tv rv accel timestamp host logger_timestamp`) linearly
+///   interpolated at the laser's timestamp, the heading the shorter way round; a laser line up
+///   to 0.5 s outside the ODOM lines' time span takes the nearest ODOM pose, further out (or in
+///   a log with no ODOM line) it is an InputError naming the line and its time;
+/// - else CARMEN's old laser lines LASER or LASERn (lowest n) `n r_1..r_n [timestamp host
+///   logger_timestamp]` with FLASER's geometry, each at the pose of the latest ODOM line
+///   before it (`ODOM x y theta ...`; none before it is an InputError naming the line).
+/// Laser offsets on the robot (PARAM lines) are not applied: the logged or odometry pose is the
+/// sensor's. Distances are metres and angles radians, as CARMEN writes them. Lines of other
+/// types and laser lines of the kinds not read are counted in stats.lines_skipped; a file with
+/// no laser line is an InputError naming it, its first line (non-printable bytes as '?') and
+/// what is read. A range >= max_range is a no-return; `flaser_max_range` (metres, default 0 =
+/// automatic: the largest range seen in the file, so readings at the device's limit count as
+/// no-returns) sets it for FLASER, RLASER and LASER lines; `flaser_fov` (radians, default pi) is
+/// their field of view, centred on the heading (n odd: both ends included; n even: 1 degree
+/// steps for 180 beams over 180 degrees, the last beam one step short of +fov/2). Throws
+/// InputError naming file, line and value for a truncated line, wrong field count, non-numeric
+/// value, NaN pose or negative range.
 Dataset read_carmen(const std::string& path, double flaser_max_range = 0,
                     double flaser_fov = 3.14159265358979323846);
 
