@@ -140,6 +140,32 @@ TEST(ReadersMalformed, NoLaserLines) {
   expect_input_error([&] { read_carmen(e); }, {e, "empty"});
 }
 
+// An unknown extension holding no laser line: the error also lists what read_dataset reads by
+// extension, and quotes binary bytes as '?'.
+TEST(ReadersMalformed, UnknownFileNamesFormats) {
+  const std::string d = test::temp_dir("mal_unknown");
+  const std::string p =
+      write_file(d, "junk.xyz", std::string("\x01\x02junk\x7f\0\xff\nmore\n", 15));
+  try {
+    read_dataset(p);
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    for (const char* n : {"junk.xyz", "no laser line", "'??junk???'", "RAWLASER1-4", ".bin", ".pcd",
+                          ".npz", ".csv", "poses.txt"})
+      EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
+    for (char c : m) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "non-printable byte in " << m;
+  }
+  // A CARMEN name does not list the other formats.
+  const std::string l = write_file(d, "x.log", "PARAM a b\n");
+  try {
+    read_dataset(l);
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find(".pcd"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ReadersMalformed, TruncatedLine) {
   const std::string d = test::temp_dir("mal_trunc");
   const std::string p = write_file(d, "t.log", flaser(3, "1 2 3", "0 0 0") + "FLASER 180 1.0 2.0");

@@ -13,6 +13,8 @@
 namespace potmap {
 
 Dataset read_velodyne_dataset(const std::string& path, std::size_t fields, double max_range);
+Dataset read_carmen_log(const std::string& path, double flaser_max_range, double flaser_fov,
+                        const std::string& hint);
 
 namespace {
 bool ends_with(const std::string& s, const std::string& e) {
@@ -82,7 +84,15 @@ Dataset read_dataset(const std::string& path, const BagOptions& bag) {
     ds.scans = scans_from_labelled(read_labelled_csv(path));
     return ds;
   }
-  return read_carmen(path);
+  if (ends_with(base, ".log") || ends_with(base, ".clf")) return read_carmen(path);
+  // Any other name is tried as a CARMEN log; when it holds no laser line, say what the other
+  // extensions would have read.
+  return read_carmen_log(
+      path, 0, 3.14159265358979323846,
+      "; by extension read_dataset reads .log and .clf (CARMEN), .bin (KITTI or nuScenes "
+      "frames), .pcd and .ply (point clouds), poses.txt (KITTI sequence), a .txt naming .pcd/.ply "
+      "frames (point-cloud sequence), .npz and .csv (labelled samples), each also gzipped, "
+      ".bag (ROS 1), ROS 2 bag folders and dataset folders");
 }
 
 }  // namespace potmap

@@ -133,14 +133,16 @@ std::vector<Scan> scans_from_labelled(const LabelledPoints& points, double max_r
 /// NumPy .npz with `X` (N x 3: t, x, y, or N x 4: t, x, y, z) and `Y` (N or N x 1 labels).
 LabelledPoints read_npz_labelled(const std::string& path);
 
-/// Reads any supported file by its name: *.log[.gz] CARMEN, *.bin KITTI (4 floats) or nuScenes
-/// (5 floats, name containing "nuscenes"), a KITTI odometry sequence by its poses.txt
+/// Reads any supported file by its name: *.log[.gz] and *.clf[.gz] CARMEN, *.bin KITTI (4 floats)
+/// or nuScenes (5 floats, name containing "nuscenes"), a KITTI odometry sequence by its poses.txt
 /// (velodyne/NNNNNN.bin and calib.txt beside it; frames moved into the world frame, max range
 /// 120 m) or by its folder (the one holding poses.txt), *.pcd and *.ply point-cloud frames, a
 /// point-cloud sequence by its poses file (*.txt whose lines start with a frame name, see
 /// read_point_cloud_sequence) or by its folder (holding such a poses.txt), *.npz and *.csv
 /// labelled samples, ROS 1 .bag files and ROS 2 bag folders (read_bag with `bag`'s topic, frame
-/// and poses). Throws InputError naming a folder that holds no poses.txt.
+/// and poses). A file of any other name is read as a CARMEN log; when it holds no laser line,
+/// the InputError lists the extensions read. Throws InputError naming a folder that holds no
+/// poses.txt.
 Dataset read_dataset(const std::string& path, const BagOptions& bag = {});
 
 }  // namespace potmap
