@@ -20,6 +20,15 @@ for t in $targets; do mkdir -p "$corpus/$t"; done
 if [ -d "$data/radish" ]; then
   zcat "$data/radish/intel-corrected.log.gz" | head -c 20000 > "$corpus/carmen/intel_head.log" || true
 fi
+# One seed per other laser line kind the reader chooses between (a log is read from one kind).
+printf 'RLASER 3 1 2 3 1 2 0 1 2 0 3.5 h 3.5\nFLASER 2 1 2 0 0 0 0 0 0\nRLASER 2 1 2 0 0 0 0 0 0\n' \
+  > "$corpus/carmen/rlaser.log"
+printf 'ODOM 0 0 3 0 0 0 10 h 10\nRAWLASER1 0 -1.57 3.14 0.01 8 0.01 0 3 1 2 9 1 5 10.5 h 10.5\nRAWLASER2 0 0 0 0 8 0 0 1 1 0 11 h 11\nODOM 2 4 -3 0 0 0 12 h 12\n' \
+  > "$corpus/carmen/rawlaser.log"
+printf 'ROBOTLASER1 0 0 1 1 8 0.01 0 2 1 2 0 0 0 0 0 0 0 0 0 0 0 0 7 h 7\nROBOTLASER1 0 0 1 1 8 0.01 0 2 1 2 0 1 0 0 1 0 0 8 h 8\nROBOTLASER1 0 0 1 1 8 0.01 0 2 1 2 0 1 0 0 1 0 0\n' \
+  > "$corpus/carmen/robotlaser.log"
+printf 'ODOM 1 2 1.57 0 0 0 5 h 5\nLASER 2 3 4 6 h 6\nODOM 2 2 0\nLASER3 2 1 1\nLASER 2 1 1\n' \
+  > "$corpus/carmen/oldlaser.log"
 if [ -f "$data/lidar3d/kitti_000008.bin" ]; then
   head -c 1600 "$data/lidar3d/kitti_000008.bin" > "$corpus/velodyne/kitti_head.bin"
 fi
