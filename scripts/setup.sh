@@ -12,6 +12,7 @@ packages=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers clinfo
   libboost-dev libeigen3-dev libcli11-dev nlohmann-json3-dev
   libzip-dev libpng-dev zlib1g-dev
+  libsqlite3-dev libyaml-cpp-dev libzstd-dev zstd libfastcdr-dev
   liboctomap-dev libpcl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libgdal-dev libopenmpi-dev openmpi-bin
