@@ -11,7 +11,7 @@ build=${2:-$root/build-fuzz}
 source "$root/scripts/sanitizer_build.sh"
 sanitizer_configure "$root" "$build"
 targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary tuning_file
-  point_cloud point_cloud_poses drive"
+  point_cloud point_cloud_poses drive ros2_bag"
 make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null
 data=$root/../shared/data
 corpus=$build/corpus
@@ -74,6 +74,23 @@ atom += src + struct.pack("<4d2d2d3d", .1, .2, -.1, -.2, .05, .05, 0, .1, 2.0, 1
 size = 64 + len(atom) + 4
 body = b"POTDIC\r\n" + struct.pack("<II2dIIQQQ", 1, 2, 0.02, 20, 5, 0, 1, size, 0) + atom
 open(sys.argv[1], "wb").write(body + struct.pack("<I", zlib.crc32(body)))
+PY
+fi
+# One CDR body of each ROS 2 type, encoded by the tests' bag writer, behind its type byte.
+if command -v python3 >/dev/null; then
+  python3 - "$corpus/ros2_bag" "$root/tests/data" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[2])
+import write_ros2_bag as w
+q = (0, 0, 0, 1)
+bodies = [w.laser_scan(1, 2, "laser", [1.0, float("nan"), 2.0])[0],
+          w.multi_echo(1, 2, "laser", [[1.0, 2.0], [], [3.0]])[0],
+          w.point_cloud2(1, 2, "lidar", [(1.0, 2.0, 3.0), (0.0, 0.0, 0.0)], True, True)[0],
+          w.tf_message([(1, 2, "odom", "base", (1, 2, 3), q)], False)[0],
+          w.odometry(1, 2, "odom", "base", (1, 2, 3), q)[0],
+          w.pose_stamped(1, 2, "map", (1, 2, 3), q)[0]]
+for i, b in enumerate(bodies):
+    open("%s/seed%d" % (sys.argv[1], i), "wb").write(bytes([i]) + b)
 PY
 fi
 cp "$corpus/npz/seed.npz" "$corpus/map_npz/seed.npz" 2>/dev/null || true
