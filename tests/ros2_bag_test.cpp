@@ -126,8 +126,8 @@ void expect_cloud(const CloudMsg& c, const json& x) {
   EXPECT_EQ(c.dropped, x["dropped"].get<std::size_t>());
 }
 
-// The scan_tf bag's whole content, however it is stored.
-void expect_scan_tf_bag(const std::string& scenario, const std::string& compression) {
+// The scan_tf bag's whole content, however it is stored. Returns the bag's parent folder.
+std::string expect_scan_tf_bag(const std::string& scenario, const std::string& compression) {
   const std::string dir = write_bag(scenario);
   const json e = expected(dir, scenario);
   const auto bag = open_ros2_bag(e["bag"]);
@@ -136,6 +136,7 @@ void expect_scan_tf_bag(const std::string& scenario, const std::string& compress
   EXPECT_EQ(r.order, e["order"].get<std::vector<std::string>>());
   expect_scans(r.scans, e["scans"]);
   expect_transforms(r.transforms, e["transforms"]);
+  return dir;
 }
 
 TEST(Ros2Bag, LaserScanAndTfRoundTripAcrossTwoFiles) {
@@ -198,7 +199,11 @@ TEST(Ros2Bag, ZstdFileCompression) {
 }
 
 TEST(Ros2Bag, ZstdMessageCompression) {
-  expect_scan_tf_bag("zstd_message", "zstd (message)");
+  const std::string dir = expect_scan_tf_bag("zstd_message", "zstd (message)");
+  // One file of it alone: its compression from the metadata.yaml beside it.
+  const auto one = open_ros2_bag(dir + "/zstd_message/zstd_message_1.db3");
+  EXPECT_EQ(one->info().compression, "zstd (message)");
+  EXPECT_EQ(read_all(*one, {"/scan"}).scans.size(), 2u);
 }
 
 TEST(Ros2Bag, TruncatedMessageNamesFileTopicTimeAndOffset) {

@@ -36,9 +36,16 @@ struct BagFile {
   std::unordered_map<std::int64_t, std::size_t> topic_of_id;  // topics.id -> Ros2Bag::topics_
 };
 
+// A receive time in seconds, digit for digit from its nanoseconds (a double would blur the last
+// digits of a time since 1970).
 std::string seconds(std::int64_t ns) {
-  char s[40];
-  std::snprintf(s, sizeof s, "%.9f", static_cast<double>(ns) * 1e-9);
+  const bool negative = ns < 0;
+  const std::uint64_t a =
+      negative ? 0 - static_cast<std::uint64_t>(ns) : static_cast<std::uint64_t>(ns);
+  char s[48];
+  std::snprintf(s, sizeof s, "%s%llu.%09llu", negative ? "-" : "",
+                static_cast<unsigned long long>(a / 1000000000),
+                static_cast<unsigned long long>(a % 1000000000));
   return s;
 }
 

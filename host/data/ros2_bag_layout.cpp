@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <system_error>
 
@@ -51,7 +52,7 @@ Ros2Compression compression_of(const YAML::Node& info, const std::string& where)
   const std::string format =
       info["compression_format"] ? info["compression_format"].as<std::string>() : "";
   std::string mode = info["compression_mode"] ? info["compression_mode"].as<std::string>() : "";
-  std::transform(mode.begin(), mode.end(), mode.begin(), ::toupper);
+  for (char& ch : mode) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
   if (format.empty() || mode.empty() || mode == "NONE") return Ros2Compression::none;
   if (format != "zstd")
     throw InputError(where + ": compression_format '" + format +
@@ -153,7 +154,14 @@ Ros2BagLayout find_ros2_bag(const std::string& path) {
   }
   if (ends_with(path, ".yaml")) return read_metadata(path);
   if (ends_with(path, ".mcap")) mcap_error(path);
-  if (ends_with(path, ".db3")) return {{path}, Ros2Compression::none};
+  if (ends_with(path, ".db3")) {
+    // One file of a bag recorded with MESSAGE compression still needs its metadata.yaml's word.
+    const fs::path yaml = fs::path(path).parent_path() / "metadata.yaml";
+    Ros2Compression c = Ros2Compression::none;
+    if (is_file(yaml) && read_metadata(yaml).compression == Ros2Compression::zstd_message)
+      c = Ros2Compression::zstd_message;
+    return {{path}, c};
+  }
   if (ends_with(path, ".db3.zstd")) return {{path}, Ros2Compression::zstd_file};
   throw InputError(path +
                    ": not a ROS 2 bag (expected a folder with metadata.yaml, the "
