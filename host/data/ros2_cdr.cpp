@@ -131,8 +131,4 @@ const std::uint8_t* CdrReader::byte_sequence(const char* field, std::size_t& siz
   return p;
 }
 
-void CdrReader::skip_f64(std::size_t count, const char* field) {
-  for (std::size_t i = 0; i < count; ++i) f64(field);
-}
-
 }  // namespace potmap::data

@@ -38,8 +38,6 @@ class CdrReader {
   std::vector<float> f32_sequence(const char* field);
   /// A uint8[] sequence, in place (valid while the message's bytes are).
   const std::uint8_t* byte_sequence(const char* field, std::size_t& size);
-  /// Skips `count` float64s (a covariance matrix), aligned.
-  void skip_f64(std::size_t count, const char* field);
 
   /// Byte offset of the next field in the message (the encapsulation header included).
   std::size_t offset() const;
