@@ -11,7 +11,7 @@ build=${2:-$root/build-fuzz}
 source "$root/scripts/sanitizer_build.sh"
 sanitizer_configure "$root" "$build"
 targets="carmen velodyne kitti_poses npz map_csv map_npz map_potmap labelled_csv dictionary tuning_file
-  point_cloud point_cloud_poses drive ros2_bag"
+  point_cloud point_cloud_poses drive ros2_bag ros1_bag"
 make -C "$build" -j2 $(for t in $targets; do printf 'fuzz_%s ' "$t"; done) >/dev/null
 data=$root/../shared/data
 corpus=$build/corpus
@@ -92,6 +92,14 @@ bodies = [w.laser_scan(1, 2, "laser", [1.0, float("nan"), 2.0])[0],
 for i, b in enumerate(bodies):
     open("%s/seed%d" % (sys.argv[1], i), "wb").write(bytes([i]) + b)
 PY
+fi
+# Two small ROS 1 bags written by ROS's own tools (Debian's python3-rosbag).
+if /usr/bin/python3 -c "import rosbag" 2>/dev/null; then
+  /usr/bin/python3 "$root/tests/data/write_ros1_bag.py" clouds --clouds 2 "$corpus/ros1_bag/clouds.bag"
+  if [ -d "$data/radish" ]; then
+    /usr/bin/python3 "$root/tests/data/write_ros1_bag.py" carmen "$data/radish/intel-corrected.log.gz" \
+      --scans 3 "$corpus/ros1_bag/scans.bag"
+  fi
 fi
 cp "$corpus/npz/seed.npz" "$corpus/map_npz/seed.npz" 2>/dev/null || true
 # A tuning file for the fuzzer's fixed device (fuzz_tuning_file.cpp), this source's version.

@@ -7,6 +7,7 @@
 
 #include "capi_handles.hpp"
 #include "capi_structs.hpp"
+#include "potmap/data/bag.hpp"
 
 namespace potmap::capi {
 namespace {
@@ -77,6 +78,44 @@ std::vector<Scan> to_scans(const potmap_scan* const* scans, std::size_t n) {
 
 }  // namespace potmap::capi
 
+namespace potmap::capi {
+namespace {
+
+potmap_bag_options default_bag_options() {
+  const potmap::BagOptions d;
+  potmap_bag_options o{};
+  o.struct_size = sizeof o;
+  o.max_range = d.max_range;
+  o.keyframe_distance = d.keyframe_distance;
+  o.keyframe_angle = d.keyframe_angle;
+  return o;
+}
+
+potmap::BagOptions to_bag_options(const potmap_bag_options* in) {
+  const potmap_bag_options o =
+      in ? read_struct(in, default_bag_options(), kBagOptionsV1, "options") : default_bag_options();
+  auto bad = [](const std::string& field, double v) {
+    fail(POTMAP_ERROR_INVALID_ARGUMENT,
+         "options->" + field + " is out of range: " + std::to_string(v));
+  };
+  if (!(o.max_range >= 0) || !std::isfinite(o.max_range)) bad("max_range", o.max_range);
+  if (!(o.keyframe_distance >= 0) || !std::isfinite(o.keyframe_distance))
+    bad("keyframe_distance", o.keyframe_distance);
+  if (!(o.keyframe_angle >= 0) || !std::isfinite(o.keyframe_angle))
+    bad("keyframe_angle", o.keyframe_angle);
+  potmap::BagOptions r;
+  r.topic = o.topic ? o.topic : "";
+  r.fixed_frame = o.fixed_frame ? o.fixed_frame : "";
+  r.pose_topic = o.pose_topic ? o.pose_topic : "";
+  r.max_range = o.max_range;
+  r.keyframe_distance = o.keyframe_distance;
+  r.keyframe_angle = o.keyframe_angle;
+  return r;
+}
+
+}  // namespace
+}  // namespace potmap::capi
+
 using namespace potmap::capi;
 
 extern "C" {
@@ -92,6 +131,24 @@ potmap_status potmap_dataset_load(const char* path, potmap_dataset** out) {
     require(out, "out");
     auto h = std::make_unique<potmap_dataset>();
     h->data = potmap::read_dataset(path);
+    *out = h.release();
+  });
+}
+
+potmap_status potmap_bag_options_init(potmap_bag_options* options, size_t struct_size) {
+  return guard("potmap_bag_options_init", POTMAP_ERROR_INTERNAL, [&] {
+    init_struct(options, struct_size, default_bag_options(), kBagOptionsV1, "options");
+  });
+}
+
+potmap_status potmap_dataset_load_bag(const char* path, const potmap_bag_options* options,
+                                      potmap_dataset** out) {
+  return guard("potmap_dataset_load_bag", POTMAP_ERROR_INPUT, [&] {
+    require(path, "path");
+    require(out, "out");
+    const potmap::BagOptions o = to_bag_options(options);
+    auto h = std::make_unique<potmap_dataset>();
+    h->data = potmap::read_bag(path, o);
     *out = h.release();
   });
 }

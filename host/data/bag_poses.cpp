@@ -106,8 +106,11 @@ std::vector<std::string> BagPoses::frames() const {
 
 bool BagPoses::answer_from_topic(const PoseQuery& q, bool at_end, const Found& found,
                                  const Lost& lost) {
+  // A pose after the stamp, not only at it: by then the bag has also handed over whatever it
+  // recorded at the stamp, /tf_static's sensor offset among it.
+  const bool after = !samples_.empty() && samples_.back().stamp > q.stamp;
+  if (!after && !at_end && latest_ - q.stamp < kPatience) return false;
   if (samples_.empty() || samples_.back().stamp < q.stamp) {
-    if (!at_end && latest_ - q.stamp < kPatience) return false;
     lost(q, "no pose on " + pose_topic_ + " after the message's stamp");
     return true;
   }
@@ -144,9 +147,9 @@ bool BagPoses::answer(const PoseQuery& q, bool at_end, const Found& found, const
   const ros::Time stamp = ros::Time().fromSec(std::max(q.stamp, 0.0));
   if (fixed_.empty()) {
     // REP 105: `map` is the world-fixed frame when a localiser publishes it; else `odom`.
-    const std::vector<std::string> tries =
-        asked_fixed_.empty() ? std::vector<std::string>{"map", "odom"}
-                             : std::vector<std::string>{asked_fixed_};
+    const std::vector<std::string> tries = asked_fixed_.empty()
+                                               ? std::vector<std::string>{"map", "odom"}
+                                               : std::vector<std::string>{asked_fixed_};
     for (const std::string& f : tries)
       if (tf_->frames.count(f) && tf_->buffer.canTransform(f, frame, stamp)) {
         fixed_ = f;
@@ -187,9 +190,13 @@ BagPoses::BagPoses(std::string, std::string) {
 }
 BagPoses::~BagPoses() = default;
 void BagPoses::add(const std::string&, const TransformMsg&) {}
-std::vector<std::string> BagPoses::frames() const { return {}; }
+std::vector<std::string> BagPoses::frames() const {
+  return {};
+}
 void BagPoses::settle(bool, const Found&, const Lost&) {}
-bool BagPoses::answer(const PoseQuery&, bool, const Found&, const Lost&) { return false; }
+bool BagPoses::answer(const PoseQuery&, bool, const Found&, const Lost&) {
+  return false;
+}
 bool BagPoses::answer_from_topic(const PoseQuery&, bool, const Found&, const Lost&) {
   return false;
 }

@@ -179,8 +179,8 @@ Walk walk_bag(data::BagSource& src, const std::string& path, const data::BagTopi
   const auto found = [&](const data::PoseQuery& q, const Eigen::Isometry3d& pose) {
     auto it = lasers.find(q.id);
     if (it != lasers.end()) {
-      w.scans.scans.push_back(laser_to_scan(it->second, pose, o.max_range,
-                                            w.scans.stats.points_dropped));
+      w.scans.scans.push_back(
+          laser_to_scan(it->second, pose, o.max_range, w.scans.stats.points_dropped));
       lasers.erase(it);
     } else {
       w.clouds.push_back({keys.at(q.id), q.stamp, pose});

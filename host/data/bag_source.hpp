@@ -16,10 +16,10 @@ namespace potmap::data {
 
 /// One topic of a bag, as `potmap data info` lists it.
 struct BagTopic {
-  std::string name;      ///< "/scan"
-  std::string type;      ///< ROS 1 spelling: "sensor_msgs/LaserScan" (ROS 2's "/msg/" dropped)
-  std::size_t count = 0; ///< messages
-  std::string frame_id;  ///< header.frame_id of its first message that has one ("" if none)
+  std::string name;       ///< "/scan"
+  std::string type;       ///< ROS 1 spelling: "sensor_msgs/LaserScan" (ROS 2's "/msg/" dropped)
+  std::size_t count = 0;  ///< messages
+  std::string frame_id;   ///< header.frame_id of its first message that has one ("" if none)
 };
 
 struct BagInfo {
@@ -42,8 +42,8 @@ struct LaserScanMsg {
 struct CloudMsg {
   double stamp = 0;
   std::string frame_id;
-  std::vector<float> xyz;    ///< finite points only, 3 floats each
-  std::size_t dropped = 0;   ///< NaN/Inf or (0, 0, 0) points left out (missing returns)
+  std::vector<float> xyz;   ///< finite points only, 3 floats each
+  std::size_t dropped = 0;  ///< NaN/Inf or (0, 0, 0) points left out (missing returns)
 };
 
 /// A rigid transform from `parent` to `child` at `stamp`: tf2_msgs/TFMessage's entries (and
@@ -90,7 +90,14 @@ std::unique_ptr<BagSource> open_ros2_bag(const std::string& path);
 
 /// sensor_msgs/PointField datatypes, as both ROS versions number them.
 enum class PointFieldType : std::uint8_t {
-  int8 = 1, uint8 = 2, int16 = 3, uint16 = 4, int32 = 5, uint32 = 6, float32 = 7, float64 = 8
+  int8 = 1,
+  uint8 = 2,
+  int16 = 3,
+  uint16 = 4,
+  int32 = 5,
+  uint32 = 6,
+  float32 = 7,
+  float64 = 8
 };
 struct PointFieldDesc {
   std::string name;

@@ -35,7 +35,8 @@ const PointFieldDesc& coordinate(const PointCloud2View& view, const char* name,
     const auto type = static_cast<PointFieldType>(f.datatype);
     if (type != PointFieldType::float32 && type != PointFieldType::float64)
       throw InputError(where + ": PointCloud2 field '" + name + "' has datatype " +
-                       std::to_string(f.datatype) + "; x, y and z must be FLOAT32 (7) or FLOAT64 (8)");
+                       std::to_string(f.datatype) +
+                       "; x, y and z must be FLOAT32 (7) or FLOAT64 (8)");
     const std::uint32_t size = type == PointFieldType::float32 ? 4 : 8;
     if (static_cast<std::uint64_t>(f.offset) + size > view.point_step)
       throw InputError(where + ": PointCloud2 field '" + name + "' at offset " +
@@ -45,8 +46,8 @@ const PointFieldDesc& coordinate(const PointCloud2View& view, const char* name,
   }
   std::string names;
   for (const PointFieldDesc& f : view.fields) names += (names.empty() ? "" : ", ") + f.name;
-  throw InputError(where + ": PointCloud2 has no field '" + name + "' (fields: " +
-                   (names.empty() ? "none" : names) + ")");
+  throw InputError(where + ": PointCloud2 has no field '" + name +
+                   "' (fields: " + (names.empty() ? "none" : names) + ")");
 }
 
 double read_coordinate(const std::uint8_t* p, const PointFieldDesc& f, bool swap) {

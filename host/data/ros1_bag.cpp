@@ -37,7 +37,9 @@ std::unique_ptr<BagSource> open_ros1_bag(const std::string& path) {
 
 namespace {
 
-double seconds(const ros::Time& t) { return t.toSec(); }
+double seconds(const ros::Time& t) {
+  return t.toSec();
+}
 
 // Each chunk header names its compression; the first one, found after the bag's 4 KiB header
 // record, tells what a user asks (librosbag exposes only the mode it would write).
@@ -118,16 +120,28 @@ CloudMsg to_cloud(const sensor_msgs::PointCloud2& m, bool header_only, const std
   return c;
 }
 
-std::string header_frame(const rosbag::MessageInstance& m) {
+// A message whose definition differs from the headers' (another MD5) does not instantiate.
+template <class T>
+boost::shared_ptr<T> message(const rosbag::MessageInstance& m, const std::string& path) {
+  boost::shared_ptr<T> p = m.instantiate<T>();
+  if (!p)
+    throw InputError(path + ": " + m.getTopic() + " at " + std::to_string(m.getTime().toSec()) +
+                     " s is a " + m.getDataType() + " of another definition (MD5 " + m.getMD5Sum() +
+                     ") than ROS's " + ros::message_traits::md5sum<T>());
+  return p;
+}
+
+std::string header_frame(const rosbag::MessageInstance& m, const std::string& path) {
   const std::string& type = m.getDataType();
-  if (type == "sensor_msgs/LaserScan") return m.instantiate<sensor_msgs::LaserScan>()->header.frame_id;
+  if (type == "sensor_msgs/LaserScan")
+    return message<sensor_msgs::LaserScan>(m, path)->header.frame_id;
   if (type == "sensor_msgs/MultiEchoLaserScan")
-    return m.instantiate<sensor_msgs::MultiEchoLaserScan>()->header.frame_id;
+    return message<sensor_msgs::MultiEchoLaserScan>(m, path)->header.frame_id;
   if (type == "sensor_msgs/PointCloud2")
-    return m.instantiate<sensor_msgs::PointCloud2>()->header.frame_id;
-  if (type == "nav_msgs/Odometry") return m.instantiate<nav_msgs::Odometry>()->header.frame_id;
+    return message<sensor_msgs::PointCloud2>(m, path)->header.frame_id;
+  if (type == "nav_msgs/Odometry") return message<nav_msgs::Odometry>(m, path)->header.frame_id;
   if (type == "geometry_msgs/PoseStamped")
-    return m.instantiate<geometry_msgs::PoseStamped>()->header.frame_id;
+    return message<geometry_msgs::PoseStamped>(m, path)->header.frame_id;
   return "";
 }
 
@@ -137,7 +151,9 @@ class Ros1Bag final : public BagSource {
     try {
       bag_.open(path, rosbag::bagmode::Read);
       index();
-    } catch (const rosbag::BagException& e) {
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::exception& e) {  // rosbag's, ROS's and boost's exceptions alike
       throw InputError(path + ": not a readable ROS 1 bag: " + e.what());
     }
   }
@@ -168,7 +184,7 @@ void Ros1Bag::index() {
     t.count = one.size();
     // The first message with a frame: a topic's messages share one in practice.
     for (const rosbag::MessageInstance& m : one) {
-      t.frame_id = header_frame(m);
+      t.frame_id = header_frame(m, path_);
       break;
     }
     info_.topics.push_back(t);
@@ -184,27 +200,29 @@ void Ros1Bag::hand_over(const rosbag::MessageInstance& m, const BagHandlers& h) 
   const std::string& topic = m.getTopic();
   const std::uint64_t key = m.getTime().toNSec();
   if (type == "sensor_msgs/LaserScan" && h.scan) {
-    h.scan(topic, key, to_scan(*m.instantiate<sensor_msgs::LaserScan>()));
+    h.scan(topic, key, to_scan(*message<sensor_msgs::LaserScan>(m, path_)));
   } else if (type == "sensor_msgs/MultiEchoLaserScan" && h.scan) {
-    h.scan(topic, key, to_scan(*m.instantiate<sensor_msgs::MultiEchoLaserScan>()));
+    h.scan(topic, key, to_scan(*message<sensor_msgs::MultiEchoLaserScan>(m, path_)));
   } else if (type == "sensor_msgs/PointCloud2" && h.cloud) {
     h.cloud(topic, key,
-            to_cloud(*m.instantiate<sensor_msgs::PointCloud2>(), h.clouds_header_only,
+            to_cloud(*message<sensor_msgs::PointCloud2>(m, path_), h.clouds_header_only,
                      path_ + ": " + topic));
   } else if (type == "tf2_msgs/TFMessage" && h.transform) {
     const bool is_static = topic == "/tf_static" || topic == "tf_static";
-    for (const auto& e : m.instantiate<tf2_msgs::TFMessage>()->transforms) {
+    // Held here: a range-for over a temporary's member would outlive the message.
+    const auto tf = message<tf2_msgs::TFMessage>(m, path_);
+    for (const auto& e : tf->transforms) {
       TransformMsg t;
       to_transform(e, is_static, t);
       h.transform(topic, t);
     }
   } else if (type == "nav_msgs/Odometry" && h.transform) {
-    const auto o = m.instantiate<nav_msgs::Odometry>();
+    const auto o = message<nav_msgs::Odometry>(m, path_);
     TransformMsg t;
     to_transform(o->header, o->child_frame_id, o->pose.pose, t);
     h.transform(topic, t);
   } else if (type == "geometry_msgs/PoseStamped" && h.transform) {
-    const auto p = m.instantiate<geometry_msgs::PoseStamped>();
+    const auto p = message<geometry_msgs::PoseStamped>(m, path_);
     TransformMsg t;
     to_transform(p->header, "", p->pose, t);
     h.transform(topic, t);
@@ -219,6 +237,12 @@ void Ros1Bag::read(const std::vector<std::string>& topics, const BagHandlers& h)
     throw InputError(path_ + ": " + e.what());
   } catch (const ros::Exception& e) {
     throw InputError(path_ + ": a message does not decode: " + e.what());
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(path_ + ": " + e.what());
   }
 }
 
@@ -228,8 +252,8 @@ CloudMsg Ros1Bag::read_cloud(const std::string& topic, std::uint64_t key) {
   try {
     rosbag::View view(bag_, rosbag::TopicQuery(topic), t, t);
     for (const rosbag::MessageInstance& m : view) {
-      const auto c = m.instantiate<sensor_msgs::PointCloud2>();
-      if (c) return to_cloud(*c, false, path_ + ": " + topic);
+      const auto c = message<sensor_msgs::PointCloud2>(m, path_);
+      return to_cloud(*c, false, path_ + ": " + topic);
     }
   } catch (const rosbag::BagException& e) {
     throw InputError(path_ + ": " + e.what());

@@ -300,10 +300,37 @@ POTMAP_EXPORT potmap_status potmap_scan_init(potmap_scan* scan, size_t struct_si
 /** Reads a dataset file by its name, as `potmap data info` does: *.log[.gz] CARMEN, *.bin KITTI
  *  or nuScenes frames, a 3D drive folder (SLAM keyframes or a KITTI sequence: every keyframe in
  *  the world frame), a KITTI odometry sequence by its poses.txt, *.npz / *.csv labelled
- *  samples (see potmap/data/scan.hpp, read_dataset). The whole file is read now.
+ *  samples, ROS 1 and ROS 2 bags (see potmap/data/scan.hpp, read_dataset). The whole file is
+ *  read now.
  *  *out receives a new handle; free it with potmap_dataset_destroy.
  *  Errors: POTMAP_ERROR_INPUT (the message names the file, line or offset, and value). */
 POTMAP_EXPORT potmap_status potmap_dataset_load(const char* path, potmap_dataset** out);
+
+/** How a ROS bag is read (potmap/data/bag.hpp, BagOptions). Strings are borrowed for the call;
+ *  NULL or "" means the default. */
+typedef struct potmap_bag_options {
+  size_t struct_size;      /**< the caller's sizeof (potmap_bag_options_init sets it) */
+  const char* topic;       /**< LaserScan, MultiEchoLaserScan or PointCloud2 topic (NULL: the
+                                one with the most messages) */
+  const char* fixed_frame; /**< frame to map in (NULL: map when /tf links it, else odom) */
+  const char* pose_topic;  /**< Odometry or PoseStamped topic to take poses from (NULL: /tf) */
+  double max_range;        /**< metres (0: a LaserScan's range_max; 120 for point clouds) */
+  double keyframe_distance;/**< point clouds: metres between keyframes (default 1) */
+  double keyframe_angle;   /**< point clouds: radians of turn that start one (default 0.26) */
+} potmap_bag_options;
+
+/** Fills *options with the defaults; struct_size is the caller's sizeof(potmap_bag_options). */
+POTMAP_EXPORT potmap_status potmap_bag_options_init(potmap_bag_options* options,
+                                                    size_t struct_size);
+
+/** Reads a ROS 1 .bag or a ROS 2 bag (folder, metadata.yaml or .db3): the chosen topic's messages
+ *  with a pose, as 2D scans (laser topics) or 3D keyframes (point clouds) in the fixed frame
+ *  (potmap/data/bag.hpp, read_bag). options NULL: the defaults. potmap_dataset_load reads bags
+ *  with the defaults too. Errors: POTMAP_ERROR_INPUT (the message names the bag, the topic and
+ *  what is missing), POTMAP_ERROR_INVALID_ARGUMENT (an option out of range). */
+POTMAP_EXPORT potmap_status potmap_dataset_load_bag(const char* path,
+                                                    const potmap_bag_options* options,
+                                                    potmap_dataset** out);
 
 /** Frees the dataset (scans it filled keep pointers into it: they become invalid). NULL: no-op. */
 POTMAP_EXPORT potmap_status potmap_dataset_destroy(potmap_dataset* dataset);

@@ -108,6 +108,108 @@ class Atom:
         """provenance text"""
         ...
 
+class BagOptions:
+    """How a ROS bag is read: the topic, the fixed frame, the poses and the keyframe spacing of point clouds."""
+    def __init__(self, **kwargs: Any) -> None:
+        ...
+    @property
+    def topic(self) -> str:
+        """LaserScan, MultiEchoLaserScan or PointCloud2 topic ('': the one with the most messages)"""
+        ...
+    @topic.setter
+    def topic(self, value: Any) -> None: ...
+    @property
+    def fixed_frame(self) -> str:
+        """frame to map in ('': map when /tf links it to the sensor, else odom)"""
+        ...
+    @fixed_frame.setter
+    def fixed_frame(self, value: Any) -> None: ...
+    @property
+    def pose_topic(self) -> str:
+        """nav_msgs/Odometry or geometry_msgs/PoseStamped topic ('': /tf)"""
+        ...
+    @pose_topic.setter
+    def pose_topic(self, value: Any) -> None: ...
+    @property
+    def max_range(self) -> float:
+        """metres (0: a LaserScan's range_max; 120 for point clouds)"""
+        ...
+    @max_range.setter
+    def max_range(self, value: Any) -> None: ...
+    @property
+    def keyframe_distance(self) -> float:
+        """point clouds: metres between keyframes (default 1)"""
+        ...
+    @keyframe_distance.setter
+    def keyframe_distance(self, value: Any) -> None: ...
+    @property
+    def keyframe_angle(self) -> float:
+        """point clouds: radians of turn that start a keyframe (default 0.26)"""
+        ...
+    @keyframe_angle.setter
+    def keyframe_angle(self, value: Any) -> None: ...
+
+class BagSummary:
+    """A bag's topics and what would be mapped."""
+    def __init__(self, *args: Any, **kwargs: Any) -> Any:
+        """Initialize self.  See help(type(self)) for accurate signature."""
+        ...
+    @property
+    def format(self) -> str:
+        ...
+    @property
+    def compression(self) -> str:
+        ...
+    @property
+    def topics(self) -> List[BagTopicSummary]:
+        ...
+    @property
+    def start(self) -> float:
+        """seconds"""
+        ...
+    @property
+    def duration(self) -> float:
+        """seconds"""
+        ...
+    @property
+    def topic(self) -> str:
+        """the topic that would be mapped"""
+        ...
+    @property
+    def type(self) -> str:
+        ...
+    @property
+    def dim(self) -> int:
+        """2 (laser scans) or 3 (point clouds)"""
+        ...
+    @property
+    def pose_source(self) -> str:
+        ...
+    @property
+    def frames(self) -> List[str]:
+        ...
+
+class BagTopicSummary:
+    """One topic of a bag."""
+    def __init__(self, *args: Any, **kwargs: Any) -> Any:
+        """Initialize self.  See help(type(self)) for accurate signature."""
+        ...
+    @property
+    def name(self) -> str:
+        ...
+    @property
+    def type(self) -> str:
+        """ROS 1 spelling: 'sensor_msgs/LaserScan'"""
+        ...
+    @property
+    def count(self) -> int:
+        """messages"""
+        ...
+    @property
+    def frame_id(self) -> str:
+        """of its first message"""
+        ...
+
 class BhmOptions:
     """EM settings of a BHM update."""
     def __init__(self, **kwargs: Any) -> None:
@@ -327,7 +429,7 @@ class Drive:
         ...
     @property
     def layout(self) -> str:
-        """'slam' or 'kitti'"""
+        """'slam', 'kitti' or 'rosbag'"""
         ...
     @property
     def poses_file(self) -> str:
@@ -1840,6 +1942,10 @@ def devices() -> List[DeviceInfo]:
     """Every OpenCL device of every platform, in platform order."""
     ...
 
+def is_bag(path: str) -> bool:
+    """Whether path is a ROS 1 .bag or a ROS 2 bag (folder, metadata.yaml or .db3)."""
+    ...
+
 def label(scans: Any, free_per_metre: float = 1.0, holdout: float = 0.2, seed: int = 0, max_free_per_beam: int = 10000) -> LabelledSplit:
     """Labelled samples of scans (a list of Scan or a Dataset; scan index = position), SPEC
     section 1: every hit is a 1; free samples (0) lie on each beam, free_per_metre per metre
@@ -1857,10 +1963,14 @@ def map_drive(path: str, first: int = 0, count: int = 0, ctx: Context = None, **
     (map(), held_out). Keyword arguments: DriveMapperOptions fields."""
     ...
 
-def open_drive(path: str, poses: str = 'odom', max_range: float = 120.0) -> Drive:
-    """Indexes a drive folder. poses: 'odom' (odom_poses.txt, default), 'optimized' or
-    'auto'. max_range: the sensor's range, metres (default 120). Errors name the file,
-    line and value (InputError)."""
+def open_bag_drive(path: str, options: BagOptions = BagOptions(topic='', fixed_frame='', pose_topic='', max_range=0.0, keyframe_distance=1.0, keyframe_angle=0.26)) -> Drive:
+    """A point-cloud topic as a Drive: keyframes' poses and times, read one at a time."""
+    ...
+
+def open_drive(path: str, poses: str = 'odom', max_range: float = 120.0, bag: BagOptions = BagOptions(topic='', fixed_frame='', pose_topic='', max_range=0.0, keyframe_distance=1.0, keyframe_angle=0.26)) -> Drive:
+    """Indexes a drive folder, or a ROS bag's point-cloud topic (bag: BagOptions). poses:
+    'odom' (odom_poses.txt, default), 'optimized' or 'auto'. max_range: the sensor's
+    range, metres (default 120). Errors name the file, line and value (InputError)."""
     ...
 
 def out_of_sample_map(problem: SinkhornProblem, barycentric: numpy.typing.ArrayLike, points: numpy.typing.ArrayLike) -> numpy.ndarray:
@@ -1892,15 +2002,21 @@ def rasterize(ctx: Context, map: KernelMap, bounds: List[float], res: float, out
 def read_abhm_params(path: str) -> AbhmParams:
     ...
 
+def read_bag(path: str, options: BagOptions = BagOptions(topic='', fixed_frame='', pose_topic='', max_range=0.0, keyframe_distance=1.0, keyframe_angle=0.26)) -> Dataset:
+    """The chosen topic's messages with a pose, as scans in the fixed frame (2D for laser
+    scans, 3D keyframes for point clouds). InputError names the bag and what is wrong."""
+    ...
+
 def read_carmen(path: str, flaser_max_range: float = 0.0, flaser_fov: float = 3.141592653589793) -> Dataset:
     """CARMEN log (plain or gzip). flaser_max_range: metres (default 0: the largest range in
     the file); flaser_fov: radians (default pi)."""
     ...
 
-def read_dataset(path: str) -> Dataset:
+def read_dataset(path: str, bag: BagOptions = BagOptions(topic='', fixed_frame='', pose_topic='', max_range=0.0, keyframe_distance=1.0, keyframe_angle=0.26)) -> Dataset:
     """Reads any supported file by its name: *.log[.gz] CARMEN, *.bin KITTI or nuScenes,
-    a KITTI odometry poses.txt, *.npz and *.csv labelled samples. InputError names the
-    file, line or offset and value."""
+    a KITTI odometry poses.txt, *.npz and *.csv labelled samples, ROS 1 .bag files and
+    ROS 2 bag folders (bag: BagOptions, the topic, frame and poses). InputError names
+    the file, line or offset and value."""
     ...
 
 def read_dictionary(path: str) -> Dictionary:
@@ -1971,6 +2087,10 @@ def slice_2d(scan: Scan, z_min: float = -0.1, z_max: float = 0.1) -> Scan:
 def split_beams(scan: Scan, index: int = 0, holdout: float = 0.2, seed: int = 0, held_out: bool = False) -> Scan:
     """The scan with only its training beams (or, held_out=True, only its held-out beams)
     under label()'s split."""
+    ...
+
+def summarise_bag(path: str, options: BagOptions = BagOptions(topic='', fixed_frame='', pose_topic='', max_range=0.0, keyframe_distance=1.0, keyframe_angle=0.26)) -> BagSummary:
+    """The bag's topics and the topic, type and pose source options would map."""
     ...
 
 def synthetic_scene(seed: int = 1, spacing: float = 0.5, test_points: int = 2000) -> SyntheticScene:

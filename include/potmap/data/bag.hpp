@@ -29,12 +29,12 @@ struct BagSummary {
   std::string format;       ///< "ROS 1 bag" or "ROS 2 bag (sqlite3)"
   std::string compression;  ///< "none", "lz4", "bz2", "zstd (file)", "zstd (message)"
   std::vector<BagTopicSummary> topics;
-  double start = 0, duration = 0;  ///< seconds (storage times)
-  std::string topic;               ///< the topic that would be mapped
-  std::string type;                ///< its type
-  int dim = 0;                     ///< 2 (scans) or 3 (clouds)
-  std::string pose_source;         ///< "/tf" or the pose topic
-  std::vector<std::string> frames; ///< every frame named in /tf and /tf_static and the topics
+  double start = 0, duration = 0;   ///< seconds (storage times)
+  std::string topic;                ///< the topic that would be mapped
+  std::string type;                 ///< its type
+  int dim = 0;                      ///< 2 (scans) or 3 (clouds)
+  std::string pose_source;          ///< "/tf" or the pose topic
+  std::vector<std::string> frames;  ///< every frame named in /tf and /tf_static and the topics
 };
 
 /// Whether `path` is a ROS 1 .bag file or a ROS 2 bag (its folder, its metadata.yaml or a .db3).

@@ -61,8 +61,22 @@ def flaser_lines(path, limit):
                 return
 
 
+def float32(v):
+    return struct.unpack("<f", struct.pack("<f", v))[0]
+
+
+def write_carmen_copy(path, scans):
+    with open(path, "w") as f:
+        for ranges, x, y, theta, stamp in scans:
+            body = " ".join("%.9g" % float32(r) for r in ranges)
+            f.write("FLASER %d %s %r %r %r %r %r %r %r h %r\n"
+                    % (len(ranges), body, x, y, theta, x, y, theta, stamp, stamp))
+
+
 def write_carmen(args, bag):
     scans = list(flaser_lines(args.log, args.scans))
+    if args.carmen_copy:
+        write_carmen_copy(args.carmen_copy, scans)
     # FLASER names no maximum range: readings at the device's limit are the log's largest.
     largest = max(max(r for r in ranges if math.isfinite(r)) for ranges, *_ in scans)
     bag.write("/tf_static", TFMessage([transform(rospy.Time.from_sec(scans[0][4]), "base_link",
@@ -140,7 +154,8 @@ def main():
     p.add_argument("--scans", type=int, default=0, help="carmen: first N scans (0: all)")
     p.add_argument("--clouds", type=int, default=6)
     p.add_argument("--compression", default="none", choices=("none", "bz2", "lz4"))
-    args = p.parse_args()
+    p.add_argument("--carmen-copy", default="", help="carmen: also write the scans as this log")
+    args = p.parse_intermixed_args()
     if args.kind == "carmen":
         args.log, out = args.paths
     else:
