@@ -11,10 +11,15 @@ for tests that compare potmap's bag reader with the same data read another way.
       intensity float32, every 7th point NaN), base_link moving 0.5 m and turning 0.05 rad per
       sweep on /tf (odom -> base_link, stamps 0.1 s apart, written a little after each sweep),
       the sensor 1.5 m above base_link on /tf_static.
+  write_ros1_bag.py drive FOLDER OUT.bag [--keyframes N]
+      The first N keyframes of a SLAM keyframe folder (Scans/NNNNNN.pcd, binary float32 fields,
+      odom_poses.txt, times.txt) as sensor_msgs/PointCloud2 on /points (frame "os_sensor") with
+      their poses on /tf (odom -> os_sensor) at the keyframes' times.
 """
 import argparse
 import gzip
 import math
+import os
 import struct
 
 import rosbag
@@ -147,10 +152,78 @@ def write_clouds(args, bag):
                                           0.05 * args.clouds)]), last)
 
 
+def read_binary_pcd(path):
+    """x, y, z of a binary PCD of 4-byte float fields, as SLAM tools save keyframes."""
+    with open(path, "rb") as f:
+        head = {}
+        while True:
+            line = f.readline().decode().strip()
+            if line.startswith("#") or not line:
+                continue
+            key, *vals = line.split()
+            head[key] = vals
+            if key == "DATA":
+                break
+        assert head["DATA"] == ["binary"] and set(head["SIZE"]) == {"4"} and set(head["TYPE"]) == {"F"}
+        fields, n = head["FIELDS"], int(head["POINTS"][0])
+        body = f.read(4 * len(fields) * n)
+    rows = struct.iter_unpack("<%df" % len(fields), body)
+    ix, iy, iz = fields.index("x"), fields.index("y"), fields.index("z")
+    return [(r[ix], r[iy], r[iz]) for r in rows]
+
+
+def quaternion(m):
+    """A rotation matrix's unit quaternion (x, y, z, w), by the largest diagonal term."""
+    t = m[0][0] + m[1][1] + m[2][2]
+    if t > 0:
+        s = 2 * math.sqrt(1 + t)
+        return ((m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s, s / 4)
+    i = max(range(3), key=lambda k: m[k][k])
+    j, k = (i + 1) % 3, (i + 2) % 3
+    s = 2 * math.sqrt(1 + m[i][i] - m[j][j] - m[k][k])
+    q = [0.0, 0.0, 0.0, (m[k][j] - m[j][k]) / s]
+    q[i] = s / 4
+    q[j] = (m[j][i] + m[i][j]) / s
+    q[k] = (m[k][i] + m[i][k]) / s
+    return tuple(q)
+
+
+def write_drive(args, bag):
+    folder = args.folder
+    with open(os.path.join(folder, "odom_poses.txt")) as f:
+        poses = [[float(v) for v in line.split()] for line in f if line.strip()]
+    with open(os.path.join(folder, "times.txt")) as f:
+        times = [float(line) for line in f if line.strip()]
+    n = args.keyframes or len(poses)
+    for i in range(n):
+        t = rospy.Time.from_sec(times[i])
+        p = poses[i]
+        m = [p[0:3], p[4:7], p[8:11]]
+        tf = TransformStamped()
+        tf.header.stamp, tf.header.frame_id, tf.child_frame_id = t, "odom", "os_sensor"
+        (tf.transform.translation.x, tf.transform.translation.y,
+         tf.transform.translation.z) = p[3], p[7], p[11]
+        (tf.transform.rotation.x, tf.transform.rotation.y, tf.transform.rotation.z,
+         tf.transform.rotation.w) = quaternion(m)
+        bag.write("/tf", TFMessage([tf]), t)
+        pts = read_binary_pcd(os.path.join(folder, "Scans", "%06d.pcd" % i))
+        msg = PointCloud2()
+        msg.header.stamp, msg.header.frame_id = t, "os_sensor"
+        msg.fields = [PointField(name, 4 * k, PointField.FLOAT32, 1)
+                      for k, name in enumerate(("x", "y", "z"))]
+        msg.point_step, msg.height, msg.width = 12, 1, len(pts)
+        msg.row_step = 12 * len(pts)
+        msg.is_bigendian, msg.is_dense = False, True
+        msg.data = b"".join(struct.pack("<fff", *q) for q in pts)
+        bag.write("/points", msg, t)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    p.add_argument("kind", choices=("carmen", "clouds"))
-    p.add_argument("paths", nargs="+", help="carmen: LOG OUT.bag; clouds: OUT.bag")
+    p.add_argument("kind", choices=("carmen", "clouds", "drive"))
+    p.add_argument("paths", nargs="+",
+                   help="carmen: LOG OUT.bag; clouds: OUT.bag; drive: FOLDER OUT.bag")
+    p.add_argument("--keyframes", type=int, default=0, help="drive: first N keyframes (0: all)")
     p.add_argument("--scans", type=int, default=0, help="carmen: first N scans (0: all)")
     p.add_argument("--clouds", type=int, default=6)
     p.add_argument("--compression", default="none", choices=("none", "bz2", "lz4"))
@@ -158,10 +231,12 @@ def main():
     args = p.parse_intermixed_args()
     if args.kind == "carmen":
         args.log, out = args.paths
+    elif args.kind == "drive":
+        args.folder, out = args.paths
     else:
         (out,) = args.paths
     with rosbag.Bag(out, "w", compression=args.compression) as bag:
-        (write_carmen if args.kind == "carmen" else write_clouds)(args, bag)
+        {"carmen": write_carmen, "clouds": write_clouds, "drive": write_drive}[args.kind](args, bag)
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ usage: write_ros2_bag.py OUT_DIR SCENARIO
 scenarios: scan_tf, cloud, misc, zstd_file, zstd_message, truncated, mcap, corrupt, no_tables
 """
 import json
+import gzip
 import math
 import os
 import sqlite3
@@ -72,11 +73,11 @@ def stamp(sec, nanosec):
 
 # --- messages: each returns (CDR bytes, what a reader must decode from it) ----------------------
 
-def laser_scan(sec, nsec, frame, ranges, big_endian=False):
+def laser_scan(sec, nsec, frame, ranges, big_endian=False, amin=-1.5, ainc=0.25, rmin=0.1,
+               rmax=30.0):
     c = Cdr(big_endian)
     c.header(sec, nsec, frame)
-    amin, ainc, rmin, rmax = -1.5, 0.25, 0.1, 30.0
-    for v in (amin, 1.5, ainc, 0.001, 0.1, rmin, rmax):
+    for v in (amin, amin + ainc * (len(ranges) - 1), ainc, 0.001, 0.1, rmin, rmax):
         c.f32(v)
     c.f32_seq(ranges)
     c.f32_seq([100.0] * len(ranges))  # intensities
@@ -385,8 +386,52 @@ def write_broken(out, scenario):
         db.close()
 
 
+def carmen_split(log, limit):
+    """A CARMEN log's first `limit` FLASER scans (0: all) as /scan, the robot's pose as /tf odom ->
+    base_link at each scan's stamp and the laser 0.25 m ahead on /tf_static: the layout
+    write_ros1_bag.py writes for ROS 1, for the same comparison with the log."""
+    opener = gzip.open if log.endswith(".gz") else open
+    rows = []
+    with opener(log, "rt") as f:
+        for line in f:
+            tok = line.split()
+            if not tok or tok[0] != "FLASER":
+                continue
+            n = int(tok[1])
+            rows.append(([float(v) for v in tok[2:2 + n]],
+                         *(float(v) for v in tok[2 + n:5 + n]), float(tok[8 + n])))
+            if len(rows) == limit:
+                break
+    largest = max(max(r) for r, *_ in rows)
+    ahead = 0.25
+    msgs = []
+    for k, (ranges, x, y, theta, t) in enumerate(rows):
+        sec = int(t)
+        nsec = int(round((t - sec) * 1e9))
+        ns = sec * 10**9 + nsec
+        n = len(ranges)
+        inc = math.pi / n if n % 2 == 0 else math.pi / (n - 1)
+        q = (0.0, 0.0, math.sin(theta / 2), math.cos(theta / 2))
+        base = (x - ahead * math.cos(theta), y - ahead * math.sin(theta), 0.0)
+        if k == 0:
+            msgs.append(("/tf_static", ns, *tf_message(
+                [(sec, nsec, "base_link", "laser", (ahead, 0.0, 0.0), (0, 0, 0, 1))], True)))
+        msgs.append(("/tf", ns, *tf_message([(sec, nsec, "odom", "base_link", base, q)], False)))
+        msgs.append(("/scan", ns, *laser_scan(sec, nsec, "laser", ranges, amin=-math.pi / 2,
+                                              ainc=inc, rmin=0.0, rmax=largest * 0.999)))
+    types = {"/scan": "sensor_msgs/msg/LaserScan", "/tf": "tf2_msgs/msg/TFMessage",
+             "/tf_static": "tf2_msgs/msg/TFMessage"}
+    return [(["/scan", "/tf", "/tf_static"], msgs)], types
+
+
 def main():
     out, scenario = sys.argv[1], sys.argv[2]
+    if scenario == "carmen":
+        # write_ros2_bag.py OUT carmen LOG N [file|message]: the bag folder OUT/carmen.
+        os.makedirs(out, exist_ok=True)
+        split, types = carmen_split(sys.argv[3], int(sys.argv[4]))
+        write_bag(out, "carmen", split, types, sys.argv[5] if len(sys.argv) > 5 else "")
+        return
     os.makedirs(out, exist_ok=True)
     good = {"scan_tf": (scan_tf_split, ""), "cloud": (cloud_split, ""), "misc": (misc_split, ""),
             "zstd_file": (scan_tf_split, "file"), "zstd_message": (scan_tf_split, "message")}
