@@ -175,7 +175,14 @@ TEST(Ros1Bag, BadChoicesAndBadFilesNameWhatIsWrong) {
   const std::string cut = write_file(temp_dir("ros1_bag_cut"), "cut.bag", body.substr(0, 6000));
   expect_input_error([&] { read_bag(cut); }, {cut});
   const std::string junk = write_file(temp_dir("ros1_bag_junk"), "junk.bag", "not a bag at all");
-  expect_input_error([&] { read_bag(junk); }, {junk});
+  expect_input_error([&] { read_bag(junk); }, {junk, "#ROSBAG V2.0"});
+  // A record header claiming 2 GB: refused before librosbag would allocate it.
+  std::string huge = body;
+  const char claim[4] = {'\xff', '\xff', '\xff', '\x7f'};
+  huge.replace(13, 4, claim, 4);
+  const std::string big = write_file(temp_dir("ros1_bag_huge"), "huge.bag", huge);
+  expect_input_error([&] { read_bag(big); },
+                     {big, "a record header of 2147483647 bytes at byte 13"});
 }
 
 nlohmann::json map_with_cli(const std::string& input, const std::string& out, std::size_t scans) {
@@ -223,19 +230,19 @@ TEST(Ros1BagCli, ADriveInABagMapsAsItsSlamFolder) {
   if (!cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string folder = shared_data("drives3d/riverside-a");
   const std::size_t n = sized<std::size_t>(6, 3);
-  const std::string bag = write_bag("drive " + quoted(folder) + " --keyframes " +
-                                        std::to_string(n) + " --compression lz4",
-                                    "drive.bag");
+  const std::string bag = write_bag(
+      "drive " + quoted(folder) + " --keyframes " + std::to_string(n) + " --compression lz4",
+      "drive.bag");
   const std::string dir = temp_dir("ros1_bag_drive_maps");
   ::setenv("XDG_CACHE_HOME", (std::string(POTMAP_BINARY_DIR) + "/user-cache").c_str(), 1);
   nlohmann::json j[2];
   const std::string inputs[2] = {bag, folder};
   for (int k = 0; k < 2; ++k) {
-    const CliResult r = run_cli("mapping " + quoted(inputs[k]) + " --max-scans " +
-                                    std::to_string(n) +
-                                    " --keyframe-distance 0 --keyframe-angle 0 -q -o " +
-                                    quoted(dir + "/" + std::to_string(k)) + " --json -",
-                                "2>/dev/null");
+    const CliResult r =
+        run_cli("mapping " + quoted(inputs[k]) + " --max-scans " + std::to_string(n) +
+                    " --keyframe-distance 0 --keyframe-angle 0 -q -o " +
+                    quoted(dir + "/" + std::to_string(k)) + " --json -",
+                "2>/dev/null");
     ASSERT_EQ(r.status, 0) << r.out;
     j[k] = nlohmann::json::parse(r.out);
   }

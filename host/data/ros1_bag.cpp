@@ -25,6 +25,8 @@
 
 namespace potmap::data {
 
+void check_ros1_bag_framing(const std::string& path);
+
 #ifndef POTMAP_WITH_ROS1
 
 std::unique_ptr<BagSource> open_ros1_bag(const std::string& path) {
@@ -148,6 +150,7 @@ std::string header_frame(const rosbag::MessageInstance& m, const std::string& pa
 class Ros1Bag final : public BagSource {
  public:
   explicit Ros1Bag(const std::string& path) : path_(path) {
+    check_ros1_bag_framing(path);
     try {
       bag_.open(path, rosbag::bagmode::Read);
       index();
