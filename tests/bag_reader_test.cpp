@@ -69,6 +69,14 @@ TEST(Ros1Bag, LaserScansThroughTfAreTheCarmenLogsScans) {
   }
 }
 
+TEST(Ros1Bag, MultiEchoScansAreReadByTheirFirstEcho) {
+  const std::size_t n = sized<std::size_t>(60, 10);
+  const std::string bag = write_bag(
+      "carmen " + quoted(intel()) + " --scans " + std::to_string(n) + " --multi-echo", "multi.bag");
+  EXPECT_EQ(summarise_bag(bag).type, "sensor_msgs/MultiEchoLaserScan");
+  expect_same_scans(read_bag(bag), n);
+}
+
 TEST(Ros2BagScans, LaserScansThroughTfAreTheCarmenLogsScans) {
   const std::size_t n = sized<std::size_t>(120, 20);
   for (const std::string c : {"", "file", "message"}) {

@@ -78,7 +78,9 @@ void to_transform(const std_msgs::Header& h, const std::string& child, const geo
   t.q = {p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w};
 }
 
-LaserScanMsg to_scan(const sensor_msgs::LaserScan& m) {
+// LaserScan and MultiEchoLaserScan share their header and beam geometry.
+template <class Scan>
+LaserScanMsg scan_geometry(const Scan& m) {
   LaserScanMsg s;
   s.stamp = seconds(m.header.stamp);
   s.frame_id = m.header.frame_id;
@@ -86,18 +88,17 @@ LaserScanMsg to_scan(const sensor_msgs::LaserScan& m) {
   s.angle_increment = m.angle_increment;
   s.range_min = m.range_min;
   s.range_max = m.range_max;
+  return s;
+}
+
+LaserScanMsg to_scan(const sensor_msgs::LaserScan& m) {
+  LaserScanMsg s = scan_geometry(m);
   s.ranges = m.ranges;
   return s;
 }
 
 LaserScanMsg to_scan(const sensor_msgs::MultiEchoLaserScan& m) {
-  LaserScanMsg s;
-  s.stamp = seconds(m.header.stamp);
-  s.frame_id = m.header.frame_id;
-  s.angle_min = m.angle_min;
-  s.angle_increment = m.angle_increment;
-  s.range_min = m.range_min;
-  s.range_max = m.range_max;
+  LaserScanMsg s = scan_geometry(m);
   s.ranges.reserve(m.ranges.size());
   for (const auto& echo : m.ranges)
     s.ranges.push_back(echo.echoes.empty() ? std::nanf("") : echo.echoes.front());

@@ -26,7 +26,7 @@ import rosbag
 import rospy
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
-from sensor_msgs.msg import LaserScan, PointCloud2, PointField
+from sensor_msgs.msg import LaserEcho, LaserScan, MultiEchoLaserScan, PointCloud2, PointField
 from tf2_msgs.msg import TFMessage
 
 LASER_AHEAD = 0.25  # metres, base_link -> laser
@@ -98,6 +98,14 @@ def write_carmen(args, bag):
         msg.angle_max = msg.angle_min + msg.angle_increment * (n - 1)
         msg.range_min, msg.range_max = 0.0, largest * 0.999
         msg.ranges = ranges
+        if args.multi_echo:
+            # Each beam's first echo is the log's range; a farther second one follows it.
+            echo = MultiEchoLaserScan()
+            for name in ("header", "angle_min", "angle_max", "angle_increment", "range_min",
+                         "range_max"):
+                setattr(echo, name, getattr(msg, name))
+            echo.ranges = [LaserEcho([r, r + 1.0]) for r in ranges]
+            msg = echo
         # CARMEN's pose is the laser's; base_link sits LASER_AHEAD behind it.
         bx, by = x - LASER_AHEAD * math.cos(theta), y - LASER_AHEAD * math.sin(theta)
         bag.write("/tf", TFMessage([transform(t, "odom", "base_link", bx, by, 0, theta)]), t)
@@ -228,6 +236,8 @@ def main():
     p.add_argument("--clouds", type=int, default=6)
     p.add_argument("--compression", default="none", choices=("none", "bz2", "lz4"))
     p.add_argument("--carmen-copy", default="", help="carmen: also write the scans as this log")
+    p.add_argument("--multi-echo", action="store_true",
+                   help="carmen: sensor_msgs/MultiEchoLaserScan, two echoes a beam")
     args = p.parse_intermixed_args()
     if args.kind == "carmen":
         args.log, out = args.paths
