@@ -11,10 +11,14 @@
 #include <fstream>
 #include <iterator>
 
+#include <tiffio.h>
+
 #include "io/geotiff_writer.hpp"
 #include "potmap/error.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/synthetic.hpp"
+#include "potmap/version.h"
+#include "runtime/hash.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;
@@ -128,6 +132,83 @@ TEST(RasterTiles, TilesAreTheEvaluatorsGridAndTheGeoTiffHoldsThem) {
         ASSERT_EQ(tp[r * t.width + c], prob.values[ii]);
         ASSERT_EQ(tv[r * t.width + c], var.values[ii]);
       }
+  }
+}
+
+namespace {
+
+// The raw (compressed) bytes of every full-resolution block of a GeoTIFF, through libtiff.
+std::vector<std::string> raw_blocks(const std::string& path) {
+  std::unique_ptr<TIFF, void (*)(TIFF*)> t(TIFFOpen(path.c_str(), "r"), TIFFClose);
+  EXPECT_TRUE(t) << path;
+  std::vector<std::string> out;
+  if (!t) return out;
+  for (ttile_t i = 0; i < TIFFNumberOfTiles(t.get()); ++i) {
+    std::string b(std::size_t(TIFFGetStrileByteCount(t.get(), i)), '\0');
+    TIFFReadRawTile(t.get(), i, b.data(), tmsize_t(b.size()));
+    out.push_back(b);
+  }
+  return out;
+}
+
+// The compressed block a tile file holds: its last bytes before the CRC-32.
+std::string tile_block(const std::string& tile_file, std::size_t bytes) {
+  const std::string f = potmap::test::file_bytes(tile_file);
+  return f.substr(f.size() - 4 - bytes, bytes);
+}
+
+}  // namespace
+
+// Each tile is compressed once, when it is computed: the GeoTIFF's full-resolution blocks are
+// the tile files' bytes, copied. And the file is the one GDAL's COG driver writes from the same
+// values (write_cog: staging, then GDAL's copy, compressing every block again), byte for byte.
+TEST(RasterTiles, BlocksAreCompressedOnceAndTheFileIsGdalsCog) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  TilesFixture f;
+  const std::string dir = test::temp_dir("raster-tiles-once");
+  for (const char* codec : {"ZSTD", "DEFLATE", "LZW", "NONE"}) {
+    TiledRasterOptions o = f.options(dir + "/" + codec);
+    o.remove_tiles = false;
+    o.compression = codec;
+    const std::string out = dir + "/" + codec + ".tif";
+    rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+    TiledRaster job(test::context(), f.scene.map, f.spec, out, o);
+    const std::vector<std::string> blocks = raw_blocks(out);
+    ASSERT_EQ(blocks.size(), job.tiles().size()) << codec;
+    for (const RasterTile& t : job.tiles()) {
+      const std::string file =
+          o.work_dir + "/tile_" + std::to_string(t.row) + "_" + std::to_string(t.col) + ".bin";
+      ASSERT_EQ(blocks[t.index], tile_block(file, blocks[t.index].size()))
+          << codec << " tile " << t.row << "," << t.col;
+    }
+
+    // GDAL's COG driver from the same values and fields.
+    detail::GeoTiffSpec g;
+    g.width = job.width();
+    g.height = job.height();
+    g.block = o.tile_cells;
+    g.left = f.spec.xmin;
+    g.top = f.spec.ymin + double(job.height()) * f.spec.resolution;
+    g.pixel = f.spec.resolution;
+    g.compression = codec;
+    g.band_names = {"probability", "variance"};
+    g.metadata = {{"POTMAP_VERSION", POTMAP_VERSION_STRING},
+                  {"POTMAP_JOB", detail::hex64(job.fingerprint())},
+                  {"POTMAP_Z", "0"}};
+    std::vector<float> p, v;
+    detail::write_cog(
+        dir + "/gdal.tif", g,
+        [&](std::size_t x0, std::size_t y0, std::size_t w, std::size_t h, std::vector<float*>& b) {
+          job.load(job.tiles()[(y0 / g.block) * ((g.width + 63) / 64) + x0 / g.block], p, v);
+          ASSERT_EQ(p.size(), w * h);
+          std::copy(p.begin(), p.end(), b[0]);
+          std::copy(v.begin(), v.end(), b[1]);
+        });
+    if (std::string(codec) == "NONE") {  // GDAL 3.6 writes no COG header when uncompressed
+      EXPECT_EQ(raw_blocks(dir + "/gdal.tif"), blocks) << codec;
+      continue;
+    }
+    EXPECT_EQ(potmap::test::file_bytes(out), potmap::test::file_bytes(dir + "/gdal.tif")) << codec;
   }
 }
 
@@ -253,7 +334,6 @@ TEST(RasterTiles, EveryCodecHoldsTheSameValues) {
   TilesFixture f;
   const std::string dir = test::temp_dir("raster-tiles-codecs");
   TiledRasterOptions o = f.options(dir);
-  o.remove_tiles = false;  // each codec assembles the same tiles
   EXPECT_EQ(o.compression, "ZSTD");
   std::vector<float> reference;
   for (const char* codec : {"ZSTD", "none", "Deflate", "LZW"}) {
@@ -266,20 +346,18 @@ TEST(RasterTiles, EveryCodecHoldsTheSameValues) {
     EXPECT_EQ(prob.compression, upper == "NONE" ? "" : upper) << codec;
     EXPECT_EQ(prob.block_x, 64u) << codec;
     EXPECT_GE(prob.overviews, 1u) << codec;
-    // The Cloud-Optimized layout's header, which GDAL writes before the first directory of a
-    // compressed COG (GDAL 3.6 writes none for an uncompressed one, whose directories come
-    // first all the same).
+    // The Cloud-Optimized layout's header before the first directory, for every codec (GDAL
+    // 3.6's COG driver writes none for an uncompressed file; this writer does), which GDAL
+    // checks against the file when it reports LAYOUT=COG.
     const std::string head = potmap::test::file_bytes(out).substr(0, 400);
-    if (upper != "NONE") {
-      EXPECT_NE(head.find("LAYOUT=IFDS_BEFORE_DATA"), std::string::npos) << codec;
-      EXPECT_NE(head.find("KNOWN_INCOMPATIBLE_EDITION=NO"), std::string::npos) << codec;
-    }
+    EXPECT_NE(head.find("LAYOUT=IFDS_BEFORE_DATA"), std::string::npos) << codec;
+    EXPECT_NE(head.find("KNOWN_INCOMPATIBLE_EDITION=NO"), std::string::npos) << codec;
+    EXPECT_EQ(prob.layout, "COG") << codec;
+    EXPECT_EQ(s.computed, s.tiles) << codec;  // a tile holds its block compressed: per codec
     if (reference.empty()) {
-      EXPECT_EQ(s.computed, s.tiles);
       reference = prob.values;
       continue;
     }
-    EXPECT_EQ(s.reused, s.tiles) << codec;  // the codec is not part of a tile
     ASSERT_EQ(prob.values.size(), reference.size());
     for (std::size_t i = 0; i < reference.size(); ++i)
       ASSERT_TRUE(prob.values[i] == reference[i] ||

@@ -18,12 +18,22 @@ namespace {
 
 using WriteCog = void (*)(const std::string*, const GeoTiffSpec*, const BlockFill*,
                           const std::function<void(double)>*);
+using WriteCogEncoded = void (*)(const std::string*, const GeoTiffSpec*, const EncodedBlockSource*,
+                                 const std::function<void(double)>*);
+using EncodeBlock = void (*)(const std::string*, const GeoTiffSpec*,
+                             const std::vector<const float*>*, std::size_t, std::size_t,
+                             std::string*);
+using DecodeBlock = void (*)(const std::string*, const GeoTiffSpec*, const std::string*,
+                             std::size_t, std::size_t, const std::vector<float*>*);
 using ReadBand = void (*)(const std::string*, int, GeoTiffImage*);
 using CheckCrs = void (*)(const std::string*, const std::string*);
 
 struct Module {
   std::string path, error;
   WriteCog write_cog = nullptr;
+  WriteCogEncoded write_cog_encoded = nullptr;
+  EncodeBlock encode_block = nullptr;
+  DecodeBlock decode_block = nullptr;
   ReadBand read_band = nullptr;
   CheckCrs check_crs = nullptr;
 };
@@ -52,9 +62,15 @@ const Module& module() {
       return;
     }
     m.write_cog = reinterpret_cast<WriteCog>(::dlsym(h, "potmap_gdal_write_cog"));
+    m.write_cog_encoded =
+        reinterpret_cast<WriteCogEncoded>(::dlsym(h, "potmap_gdal_write_cog_encoded"));
+    m.encode_block = reinterpret_cast<EncodeBlock>(::dlsym(h, "potmap_gdal_encode_block"));
+    m.decode_block = reinterpret_cast<DecodeBlock>(::dlsym(h, "potmap_gdal_decode_block"));
     m.read_band = reinterpret_cast<ReadBand>(::dlsym(h, "potmap_gdal_read_geotiff_band"));
     m.check_crs = reinterpret_cast<CheckCrs>(::dlsym(h, "potmap_gdal_check_crs"));
-    if (!m.write_cog || !m.read_band || !m.check_crs) m.error = "not potmap's GDAL module";
+    if (!m.write_cog || !m.write_cog_encoded || !m.encode_block || !m.decode_block ||
+        !m.read_band || !m.check_crs)
+      m.error = "not potmap's GDAL module";
   });
   return m;
 }
@@ -73,6 +89,25 @@ const Module& loaded(const std::string& path) {
 void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
                const std::function<void(double)>& progress) {
   loaded(path).write_cog(&path, &spec, &fill, &progress);
+}
+
+void write_cog_encoded(const std::string& path, const GeoTiffSpec& spec,
+                       const EncodedBlockSource& source,
+                       const std::function<void(double)>& progress) {
+  loaded(path).write_cog_encoded(&path, &spec, &source, &progress);
+}
+
+std::string encode_block(const std::string& path, const GeoTiffSpec& spec,
+                         const std::vector<const float*>& bands, std::size_t width,
+                         std::size_t height) {
+  std::string out;
+  loaded(path).encode_block(&path, &spec, &bands, width, height, &out);
+  return out;
+}
+
+void decode_block(const std::string& path, const GeoTiffSpec& spec, const std::string& bytes,
+                  std::size_t width, std::size_t height, const std::vector<float*>& bands) {
+  loaded(path).decode_block(&path, &spec, &bytes, width, height, &bands);
 }
 
 GeoTiffImage read_geotiff_band(const std::string& path, int band) {

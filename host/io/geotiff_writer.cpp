@@ -4,13 +4,17 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <future>
 #include <memory>
 #include <sstream>
+#include <thread>
 
 #include "potmap/error.hpp"
 
@@ -18,8 +22,10 @@
 #include <cpl_conv.h>
 #include <cpl_error.h>
 #include <cpl_string.h>
+#include <cpl_vsi.h>
 #include <gdal.h>
 #include <ogr_srs_api.h>
+#include "io/cog_tiff.hpp"
 #endif
 
 namespace potmap::detail {
@@ -133,27 +139,6 @@ class BoundedBlockCache {
   GIntBig old_;
 };
 
-// The first overview of a w x h block (row-major): each cell the mean of the 2 x 2 cells it
-// covers that are numbers (NaN, the nodata value, where none is), as GDAL's AVERAGE; cells past
-// an odd edge cover one row or column.
-void average_halves(const float* in, std::size_t w, std::size_t h, float* out) {
-  const std::size_t hw = (w + 1) / 2, hh = (h + 1) / 2;
-  for (std::size_t r = 0; r < hh; ++r)
-    for (std::size_t c = 0; c < hw; ++c) {
-      double sum = 0;
-      int n = 0;
-      for (std::size_t dr = 0; dr < 2 && 2 * r + dr < h; ++dr)
-        for (std::size_t dc = 0; dc < 2 && 2 * c + dc < w; ++dc) {
-          const float v = in[(2 * r + dr) * w + 2 * c + dc];
-          if (!std::isnan(v)) {
-            sum += v;
-            ++n;
-          }
-        }
-      out[r * hw + c] = n ? float(sum / n) : std::nanf("");
-    }
-}
-
 // The staging GTiff, empty: tiled, uncompressed, georeferenced, its bands named.
 Dataset create_staging(const std::string& path, const GeoTiffSpec& spec, const std::string& staging,
                        const std::string& wkt) {
@@ -239,27 +224,31 @@ void write_staging_blocks(GDALDatasetH ds, const std::string& path, const GeoTif
     }
 }
 
-// The coarser levels from the first (a quarter of the image), each averaged over its cells.
+// The coarser levels from the first (a quarter of the image), each averaged over its cells:
+// the overviews of `ds` but the first from its first (`first`: 0.6 to 0.7 of the progress),
+// or all of them from its bands (`first` -1: the bands are the first level; 0.3 to 0.4).
 void regenerate_coarser_overviews(GDALDatasetH ds, const std::string& path, int bands,
                                   const std::string& staging,
-                                  const std::function<void(double)>& progress) {
+                                  const std::function<void(double)>& progress, int first = 0) {
   struct Ctx {
     const std::function<void(double)>* progress;
     int band, bands;
-  } pctx{&progress, 0, bands};
+    double start;
+  } pctx{&progress, 0, bands, first < 0 ? 0.3 : 0.6};
   GDALProgressFunc pf = [](double f, const char*, void* arg) -> int {
     auto* c = static_cast<Ctx*>(arg);
-    if (*c->progress) (*c->progress)(0.6 + 0.1 * (c->band + f) / c->bands);
+    if (*c->progress) (*c->progress)(c->start + 0.1 * (c->band + f) / c->bands);
     return TRUE;
   };
   for (int b = 0; b < bands; ++b) {
     pctx.band = b;
     GDALRasterBandH band = GDALGetRasterBand(ds, b + 1);
     std::vector<GDALRasterBandH> coarser;
-    for (int i = 1; i < GDALGetOverviewCount(band); ++i)
+    for (int i = first + 1; i < GDALGetOverviewCount(band); ++i)
       coarser.push_back(GDALGetOverview(band, i));
-    if (GDALRegenerateOverviews(GDALGetOverview(band, 0), static_cast<int>(coarser.size()),
-                                coarser.data(), "AVERAGE", pf, &pctx) != CE_None)
+    GDALRasterBandH from = first < 0 ? band : GDALGetOverview(band, first);
+    if (GDALRegenerateOverviews(from, static_cast<int>(coarser.size()), coarser.data(), "AVERAGE",
+                                pf, &pctx) != CE_None)
       fail(path, "computing the overviews in " + staging);
   }
 }
@@ -320,13 +309,7 @@ void write_cog_copy(const std::string& path, const GeoTiffSpec& spec, const std:
   if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + final_temp);
 }
 
-}  // namespace
-
-void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
-               const std::function<void(double)>& progress) {
-  register_drivers();
-  QuietErrors quiet;
-  BoundedBlockCache cache;
+void check_spec(const std::string& path, const GeoTiffSpec& spec) {
   const int nb = static_cast<int>(spec.band_names.size());
   if (nb < 1 || spec.width == 0 || spec.height == 0 || spec.block == 0 || spec.block % 16)
     throw ArgumentError(path + ": GeoTIFF of " + std::to_string(spec.width) + " x " +
@@ -334,9 +317,289 @@ void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill
                         " bands, block " + std::to_string(spec.block) +
                         ": needs pixels, a band and a block that is a multiple of 16");
   check_compression(spec.compression, path);
-  const std::string wkt = crs_wkt(spec.crs, path);
   if (!GDALGetDriverByName("GTiff") || !GDALGetDriverByName("COG"))
     fail(path, "GDAL lacks the GTiff or COG driver");
+}
+
+// --- write_cog_encoded ------------------------------------------------------------------------
+
+// The output of write_cog_encoded(), written at known offsets under a temporary name: removed
+// unless finish() put it in place.
+class CogFile {
+ public:
+  CogFile(const std::string& path, std::string file) : path_(path), file_(std::move(file)) {
+    fd_ = ::open(file_.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw Error(path_ + ": cannot create " + file_ + ": " + std::strerror(errno));
+  }
+  ~CogFile() {
+    if (fd_ >= 0) ::close(fd_);
+    if (!kept_) ::unlink(file_.c_str());
+  }
+  CogFile(const CogFile&) = delete;
+  CogFile& operator=(const CogFile&) = delete;
+
+  std::uint64_t pos() const { return pos_; }
+  void seek(std::uint64_t at) { pos_ = at; }
+  void write(const char* data, std::size_t n) {
+    for (std::size_t done = 0; done < n;) {
+      const ssize_t k = ::pwrite(fd_, data + done, n - done, off_t(pos_ + done));
+      if (k < 0 && errno == EINTR) continue;
+      if (k <= 0) throw Error(path_ + ": cannot write " + file_ + ": " + std::strerror(errno));
+      done += std::size_t(k);
+    }
+    pos_ += n;
+  }
+  // `n` bytes of `from` at `offset`, in the kernel where it can.
+  void copy(const std::string& from, std::uint64_t offset, std::uint64_t n) {
+    const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
+    if (in < 0) throw Error(path_ + ": cannot open " + from + ": " + std::strerror(errno));
+    std::unique_ptr<int, void (*)(int*)> closer(new int(in), [](int* f) {
+      ::close(*f);
+      delete f;
+    });
+    loff_t src = loff_t(offset), dst = loff_t(pos_);
+    for (std::uint64_t left = n; left > 0;) {
+      ssize_t k = ::copy_file_range(in, &src, fd_, &dst, std::size_t(left), 0);
+      if (k < 0 && errno == EINTR) continue;
+      if (k < 0 && (errno == EXDEV || errno == ENOSYS || errno == EINVAL || errno == EOPNOTSUPP)) {
+        std::string buf(std::size_t(left), '\0');  // no in-kernel copy here: through memory
+        k = ::pread(in, buf.data(), buf.size(), off_t(src));
+        if (k > 0) {
+          const std::uint64_t keep = pos_;
+          pos_ = std::uint64_t(dst);
+          write(buf.data(), std::size_t(k));
+          pos_ = keep;
+          src += k;
+          dst += k;
+        }
+      }
+      if (k <= 0)
+        throw Error(path_ + ": cannot copy " + std::to_string(n) + " bytes at offset " +
+                    std::to_string(offset) + " of " + from + " into " + file_ +
+                    (k < 0 ? std::string(": ") + std::strerror(errno) : ": the file is shorter"));
+      left -= std::uint64_t(k);
+    }
+    pos_ += n;
+  }
+  // Syncs the file and renames it to the output.
+  void finish() {
+    if (::fsync(fd_) != 0 && errno != EINVAL)
+      throw Error(path_ + ": cannot write " + file_ + ": " + std::strerror(errno));
+    std::error_code ec;
+    std::filesystem::rename(file_, path_, ec);
+    if (ec) throw Error(path_ + ": cannot rename " + file_ + " into place: " + ec.message());
+    kept_ = true;
+  }
+
+ private:
+  std::string path_, file_;
+  int fd_ = -1;
+  std::uint64_t pos_ = 0;
+  bool kept_ = false;
+};
+
+// A block in the COG: its size (4 bytes), its bytes, its last 4 bytes again (GDAL's leader and
+// trailer, which let a reader check that it read a whole block). Returns where its bytes start.
+std::uint64_t put_block(CogFile& out, const std::string& bytes) {
+  std::string b;
+  b.reserve(bytes.size() + 8);
+  for (int i = 0; i < 4; ++i) b.push_back(char((bytes.size() >> (8 * i)) & 0xff));
+  b += bytes;
+  b += bytes.substr(bytes.size() < 4 ? 0 : bytes.size() - 4);
+  out.write(b.data(), b.size());
+  return out.pos() - bytes.size() - std::min<std::size_t>(4, bytes.size());
+}
+
+std::uint64_t copy_block(CogFile& out, const std::string& path, const EncodedBlock& b) {
+  std::string leader, trailer(std::size_t(std::min<std::uint64_t>(4, b.size)), '\0');
+  for (int i = 0; i < 4; ++i) leader.push_back(char((b.size >> (8 * i)) & 0xff));
+  {
+    std::ifstream in(b.file, std::ios::binary);
+    in.seekg(std::streamoff(b.offset + b.size - trailer.size()));
+    if (!in.read(trailer.data(), std::streamsize(trailer.size())))
+      throw Error(path + ": cannot read the block of " + std::to_string(b.size) + " bytes at " +
+                  std::to_string(b.offset) + " of " + b.file);
+  }
+  out.write(leader.data(), 4);
+  const std::uint64_t at = out.pos();
+  out.copy(b.file, b.offset, b.size);
+  out.write(trailer.data(), trailer.size());
+  return at;
+}
+
+// GDAL's fields of this spec (georeferencing, metadata, band names, nodata): those of a small
+// GTiff that GDAL writes in memory with the same settings, as it writes them into a COG.
+std::vector<TiffField> gdal_own_fields(const std::string& path, const GeoTiffSpec& spec,
+                                       const std::string& wkt) {
+  static std::atomic<int> serial{0};
+  const std::string mem = "/vsimem/potmap-cog-fields-" + std::to_string(::getpid()) + "-" +
+                          std::to_string(serial++) + ".tif";
+  GeoTiffSpec small = spec;
+  small.width = small.height = small.block = 16;
+  create_staging(path, small, mem, wkt).reset();
+  vsi_l_offset len = 0;
+  GByte* buf = VSIGetMemFileBuffer(mem.c_str(), &len, FALSE);
+  const std::string tiff = buf ? std::string(reinterpret_cast<const char*>(buf), len) : "";
+  VSIUnlink(mem.c_str());
+  if (tiff.empty()) fail(path, "GDAL wrote no GeoTIFF fields");
+  return gdal_fields(path, tiff);
+}
+
+// The levels of the COG, full resolution first: halving as write_cog() does (until both sides
+// fit in one block), each with room for its blocks' offsets and sizes.
+std::vector<CogLevel> cog_levels(const GeoTiffSpec& spec) {
+  std::vector<CogLevel> levels(1);
+  levels[0].width = spec.width;
+  levels[0].height = spec.height;
+  const bool small = spec.width <= spec.block && spec.height <= spec.block;
+  for (std::size_t f = 2; spec.overviews && !small; f *= 2) {
+    levels.push_back({(spec.width + f - 1) / f, (spec.height + f - 1) / f, {}, {}});
+    if (levels.back().width <= spec.block && levels.back().height <= spec.block) break;
+  }
+  for (CogLevel& l : levels) {
+    const std::size_t n =
+        ((l.width + spec.block - 1) / spec.block) * ((l.height + spec.block - 1) / spec.block);
+    l.offsets.assign(n, 0);
+    l.sizes.assign(n, 0);
+  }
+  return levels;
+}
+
+// Takes every full-resolution block from `source`, its first overview level into the staging
+// GTiff (uncompressed; the coarser levels its overviews, computed from it by GDAL, as
+// write_cog() computes them). Returns where the blocks' bytes are.
+std::vector<EncodedBlock> stage_overviews(const std::string& path, const GeoTiffSpec& spec,
+                                          const std::string& staging, const std::string& wkt,
+                                          bool overviews, const EncodedBlockSource& source,
+                                          const std::function<void(double)>& progress) {
+  const std::size_t B = spec.block, nb = spec.band_names.size();
+  const std::size_t bx = (spec.width + B - 1) / B, by = (spec.height + B - 1) / B;
+  std::vector<std::vector<float>> half(overviews ? nb : 0, std::vector<float>((B / 2) * (B / 2)));
+  std::vector<float*> ptr;
+  for (auto& h : half) ptr.push_back(h.data());
+  Dataset ds;
+  if (overviews) {
+    GeoTiffSpec first = spec;
+    first.width = (spec.width + 1) / 2;
+    first.height = (spec.height + 1) / 2;
+    ds = create_staging(path, first, staging, wkt);
+    add_empty_overviews(ds.get(), path, first, staging);
+  }
+  std::vector<EncodedBlock> blocks;
+  for (std::size_t r = 0; r < by; ++r)
+    for (std::size_t c = 0; c < bx; ++c) {
+      blocks.push_back(source(r, c, ptr));
+      const std::size_t x0 = c * B, y0 = r * B;
+      const int hw = int((std::min(B, spec.width - x0) + 1) / 2);
+      const int hh = int((std::min(B, spec.height - y0) + 1) / 2);
+      for (std::size_t b = 0; b < half.size(); ++b)
+        if (GDALRasterIO(GDALGetRasterBand(ds.get(), int(b) + 1), GF_Write, int(x0 / 2),
+                         int(y0 / 2), hw, hh, ptr[b], hw, hh, GDT_Float32, 0, 0) != CE_None)
+          fail(path, "writing the overview of the block at pixel (" + std::to_string(x0) + ", " +
+                         std::to_string(y0) + ") of " + staging);
+      if (progress) progress(0.3 * double(blocks.size()) / double(bx * by));
+    }
+  if (!overviews) return blocks;
+  if (GDALGetOverviewCount(GDALGetRasterBand(ds.get(), 1)) > 0)
+    regenerate_coarser_overviews(ds.get(), path, int(nb), staging, progress, -1);
+  GDALFlushCache(ds.get());
+  ds.reset();
+  if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
+  return blocks;
+}
+
+// Compresses overview level `k` (>= 1) from the staging file's bands (level 1) or their
+// overviews, a batch of blocks at a time on every core, into `out` in row-major order.
+void put_level(const std::string& path, const GeoTiffSpec& spec, GDALDatasetH staging,
+               std::size_t k, CogLevel& level, CogFile& out) {
+  const std::size_t B = spec.block, nb = spec.band_names.size();
+  const std::size_t bx = (level.width + B - 1) / B, n = level.offsets.size();
+  const std::size_t batch = std::max(2u, std::thread::hardware_concurrency());
+  std::vector<std::vector<std::vector<float>>> buf(
+      batch, std::vector<std::vector<float>>(nb, std::vector<float>(B * B)));
+  for (std::size_t first = 0; first < n; first += batch) {
+    std::vector<std::future<std::string>> encoded;
+    for (std::size_t j = first; j < std::min(n, first + batch); ++j) {
+      const std::size_t x0 = (j % bx) * B, y0 = (j / bx) * B;
+      const std::size_t w = std::min(B, level.width - x0), h = std::min(B, level.height - y0);
+      std::vector<const float*> bands;
+      for (std::size_t b = 0; b < nb; ++b) {
+        GDALRasterBandH band = GDALGetRasterBand(staging, int(b) + 1);
+        if (k > 1) band = GDALGetOverview(band, int(k) - 2);
+        float* dst = buf[j - first][b].data();
+        if (GDALRasterIO(band, GF_Read, int(x0), int(y0), int(w), int(h), dst, int(w), int(h),
+                         GDT_Float32, 0, 0) != CE_None)
+          fail(path, "reading overview " + std::to_string(k) + " of the staging file");
+        bands.push_back(dst);
+      }
+      encoded.push_back(std::async(std::launch::async, [&path, &spec, bands, w, h] {
+        return encode_block(path, spec, bands, w, h);
+      }));
+    }
+    for (std::size_t j = first; j < std::min(n, first + batch); ++j) {
+      const std::string bytes = encoded[j - first].get();
+      level.offsets[j] = put_block(out, bytes);
+      level.sizes[j] = bytes.size();
+    }
+  }
+}
+
+}  // namespace
+
+void write_cog_encoded(const std::string& path, const GeoTiffSpec& spec,
+                       const EncodedBlockSource& source,
+                       const std::function<void(double)>& progress) {
+  register_drivers();
+  QuietErrors quiet;
+  BoundedBlockCache cache;
+  check_spec(path, spec);
+  const std::string wkt = crs_wkt(spec.crs, path);
+  CogFields fields;
+  fields.spec = &spec;
+  fields.main = gdal_own_fields(path, spec, wkt);
+  for (const TiffField& f : fields.main)
+    if (f.tag == 42113) fields.every.push_back(f);  // GDAL_NODATA
+  std::vector<CogLevel> levels = cog_levels(spec);
+  double uncompressed = 0;  // GDAL's BIGTIFF=IF_SAFER: BigTIFF past 2 GB of float32
+  for (const CogLevel& l : levels)
+    uncompressed += 4.0 * double(l.width) * double(l.height) * double(spec.band_names.size());
+  fields.bigtiff = uncompressed > 2e9;
+
+  const std::string staging = temp_name(path, "overviews");
+  RemoveOnExit remove_staging{staging};
+  const std::vector<EncodedBlock> blocks =
+      stage_overviews(path, spec, staging, wkt, levels.size() > 1, source, progress);
+  CogFile out(path, temp_name(path, "partial"));
+  out.seek(cog_header(fields, levels).size());
+  if (levels.size() > 1) {
+    Dataset ds(GDALOpen(staging.c_str(), GA_ReadOnly));
+    if (!ds) fail(path, "cannot reopen " + staging);
+    for (std::size_t k = levels.size() - 1; k >= 1; --k) {
+      put_level(path, spec, ds.get(), k, levels[k], out);
+      if (progress) progress(0.4 + 0.2 * double(levels.size() - k) / double(levels.size() - 1));
+    }
+  }
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    levels[0].offsets[i] = copy_block(out, path, blocks[i]);
+    levels[0].sizes[i] = blocks[i].size;
+    if (progress) progress(0.6 + 0.4 * double(i + 1) / double(blocks.size()));
+  }
+  if (!fields.bigtiff && out.pos() > 0xffffffffULL)
+    throw Error(path + ": " + std::to_string(out.pos()) +
+                " bytes do not fit a classic TIFF (the BigTIFF rule guessed wrong)");
+  const std::string header = cog_header(fields, levels);
+  out.seek(0);
+  out.write(header.data(), header.size());
+  out.finish();
+}
+
+void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
+               const std::function<void(double)>& progress) {
+  register_drivers();
+  QuietErrors quiet;
+  BoundedBlockCache cache;
+  check_spec(path, spec);
+  const std::string wkt = crs_wkt(spec.crs, path);
 
   const std::string staging = temp_name(path, "staging");
   RemoveOnExit remove_staging{staging};
@@ -365,6 +628,7 @@ GeoTiffImage read_geotiff_band(const std::string& path, int band) {
   if (const char* w = GDALGetProjectionRef(ds.get())) im.crs_wkt = w;
   if (const char* c = GDALGetMetadataItem(ds.get(), "COMPRESSION", "IMAGE_STRUCTURE"))
     im.compression = c;
+  if (const char* l = GDALGetMetadataItem(ds.get(), "LAYOUT", "IMAGE_STRUCTURE")) im.layout = l;
   GDALRasterBandH b = GDALGetRasterBand(ds.get(), band);
   int bx = 0, by = 0;
   GDALGetBlockSize(b, &bx, &by);
@@ -406,6 +670,21 @@ extern "C" __attribute__((visibility("default"))) void potmap_gdal_write_cog(
     const std::function<void(double)>* progress) {
   write_cog(*path, *spec, *fill, *progress);
 }
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_write_cog_encoded(
+    const std::string* path, const GeoTiffSpec* spec, const EncodedBlockSource* source,
+    const std::function<void(double)>* progress) {
+  write_cog_encoded(*path, *spec, *source, *progress);
+}
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_encode_block(
+    const std::string* path, const GeoTiffSpec* spec, const std::vector<const float*>* bands,
+    std::size_t width, std::size_t height, std::string* out) {
+  *out = encode_block(*path, *spec, *bands, width, height);
+}
+extern "C" __attribute__((visibility("default"))) void potmap_gdal_decode_block(
+    const std::string* path, const GeoTiffSpec* spec, const std::string* bytes, std::size_t width,
+    std::size_t height, const std::vector<float*>* bands) {
+  decode_block(*path, *spec, *bytes, width, height, *bands);
+}
 extern "C" __attribute__((visibility("default"))) void potmap_gdal_read_geotiff_band(
     const std::string* path, int band, GeoTiffImage* out) {
   *out = read_geotiff_band(*path, band);
@@ -423,6 +702,19 @@ void write_cog(const std::string& path, const GeoTiffSpec&, const BlockFill&,
   throw Error(path +
               ": this potmap was built without GDAL, so it cannot write GeoTIFFs "
               "(install libgdal-dev and configure again)");
+}
+void write_cog_encoded(const std::string& path, const GeoTiffSpec&, const EncodedBlockSource&,
+                       const std::function<void(double)>&) {
+  write_cog(path, {}, {}, {});
+}
+std::string encode_block(const std::string& path, const GeoTiffSpec&,
+                         const std::vector<const float*>&, std::size_t, std::size_t) {
+  write_cog(path, {}, {}, {});
+  return {};
+}
+void decode_block(const std::string& path, const GeoTiffSpec&, const std::string&, std::size_t,
+                  std::size_t, const std::vector<float*>&) {
+  read_geotiff_band(path, 1);
 }
 GeoTiffImage read_geotiff_band(const std::string& path, int) {
   throw Error(path + ": this potmap was built without GDAL, so it cannot read GeoTIFFs");

@@ -1,14 +1,22 @@
 #pragma once
-// Cloud-Optimized GeoTIFF output through GDAL: float32 bands written block by block into a
-// tiled staging file, then copied by GDAL's COG driver into the final layout (internal tiles,
-// overviews, compressed with the floating-point predictor). Memory stays bounded by a block
-// and a bounded GDAL block cache, whatever the image size.
+// Cloud-Optimized GeoTIFF output: float32 bands in internal tiles, with overviews, compressed
+// with the floating-point predictor, in the layout of GDAL's COG driver.
+//
+// Two writers of the same file: write_cog_encoded() takes blocks already compressed (by
+// encode_block(), as a tiled raster job stores them) and lays the file out around their bytes,
+// compressing only the overviews; write_cog() stages the bands uncompressed and has GDAL's COG
+// driver copy them (each block compressed there). For the same values and options both write
+// the same bytes (tested), except uncompressed files, where GDAL 3.6 writes no COG header and
+// write_cog_encoded() does. Memory stays bounded by a block and a bounded GDAL block cache,
+// whatever the image size.
 //
 // In a shared build geotiff_writer.cpp is a module of its own, libpotmap_gdal.so beside
 // libpotmap, which geotiff_module.cpp loads on the first call: processes that write no GeoTIFF
 // do not load GDAL. The functions below are the same either way.
 
+#include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <utility>
@@ -46,11 +54,67 @@ inline void check_compression(const std::string& compression, const std::string&
 using BlockFill = std::function<void(std::size_t x0, std::size_t y0, std::size_t width,
                                      std::size_t height, std::vector<float*>& bands)>;
 
-/// Writes the GeoTIFF at `path` (a temporary name in the same folder, renamed when complete;
-/// nothing is left behind on failure). Blocks are requested in row-major order. Throws
-/// potmap::Error naming the file and GDAL's message.
+/// Writes the GeoTIFF at `path` through GDAL's COG driver (a temporary name in the same folder,
+/// renamed when complete; nothing is left behind on failure). Blocks are requested in row-major
+/// order. Throws potmap::Error naming the file and GDAL's message.
 void write_cog(const std::string& path, const GeoTiffSpec& spec, const BlockFill& fill,
                const std::function<void(double)>& progress = {});
+
+/// The first overview of a w x h block of one band (row-major): each cell the mean of the 2 x 2
+/// cells it covers that are numbers (NaN, the nodata value, where none is), as GDAL's AVERAGE;
+/// (w + 1) / 2 x (h + 1) / 2 cells, those past an odd edge covering one row or column.
+inline void average_halves(const float* in, std::size_t w, std::size_t h, float* out) {
+  const std::size_t hw = (w + 1) / 2, hh = (h + 1) / 2;
+  for (std::size_t r = 0; r < hh; ++r)
+    for (std::size_t c = 0; c < hw; ++c) {
+      double sum = 0;
+      int n = 0;
+      for (std::size_t dr = 0; dr < 2 && 2 * r + dr < h; ++dr)
+        for (std::size_t dc = 0; dc < 2 && 2 * c + dc < w; ++dc) {
+          const float v = in[(2 * r + dr) * w + 2 * c + dc];
+          if (!std::isnan(v)) {
+            sum += v;
+            ++n;
+          }
+        }
+      out[r * hw + c] = n ? float(sum / n) : std::nanf("");
+    }
+}
+
+/// One block as the COG stores it: the bands (`bands[b]`: width * height floats, row-major)
+/// pixel-interleaved into a spec.block x spec.block tile (zeros past the image edge, as GDAL
+/// pads), the floating-point predictor unless spec.compression is NONE, then the codec through
+/// libtiff: the bytes GDAL writes for the same block. `path` names the file in errors.
+std::string encode_block(const std::string& path, const GeoTiffSpec& spec,
+                         const std::vector<const float*>& bands, std::size_t width,
+                         std::size_t height);
+
+/// The inverse of encode_block(): `bands[b]` receives width * height floats. Throws
+/// potmap::Error naming `path` if the bytes do not decode to a block of this spec.
+void decode_block(const std::string& path, const GeoTiffSpec& spec, const std::string& bytes,
+                  std::size_t width, std::size_t height, const std::vector<float*>& bands);
+
+/// Where a full-resolution block's compressed bytes (encode_block()) are: `size` bytes at
+/// `offset` in `file`.
+struct EncodedBlock {
+  std::string file;
+  std::uint64_t offset = 0, size = 0;
+};
+
+/// Gives the full-resolution block at block row `row`, column `col` (pixels x0 = col * block,
+/// y0 = row * block): fills `halves` (one pointer a band, room for (w + 1) / 2 x (h + 1) / 2
+/// floats; empty when spec.overviews is false) with its first overview level (average_halves)
+/// and returns where its compressed bytes are. Called once a block, in row-major order.
+using EncodedBlockSource = std::function<EncodedBlock(std::size_t row, std::size_t col,
+                                                      const std::vector<float*>& halves)>;
+
+/// Writes the COG at `path` from blocks compressed beforehand: the coarser overviews computed
+/// by GDAL from the first level, the overviews compressed here, the blocks' bytes copied as
+/// they are. A temporary name in the same folder, synced and renamed when complete; nothing is
+/// left behind on failure. Throws potmap::Error naming the file.
+void write_cog_encoded(const std::string& path, const GeoTiffSpec& spec,
+                       const EncodedBlockSource& source,
+                       const std::function<void(double)>& progress = {});
 
 /// Reads band `band` (1-based) of a GeoTIFF whole, with its size and geotransform: for tests
 /// and tools that check what was written.
@@ -59,6 +123,7 @@ struct GeoTiffImage {
   double geotransform[6] = {0, 0, 0, 0, 0, 0};
   std::string crs_wkt;
   std::string compression;  ///< GDAL's name of the codec ("ZSTD", ...); empty: uncompressed
+  std::string layout;       ///< GDAL's IMAGE_STRUCTURE LAYOUT: "COG" for a valid COG layout
   std::vector<float> values;
   /// The first (finest) overview of the band, when there is one: its size and values.
   std::size_t overview_width = 0, overview_height = 0;

@@ -24,11 +24,23 @@ namespace {
 
 using detail::hex64;
 
-// A finished tile: the job's fingerprint and the tile's place, then probability and variance
-// in image order (row 0 = top), float32.
-constexpr std::size_t kTileHeader = 48;
-constexpr detail::ContainerLayout kTileLayout{"POTTILE\n", "a potmap raster tile", 1, kTileHeader,
+// A finished tile: the job's fingerprint, the tile's place, the size of its compressed block
+// and of its first overview level; then that level (each band (width + 1) / 2 x (height + 1) / 2
+// float32, image order; none without overviews) and the block as the GeoTIFF stores it
+// (detail::encode_block: both bands, compressed once, copied into the GeoTIFF as they are).
+constexpr std::size_t kTileHeader = 64;
+constexpr detail::ContainerLayout kTileLayout{"POTTILE\n", "a potmap raster tile", 2, kTileHeader,
                                               16};
+constexpr std::size_t kBands = 2;  // probability, variance
+
+// The codec of a tile's block, in its header (offset 12): a tile of another codec is
+// recomputed. Not part of the job's fingerprint, which the GeoTIFF's metadata holds.
+std::uint32_t codec_id(const std::string& compression) {
+  const char* names[] = {"ZSTD", "DEFLATE", "LZW", "NONE"};
+  for (std::uint32_t i = 0; i < 4; ++i)
+    if (compression == names[i]) return i + 1;
+  return 0;
+}
 
 std::uint64_t hash_doubles(const std::vector<double>& v, std::uint64_t h) {
   return detail::fnv1a64(
@@ -85,14 +97,48 @@ struct TiledRaster::Impl {
         .string();
   }
 
-  // The tile's file, checked: its job, its place and size, its checksum (put in `crc` unless
-  // null).
-  void read(const RasterTile& t, std::vector<float>* prob, std::vector<float>* var,
-            std::uint32_t* crc = nullptr) const {
+  // The GeoTIFF's layout, bands and codec (the georeferencing: assemble()).
+  detail::GeoTiffSpec geotiff() const {
+    detail::GeoTiffSpec g;
+    g.width = width;
+    g.height = height;
+    g.block = options.tile_cells;
+    g.overviews = options.overviews;
+    g.compression = options.compression;
+    g.band_names = {"probability", "variance"};
+    return g;
+  }
+
+  // Where a tile file's parts are.
+  struct TileParts {
+    std::size_t half_w = 0, half_h = 0;           // its first overview level, a band
+    std::uint64_t block_at = 0, block_bytes = 0;  // its compressed block
+  };
+
+  // The tile's file, checked: its job, its place and sizes, its checksum (put in `crc` unless
+  // null). Its first overview level goes to `halves` (a band each) unless that is empty.
+  TileParts read(const RasterTile& t, const std::vector<float*>& halves,
+                 std::uint32_t* crc = nullptr, std::string* block = nullptr) const {
     const std::string path = tile_path(t);
     detail::ContainerReader r(path, kTileLayout);
-    const std::size_t n = t.width * t.height;
-    r.check_size(kTileHeader + 8 * n + 4, 16, "a tile of " + std::to_string(n) + " cells");
+    TileParts p;
+    if (r.u32(12) != codec_id(options.compression))
+      r.fail(12, "block compressed with codec " + std::to_string(r.u32(12)) + ", this job " +
+                     std::to_string(codec_id(options.compression)) + " (" + options.compression +
+                     ")");
+    p.block_bytes = r.u64(48);
+    p.half_w = r.u32(56);
+    p.half_h = r.u32(60);
+    const std::size_t want_w = options.overviews ? (t.width + 1) / 2 : 0;
+    const std::size_t want_h = options.overviews ? (t.height + 1) / 2 : 0;
+    if (p.half_w != want_w || p.half_h != want_h)
+      r.fail(56, "first overview level of " + std::to_string(p.half_w) + " x " +
+                     std::to_string(p.half_h) + " cells, expected " + std::to_string(want_w) +
+                     " x " + std::to_string(want_h));
+    const std::uint64_t halves_bytes = 4 * kBands * p.half_w * p.half_h;
+    p.block_at = kTileHeader + halves_bytes;
+    r.check_size(p.block_bytes < (std::uint64_t(1) << 40) ? p.block_at + p.block_bytes + 4 : 0, 48,
+                 "a tile whose block has " + std::to_string(p.block_bytes) + " bytes");
     r.check_checksum();
     if (r.u64(24) != fingerprint)
       r.fail(24, "tile of another job (fingerprint " + hex64(r.u64(24)) + ", this job " +
@@ -105,17 +151,16 @@ struct TiledRaster::Impl {
         r.fail(32 + 4 * i, std::string(names[i]) + " " + std::to_string(r.u32(32 + 4 * i)) +
                                ", expected " + std::to_string(want[i]));
     if (crc) *crc = r.u32(r.payload_end());
-    if (prob && var) {
-      prob->resize(n);
-      var->resize(n);
-      if (detail::host_is_little_endian()) {
-        std::memcpy(prob->data(), r.data() + kTileHeader, 4 * n);
-        std::memcpy(var->data(), r.data() + kTileHeader + 4 * n, 4 * n);
-      } else {
-        for (std::size_t i = 0; i < n; ++i) (*prob)[i] = r.f32(kTileHeader + 4 * i);
-        for (std::size_t i = 0; i < n; ++i) (*var)[i] = r.f32(kTileHeader + 4 * (n + i));
-      }
+    const std::size_t n = p.half_w * p.half_h;
+    for (std::size_t b = 0; b < halves.size() && b < kBands; ++b) {
+      const std::size_t at = kTileHeader + 4 * b * n;
+      if (detail::host_is_little_endian())
+        std::memcpy(halves[b], r.data() + at, 4 * n);
+      else
+        for (std::size_t i = 0; i < n; ++i) halves[b][i] = r.f32(at + 4 * i);
     }
+    if (block) block->assign(reinterpret_cast<const char*>(r.data()) + p.block_at, p.block_bytes);
+    return p;
   }
 };
 
@@ -184,7 +229,7 @@ bool TiledRaster::complete(const RasterTile& tile, bool* stale) const {
   std::error_code ec;
   if (!fs::exists(impl_->tile_path(tile), ec)) return false;
   try {
-    impl_->read(tile, nullptr, nullptr);
+    impl_->read(tile, {});
     return true;
   } catch (const Error&) {
     if (stale) *stale = true;
@@ -223,22 +268,42 @@ void TiledRaster::store(const RasterTile& t, const std::vector<float>& prob,
     throw ArgumentError("raster tile (" + std::to_string(t.row) + ", " + std::to_string(t.col) +
                         "): " + std::to_string(prob.size()) + " and " + std::to_string(var.size()) +
                         " values for " + std::to_string(n) + " cells");
-  detail::ContainerWriter w(kTileLayout, kTileHeader + 8 * n + 4);
-  w.u32(0);  // reserved
+  const Impl& im = *impl_;
+  const std::string path = im.tile_path(t);
+  const std::string block =
+      detail::encode_block(path, im.geotiff(), {prob.data(), var.data()}, t.width, t.height);
+  const std::size_t hw = im.options.overviews ? (t.width + 1) / 2 : 0;
+  const std::size_t hh = im.options.overviews ? (t.height + 1) / 2 : 0;
+  std::vector<float> half(hw * hh);
+  detail::ContainerWriter w(kTileLayout, kTileHeader + 4 * kBands * half.size() + block.size() + 4);
+  w.u32(codec_id(im.options.compression));
   w.u64(0);  // size, filled by finish()
-  w.u64(impl_->fingerprint);
+  w.u64(im.fingerprint);
   w.u32(std::uint32_t(t.row));
   w.u32(std::uint32_t(t.col));
   w.u32(std::uint32_t(t.width));
   w.u32(std::uint32_t(t.height));
-  w.f32s(prob);
-  w.f32s(var);
-  w.finish(impl_->tile_path(t));
+  w.u64(block.size());
+  w.u32(std::uint32_t(hw));
+  w.u32(std::uint32_t(hh));
+  for (const std::vector<float>* band : {&prob, &var}) {
+    if (half.empty()) break;
+    detail::average_halves(band->data(), t.width, t.height, half.data());
+    w.f32s(half);
+  }
+  w.bytes(block);
+  w.finish(path);
 }
 
 void TiledRaster::load(const RasterTile& t, std::vector<float>& prob,
                        std::vector<float>& var) const {
-  impl_->read(t, &prob, &var);
+  const Impl& im = *impl_;
+  std::string block;
+  im.read(t, {}, nullptr, &block);
+  prob.resize(t.width * t.height);
+  var.resize(t.width * t.height);
+  detail::decode_block(im.tile_path(t), im.geotiff(), block, t.width, t.height,
+                       {prob.data(), var.data()});
 }
 
 TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& progress) {
@@ -254,31 +319,22 @@ TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& prog
                   std::to_string(t.col) + ") of the raster job is missing");
   }
   std::vector<std::uint32_t> crcs(im.tiles.size(), 0);
-  detail::GeoTiffSpec g;
-  g.width = im.width;
-  g.height = im.height;
-  g.block = im.options.tile_cells;
+  detail::GeoTiffSpec g = im.geotiff();
   g.left = im.spec.xmin;
   g.top = im.spec.ymin + double(im.height) * im.spec.resolution;
   g.pixel = im.spec.resolution;
   g.crs = im.options.crs;
-  g.overviews = im.options.overviews;
-  g.compression = im.options.compression;
-  g.band_names = {"probability", "variance"};
   g.metadata = {{"POTMAP_VERSION", POTMAP_VERSION_STRING},
                 {"POTMAP_JOB", hex64(im.fingerprint)},
                 {"POTMAP_Z", num(im.spec.z)}};
-  std::vector<float> prob, var;
-  detail::write_cog(
+  // Each tile's block goes into the GeoTIFF as the tile file holds it: compressed once, when
+  // the tile was computed.
+  detail::write_cog_encoded(
       im.output, g,
-      [&](std::size_t x0, std::size_t y0, std::size_t w, std::size_t h, std::vector<float*>& b) {
-        const RasterTile& t = im.tiles[(y0 / g.block) * im.cols + x0 / g.block];
-        if (t.x0 != x0 || t.y0 != y0 || t.width != w || t.height != h)
-          throw Error(im.output + ": internal: block (" + std::to_string(x0) + ", " +
-                      std::to_string(y0) + ") is not a tile");
-        im.read(t, &prob, &var, &crcs[t.index]);
-        std::memcpy(b[0], prob.data(), prob.size() * sizeof(float));
-        std::memcpy(b[1], var.data(), var.size() * sizeof(float));
+      [&](std::size_t row, std::size_t col, const std::vector<float*>& halves) {
+        const RasterTile& t = im.tiles.at(row * im.cols + col);
+        const Impl::TileParts p = im.read(t, halves, &crcs[t.index]);
+        return detail::EncodedBlock{im.tile_path(t), p.block_at, p.block_bytes};
       },
       progress);
 
