@@ -21,6 +21,12 @@ ContainerWriter::ContainerWriter(const ContainerLayout& layout, std::size_t expe
   put_u32(out_, layout.version);
 }
 
+void ContainerWriter::patch_u64(std::size_t at, std::uint64_t v) {
+  std::string b;
+  put_u64(b, v);
+  out_.replace(at, 8, b);
+}
+
 void ContainerWriter::finish(const std::string& path) {
   if (layout_.size_field != ContainerLayout::kNoSizeField) {
     std::string total;
@@ -44,9 +50,14 @@ ContainerReader::ContainerReader(const std::string& path, const ContainerLayout&
                 quote_value(magic) + ")");
   if (n < kMagicBytes + 4) fail(n, "truncated: " + std::to_string(n) + " bytes, no version field");
   const std::uint32_t version = u32(kMagicBytes);
-  if (version != layout.version)
+  const std::uint32_t oldest = layout.oldest_version ? layout.oldest_version : layout.version;
+  if (version < oldest || version > layout.version)
     fail(kMagicBytes, "unsupported format version " + std::to_string(version) +
-                          " (this build reads version " + std::to_string(layout.version) + ")");
+                          " (this build reads version " +
+                          (oldest == layout.version
+                               ? std::to_string(layout.version)
+                               : std::to_string(oldest) + " to " + std::to_string(layout.version)) +
+                          ")");
   if (n < layout.header_bytes + kCrcBytes)
     fail(n, "truncated: " + std::to_string(n) + " bytes, the header alone needs " +
                 std::to_string(layout.header_bytes + kCrcBytes));

@@ -31,6 +31,9 @@ struct ContainerLayout {
   /// Offset of a u64 holding the whole file size, or kNoSizeField when the format derives the
   /// size from its header fields.
   std::size_t size_field = kNoSizeField;
+  /// The oldest version the reader takes as well (0: `version` alone); the format tells the
+  /// versions apart by ContainerReader::version().
+  std::uint32_t oldest_version = 0;
 };
 
 /// Builds a container in memory: magic and version first, then whatever the format puts, then
@@ -48,6 +51,8 @@ class ContainerWriter {
   void f32s(const std::vector<float>& values) { put_f32s(out_, values.data(), values.size()); }
   void bytes(std::string_view s) { out_ += s; }
   std::size_t size() const { return out_.size(); }
+  /// Overwrites the u64 at `at` (a length known only once what follows it is written).
+  void patch_u64(std::size_t at, std::uint64_t v);
   void finish(const std::string& path);
 
  private:
@@ -63,6 +68,7 @@ class ContainerReader {
   ContainerReader(const std::string& path, const ContainerLayout& layout);
 
   const std::string& path() const { return path_; }
+  std::uint32_t version() const { return u32(8); }
   const unsigned char* data() const { return b_; }
   std::size_t size() const { return bytes_.size(); }
   /// Where the checksum starts: the end of the payload.

@@ -1,4 +1,6 @@
 // The native binary map format (layout: include/potmap/io/map_io.hpp).
+#include "io/map_io_native.hpp"
+
 #include <limits>
 
 #include "io/container.hpp"
@@ -15,27 +17,68 @@ using detail::MapField;
 
 constexpr std::size_t kHeaderBytes = 48;
 constexpr std::size_t kCrcBytes = 4;
-// No size field: the size follows from the dimension and the kernel count.
+// No size field: the size follows from the dimension and the kernel count (version 2: and the
+// section's length, after the kernels). A map without a section is written as version 1, as
+// before, so that older readers still read it.
 constexpr detail::ContainerLayout kLayout{"POTMAP\r\n", "a potmap map", 1, kHeaderBytes};
+constexpr detail::ContainerLayout kLayoutV2{
+    "POTMAP\r\n", "a potmap map", 2, kHeaderBytes, detail::ContainerLayout::kNoSizeField, 1};
+constexpr std::uint32_t kHasBias = 1, kHasSection = 2;
+
+void put_map(detail::ContainerWriter& out, const KernelMap& map, std::uint32_t flags) {
+  out.u32(static_cast<std::uint32_t>(map.dim));
+  out.u64(map.size());
+  out.u32((map.has_bias ? kHasBias : 0u) | flags);
+  out.u32(0);
+  out.f64(map.has_bias ? map.bias_mean : 0.0);
+  out.f64(map.has_bias ? map.bias_var : 0.0);
+  out.f64s(map.position);
+  out.f64s(map.gamma);
+  out.f64s(map.w_mean);
+  out.f64s(map.w_var);
+}
 
 }  // namespace
 
+const detail::ContainerLayout& detail::native_map_layout() {
+  return kLayoutV2;
+}
+
 KernelMap read_map_native(const std::string& path) {
-  const detail::ContainerReader r(path, kLayout);
+  const detail::ContainerReader r(path, kLayoutV2);
+  return detail::read_map_native_from(r, nullptr);
+}
+
+KernelMap detail::read_map_native_from(const ContainerReader& r, std::size_t* section_at) {
+  const std::uint32_t version = r.version();
   const std::uint32_t dim = r.u32(12);
   if (dim != 2 && dim != 3) r.fail(12, "dimension " + std::to_string(dim) + " (must be 2 or 3)");
   const std::uint64_t count = r.u64(16);
   // The count decides how much is read: check it against the file size before trusting it.
   const std::uint64_t per_kernel = 8ull * (dim + 3);
   const std::uint64_t max_count = (std::numeric_limits<std::uint64_t>::max() - 64) / per_kernel;
-  const std::uint64_t expected =
-      count <= max_count ? kHeaderBytes + count * per_kernel + kCrcBytes : 0;
-  r.check_size(
-      expected, 16,
-      "kernel count " + std::to_string(count) + " in " + std::to_string(dim) + "D needs a file of");
-  r.check_checksum();
+  const std::uint64_t kernels_end = count <= max_count ? kHeaderBytes + count * per_kernel : 0;
   const std::uint32_t flags = r.u32(24);
-  if (flags > 1) r.fail(24, "unknown flags " + std::to_string(flags));
+  const std::uint32_t known = version >= 2 ? kHasBias | kHasSection : kHasBias;
+  if (flags & ~known)
+    r.fail(24, "unknown flags " + std::to_string(flags) + " in a version " +
+                   std::to_string(version) + " map");
+  std::uint64_t section = 0;
+  if ((flags & kHasSection) && kernels_end && kernels_end + 8 + kCrcBytes <= r.size()) {
+    section = r.u64(kernels_end);
+    if (section > r.size()) section = r.size();  // check_size() below names it
+  }
+  const std::uint64_t expected = !kernels_end ? 0
+                                 : (flags & kHasSection) == 0
+                                     ? kernels_end + kCrcBytes
+                                     : kernels_end + 8 + section + kCrcBytes;
+  r.check_size(expected, 16,
+               "kernel count " + std::to_string(count) + " in " + std::to_string(dim) + "D" +
+                   (flags & kHasSection ? " and a section of " + std::to_string(section) + " bytes"
+                                        : std::string()) +
+                   " need a file of");
+  r.check_checksum();
+  if (section_at) *section_at = flags & kHasSection ? kernels_end + 8 : 0;
   const std::uint32_t reserved = r.u32(28);
   if (reserved != 0) r.fail(28, "reserved field is " + std::to_string(reserved) + ", not 0");
 
@@ -82,16 +125,19 @@ KernelMap read_map_native(const std::string& path) {
 void write_map_native(const KernelMap& map, const std::string& path) {
   map.validate(path);
   detail::ContainerWriter out(kLayout, kHeaderBytes + map.size() * 8 * (map.dim + 3) + kCrcBytes);
-  out.u32(static_cast<std::uint32_t>(map.dim));
-  out.u64(map.size());
-  out.u32(map.has_bias ? 1u : 0u);
-  out.u32(0);
-  out.f64(map.has_bias ? map.bias_mean : 0.0);
-  out.f64(map.has_bias ? map.bias_var : 0.0);
-  out.f64s(map.position);
-  out.f64s(map.gamma);
-  out.f64s(map.w_mean);
-  out.f64s(map.w_var);
+  put_map(out, map, 0);
+  out.finish(path);
+}
+
+void detail::write_map_native_with_section(const KernelMap& map, const std::string& path,
+                                           const std::function<void(ContainerWriter&)>& section) {
+  map.validate(path);
+  detail::ContainerWriter out(kLayoutV2, kHeaderBytes + map.size() * 8 * (map.dim + 3) + kCrcBytes);
+  put_map(out, map, kHasSection);
+  const std::size_t length_at = out.size();
+  out.u64(0);
+  section(out);
+  out.patch_u64(length_at, out.size() - length_at - 8);
   out.finish(path);
 }
 

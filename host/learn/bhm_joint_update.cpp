@@ -10,6 +10,7 @@
 #include "bhm_joint_device.hpp"
 #include "bhm_joint_grid.hpp"
 #include "potmap/error.hpp"
+#include "runtime/hash.hpp"
 #include "runtime/host_team.hpp"
 
 namespace potmap {
@@ -31,6 +32,21 @@ void JointBhm::check_samples(const LabelledPoints& samples) const {
                           " (weights are finite and not negative)");
 }
 
+namespace {
+
+// data_ids(): the scan's bytes as learned (positions, labels, weights), so the same scan fed
+// twice, by whatever path, has the same fingerprint. One pass over a few thousand samples.
+std::uint64_t scan_fingerprint(const LabelledPoints& s) {
+  auto bytes = [](const auto& v) {
+    return std::string_view(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v.front()));
+  };
+  std::uint64_t h = detail::fnv1a64(bytes(s.position));
+  h = detail::fnv1a64(bytes(s.label), h);
+  return s.weight.empty() ? h : detail::fnv1a64(bytes(s.weight), h);
+}
+
+}  // namespace
+
 void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
   check_samples(samples);
   stats_ = {};
@@ -39,6 +55,8 @@ void JointBhm::update(const LabelledPoints& samples, Context* ctx) {
     detail::JointBhmDevice::update(*this, samples, *ctx);
   else
     update_on_host(samples, ctx);
+  // After the update: one that threw left the posterior without this scan.
+  data_ids_.push_back(scan_fingerprint(samples));
 }
 
 void JointBhm::reach_rows(Scratch& sc) {

@@ -23,6 +23,11 @@
 //                     48: float64 positions (M*D, row-major), then gamma (M), w_mean (M),
 //                         w_var (M)
 //              48 + 8*M*(D+3): uint32 CRC-32 (zlib crc32) of every byte before it.
+//            Format version 2 (a joint BHM's map with its information form, for merging:
+//            potmap/learn/bhm_joint_merge.hpp) is version 1 with flags bit 1 set and, between
+//            w_var and the CRC, a uint64 byte count S and S bytes of the learner's information
+//            form. read_map() reads both versions (the map alone); write_map() writes version
+//            1, which readers before version 2 still read.
 //
 // Every reader checks the values as KernelMap::validate does (finite, gamma > 0, w_var >= 0),
 // the dimension, field counts and array shapes, and every length read from a file against the

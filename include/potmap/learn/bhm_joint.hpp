@@ -45,6 +45,7 @@
 namespace potmap::detail {
 struct JointBhmState;
 struct JointBhmDevice;
+struct JointBhmMerge;
 }  // namespace potmap::detail
 
 POTMAP_CXX_API_BEGIN
@@ -225,9 +226,21 @@ class JointBhm {
   const JointBhmOptions& options() const { return o_; }
   const JointBhmStats& last_stats() const { return stats_; }
 
+  /// Fingerprints of the data learned: one 64-bit hash of each non-empty scan update() added
+  /// (its positions, labels and weights), in the order added, and those add_data_id() or a
+  /// merge brought. Merging (bhm_joint_merge.hpp) refuses maps that share one, so a map is
+  /// never fused with itself, or with a map of the same scans, without being told to. A
+  /// restored mapper state does not hold them (its file predates them): only the scans learned
+  /// after the restore are then recorded.
+  const std::vector<std::uint64_t>& data_ids() const { return data_ids_; }
+  /// Records that the map holds data known by `id` (a caller's own fingerprint of a scan,
+  /// e.g. its log and time stamp).
+  void add_data_id(std::uint64_t id) { data_ids_.push_back(id); }
+
  private:
   friend struct detail::JointBhmState;
   friend struct detail::JointBhmDevice;
+  friend struct detail::JointBhmMerge;
   static constexpr std::uint32_t kNone = 0xffffffffu;
   struct Feature {
     std::uint32_t kernel;  // storage index (kNone: not stored, at its prior)
@@ -410,6 +423,7 @@ class JointBhm {
   };
   std::vector<RetiredTile> retired_;
   std::unordered_map<std::uint64_t, std::uint32_t> retired_index_;
+  std::vector<std::uint64_t> data_ids_;  // data_ids()
   void fold_retiring(const std::vector<std::uint8_t>& going);
   void compact(const std::vector<std::uint8_t>& going);
   void revive(std::uint32_t id, std::uint64_t key);
