@@ -19,6 +19,7 @@
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/io/ros_map.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
 
@@ -44,7 +45,8 @@ std::string default_out(const std::string& log) {
   for (const char* ext : {".gz", ".log", ".txt", ".bag", ".db3"})
     if (stem.size() > std::strlen(ext) && stem.substr(stem.size() - std::strlen(ext)) == ext)
       stem.resize(stem.size() - std::strlen(ext));
-  if (stem.empty() || stem == "poses" || stem == "metadata.yaml") stem = fs::path(log).parent_path().filename().string();
+  if (stem.empty() || stem == "poses" || stem == "metadata.yaml")
+    stem = fs::path(log).parent_path().filename().string();
   return (fs::path("out") / "mapping" / stem).string();
 }
 
@@ -116,7 +118,12 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   const KernelMap& map = r.overall_map();
   if (map.empty()) throw InputError("mapping: " + a.log + " gave an empty map");
   const std::string map_file = (fs::path(dir) / "map.potmap").string();
-  write_map(map, map_file);
+  // RePOT's persistent map is a joint BHM: its information form goes with it, so that maps of
+  // the same place made apart can be merged exactly (`potmap merge`).
+  if (const RepotMap* repot = r.mapper->repot())
+    write_joint_bhm_map(repot->learner(), map_file, &map);
+  else
+    write_map(map, map_file);
   const std::string prefix = (fs::path(dir) / "map").string();
   const double z = dict.dim == 3 ? scans.front().origin()[2] : 0;
   const double res = picture_resolution(map, 5, a.picture_pixels);
@@ -205,6 +212,9 @@ void register_mapping(CLI::App& app, Runner& runner) {
                   "reaches them)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_flag("--keep-tiles", a->drive.keep_tiles,
+                "3D drives: keep every tile of the joint BHM (memory grows with the drive) so "
+                "that map.potmap carries its information form for `potmap merge`");
   cmd->add_option("--sums", a->drive.sums,
                   "3D drives: where the joint BHM's features and sums run: auto (the device "
                   "when it is a GPU with doubles, else the host), host or device")

@@ -40,6 +40,7 @@ void register_data(CLI::App& app, Runner& runner);
 void register_map(CLI::App& app, Runner& runner);
 void register_mapping(CLI::App& app, Runner& runner);
 void register_export(CLI::App& app, Runner& runner);
+void register_merge(CLI::App& app, Runner& runner);
 void register_dict(CLI::App& app, Runner& runner);
 void register_experiment(CLI::App& app, Runner& runner);
 void register_bench(CLI::App& app, Runner& runner);

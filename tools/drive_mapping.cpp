@@ -17,6 +17,7 @@
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
@@ -70,6 +71,7 @@ DriveMapperOptions mapper_options(const DriveMappingArgs& a, std::string* dict_f
   DriveMapperOptions o;
   o.range_cut = a.range_cut;
   o.labels.seed = a.seed;
+  if (a.keep_tiles) o.retire_radius = 0;
   o.bhm.sums = a.sums == "host"     ? JointBhmSums::host
                : a.sums == "device" ? JointBhmSums::device
                                     : JointBhmSums::automatic;
@@ -153,7 +155,8 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   }
   Context ctx = make_context(device);
   std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), %s\n", a.first,
-               end - 1, a.drive.c_str(), drive.layout == "slam"     ? "SLAM keyframes"
+               end - 1, a.drive.c_str(),
+               drive.layout == "slam"     ? "SLAM keyframes"
                : drive.layout == "rosbag" ? ("ROS bag, poses from " + drive.poses_file).c_str()
                                           : "KITTI",
                a.range_cut,
@@ -191,7 +194,18 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   const KernelMap map = mapper.map();
   if (map.empty()) throw InputError("mapping: " + a.drive + " gave an empty map");
   const std::string map_file = (fs::path(dir) / "map.potmap").string();
-  write_map(map, map_file);
+  // The information form (for `potmap merge`) only where it is whole: a retired tile's
+  // couplings went into its neighbours' information vector.
+  const std::size_t retired = mapper.learner().retired_tiles();
+  if (retired == 0) {
+    write_joint_bhm_map(mapper.learner(), map_file, &map);
+  } else {
+    write_map(map, map_file);
+    std::fprintf(human,
+                 "note           %zu tiles were retired: %s holds no information form and "
+                 "cannot be merged (--keep-tiles keeps them)\n",
+                 retired, map_file.c_str());
+  }
   const LabelledPoints& test = mapper.held_out();
   const std::vector<float> prob = probability_by_columns(ctx, map, test.position);
   const Scores sc = score(prob, test.label);

@@ -28,6 +28,9 @@ struct DriveMappingArgs {
   std::string sums = "auto";
   BagOptions bag;  ///< ROS bags: topic, fixed frame, poses, keyframe spacing
   bool resume = false, keep_checkpoint = false, quiet = false;
+  /// Never retire the learner's far tiles (DriveMapperOptions::retire_radius 0), so that
+  /// map.potmap carries the joint BHM's information form (`potmap merge`).
+  bool keep_tiles = false;
 };
 
 /// Runs the job; prints a summary on stdout (stderr with --json -), returns the exit status.

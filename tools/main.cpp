@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   potmap::cli::register_map(app, runner);
   potmap::cli::register_mapping(app, runner);
   potmap::cli::register_export(app, runner);
+  potmap::cli::register_merge(app, runner);
   potmap::cli::register_dict(app, runner);
   potmap::cli::register_experiment(app, runner);
   potmap::cli::register_experiment_frames(app, runner);
