@@ -2,6 +2,7 @@
 // that carries the form, and `potmap merge`.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -9,10 +10,12 @@
 #include <string>
 #include <vector>
 
+#include "potmap/data/drive.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
 #include "test_support.hpp"
@@ -326,6 +329,68 @@ TEST(JointBhmMerge, TwoRobotsOnRadishLogsScoreAsOne) {
     EXPECT_LE(std::abs(r.merged.nll - r.whole.nll), 0.01) << log;
     // The bar tells maps apart: one robot's map alone misses it on these samples.
     EXPECT_GT(r.first_half.nll - r.whole.nll, 0.01) << log;
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// A 3D drive's keyframes [0, n) split at n / 2, each half learned by its own drive mapper
+// (`potmap mapping DRIVE --keep-tiles`: no tile retired) with the keyframes' own indices, so
+// that the three runs label every keyframe alike; scored on the whole run's held-out samples.
+struct DriveSplit {
+  Scores whole, merged, first_half;
+  std::size_t keyframes = 0, test_points = 0;
+};
+
+Scores score_drive_map(const KernelMap& map, const LabelledPoints& held_out) {
+  MapEvaluator ev(test::context(), map);
+  std::vector<float> prob(held_out.size());
+  ev.evaluate(held_out.position.data(), held_out.size(), nullptr, nullptr, prob.data());
+  return score(prob, held_out.label);
+}
+
+DriveSplit drive_split(const std::string& drive, std::size_t keyframes) {
+  const Drive d = open_drive(test::shared_data("drives3d/" + drive));
+  DriveMapperOptions o;
+  o.range_cut = 20;
+  o.test_stride = 16;
+  o.retire_radius = 0;
+  DriveMapper whole(o), first(o), second(o);
+  const std::size_t n = std::min(keyframes, d.size()), half = n / 2;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Scan k = read_keyframe(d, i);
+    whole.add(k, std::int64_t(i), &test::context());
+    (i < half ? first : second).add(k, std::int64_t(i), &test::context());
+  }
+  DriveSplit r;
+  r.keyframes = n;
+  r.test_points = whole.held_out().size();
+  r.whole = score_drive_map(whole.map(), whole.held_out());
+  r.first_half = score_drive_map(first.map(), whole.held_out());
+  r.merged = score_drive_map(merge_joint_bhm({&first.learner(), &second.learner()}).map(),
+                             whole.held_out());
+  return r;
+}
+
+TEST(JointBhmMerge, TwoRobotsOnDrivesScoreAsOne) {
+  // hku-1 walks one campus (the halves overlap); riverside-a drives a road (they meet where the
+  // first half ends), 40 keyframes there: without retiring, its tiles would hold a gigabyte.
+  // POTMAP_MERGE_KEYFRAMES sets both counts.
+  const char* env = std::getenv("POTMAP_MERGE_KEYFRAMES");
+  for (const auto& [drive, full] : {std::pair<const char*, std::size_t>{"hku-1", 314},
+                                    std::pair<const char*, std::size_t>{"riverside-a", 40}}) {
+    const std::size_t keyframes =
+        env ? std::size_t(std::strtoull(env, nullptr, 10)) : test::sized<std::size_t>(full, 8);
+    const DriveSplit r = drive_split(drive, keyframes);
+    std::printf(
+        "%s: %zu keyframes, %zu held-out samples: whole AUC %.4f NLL %.4f, merged AUC "
+        "%.4f NLL %.4f, first half alone AUC %.4f NLL %.4f\n",
+        drive, r.keyframes, r.test_points, r.whole.auc, r.whole.nll, r.merged.auc, r.merged.nll,
+        r.first_half.auc, r.first_half.nll);
+    EXPECT_LE(std::abs(r.merged.auc - r.whole.auc), 0.005) << drive;
+    EXPECT_LE(std::abs(r.merged.nll - r.whole.nll), 0.01) << drive;
   }
 }
 
