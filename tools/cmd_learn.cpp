@@ -107,7 +107,7 @@ void learn_joint_bhm(const BhmArgs& b, const LabelledPoints& pts, bool spacing_g
     learner.update_by_scan(pts);
   else
     learner.update(pts);
-  write_map(learner.map(), b.output);
+  write_learned_map(&learner, learner.map(), b.output);
 }
 
 // The diagonal BHM of the samples, on a grid or a given prior map, on the device or the CPU.

@@ -203,7 +203,9 @@ int run_map(const MapArgs& a, const std::string& device) {
             << " rotations" << (a.cpu ? ", CPU reference" : "") << "\n";
   const MapJobResult r = run_map_job(ctx.get(), dict, scans, job);
   const KernelMap& overall = r.overall_map();
-  write_map(overall, a.out);
+  // RePOT's persistent map with its information form, for `potmap merge`.
+  const RepotMap* repot = r.mapper->repot();
+  write_learned_map(repot ? &repot->learner() : nullptr, overall, a.out);
 
   std::FILE* human = a.json == "-" ? stderr : stdout;
   print_summary(human, a, r);

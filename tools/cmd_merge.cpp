@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "potmap/error.hpp"
+#include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
 
 namespace potmap::cli {
@@ -65,6 +66,15 @@ int run_merge(const MergeArgs& a) {
 }
 
 }  // namespace
+
+void write_learned_map(const JointBhm* learner, const KernelMap& map, const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (learner && ext == ".potmap")
+    write_joint_bhm_map(*learner, path, &map);
+  else
+    write_map(map, path);
+}
 
 void register_merge(CLI::App& app, Runner& runner) {
   CLI::App* cmd = app.add_subcommand(

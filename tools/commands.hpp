@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "potmap/learn/bhm_joint.hpp"
+#include "potmap/map/kernel_map.hpp"
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::cli {
@@ -28,6 +30,9 @@ void add_seed_rule_flag(CLI::App* cmd, bool* yield_fully);
 
 /// A Context on the device named (or POTMAP_DEVICE, or the default), announced on stderr.
 Context make_context(const std::string& device, bool quiet = false);
+/// Writes `map` to `path`: with the joint BHM's information form (for `potmap merge`) when
+/// `learner` is given and the file is a .potmap, else the map alone (write_map()).
+void write_learned_map(const JointBhm* learner, const KernelMap& map, const std::string& path);
 /// The non-empty pieces of `s` between `sep` characters ("a,,b" gives a and b).
 std::vector<std::string> split_list(const std::string& s, char sep);
 

@@ -209,4 +209,13 @@ void JointBhmState::read_retired(ContainerCursor& c, JointBhm& m) {
   m.retired_index_ = std::move(index);
 }
 
+void JointBhmState::write_data_ids(ContainerWriter& w, const JointBhm& m) {
+  put_uints(w, m.data_ids_);
+}
+
+void JointBhmState::read_data_ids(ContainerCursor& c, JointBhm& m) {
+  if (c.at() == c.reader().payload_end()) return;
+  m.data_ids_ = c.uints<std::uint64_t>("data fingerprints");
+}
+
 }  // namespace potmap::detail

@@ -20,6 +20,11 @@ struct JointBhmState {
   /// mappers that never retire keep their layout): coordinates, means and variances.
   static void write_retired(ContainerWriter& w, const JointBhm& m);
   static void read_retired(ContainerCursor& c, JointBhm& m);
+  /// The data fingerprints (JointBhm::data_ids()), which write() leaves out too: states end
+  /// with them, and a state saved before them ends earlier, so read_data_ids() reads them only
+  /// when bytes are left before the checksum (none: the learner records no earlier scan).
+  static void write_data_ids(ContainerWriter& w, const JointBhm& m);
+  static void read_data_ids(ContainerCursor& c, JointBhm& m);
 };
 
 }  // namespace potmap::detail

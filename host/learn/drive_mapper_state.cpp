@@ -3,7 +3,8 @@
 // A container (io/container.hpp) "POTDRV\r\n", version 1: offset 12 u32 reserved (0), offset 16
 // u64 file size; then the caller's extra bytes, a fingerprint of the options that change the
 // map (u64), the keyframe count, the held-out samples (positions, labels, keyframe indices) and
-// the learner (learn/bhm_joint_state.hpp).
+// the learner (learn/bhm_joint_state.hpp) with its retired tiles and, last, its data
+// fingerprints (states saved before them end without them and read as before).
 #include <cstring>
 
 #include "io/container_cursor.hpp"
@@ -73,6 +74,7 @@ void DriveMapper::save_state(const std::string& path, const std::string& extra) 
   detail::put_uints(w, scans);
   detail::JointBhmState::write(w, learner_);
   detail::JointBhmState::write_retired(w, learner_);
+  detail::JointBhmState::write_data_ids(w, learner_);
   w.finish(path);
 }
 
@@ -107,6 +109,7 @@ std::string DriveMapper::load_state(const std::string& path) {
   JointBhm learner(3, o_.bhm);
   detail::JointBhmState::read(c, learner);
   detail::JointBhmState::read_retired(c, learner);
+  detail::JointBhmState::read_data_ids(c, learner);
   c.finish();
   learner_ = std::move(learner);
   test_ = std::move(test);

@@ -8,7 +8,8 @@
 // merge's counters, POT's overall map (pot/overall_map_state.hpp), a byte saying whether
 // the persistent RePOT learner follows (learn/bhm_joint_state.hpp), and, only when
 // MapperOptions::average_overall is on, the averaged overall map (pot/averaged_map_state.hpp;
-// states without it read as before).
+// states without it read as before), and with the persistent learner its data fingerprints
+// (last: states saved before them read as before, without them).
 #include <string>
 
 #include "io/container_cursor.hpp"
@@ -62,6 +63,7 @@ struct MapperState {
     put_u8(w, m.repot_ ? 1 : 0);
     if (m.repot_) JointBhmState::write(w, m.repot_->learner_);
     if (m.averaged_) AveragedMapState::write(w, *m.averaged_);
+    if (m.repot_) JointBhmState::write_data_ids(w, m.repot_->learner_);
     w.finish(path);
   }
 
@@ -116,6 +118,7 @@ struct MapperState {
       averaged.emplace(m.dict_->dim, m.options_.averaged);
       AveragedMapState::read(c, *averaged);
     }
+    if (repot) JointBhmState::read_data_ids(c, repot->learner_);
     c.finish();
     // Everything read: now the mapper changes, all at once.
     m.overall_ = std::move(overall);

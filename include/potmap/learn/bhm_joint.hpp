@@ -229,9 +229,9 @@ class JointBhm {
   /// Fingerprints of the data learned: one 64-bit hash of each non-empty scan update() added
   /// (its positions, labels and weights), in the order added, and those add_data_id() or a
   /// merge brought. Merging (bhm_joint_merge.hpp) refuses maps that share one, so a map is
-  /// never fused with itself, or with a map of the same scans, without being told to. A
-  /// restored mapper state does not hold them (its file predates them): only the scans learned
-  /// after the restore are then recorded.
+  /// never fused with itself, or with a map of the same scans, without being told to. Mapper
+  /// states and checkpoints keep them; one saved before them restores a learner that records
+  /// only the scans learned after the restore.
   const std::vector<std::uint64_t>& data_ids() const { return data_ids_; }
   /// Records that the map holds data known by `id` (a caller's own fingerprint of a scan,
   /// e.g. its log and time stamp).
