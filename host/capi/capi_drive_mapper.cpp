@@ -5,6 +5,8 @@
 
 #include "capi_handles.hpp"
 #include "capi_structs.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 
 namespace potmap::capi {
 namespace {
@@ -143,6 +145,18 @@ potmap_status potmap_drive_mapper_map(const potmap_drive_mapper* mapper, potmap_
     auto m = std::make_unique<potmap_map>();
     m->map = h.mapper->map();
     *out = m.release();
+  });
+}
+
+potmap_status potmap_drive_mapper_save_map(const potmap_drive_mapper* mapper, const char* path) {
+  return guard("potmap_drive_mapper_save_map", POTMAP_ERROR_IO, [&] {
+    const potmap::DriveMapper& m = *checked(mapper).mapper;
+    require(path, "path");
+    // A retired tile's couplings went into its neighbours' eta: no exact information form.
+    if (m.learner().retired_tiles() == 0 && potmap::capi::is_potmap_file(path))
+      potmap::write_joint_bhm_map(m.learner(), path);
+    else
+      potmap::write_map(m.map(), path);
   });
 }
 

@@ -100,6 +100,16 @@ inline potmap_dictionary& checked(const potmap_dictionary* h) {
 inline potmap_mapper& checked(const potmap_mapper* h) {
   return checked(const_cast<potmap_mapper*>(h), kMapperTag, "mapper");
 }
+/// Whether `path` names a .potmap file (any case): where a joint BHM's information form goes.
+inline bool is_potmap_file(const std::string& path) {
+  const std::size_t dot = path.rfind('.');
+  if (dot == std::string::npos || path.find('/', dot) != std::string::npos) return false;
+  std::string ext = path.substr(dot);
+  for (char& c : ext)
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  return ext == ".potmap";
+}
+
 inline potmap_drive_mapper& checked(const potmap_drive_mapper* h) {
   return checked(const_cast<potmap_drive_mapper*>(h), kDriveMapperTag, "drive mapper");
 }

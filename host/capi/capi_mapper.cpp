@@ -6,6 +6,8 @@
 
 #include "capi_handles.hpp"
 #include "capi_structs.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 
 namespace potmap::capi {
 namespace {
@@ -253,6 +255,18 @@ potmap_status potmap_mapper_overall_map(const potmap_mapper* mapper, potmap_map*
     const potmap::Mapper& m = *checked(mapper).mapper;
     require(out, "out");
     *out = copy_map(m.overall_map());
+  });
+}
+
+potmap_status potmap_mapper_save_overall_map(const potmap_mapper* mapper, const char* path) {
+  return guard("potmap_mapper_save_overall_map", POTMAP_ERROR_IO, [&] {
+    const potmap::Mapper& m = *checked(mapper).mapper;
+    require(path, "path");
+    const potmap::RepotMap* repot = m.repot();
+    if (repot && potmap::capi::is_potmap_file(path))
+      potmap::write_joint_bhm_map(repot->learner(), path, &repot->map());
+    else
+      potmap::write_map(m.overall_map(), path);
   });
 }
 

@@ -199,6 +199,21 @@ POTMAP_EXPORT potmap_status potmap_map_save(const potmap_map* map, const char* p
 /** Frees the map. Evaluators made from it hold their own copy and stay valid. NULL: no-op. */
 POTMAP_EXPORT potmap_status potmap_map_destroy(potmap_map* map);
 
+/** Merges joint BHM map files of overlapping places, each learned from its own data, exactly in
+ *  information form (precisions and information vectors added, the prior counted once, the
+ *  means solved again; docs/merging.md), and writes the result to `out` (.potmap, with its
+ *  information form, through a temporary file renamed into place). `paths` holds `count` >= 2
+ *  .potmap files written with their information form (potmap_mapper_save_overall_map,
+ *  potmap_drive_mapper_save_map, `potmap mapping`). allow_overlap 0 (the default to pass):
+ *  maps that learned the same scans, a map merged with itself among them, are refused; 1:
+ *  merged, those scans counted twice.
+ *  Errors: POTMAP_ERROR_INPUT (unreadable file, or one written without its information form:
+ *  the message names it), POTMAP_ERROR_INVALID_ARGUMENT (fewer than two maps, kernels or
+ *  priors that differ, shared scans, retired tiles: the message names both files and the
+ *  value), POTMAP_ERROR_IO (cannot write). */
+POTMAP_EXPORT potmap_status potmap_merge_maps(const char* const* paths, size_t count,
+                                              const char* out, int allow_overlap);
+
 /** *dim receives 2 or 3, *count the number of kernels. Both pointers required. */
 POTMAP_EXPORT potmap_status potmap_map_size(const potmap_map* map, int* dim, size_t* count);
 
@@ -590,6 +605,13 @@ POTMAP_EXPORT potmap_status potmap_mapper_instantaneous_map(const potmap_mapper*
 POTMAP_EXPORT potmap_status potmap_mapper_overall_map(const potmap_mapper* mapper,
                                                       potmap_map** out);
 
+/** Writes the overall map to `path`, format from the extension (potmap_map_save). RePOT's
+ *  persistent joint BHM into a .potmap also carries its information form, which
+ *  potmap_merge_maps needs; other maps and formats are the map alone.
+ *  Errors: POTMAP_ERROR_INVALID_ARGUMENT (unknown extension), POTMAP_ERROR_IO (cannot write). */
+POTMAP_EXPORT potmap_status potmap_mapper_save_overall_map(const potmap_mapper* mapper,
+                                                           const char* path);
+
 /** Forgets every scan (empty maps, scan index 0); keeps the context, dictionary and options. */
 POTMAP_EXPORT potmap_status potmap_mapper_reset(potmap_mapper* mapper);
 
@@ -688,6 +710,13 @@ POTMAP_EXPORT potmap_status potmap_drive_mapper_add_keyframe(potmap_drive_mapper
  *  when the map is needed, not after every keyframe. */
 POTMAP_EXPORT potmap_status potmap_drive_mapper_map(const potmap_drive_mapper* mapper,
                                                     potmap_map** out);
+
+/** Writes the map to `path`, format from the extension (potmap_map_save). Into a .potmap, the
+ *  joint BHM's information form (for potmap_merge_maps) goes with it when no tile was retired
+ *  (options retire_radius 0); otherwise the map alone.
+ *  Errors: POTMAP_ERROR_INVALID_ARGUMENT (unknown extension), POTMAP_ERROR_IO (cannot write). */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_save_map(const potmap_drive_mapper* mapper,
+                                                         const char* path);
 
 /** The held-out samples kept: *n samples, their positions (3 doubles each) and labels (1
  *  occupied, 0 free), borrowed: valid until the next add_keyframe, load_state or destroy. */

@@ -1,5 +1,6 @@
 // C API: a real drive read as a dataset, mapped keyframe by keyframe by the drive mapper, scored
 // on its held-out samples; options, stats and states checked as every C API struct is.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <string>
@@ -202,4 +203,58 @@ TEST(CApiDriveMapper, SumsRunWhereTheOptionsSay) {
   EXPECT_GT(kernels[0], 1000u);
   EXPECT_EQ(kernels[0], kernels[1]);
   POTMAP_ASSERT_OK(potmap_dataset_destroy(data));
+}
+
+// Two drive mappers of the two halves of a few keyframes, saved with their information form
+// and merged from C; the map merged with itself, and a map without the form, refused.
+TEST(CApiDriveMapper, HalvesSavedAndMerged) {
+  potmap_dataset* data = nullptr;
+  POTMAP_ASSERT_OK(potmap_dataset_load(shared_data("drives3d/hku-1").c_str(), &data));
+  potmap_drive_mapper_options o;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_options_init(&o, sizeof o));
+  o.range_cut = 20;
+  o.retire_radius = 0;  // every tile kept: the information form is whole
+  potmap_drive_mapper *a = nullptr, *b = nullptr;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), &o, &a));
+  POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), &o, &b));
+  potmap_scan s;
+  POTMAP_ASSERT_OK(potmap_scan_init(&s, sizeof s));
+  for (size_t i = 0; i < 4; ++i) {
+    POTMAP_ASSERT_OK(potmap_dataset_scan(data, i, &s));
+    POTMAP_ASSERT_OK(potmap_drive_mapper_add_keyframe(i < 2 ? a : b, &s, int64_t(i), nullptr));
+  }
+  const std::string dir = temp_dir("capi-merge");
+  const std::string pa = dir + "/a.potmap", pb = dir + "/b.potmap", pc = dir + "/c.potmap";
+  const std::string plain = dir + "/plain.potmap";
+  POTMAP_ASSERT_OK(potmap_drive_mapper_save_map(a, pa.c_str()));
+  POTMAP_ASSERT_OK(potmap_drive_mapper_save_map(b, pb.c_str()));
+  potmap_map* am = nullptr;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_map(a, &am));
+  POTMAP_ASSERT_OK(potmap_map_save(am, plain.c_str()));
+  const char* ab[] = {pa.c_str(), pb.c_str()};
+  POTMAP_ASSERT_OK(potmap_merge_maps(ab, 2, pc.c_str(), 0));
+  potmap_map *c = nullptr, *bm = nullptr;
+  POTMAP_ASSERT_OK(potmap_map_load(pc.c_str(), &c));
+  POTMAP_ASSERT_OK(potmap_drive_mapper_map(b, &bm));
+  int dim = 0;
+  size_t kc = 0, ka = 0, kb = 0;
+  POTMAP_ASSERT_OK(potmap_map_size(c, &dim, &kc));
+  POTMAP_ASSERT_OK(potmap_map_size(am, &dim, &ka));
+  POTMAP_ASSERT_OK(potmap_map_size(bm, &dim, &kb));
+  EXPECT_GE(kc, std::max(ka, kb));  // the union of the halves' tiles
+  EXPECT_LE(kc, ka + kb);
+  const char* aa[] = {pa.c_str(), pa.c_str()};
+  POTMAP_EXPECT_FAIL(potmap_merge_maps(aa, 2, pc.c_str(), 0), POTMAP_ERROR_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(potmap_last_error(), "scan fingerprints")) << potmap_last_error();
+  POTMAP_ASSERT_OK(potmap_merge_maps(aa, 2, (dir + "/aa.potmap").c_str(), 1));
+  const char* ap[] = {pa.c_str(), plain.c_str()};
+  POTMAP_EXPECT_FAIL(potmap_merge_maps(ap, 2, pc.c_str(), 0), POTMAP_ERROR_INPUT);
+  EXPECT_TRUE(contains(potmap_last_error(), "plain.potmap: written without its information form"))
+      << potmap_last_error();
+  POTMAP_EXPECT_FAIL(potmap_merge_maps(ab, 1, pc.c_str(), 0), POTMAP_ERROR_INVALID_ARGUMENT);
+  POTMAP_EXPECT_FAIL(potmap_merge_maps(nullptr, 2, pc.c_str(), 0), POTMAP_ERROR_NULL_ARGUMENT);
+  for (potmap_map* m : {am, bm, c}) potmap_map_destroy(m);
+  potmap_drive_mapper_destroy(a);
+  potmap_drive_mapper_destroy(b);
+  potmap_dataset_destroy(data);
 }
