@@ -15,6 +15,7 @@
 #include "capi_test_support.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/learn/bhm.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/mapper.hpp"
 #include "potmap/runtime/context.hpp"
@@ -947,4 +948,46 @@ TEST(CApiMapper, SavedStateContinuesBitForBit) {
     for (potmap_mapper* m : {whole, first, resumed, elsewise})
       POTMAP_ASSERT_OK(potmap_mapper_destroy(m));
   }
+}
+
+// Two C mappers of two parts of a path save RePOT's persistent maps with their information form;
+// potmap_merge_maps fuses them as the C++ library fuses the C++ mappers' learners. POT's overall
+// map has no such form and is refused.
+TEST(CApiMapper, PersistentMapsSavedAndMerged) {
+  const Source& src = source();
+  const auto dict = cpp_dictionary(src);
+  const potmap_mapper_options o = fast_options(1);
+  potmap_mapper *a = nullptr, *b = nullptr, *pot = nullptr;
+  POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &a));
+  POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &o, &b));
+  const potmap_mapper_options po = fast_options(0);
+  POTMAP_ASSERT_OK(potmap_mapper_create(shared_context(), src.dict, &po, &pot));
+  potmap::Mapper ca(&cpp_context(), dict, cpp_options(1)), cb(&cpp_context(), dict, cpp_options(1));
+  const std::vector<RoomScan> path = targets(4);
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const potmap_scan s = path[i].scan();
+    POTMAP_ASSERT_OK(potmap_mapper_add_scan(i < 2 ? a : b, &s, nullptr));
+    (i < 2 ? ca : cb).add_scan(to_cpp(path[i]));
+    if (i == 0) POTMAP_ASSERT_OK(potmap_mapper_add_scan(pot, &s, nullptr));
+  }
+  const std::string dir = temp_dir("capi-mapper-merge");
+  const std::string pa = dir + "/a.potmap", pb = dir + "/b.potmap", pc = dir + "/c.potmap";
+  const std::string pp = dir + "/pot.potmap";
+  POTMAP_ASSERT_OK(potmap_mapper_save_overall_map(a, pa.c_str()));
+  POTMAP_ASSERT_OK(potmap_mapper_save_overall_map(b, pb.c_str()));
+  POTMAP_ASSERT_OK(potmap_mapper_save_overall_map(pot, pp.c_str()));
+  const char* ab[] = {pa.c_str(), pb.c_str()};
+  POTMAP_ASSERT_OK(potmap_merge_maps(ab, 2, pc.c_str(), 0));
+  potmap_map* c = nullptr;
+  POTMAP_ASSERT_OK(potmap_map_load(pc.c_str(), &c));
+  const potmap::JointBhm fused =
+      potmap::merge_joint_bhm({&ca.repot()->learner(), &cb.repot()->learner()});
+  expect_same(read_back(c), fused.map(), "merged map");
+  const char* ap[] = {pa.c_str(), pp.c_str()};
+  POTMAP_EXPECT_FAIL(potmap_merge_maps(ap, 2, pc.c_str(), 0), POTMAP_ERROR_INPUT);
+  EXPECT_TRUE(contains(potmap_last_error(), "pot.potmap: written without its information form"))
+      << potmap_last_error();
+  POTMAP_EXPECT_FAIL(potmap_mapper_save_overall_map(a, nullptr), POTMAP_ERROR_NULL_ARGUMENT);
+  potmap_map_destroy(c);
+  for (potmap_mapper* m : {a, b, pot}) potmap_mapper_destroy(m);
 }
