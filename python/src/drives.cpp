@@ -3,12 +3,17 @@
 
 #include <pybind11/stl.h>
 
+#include <cctype>
+#include <filesystem>
+
 #include <memory>
 #include <mutex>
 
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "potmap/data/drive.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/learn/drive_mapper.hpp"
 #include "potmap/runtime/context.hpp"
 
@@ -156,6 +161,22 @@ void bind_drives(py::module_& m) {
             return d.m.map();
           },
           "The KernelMap of every keyframe so far (retired tiles included).")
+      .def(
+          "save_map",
+          [](PyDriveMapper& d, const std::string& path) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(*d.mu);
+            std::string ext = std::filesystem::path(path).extension().string();
+            for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+            // A retired tile's couplings went into its neighbours' eta: no exact form then.
+            if (d.m.learner().retired_tiles() == 0 && ext == ".potmap")
+              write_joint_bhm_map(d.m.learner(), path);
+            else
+              write_map(d.m.map(), path);
+          },
+          "path"_a,
+          "Writes the map (format by extension). Into a .potmap with no tile retired\n"
+          "(retire_radius 0) the joint BHM's information form goes with it, for merge_maps().")
       .def_property_readonly(
           "held_out",
           [](PyDriveMapper& d) {

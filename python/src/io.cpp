@@ -2,9 +2,13 @@
 
 #include <pybind11/stl.h>
 
+#include <optional>
+#include <vector>
+
 #include "bindings.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 
 namespace potmap::python {
 
@@ -28,6 +32,35 @@ void bind_io(py::module_& m) {
       "map"_a, "path"_a,
       "Writes a KernelMap as .csv, .npz or .potmap (by extension), through a temporary file\n"
       "and a rename. ArgumentError for an unknown extension or an invalid map.");
+  m.def(
+      "merge_maps",
+      [](const std::vector<std::string>& paths, const std::string& out, bool allow_overlap) {
+        py::gil_scoped_release unlocked;
+        if (paths.size() < 2)
+          throw ArgumentError("merge: give at least two maps, got " + std::to_string(paths.size()));
+        std::vector<JointBhm> maps;
+        JointBhmMergeOptions o;
+        o.allow_overlap = allow_overlap;
+        o.names = paths;
+        for (const std::string& p : paths) {
+          std::optional<JointBhm> m = read_joint_bhm_information(p);
+          if (!m)
+            throw InputError(p +
+                             ": written without its information form: it cannot be "
+                             "merged exactly");
+          maps.push_back(std::move(*m));
+        }
+        std::vector<const JointBhm*> ptrs;
+        for (const JointBhm& m : maps) ptrs.push_back(&m);
+        write_joint_bhm_map(merge_joint_bhm(ptrs, o), out);
+      },
+      "paths"_a, "out"_a, "allow_overlap"_a = false,
+      "Merges joint BHM .potmap maps of overlapping places (RePOT's persistent maps, a drive's\n"
+      "joint BHM) exactly in information form: precisions and information vectors added, the\n"
+      "prior counted once, the means solved again; writes `out` (.potmap) with its form.\n"
+      "InputError for a map written without its information form; ArgumentError for maps\n"
+      "whose kernels or priors differ, or that learned the same scans (allow_overlap=True\n"
+      "merges those, counting them twice). docs/merging.md.");
   m.def("read_labelled_csv", &read_labelled_csv, "path"_a, release(),
         "Reads labelled samples `t,x,y[,z],occupied` (header line; columns by name).");
   m.def("write_labelled_csv", &write_labelled_csv, "points"_a, "path"_a, release(),

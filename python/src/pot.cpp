@@ -3,11 +3,16 @@
 
 #include <pybind11/stl.h>
 
+#include <cctype>
+#include <filesystem>
+
 #include <mutex>
 #include <type_traits>
 
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "potmap/pot/mapper.hpp"
@@ -441,6 +446,22 @@ void bind_pot_mapper(py::module_& m) {
             return lm.mapper.overall_map();
           },
           "The overall KernelMap (POT: merged; RePOT: the persistent BHM's export, with a bias).")
+      .def(
+          "save_overall_map",
+          [](LockedMapper& lm, const std::string& path) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(lm.mu);
+            const RepotMap* repot = lm.mapper.repot();
+            std::string ext = std::filesystem::path(path).extension().string();
+            for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+            if (repot && ext == ".potmap")
+              write_joint_bhm_map(repot->learner(), path, &repot->map());
+            else
+              write_map(lm.mapper.overall_map(), path);
+          },
+          "path"_a,
+          "Writes the overall map (format by extension). RePOT's persistent map into a .potmap\n"
+          "carries its information form, for merge_maps(); other maps are the map alone.")
       .def_property_readonly("overall_kernels", locked(&Mapper::overall_kernels))
       .def_property_readonly("overall_memory_bytes", locked(&Mapper::overall_memory_bytes))
       .def_property_readonly("scans", locked(&Mapper::scans),

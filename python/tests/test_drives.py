@@ -100,3 +100,25 @@ def test_the_learners_sums_run_where_the_options_say(ctx):
     assert runs["host"][0] == runs["device"][0] > 1000
     assert abs(runs["host"][1].auc - runs["device"][1].auc) < 1e-4
     assert abs(runs["host"][1].nll - runs["device"][1].nll) < 1e-4
+
+
+def test_two_drive_mappers_saved_and_merged(tmp_path):
+    # Each half of four keyframes in its own mapper, every tile kept so that the map files carry
+    # the information form; merged, the map covers both halves' kernels.
+    d = potmap.open_drive(HKU)
+    halves = [potmap.DriveMapper(range_cut=20, retire_radius=0) for _ in range(2)]
+    for i in range(4):
+        halves[i // 2].add(d.keyframe(i), i)
+    paths = [str(tmp_path / f"{n}.potmap") for n in "ab"]
+    for m, p in zip(halves, paths):
+        m.save_map(p)
+    out = str(tmp_path / "both.potmap")
+    potmap.merge_maps(paths, out)
+    both = potmap.read_map(out)
+    sizes = [len(m.map()) for m in halves]
+    assert max(sizes) <= len(both) <= sum(sizes)
+    with pytest.raises(potmap.ArgumentError, match="scan fingerprints"):
+        potmap.merge_maps([paths[0], paths[0]], str(tmp_path / "aa.potmap"))
+    potmap.write_map(halves[0].map(), str(tmp_path / "plain.potmap"))
+    with pytest.raises(potmap.InputError, match="without its information form"):
+        potmap.merge_maps([paths[0], str(tmp_path / "plain.potmap")], out)
