@@ -105,6 +105,39 @@ TEST(JointBhmMerge, MapsOfTwoScansAreOneMapOfBoth) {
   EXPECT_LT(c.last_stats().residual, 1e-7);
 }
 
+TEST(JointBhmMerge, BoundedMapsOfTwoScansAreOneMapOfBoth) {
+  // Grids clipped to the same bounds (`potmap learn bhm --bounds`), the walls reaching past them.
+  const double lo[3] = {-0.5, -0.5, 0}, hi[3] = {5, 3, 0};
+  const LabelledPoints s1 = wall_scan(0, 40), s2 = wall_scan(2.5, 41);
+  JointBhm a(2, lo, hi, one_round()), b(2, lo, hi, one_round()), both(2, lo, hi, one_round());
+  a.update(s1);
+  b.update(s2);
+  both.update(joined(s1, s2));
+  const JointBhm c = merge_joint_bhm({&a, &b});
+  expect_same_posterior(c, both, 1e-9);
+  EXPECT_EQ(c.size(), both.size());
+}
+
+TEST(JointBhmMerge, SeedsYieldToTheOtherMapsData) {
+  // Map 1 seeded a stretch of the wall (RePOT's transported kernels) that only map 2's samples
+  // reach: merged, those kernels hold map 2's data over the plain prior, as one map of both
+  // scans has them, the seed gone.
+  const LabelledPoints s1 = wall_scan(-3, 42), s2 = wall_scan(0.5, 43);
+  JointBhm a(2, one_round()), b(2, one_round()), both(2, one_round());
+  a.update(s1);
+  KernelMap field;
+  field.dim = 2;
+  for (double x = 2; x <= 3; x += 0.25) {
+    const double p[3] = {x, 2.0, 0};
+    field.push_back(p, 20.0, 3.0, 1.0);
+  }
+  ASSERT_GT(a.seed_unreached(field), 0u);
+  b.update(s2);
+  both.update(joined(s1, s2));
+  expect_same_posterior(merge_joint_bhm({&a, &b}), both, 1e-9);
+  expect_same_posterior(merge_joint_bhm({&b, &a}), both, 1e-9);
+}
+
 TEST(JointBhmMerge, PriorCountedOnceWhenTheSameScanIsMergedOnPurpose) {
   // A scan merged with itself (allowed) holds twice its data over one prior: the map of the
   // scan learned once with every sample's weight 2.
