@@ -410,7 +410,9 @@ DriveSplit drive_split(const std::string& drive, std::size_t keyframes) {
 TEST(JointBhmMerge, TwoRobotsOnDrivesScoreAsOne) {
   // hku-1 walks one campus (the halves overlap); riverside-a drives a road (they meet where the
   // first half ends), 40 keyframes there: without retiring, its tiles would hold a gigabyte.
-  // POTMAP_MERGE_KEYFRAMES sets both counts.
+  // POTMAP_MERGE_KEYFRAMES sets both counts. Measured (PoCL, 2-core EPYC, 30 s), merged minus
+  // whole: hku-1 AUC -0.0002 NLL +0.0017, riverside-a (40) -0.0001 +0.0010; the first half
+  // alone: +0.010 and +0.102 NLL.
   const char* env = std::getenv("POTMAP_MERGE_KEYFRAMES");
   for (const auto& [drive, full] : {std::pair<const char*, std::size_t>{"hku-1", 314},
                                     std::pair<const char*, std::size_t>{"riverside-a", 40}}) {
