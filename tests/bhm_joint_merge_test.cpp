@@ -99,8 +99,8 @@ TEST(JointBhmMerge, MapsOfTwoScansAreOneMapOfBoth) {
   c.predict_exact(x.data(), 1, mc.data(), vc.data());
   EXPECT_GT(mc[0] - m1[0], 1.0);
   EXPECT_LT(vc[0], 0.5 * v1[0]);
-  // The exported means are solved, not averaged: the map's logit at the points is the
-  // posterior's (the map's kernels reproduce the exact mean to the CG's tolerance).
+  // Both maps' scans are recorded, and the means were solved (not left at the two maps'
+  // average, the solve's start) to the solve's tolerance.
   EXPECT_EQ(c.data_ids().size(), 2u);
   EXPECT_LT(c.last_stats().residual, 1e-7);
 }

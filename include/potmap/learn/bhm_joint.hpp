@@ -231,7 +231,8 @@ class JointBhm {
   /// merge brought. Merging (bhm_joint_merge.hpp) refuses maps that share one, so a map is
   /// never fused with itself, or with a map of the same scans, without being told to. Mapper
   /// states and checkpoints keep them; one saved before them restores a learner that records
-  /// only the scans learned after the restore.
+  /// only the scans learned after the restore. 8 bytes a scan, the one part of the learner that
+  /// grows with the number of scans rather than the area (left out of memory_bytes()).
   const std::vector<std::uint64_t>& data_ids() const { return data_ids_; }
   /// Records that the map holds data known by `id` (a caller's own fingerprint of a scan,
   /// e.g. its log and time stamp).
