@@ -18,6 +18,7 @@
 #include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
+#include "potmap/pot/averaged_map.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -427,6 +428,84 @@ TEST(JointBhmMerge, TwoRobotsOnDrivesScoreAsOne) {
     EXPECT_LE(std::abs(r.merged.auc - r.whole.auc), 0.005) << drive;
     EXPECT_LE(std::abs(r.merged.nll - r.whole.nll), 0.01) << drive;
   }
+}
+
+}  // namespace
+
+namespace {
+
+// POT's averaged map added to another (AveragedMap::add_map): its anchors' running sums add.
+KernelMap square_of_kernels(double x0, double value) {
+  KernelMap k;
+  k.dim = 2;
+  for (double x = x0; x < x0 + 4; x += 0.5)
+    for (double y = 0; y < 4; y += 0.5) {
+      const double p[3] = {x, y, 0};
+      k.push_back(p, 6.7, y < 2 ? value : -value, 0.5 + 0.1 * x);
+    }
+  return k;
+}
+
+TEST(AveragedMapAdd, SelfAddKeepsTheAveragesAndOtherGridsAreRefused) {
+  AveragedMap a(2);
+  a.add(square_of_kernels(0, 2));
+  a.add(square_of_kernels(2, 1));
+  AveragedMap twice = a;
+  twice.add_map(twice);
+  // Every sum doubled: the averages, so the variances (the averaged variances spread by each
+  // anchor's partition), are the map's own; the weights are solved again (more sweeps).
+  ASSERT_EQ(twice.map().size(), a.map().size());
+  for (std::size_t k = 0; k < a.map().size(); ++k) {
+    EXPECT_NEAR(twice.map().w_var[k], a.map().w_var[k], 1e-12 * a.map().w_var[k]) << k;
+    EXPECT_EQ(twice.map().gamma[k], a.map().gamma[k]) << k;
+  }
+  // A map of other scans: its anchors join, the shared ones average both maps' scans.
+  AveragedMap b(2);
+  b.add(square_of_kernels(5, 3));
+  AveragedMap ab = a;
+  ab.add_map(b);
+  EXPECT_GT(ab.map().size(), a.map().size());
+  EXPECT_LT(ab.map().size(), a.map().size() + b.map().size());
+  AveragedMapOptions coarse;
+  coarse.spacing = 0.5;
+  AveragedMap c(2, coarse);
+  c.add(square_of_kernels(0, 2));
+  EXPECT_THROW(ab.add_map(c), ArgumentError);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(MergeCli, AveragedMapsMergeByTheirSumsAndKindsDoNotMix) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap CLI not built";
+  const std::string dir = test::temp_dir("merge_cli_averaged");
+  AveragedMap a(2), b(2);
+  a.add(square_of_kernels(0, 2));
+  b.add(square_of_kernels(3, 1));
+  write_averaged_map(a, dir + "/a.potmap");
+  write_averaged_map(b, dir + "/b.potmap");
+  // The file reads back as the map it was (map and sums), and as an ordinary map.
+  const std::optional<AveragedMap> back = read_averaged_map_information(dir + "/a.potmap");
+  ASSERT_TRUE(back.has_value());
+  test::expect_same_map(back->map(), a.map());
+  test::expect_same_map(read_map(dir + "/a.potmap"), a.map());
+  EXPECT_FALSE(read_joint_bhm_information(dir + "/a.potmap").has_value());
+  const auto ok =
+      test::run_cli("merge " + test::quoted(dir + "/a.potmap") + " " +
+                    test::quoted(dir + "/b.potmap") + " -o " + test::quoted(dir + "/c.potmap"));
+  ASSERT_EQ(ok.status, 0) << ok.out;
+  AveragedMap want = a;
+  want.add_map(b);
+  test::expect_same_map(read_map(dir + "/c.potmap"), want.map());
+  JointBhm j(2);
+  j.update(wall_scan(0, 50));
+  write_joint_bhm_map(j, dir + "/j.potmap");
+  const auto mixed =
+      test::run_cli("merge " + test::quoted(dir + "/a.potmap") + " " +
+                    test::quoted(dir + "/j.potmap") + " -o " + test::quoted(dir + "/x.potmap"));
+  EXPECT_NE(mixed.status, 0);
+  EXPECT_NE(mixed.out.find("maps of one kind merge"), std::string::npos) << mixed.out;
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/io/ros_map.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "potmap/pot/fingerprint.hpp"
 #include "progress.hpp"
@@ -203,9 +204,8 @@ int run_map(const MapArgs& a, const std::string& device) {
             << " rotations" << (a.cpu ? ", CPU reference" : "") << "\n";
   const MapJobResult r = run_map_job(ctx.get(), dict, scans, job);
   const KernelMap& overall = r.overall_map();
-  // RePOT's persistent map with its information form, for `potmap merge`.
-  const RepotMap* repot = r.mapper->repot();
-  write_learned_map(repot ? &repot->learner() : nullptr, overall, a.out);
+  // With what `potmap merge` needs (RePOT's information form, POT's anchor sums).
+  write_mapper_map(*r.mapper, a.out);
 
   std::FILE* human = a.json == "-" ? stderr : stdout;
   print_summary(human, a, r);

@@ -19,6 +19,7 @@
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/io/ros_map.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
 
@@ -117,10 +118,9 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   const KernelMap& map = r.overall_map();
   if (map.empty()) throw InputError("mapping: " + a.log + " gave an empty map");
   const std::string map_file = (fs::path(dir) / "map.potmap").string();
-  // RePOT's persistent map is a joint BHM: its information form goes with it, so that maps of
-  // the same place made apart can be merged exactly (`potmap merge`).
-  const RepotMap* repot = r.mapper->repot();
-  write_learned_map(repot ? &repot->learner() : nullptr, map, map_file);
+  // With what merging needs (RePOT: the joint BHM's information form; POT: the averaged map's
+  // anchor sums), so that maps of the same place made apart can be merged (`potmap merge`).
+  write_mapper_map(*r.mapper, map_file);
   const std::string prefix = (fs::path(dir) / "map").string();
   const double z = dict.dim == 3 ? scans.front().origin()[2] : 0;
   const double res = picture_resolution(map, 5, a.picture_pixels);

@@ -21,48 +21,82 @@ struct MergeArgs {
   bool allow_overlap = false;
 };
 
-JointBhm read_mergeable(const std::string& path) {
+// A map file's mergeable form: a joint BHM's information form or POT's averaged map's sums.
+struct Mergeable {
+  std::optional<JointBhm> joint;
+  std::optional<AveragedMap> averaged;
+};
+
+Mergeable read_mergeable(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext != ".potmap")
     throw InputError(path + ": a '" + ext +
                      "' map holds means and variances only: written without its information "
                      "form, it cannot be merged exactly");
-  std::optional<JointBhm> m = read_joint_bhm_information(path);
-  if (!m)
+  Mergeable m;
+  m.joint = read_joint_bhm_information(path);
+  if (!m.joint) m.averaged = read_averaged_map_information(path);
+  if (!m.joint && !m.averaged)
     throw InputError(path +
-                     ": written without its information form (a map of POT's averaged maps, "
-                     "ABHM, or a build before merging): it cannot be merged exactly");
-  return std::move(*m);
+                     ": written without its information form (a map of ABHM, of POT's summed "
+                     "kernels, a .csv or .npz, or a build before merging): it cannot be merged "
+                     "exactly");
+  return m;
 }
 
-int run_merge(const MergeArgs& a) {
-  if (a.maps.size() < 2)
-    throw ArgumentError("merge: give at least two maps, got " + std::to_string(a.maps.size()));
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<JointBhm> maps;
-  maps.reserve(a.maps.size());
-  for (const std::string& p : a.maps) {
-    maps.push_back(read_mergeable(p));
-    std::printf("input          %s: %zu kernels, %zu scans\n", p.c_str(), maps.back().size(),
-                maps.back().data_ids().size());
-  }
+int merge_joint(const MergeArgs& a, std::vector<Mergeable>& in) {
   std::vector<const JointBhm*> ptrs;
-  for (const JointBhm& m : maps) ptrs.push_back(&m);
+  for (const Mergeable& m : in) ptrs.push_back(&*m.joint);
   JointBhmMergeOptions o;
   o.allow_overlap = a.allow_overlap;
   o.names = a.maps;
   const JointBhm c = merge_joint_bhm(ptrs, o);
   const KernelMap exported = c.map();
   write_joint_bhm_map(c, a.out, &exported);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf(
       "merged         %zu kernels, %zu scans; means solved in %zu CG iterations, "
       "relative residual %.1e\n",
       c.size(), c.data_ids().size(), c.last_stats().cg_iterations, c.last_stats().residual);
-  std::printf("wrote          %s (%.2f s)\n", a.out.c_str(), seconds);
   return 0;
+}
+
+int merge_averaged(const MergeArgs& a, std::vector<Mergeable>& in) {
+  AveragedMap c = std::move(*in[0].averaged);
+  for (std::size_t i = 1; i < in.size(); ++i) c.add_map(*in[i].averaged);
+  write_averaged_map(c, a.out);
+  std::printf(
+      "merged         %zu anchors (POT's averaged maps: anchor sums added, weights "
+      "solved again)\n",
+      c.size());
+  return 0;
+}
+
+int run_merge(const MergeArgs& a) {
+  if (a.maps.size() < 2)
+    throw ArgumentError("merge: give at least two maps, got " + std::to_string(a.maps.size()));
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<Mergeable> in;
+  for (const std::string& p : a.maps) {
+    in.push_back(read_mergeable(p));
+    const Mergeable& m = in.back();
+    if (m.joint)
+      std::printf("input          %s: joint BHM, %zu kernels, %zu scans\n", p.c_str(),
+                  m.joint->size(), m.joint->data_ids().size());
+    else
+      std::printf("input          %s: POT averaged map, %zu anchors\n", p.c_str(),
+                  m.averaged->size());
+    if (m.joint.has_value() != in.front().joint.has_value())
+      throw ArgumentError("merge: " + a.maps.front() + " is " +
+                          (in.front().joint ? "a joint BHM map" : "POT's averaged map") + ", " + p +
+                          " " + (m.joint ? "a joint BHM map" : "POT's averaged map") +
+                          ": maps of one kind merge");
+  }
+  const int rc = in.front().joint ? merge_joint(a, in) : merge_averaged(a, in);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("wrote          %s (%.2f s)\n", a.out.c_str(), seconds);
+  return rc;
 }
 
 }  // namespace
@@ -79,10 +113,11 @@ void write_learned_map(const JointBhm* learner, const KernelMap& map, const std:
 void register_merge(CLI::App& app, Runner& runner) {
   CLI::App* cmd = app.add_subcommand(
       "merge",
-      "Fuse joint BHM maps of overlapping places (RePOT's `potmap mapping` maps, BHM drives) "
-      "in information form: precisions and information vectors added, the prior counted once, "
-      "the means solved again (docs/merging.md). Maps must share the kernel lattice and prior; "
-      "maps of the same scans are refused");
+      "Fuse maps of overlapping places: joint BHM maps (RePOT's `potmap mapping` maps, BHM "
+      "drives) exactly in information form (precisions and information vectors added, the "
+      "prior counted once, the means solved again; maps must share the kernel lattice and "
+      "prior; maps of the same scans are refused); POT's averaged maps by adding their anchors' "
+      "sums (docs/merging.md)");
   auto a = std::make_shared<MergeArgs>();
   cmd->add_option("MAPS", a->maps, ".potmap maps written with their information form")
       ->required()

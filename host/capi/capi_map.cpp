@@ -80,24 +80,14 @@ potmap_status potmap_merge_maps(const char* const* paths, size_t count, const ch
   return guard("potmap_merge_maps", POTMAP_ERROR_IO, [&] {
     require(paths, "paths");
     require(out, "out");
-    if (count < 2)
-      throw potmap::ArgumentError("give at least two maps, got " + std::to_string(count));
-    std::vector<potmap::JointBhm> maps;
-    potmap::JointBhmMergeOptions o;
-    o.allow_overlap = allow_overlap != 0;
+    std::vector<std::string> files;
     for (size_t i = 0; i < count; ++i) {
       require(paths[i], "paths[i]");
-      std::optional<potmap::JointBhm> m = potmap::read_joint_bhm_information(paths[i]);
-      if (!m)
-        throw potmap::InputError(std::string(paths[i]) +
-                                 ": written without its information form: it cannot be merged "
-                                 "exactly");
-      maps.push_back(std::move(*m));
-      o.names.emplace_back(paths[i]);
+      files.emplace_back(paths[i]);
     }
-    std::vector<const potmap::JointBhm*> ptrs;
-    for (const potmap::JointBhm& m : maps) ptrs.push_back(&m);
-    potmap::write_joint_bhm_map(potmap::merge_joint_bhm(ptrs, o), out);
+    potmap::JointBhmMergeOptions o;
+    o.allow_overlap = allow_overlap != 0;
+    potmap::merge_map_files(files, out, o);
   });
 }
 

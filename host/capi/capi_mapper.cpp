@@ -262,11 +262,7 @@ potmap_status potmap_mapper_save_overall_map(const potmap_mapper* mapper, const 
   return guard("potmap_mapper_save_overall_map", POTMAP_ERROR_IO, [&] {
     const potmap::Mapper& m = *checked(mapper).mapper;
     require(path, "path");
-    const potmap::RepotMap* repot = m.repot();
-    if (repot && potmap::capi::is_potmap_file(path))
-      potmap::write_joint_bhm_map(repot->learner(), path, &repot->map());
-    else
-      potmap::write_map(m.overall_map(), path);
+    potmap::write_mapper_map(m, path);
   });
 }
 

@@ -18,6 +18,7 @@
 #include "io/map_io_native.hpp"
 #include "learn/bhm_joint_merge_detail.hpp"
 #include "learn/bhm_joint_state.hpp"
+#include "pot/averaged_map_state.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
 
@@ -25,7 +26,23 @@ namespace potmap {
 
 namespace {
 
-constexpr std::uint32_t kSectionLayout = 1;
+// The section's first u32: what follows.
+constexpr std::uint32_t kSectionLayout = 1;   // a joint BHM's information form
+constexpr std::uint32_t kAveragedLayout = 2;  // POT's averaged map: its anchors' sums
+
+void check_potmap_name(const std::string& path, const char* what) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext != ".potmap")
+    throw ArgumentError(path + ": " + what + " goes into a .potmap file, not '" + ext + "'");
+}
+
+// The section of a version 2 .potmap, at its layout field (0: the file has none).
+std::size_t section_of(const detail::ContainerReader& r) {
+  std::size_t at = 0;
+  detail::read_map_native_from(r, &at);
+  return at;
+}
 
 void put_options(detail::ContainerWriter& w, const JointBhm& m) {
   const JointBhmOptions& o = m.options();
@@ -86,11 +103,7 @@ JointBhm make_learner(detail::ContainerCursor& c) {
 
 void write_joint_bhm_map(const JointBhm& learner, const std::string& path,
                          const KernelMap* exported) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (ext != ".potmap")
-    throw ArgumentError(path + ": a joint BHM's information form goes into a .potmap file, not '" +
-                        ext + "'");
+  check_potmap_name(path, "a joint BHM's information form");
   std::optional<KernelMap> own;
   if (!exported) exported = &own.emplace(learner.map());
   if (exported->dim != detail::JointBhmMerge::dim(learner))
@@ -115,11 +128,11 @@ void write_joint_bhm_map(const JointBhm& learner, const std::string& path,
 
 std::optional<JointBhm> read_joint_bhm_information(const std::string& path) {
   const detail::ContainerReader r(path, detail::native_map_layout());
-  std::size_t at = 0;
-  detail::read_map_native_from(r, &at);
+  const std::size_t at = section_of(r);
   if (at == 0) return std::nullopt;
   detail::ContainerCursor c(r, at);
   const std::uint32_t layout = c.u32();
+  if (layout == kAveragedLayout) return std::nullopt;
   if (layout != kSectionLayout)
     r.fail(at, "unknown information form layout " + std::to_string(layout) +
                    " (this build reads layout " + std::to_string(kSectionLayout) + ")");
@@ -127,6 +140,42 @@ std::optional<JointBhm> read_joint_bhm_information(const std::string& path) {
   detail::JointBhmState::read(c, m);
   detail::JointBhmState::read_retired(c, m);
   for (std::uint64_t id : c.uints<std::uint64_t>("data fingerprints")) m.add_data_id(id);
+  c.finish();
+  return m;
+}
+
+void write_averaged_map(const AveragedMap& map, const std::string& path) {
+  check_potmap_name(path, "an averaged map's anchor sums");
+  detail::write_map_native_with_section(map.map(), path, [&](detail::ContainerWriter& w) {
+    w.u32(kAveragedLayout);
+    detail::AveragedMapState::write(w, map);
+  });
+}
+
+std::optional<AveragedMap> read_averaged_map_information(const std::string& path) {
+  const detail::ContainerReader r(path, detail::native_map_layout());
+  const std::size_t at = section_of(r);
+  if (at == 0) return std::nullopt;
+  detail::ContainerCursor c(r, at);
+  if (c.u32() != kAveragedLayout) return std::nullopt;
+  // The options the state was saved with come first; the map is built with them, then read.
+  detail::ContainerCursor peek = c;
+  const std::uint32_t dim = peek.u32();
+  AveragedMapOptions o;
+  o.spacing = peek.f64();
+  o.min_support = peek.f64();
+  o.ridge = peek.f64();
+  const double sweeps = peek.f64();
+  if (!(sweeps >= 0 && sweeps <= 1e6))
+    r.fail(c.at() + 28, "averaged map: sweeps " + std::to_string(sweeps));
+  o.sweeps = static_cast<int>(sweeps);
+  std::optional<AveragedMap> m;
+  try {
+    m.emplace(static_cast<int>(dim), o);
+  } catch (const ArgumentError& e) {
+    r.fail(c.at(), std::string("averaged map options: ") + e.what());
+  }
+  detail::AveragedMapState::read(c, *m);
   c.finish();
   return m;
 }

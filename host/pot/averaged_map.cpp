@@ -447,6 +447,86 @@ void AveragedMap::add(const KernelMap& inst) {
   solve_weights(box);
 }
 
+void AveragedMap::add_map(const AveragedMap& o) {
+  if (o.dim_ != dim_ || o.opt_.spacing != opt_.spacing || o.opt_.min_support != opt_.min_support ||
+      o.opt_.ridge != opt_.ridge)
+    throw ArgumentError("AveragedMap::add_map: the maps' dimension or anchor grid differ (" +
+                        std::to_string(dim_) + "D at " + std::to_string(opt_.spacing) + " m, " +
+                        std::to_string(o.dim_) + "D at " + std::to_string(o.opt_.spacing) + " m)");
+  if (o.map_.empty()) return;
+  if (&o == this) {  // its arrays grow below: add a copy
+    const AveragedMap copy = o;
+    add_map(copy);
+    return;
+  }
+  // One box over both maps' anchors (footprint() of a map holding every anchor of both).
+  KernelMap all = o.map_;
+  for (std::size_t k = 0; k < map_.size(); ++k)
+    all.push_back(&map_.position[k * std::size_t(dim_)], map_.gamma[k], 0.0, 0.0);
+  const Box box = footprint(all);
+  const std::int64_t *lo = box.lo, *n = box.n;
+  Workspace& work = ws_;
+  work.slot.resize(box.cells);
+  std::vector<std::int64_t>& slot = work.slot;
+  auto cell_index = [&](const std::int64_t g[3]) {
+    return std::size_t((g[0] - lo[0]) + n[0] * ((g[1] - lo[1]) + n[1] * (g[2] - lo[2])));
+  };
+  // Every anchor of the merged map is solved: this map's with the change of their averages,
+  // the other's new ones from zero.
+  std::vector<double> before(map_.size());
+  for (std::size_t a = 0; a < map_.size(); ++a) before[a] = sum_sm_[a] / sum_s_[a];
+  for (std::size_t k = 0; k < o.map_.size(); ++k) {
+    std::int64_t g[3] = {0, 0, 0};
+    for (int d = 0; d < dim_; ++d)
+      g[d] = cell(o.map_.position[k * std::size_t(dim_) + std::size_t(d)]);
+    std::int64_t a = -1;
+    slots_along_x(g, 1, &a);
+    if (a < 0) {
+      a = std::int64_t(map_.size());
+      set_slot(g, std::uint32_t(a));
+      map_.push_back(&o.map_.position[k * std::size_t(dim_)], o.map_.gamma[k], 0.0, 0.0);
+      for (std::vector<double>* v : {&sum_sm_, &sum_s_, &sum_sv_, &sum_sg_}) v->push_back(0);
+    }
+    const auto u = std::size_t(a);
+    sum_sm_[u] += o.sum_sm_[k];
+    sum_s_[u] += o.sum_s_[k];
+    sum_sv_[u] += o.sum_sv_[k];
+    sum_sg_[u] += o.sum_sg_[k];
+    map_.gamma[u] = sum_sg_[u] / sum_s_[u];
+  }
+  for (std::int64_t z = 0; z < n[2]; ++z)
+    for (std::int64_t y = 0; y < n[1]; ++y) {
+      const std::int64_t c[3] = {lo[0], lo[1] + y, lo[2] + z};
+      slots_along_x(c, std::size_t(n[0]), &slot[std::size_t(n[0] * (y + n[1] * z))]);
+    }
+  work.active.clear();
+  work.change.clear();
+  for (std::size_t a = 0; a < map_.size(); ++a) {
+    std::int64_t g[3] = {0, 0, 0};
+    for (int d = 0; d < dim_; ++d)
+      g[d] = cell(map_.position[a * std::size_t(dim_) + std::size_t(d)]);
+    work.active.push_back(cell_index(g));
+    work.change.push_back(a < before.size() ? -before[a] : 0.0);
+  }
+  // Raster order, as place_anchors() lists them: the sweeps' order.
+  std::vector<std::size_t> order(work.active.size());
+  for (std::size_t t = 0; t < order.size(); ++t) order[t] = t;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t x, std::size_t y) { return work.active[x] < work.active[y]; });
+  std::vector<std::size_t> active(order.size());
+  std::vector<double> change(order.size());
+  for (std::size_t t = 0; t < order.size(); ++t) {
+    active[t] = work.active[order[t]];
+    change[t] = work.change[order[t]];
+  }
+  work.active = std::move(active);
+  work.change = std::move(change);
+  const int sweeps = opt_.sweeps;
+  opt_.sweeps = std::max(sweeps, 30);
+  solve_weights(box);
+  opt_.sweeps = sweeps;
+}
+
 std::size_t AveragedMap::memory_bytes() const {
   std::size_t b = sizeof(*this);
   b += 8 * (map_.position.capacity() + map_.gamma.capacity() + map_.w_mean.capacity() +

@@ -199,14 +199,15 @@ POTMAP_EXPORT potmap_status potmap_map_save(const potmap_map* map, const char* p
 /** Frees the map. Evaluators made from it hold their own copy and stay valid. NULL: no-op. */
 POTMAP_EXPORT potmap_status potmap_map_destroy(potmap_map* map);
 
-/** Merges joint BHM map files of overlapping places, each learned from its own data, exactly in
- *  information form (precisions and information vectors added, the prior counted once, the
- *  means solved again; docs/merging.md), and writes the result to `out` (.potmap, with its
- *  information form, through a temporary file renamed into place). `paths` holds `count` >= 2
- *  .potmap files written with their information form (potmap_mapper_save_overall_map,
+/** Merges map files of overlapping places, each learned from its own data, and writes the
+ *  result to `out` (.potmap, ready to merge again, through a temporary file renamed into
+ *  place): joint BHM maps exactly in information form (precisions and information vectors
+ *  added, the prior counted once, the means solved again), POT's averaged maps by adding their
+ *  anchors' sums (docs/merging.md). `paths` holds `count` >= 2 .potmap files of one kind
+ *  written with what merging needs (potmap_mapper_save_overall_map,
  *  potmap_drive_mapper_save_map, `potmap mapping`). allow_overlap 0 (the default to pass):
- *  maps that learned the same scans, a map merged with itself among them, are refused; 1:
- *  merged, those scans counted twice.
+ *  joint BHM maps that learned the same scans, a map merged with itself among them, are
+ *  refused; 1: merged, those scans counted twice.
  *  Errors: POTMAP_ERROR_INPUT (unreadable file, or one written without its information form:
  *  the message names it), POTMAP_ERROR_INVALID_ARGUMENT (fewer than two maps, kernels or
  *  priors that differ, shared scans, retired tiles: the message names both files and the
@@ -605,9 +606,10 @@ POTMAP_EXPORT potmap_status potmap_mapper_instantaneous_map(const potmap_mapper*
 POTMAP_EXPORT potmap_status potmap_mapper_overall_map(const potmap_mapper* mapper,
                                                       potmap_map** out);
 
-/** Writes the overall map to `path`, format from the extension (potmap_map_save). RePOT's
- *  persistent joint BHM into a .potmap also carries its information form, which
- *  potmap_merge_maps needs; other maps and formats are the map alone.
+/** Writes the overall map to `path`, format from the extension (potmap_map_save). Into a
+ *  .potmap, RePOT's persistent joint BHM also carries its information form and POT's averaged
+ *  map its anchor sums, which potmap_merge_maps needs; other maps and formats are the map
+ *  alone.
  *  Errors: POTMAP_ERROR_INVALID_ARGUMENT (unknown extension), POTMAP_ERROR_IO (cannot write). */
 POTMAP_EXPORT potmap_status potmap_mapper_save_overall_map(const potmap_mapper* mapper,
                                                            const char* path);

@@ -36,28 +36,15 @@ void bind_io(py::module_& m) {
       "merge_maps",
       [](const std::vector<std::string>& paths, const std::string& out, bool allow_overlap) {
         py::gil_scoped_release unlocked;
-        if (paths.size() < 2)
-          throw ArgumentError("merge: give at least two maps, got " + std::to_string(paths.size()));
-        std::vector<JointBhm> maps;
         JointBhmMergeOptions o;
         o.allow_overlap = allow_overlap;
-        o.names = paths;
-        for (const std::string& p : paths) {
-          std::optional<JointBhm> m = read_joint_bhm_information(p);
-          if (!m)
-            throw InputError(p +
-                             ": written without its information form: it cannot be "
-                             "merged exactly");
-          maps.push_back(std::move(*m));
-        }
-        std::vector<const JointBhm*> ptrs;
-        for (const JointBhm& m : maps) ptrs.push_back(&m);
-        write_joint_bhm_map(merge_joint_bhm(ptrs, o), out);
+        merge_map_files(paths, out, o);
       },
       "paths"_a, "out"_a, "allow_overlap"_a = false,
-      "Merges joint BHM .potmap maps of overlapping places (RePOT's persistent maps, a drive's\n"
-      "joint BHM) exactly in information form: precisions and information vectors added, the\n"
-      "prior counted once, the means solved again; writes `out` (.potmap) with its form.\n"
+      "Merges .potmap maps of overlapping places: joint BHM maps (RePOT's persistent maps, a\n"
+      "drive's joint BHM) exactly in information form (precisions and information vectors\n"
+      "added, the prior counted once, the means solved again), POT's averaged maps by adding\n"
+      "their anchors' sums; writes `out` (.potmap) ready to merge again.\n"
       "InputError for a map written without its information form; ArgumentError for maps\n"
       "whose kernels or priors differ, or that learned the same scans (allow_overlap=True\n"
       "merges those, counting them twice). docs/merging.md.");

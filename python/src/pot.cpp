@@ -451,17 +451,12 @@ void bind_pot_mapper(py::module_& m) {
           [](LockedMapper& lm, const std::string& path) {
             py::gil_scoped_release release;
             std::lock_guard<std::mutex> lock(lm.mu);
-            const RepotMap* repot = lm.mapper.repot();
-            std::string ext = std::filesystem::path(path).extension().string();
-            for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-            if (repot && ext == ".potmap")
-              write_joint_bhm_map(repot->learner(), path, &repot->map());
-            else
-              write_map(lm.mapper.overall_map(), path);
+            write_mapper_map(lm.mapper, path);
           },
           "path"_a,
-          "Writes the overall map (format by extension). RePOT's persistent map into a .potmap\n"
-          "carries its information form, for merge_maps(); other maps are the map alone.")
+          "Writes the overall map (format by extension). Into a .potmap, RePOT's persistent map\n"
+          "carries its information form and POT's averaged map its anchor sums, for\n"
+          "merge_maps(); other maps are the map alone.")
       .def_property_readonly("overall_kernels", locked(&Mapper::overall_kernels))
       .def_property_readonly("overall_memory_bytes", locked(&Mapper::overall_memory_bytes))
       .def_property_readonly("scans", locked(&Mapper::scans),

@@ -60,6 +60,17 @@ class AveragedMap {
   /// its dimension differs or it fails KernelMap::validate.
   void add(const KernelMap& instantaneous);
 
+  /// Adds the scans of another averaged map of the same place, made apart (another robot):
+  /// its anchors' running sums are added to this map's anchor by anchor (anchors it has and
+  /// this map lacks are made), and the weights are solved again over the whole map, from this
+  /// map's weights moved by each average's change (max(sweeps, 30) sweeps: the change spans
+  /// the map, not one scan's footprint). The average is over both maps' scans as if one map
+  /// had seen them all, so a map added to itself, or to a map of the same scans, gives back
+  /// the same averages (each scan weighs as much as before: nothing is counted twice in the
+  /// sense of growing surer); only the solve's path differs from one map's. Throws
+  /// ArgumentError when the dimension or the options (spacing, min_support, ridge) differ.
+  void add_map(const AveragedMap& other);
+
   /// The solved kernel map (no bias), one kernel per anchor. Valid until the next add().
   const KernelMap& map() const { return map_; }
   std::size_t size() const { return map_.size(); }

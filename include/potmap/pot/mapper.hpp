@@ -315,6 +315,12 @@ class Mapper {
     settle();
     return repot_ ? &*repot_ : nullptr;
   }
+  /// POT's averaged overall map; null unless options().average_overall and no persistent
+  /// RePOT map.
+  const AveragedMap* averaged() const {
+    settle();
+    return averaged_ ? &*averaged_ : nullptr;
+  }
   /// Scans added since construction or reset().
   std::size_t scans() const { return scans_; }
   const Dictionary& dictionary() const { return *dict_; }
