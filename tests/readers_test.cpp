@@ -151,7 +151,7 @@ TEST(ReadersMalformed, UnknownFileNamesFormats) {
     FAIL() << "no InputError";
   } catch (const InputError& e) {
     const std::string m = e.what();
-    for (const char* n : {"junk.xyz", "no laser line", "'??junk???'", "RAWLASER1-4", ".bin", ".pcd",
+    for (const char* n : {"junk.xyz", "no laser line", "'?\?junk?\?\?'", "RAWLASER1-4", ".bin", ".pcd",
                           ".npz", ".csv", "poses.txt"})
       EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
     for (char c : m) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "non-printable byte in " << m;

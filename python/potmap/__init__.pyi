@@ -468,6 +468,10 @@ class DriveMapper:
     def map(self) -> KernelMap:
         """The KernelMap of every keyframe so far (retired tiles included)."""
         ...
+    def save_map(self, path: str) -> None:
+        """Writes the map (format by extension). Into a .potmap with no tile retired
+        (retire_radius 0) the joint BHM's information form goes with it, for merge_maps()."""
+        ...
     @property
     def held_out(self) -> LabelledPoints:
         """the held-out samples kept (LabelledPoints)"""
@@ -995,6 +999,11 @@ class Mapper:
         ...
     def overall_map(self) -> KernelMap:
         """The overall KernelMap (POT: merged; RePOT: the persistent BHM's export, with a bias)."""
+        ...
+    def save_overall_map(self, path: str) -> None:
+        """Writes the overall map (format by extension). Into a .potmap, RePOT's persistent map
+        carries its information form and POT's averaged map its anchor sums, for
+        merge_maps(); other maps are the map alone."""
         ...
     @property
     def overall_kernels(self) -> int:
@@ -1961,6 +1970,16 @@ def label_scan(scan: Scan, index: int = 0, free_per_metre: float = 1.0, holdout:
 def map_drive(path: str, first: int = 0, count: int = 0, ctx: Context = None, **kwargs: Any) -> DriveMapper:
     """Maps a drive folder in one call (count 0: to the end) and returns its DriveMapper
     (map(), held_out). Keyword arguments: DriveMapperOptions fields."""
+    ...
+
+def merge_maps(paths: List[str], out: str, allow_overlap: bool = False) -> None:
+    """Merges .potmap maps of overlapping places: joint BHM maps (RePOT's persistent maps, a
+    drive's joint BHM) exactly in information form (precisions and information vectors
+    added, the prior counted once, the means solved again), POT's averaged maps by adding
+    their anchors' sums; writes `out` (.potmap) ready to merge again.
+    InputError for a map written without its information form; ArgumentError for maps
+    whose kernels or priors differ, or that learned the same scans (allow_overlap=True
+    merges those, counting them twice). docs/merging.md."""
     ...
 
 def open_bag_drive(path: str, options: BagOptions = BagOptions(topic='', fixed_frame='', pose_topic='', max_range=0.0, keyframe_distance=1.0, keyframe_angle=0.26)) -> Drive:
