@@ -125,6 +125,12 @@ nlohmann::json summary_json(const DriveMappingArgs& a, const Drive& drive, const
   return j;
 }
 
+// How the drive's keyframes and poses were found, for the first line of the run.
+std::string layout_text(const Drive& drive) {
+  if (drive.layout == "rosbag") return "ROS bag, poses from " + drive.poses_file;
+  return drive.layout == "slam" ? "SLAM keyframes" : "KITTI";
+}
+
 }  // namespace
 
 int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
@@ -155,11 +161,7 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   }
   Context ctx = make_context(device);
   std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), %s\n", a.first,
-               end - 1, a.drive.c_str(),
-               drive.layout == "slam"     ? "SLAM keyframes"
-               : drive.layout == "rosbag" ? ("ROS bag, poses from " + drive.poses_file).c_str()
-                                          : "KITTI",
-               a.range_cut,
+               end - 1, a.drive.c_str(), layout_text(drive).c_str(), a.range_cut,
                mo.dictionary ? ("RePOT: the joint BHM seeded from " +
                                 std::to_string(mo.dictionary->size()) + " atoms of " + dict_file)
                                    .c_str()
