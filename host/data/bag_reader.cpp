@@ -281,10 +281,14 @@ BagSummary summarise_bag(const std::string& path, const BagOptions& options) {
   return s;
 }
 
-Drive open_bag_drive(const std::string& path, const BagOptions& options) {
-  check_options(options);
+namespace {
+
+// A cloud topic's keyframes over an open bag (read_bag's own, so a bag is opened, and its
+// framing checked, once).
+Drive bag_drive(std::unique_ptr<data::BagSource> source, const std::string& path,
+                const BagOptions& options) {
   auto file = std::make_shared<BagFile>();
-  file->source = open_source(path);
+  file->source = std::move(source);
   const data::BagTopic& topic = choose_topic(file->source->info(), options, path);
   if (is_laser(topic.type))
     throw InputError(path + ": " + topic.name + " holds 2D laser scans (" + topic.type +
@@ -308,11 +312,18 @@ Drive open_bag_drive(const std::string& path, const BagOptions& options) {
   return d;
 }
 
+}  // namespace
+
+Drive open_bag_drive(const std::string& path, const BagOptions& options) {
+  check_options(options);
+  return bag_drive(open_source(path), path, options);
+}
+
 Dataset read_bag(const std::string& path, const BagOptions& options) {
   check_options(options);
-  const auto src = open_source(path);
+  auto src = open_source(path);
   const data::BagTopic& topic = choose_topic(src->info(), options, path);
-  if (!is_laser(topic.type)) return read_drive(open_bag_drive(path, options));
+  if (!is_laser(topic.type)) return read_drive(bag_drive(std::move(src), path, options));
   Walk w = walk_bag(*src, path, topic, options);
   return std::move(w.scans);
 }
