@@ -29,6 +29,7 @@ struct MapArgs {
        hits_only = false, seeds_yield_fully = true;
   double refine_min_variance = 0;
   double refine_spacing = JointBhmOptions{}.spacing, refine_prior_var = JointBhmOptions{}.prior_var;
+  double half_life = 0;  // seconds of the scans' time (0: never forget)
   int sectors = 5, rotations = 8, em = 1;
   double max_range = 0, holdout = 0.2, res = 0.25, range_cut = 0, ros_res = 0.05;
   std::size_t first = 0, max_scans = 0, candidates = 0, max_kernels = 0;
@@ -99,6 +100,7 @@ nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const 
                       {"device", a.cpu ? std::string("CPU reference") : device}};
   // Only when set: the checkpoints of runs without it stay resumable.
   if (a.preset != "default") r["--preset"] = a.preset;
+  if (a.half_life > 0) r["--half-life"] = a.half_life;
   return r;
 }
 
@@ -134,6 +136,11 @@ MapJob map_job(const MapArgs& a) {
   job.mapper.refine_map.seeds_yield_fully = a.seeds_yield_fully;
   job.mapper.refine_map.spacing = a.refine_spacing;
   job.mapper.refine_map.prior_var = a.refine_prior_var;
+  job.mapper.refine_map.half_life = a.half_life;
+  if (a.half_life > 0 && (!a.refine || a.per_scan_refine))
+    throw ArgumentError(
+        "map: --half-life fades RePOT's persistent joint BHM (--refine without "
+        "--per-scan-refine); POT's overall maps do not forget");
   po.refine_min_variance = a.refine_min_variance;
   po.refine_bhm.em_iterations = a.em;
   po.candidates = a.candidates;
@@ -254,6 +261,17 @@ int run_map(const MapArgs& a, const std::string& device) {
 
 }  // namespace
 
+void add_half_life_option(CLI::App* cmd, double* half_life) {
+  cmd->add_option("--half-life", *half_life,
+                  "Forgetting: the persistent joint BHM's evidence halves every this many "
+                  "seconds of the scans' time (their stamps; the scan index where a log has "
+                  "none), so a place seen free after it was seen occupied (a car that left) reads "
+                  "free within a few scans and a place no longer seen drifts back to uncertain "
+                  "(default 0: never; docs/forgetting.md)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+}
+
 void add_seed_rule_flag(CLI::App* cmd, bool* yield_fully) {
   cmd->add_flag("--seeds-yield-fully,!--seeds-keep-start", *yield_fully,
                 "RePOT (default): a seed yields when its kernel comes within the solve's margin "
@@ -300,6 +318,7 @@ void register_map(CLI::App& app, Runner& runner) {
                 "RePOT the old way: refine each scan's transported weights on their own and "
                 "merge the refined maps (--refine-min-variance and --em apply to it)");
   add_seed_rule_flag(cmd, &a->seeds_yield_fully);
+  add_half_life_option(cmd, &a->half_life);
   cmd->add_option("--refine-spacing", a->refine_spacing,
                   "RePOT's persistent map: metres between its kernels (default 0.5, about a "
                   "wall's thickness; a sample's cost grows as (1 / spacing)^dim)")

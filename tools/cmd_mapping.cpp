@@ -36,6 +36,7 @@ struct MappingArgs {
   std::size_t first = 0, max_scans = 0, picture_pixels = 1200;
   int rotations = 8;
   std::uint64_t seed = 0;
+  double half_life = 0;  // seconds of the scans' time (0: never forget)
   bool quiet = false, seeds_yield_fully = true;
   DriveMappingArgs drive;  // 3D drives: what differs
 };
@@ -64,6 +65,7 @@ int run_drive(const MappingArgs& a, const std::string& device) {
   d.picture_pixels = a.picture_pixels;
   d.method = a.method.empty() ? "bhm" : a.method;
   d.dict = a.dict;
+  d.half_life = a.half_life;
   return run_drive_mapping(d, device);
 }
 
@@ -78,6 +80,10 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   if (a.method.empty()) a.method = "repot";
   if (a.method != "pot" && a.method != "repot")
     throw ArgumentError("mapping: --method must be pot or repot, not '" + a.method + "'");
+  if (a.half_life > 0 && a.method != "repot")
+    throw ArgumentError(
+        "mapping: --half-life fades RePOT's persistent joint BHM; POT's averaged "
+        "map does not forget (--method repot)");
   const std::string dir = a.out.empty() ? default_out(a.log) : a.out;
   fs::create_directories(dir);
   std::FILE* human = a.json == "-" ? stderr : stdout;
@@ -106,6 +112,7 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
     job.mapper.pot.ranking = a.ranking == "indexed" ? PotRanking::indexed : PotRanking::exhaustive;
   job.mapper.pot.rotations = evenly_spaced_rotations(a.rotations);
   job.mapper.refine_map.seeds_yield_fully = a.seeds_yield_fully;
+  job.mapper.refine_map.half_life = a.half_life;
   job.mapper.labels.seed = a.seed;
   job.verbose = !a.quiet;
 
@@ -155,6 +162,7 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   j["seed_rule"] = a.seeds_yield_fully ? "yield-fully" : "keep-start";
   j["dictionary"] = a.dict.empty() ? "default: " + default_dictionary_recipe() : a.dict;
   j["range_cut"] = range_cut;
+  j["half_life_s"] = a.half_life;
   j["device"] = ctx.info().summary();
   write_scores_and_list(dir, j, files, a.json, human);
   return 0;
@@ -253,6 +261,7 @@ void register_mapping(CLI::App& app, Runner& runner) {
       ->capture_default_str();
   cmd->add_option("--json", a->json, "'-': also print the summary as JSON on stdout");
   add_seed_rule_flag(cmd, &a->seeds_yield_fully);
+  add_half_life_option(cmd, &a->half_life);
   cmd->add_flag("-q,--quiet", a->quiet, "No line per scan (a progress bar on a terminal)");
   cmd->callback(
       [&runner, a, device] { runner.action = [a, device] { return run_mapping(*a, *device); }; });

@@ -28,6 +28,9 @@ std::shared_ptr<std::string> add_device_option(CLI::App* cmd);
 /// into *yield_fully (JointBhmOptions::seeds_yield_fully).
 void add_seed_rule_flag(CLI::App* cmd, bool* yield_fully);
 
+/// --half-life into *half_life (JointBhmOptions::half_life, seconds; 0: never forget).
+void add_half_life_option(CLI::App* cmd, double* half_life);
+
 /// A Context on the device named (or POTMAP_DEVICE, or the default), announced on stderr.
 Context make_context(const std::string& device, bool quiet = false);
 /// Writes `map` to `path`: with the joint BHM's information form (for `potmap merge`) when

@@ -26,17 +26,21 @@ nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
                                 const DriveMapperOptions& options) {
   std::error_code ec;
   const auto poses_bytes = std::filesystem::file_size(drive.poses_file, ec);
-  return {{"drive", std::filesystem::absolute(a.drive).lexically_normal().string()},
-          {"poses", drive.poses_file},
-          {"poses_bytes", ec ? 0 : std::uint64_t(poses_bytes)},
-          {"keyframes_in_drive", drive.size()},
-          {"--first", a.first},
-          {"--range-cut", a.range_cut},
-          {"--seed", a.seed},
-          {"--method", a.method},
-          {"--transfer-every", a.transfer_every},
-          {"dictionary",
-           options.dictionary ? std::to_string(fingerprint(*options.dictionary)) : std::string()}};
+  nlohmann::json r = {
+      {"drive", std::filesystem::absolute(a.drive).lexically_normal().string()},
+      {"poses", drive.poses_file},
+      {"poses_bytes", ec ? 0 : std::uint64_t(poses_bytes)},
+      {"keyframes_in_drive", drive.size()},
+      {"--first", a.first},
+      {"--range-cut", a.range_cut},
+      {"--seed", a.seed},
+      {"--method", a.method},
+      {"--transfer-every", a.transfer_every},
+      {"dictionary",
+       options.dictionary ? std::to_string(fingerprint(*options.dictionary)) : std::string()}};
+  // Only when set: checkpoints of runs that never forget keep their record.
+  if (a.half_life > 0) r["--half-life"] = a.half_life;
+  return r;
 }
 
 void write_drive_checkpoint(const std::string& path, const DriveRun& run, const DriveMapper& mapper,

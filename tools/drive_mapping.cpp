@@ -72,6 +72,7 @@ DriveMapperOptions mapper_options(const DriveMappingArgs& a, std::string* dict_f
   o.range_cut = a.range_cut;
   o.labels.seed = a.seed;
   if (a.keep_tiles) o.retire_radius = 0;
+  o.bhm.half_life = a.half_life;
   o.bhm.sums = a.sums == "host"     ? JointBhmSums::host
                : a.sums == "device" ? JointBhmSums::device
                                     : JointBhmSums::automatic;
@@ -110,6 +111,7 @@ nlohmann::json summary_json(const DriveMappingArgs& a, const Drive& drive, const
   j["path_m"] = path;
   j["first"] = a.first;
   j["range_cut_m"] = a.range_cut;
+  j["half_life_s"] = a.half_life;
   j["scores"] = {{"acc", sc.acc}, {"auc", sc.auc}, {"nll", sc.nll}, {"n", sc.n}};
   j["ms_per_keyframe"] = (run.label_ms + run.transfer_ms + run.update_ms) / n;
   j["label_ms_per_keyframe"] = run.label_ms / n;

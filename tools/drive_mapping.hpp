@@ -31,6 +31,8 @@ struct DriveMappingArgs {
   /// Never retire the learner's far tiles (DriveMapperOptions::retire_radius 0), so that
   /// map.potmap carries the joint BHM's information form (`potmap merge`).
   bool keep_tiles = false;
+  /// Forgetting: the joint BHM's half-life, seconds of the keyframes' time (0: never).
+  double half_life = 0;
 };
 
 /// Runs the job; prints a summary on stdout (stderr with --json -), returns the exit status.

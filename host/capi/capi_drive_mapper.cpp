@@ -28,6 +28,7 @@ potmap_drive_mapper_options default_options() {
   o.retire_radius = d.retire_radius;
   o.transfer_every = d.transfer_every;
   o.sums = int(d.bhm.sums);
+  o.half_life = d.bhm.half_life;
   return o;
 }
 
@@ -48,6 +49,7 @@ potmap::DriveMapperOptions to_options(const potmap_drive_mapper_options* in) {
     bad("retire_radius", o.retire_radius);
   if (o.transfer_every < 1) bad("transfer_every", double(o.transfer_every));
   if (o.sums < POTMAP_SUMS_AUTOMATIC || o.sums > POTMAP_SUMS_DEVICE) bad("sums", double(o.sums));
+  if (!(o.half_life >= 0) || !std::isfinite(o.half_life)) bad("half_life", o.half_life);
   potmap::DriveMapperOptions r;
   r.range_cut = o.range_cut;
   r.labels.free_per_metre = o.free_per_metre;
@@ -57,6 +59,7 @@ potmap::DriveMapperOptions to_options(const potmap_drive_mapper_options* in) {
   r.retire_radius = o.retire_radius < 0 ? -1 : o.retire_radius;
   r.transfer_every = o.transfer_every;
   r.bhm.sums = static_cast<potmap::JointBhmSums>(o.sums);
+  r.bhm.half_life = o.half_life;
   return r;
 }
 

@@ -54,6 +54,7 @@ potmap_mapper_options c_options(const potmap::MapperOptions& m) {
   o.refine_prior_var = m.refine_map.prior_var;
   o.refine_em_iterations = m.refine_map.em_iterations;
   o.seed_displacement_variance = m.seed_displacement_variance;
+  o.half_life = m.refine_map.half_life;
   return o;
 }
 
@@ -113,6 +114,7 @@ Options to_options(const potmap_mapper_options* in) {
     bad("refine_em_iterations", o.refine_em_iterations);
   if (!(o.seed_displacement_variance >= 0) || !std::isfinite(o.seed_displacement_variance))
     bad("seed_displacement_variance", o.seed_displacement_variance);
+  if (!(o.half_life >= 0) || !std::isfinite(o.half_life)) bad("half_life", o.half_life);
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
@@ -136,6 +138,7 @@ Options to_options(const potmap_mapper_options* in) {
   r.mapper.refine_map.spacing = o.refine_spacing;
   r.mapper.refine_map.prior_var = o.refine_prior_var;
   r.mapper.refine_map.em_iterations = o.refine_em_iterations;
+  r.mapper.refine_map.half_life = o.half_life;
   p.max_range = o.max_range;
   p.candidates = o.candidates;
   p.seed = o.seed;

@@ -28,6 +28,9 @@ void JointBhm::init(int dim, const JointBhmOptions& o) {
   if (!(o.tau > 0) || !std::isfinite(o.tau)) throw ArgumentError("joint BHM: tau must be positive");
   if (!(o.cg_tolerance > 0) || o.cg_max_iterations < 1 || o.solve_margin < 0)
     throw ArgumentError("joint BHM: bad conjugate-gradient settings");
+  if (!(o.half_life >= 0) || !std::isfinite(o.half_life))
+    throw ArgumentError("joint BHM: half_life must be finite and not negative, got " +
+                        std::to_string(o.half_life) + " s");
   gamma_ = o.gamma > 0 ? o.gamma : -std::log(o.neighbour_phi) / (o.spacing * o.spacing);
   rcut_ = std::sqrt(o.tau / gamma_);
   step_q_ = std::exp(-2 * gamma_ * o.spacing * o.spacing);
@@ -127,7 +130,8 @@ std::size_t JointBhm::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t b = sizeof(*this) + bytes(half_) + bytes(half_at_) + bytes(tiles_) + bytes(prec_) +
                   bytes(eta_) + bytes(mean_) + bytes(bcoup_) + bytes(touched_) + bytes(seeded_) +
-                  bytes(mark_) + bytes(var_) + bytes(tile_dirty_) + scratch_.bytes();
+                  bytes(mark_) + bytes(var_) + bytes(tile_dirty_) + bytes(tile_clock_) +
+                  scratch_.bytes();
   // The hash map: its buckets and one node per tile (key, value, next pointer, hash).
   b += tile_index_.bucket_count() * sizeof(void*) +
        tile_index_.size() * (sizeof(std::uint64_t) + sizeof(std::uint32_t) + 2 * sizeof(void*));
@@ -192,6 +196,7 @@ std::uint32_t JointBhm::make_tile(const std::int64_t t[3]) {
       }
   tiles_.push_back(tile);
   tile_dirty_.push_back(1);
+  tile_clock_.push_back(clock_);  // nothing learned in it yet: up to date
   tile_index_.emplace(tile_key(t), id);
   // Grow the storage by about a quarter at a time: memory follows the stored area closely.
   const std::size_t cells = tiles_.size() * static_cast<std::size_t>(tile_cells_);

@@ -138,6 +138,15 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
 }
 
 KernelMap JointBhm::map() const {
+  if (!behind()) return map_current();
+  // Forgetting: the tiles no scan has faded to now, faded on a copy (the learner's state is
+  // left as it is, as the polish below leaves it).
+  JointBhm now = *this;
+  now.catch_up();
+  return now.map_current();
+}
+
+KernelMap JointBhm::map_current() const {
   // Polish the means over every kernel a sample or a seed reached, on a copy.
   std::vector<std::uint32_t> rows;
   for (std::size_t a = 0; a < touched_.size(); ++a)
@@ -192,8 +201,10 @@ KernelMap JointBhm::map() const {
       position(g, p);
       m.push_back(p, gamma_, mean[s], var_[s]);
     }
-    // Retired tiles, as they were left (retire_far()).
-    for (const RetiredTile& r : retired_)
+    // Retired tiles, as they were left (retire_far()), faded since (as revive() would).
+    const double p0 = 1.0 / o_.prior_var;
+    for (const RetiredTile& r : retired_) {
+      const double a = fade_since(r.clock);
       for (std::int64_t l = 0; l < tile_cells_; ++l) {
         std::int64_t g[3] = {0, 0, 0}, rest = l;
         for (int d = 0; d < dim_; ++d) {
@@ -202,8 +213,16 @@ KernelMap JointBhm::map() const {
         }
         double p[3];
         position(g, p);
-        m.push_back(p, gamma_, r.mean[std::size_t(l)], r.var[std::size_t(l)]);
+        const double mean = r.mean[std::size_t(l)], var = r.var[std::size_t(l)];
+        if (a == 1.0) {
+          m.push_back(p, gamma_, mean, var);
+        } else {
+          const double v = std::min(o_.prior_var, std::max(var, 1e-9));
+          const double prec = p0 + a * (1.0 / v - p0);
+          m.push_back(p, gamma_, a * mean / v / prec, 1.0 / prec);
+        }
       }
+    }
   }
   m.has_bias = o_.bias;
   if (o_.bias) {
@@ -214,6 +233,12 @@ KernelMap JointBhm::map() const {
 }
 
 void JointBhm::predict_exact(const double* points, std::size_t n, double* mean, double* var) const {
+  if (behind()) {  // forgetting: the posterior at time(), faded on a copy
+    JointBhm now = *this;
+    now.catch_up();
+    now.predict_exact(points, n, mean, var);
+    return;
+  }
   // P over the stored kernels of the grid (and the bias, last) as a sparse matrix; one
   // factorisation. Kernels not stored are independent at their prior (mean 0, prior_var).
   std::vector<std::int64_t> index(mean_.size(), -1);

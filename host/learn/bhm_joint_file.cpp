@@ -123,6 +123,9 @@ void write_joint_bhm_map(const JointBhm& learner, const std::string& path,
     detail::JointBhmState::write(w, learner);
     detail::JointBhmState::write_retired(w, learner);
     detail::put_uints(w, learner.data_ids());
+    // Forgetting: the half-life and the clocks (a file written before them ends here).
+    w.f64(learner.options().half_life);
+    detail::JointBhmState::write_clock(w, learner);
   });
 }
 
@@ -140,6 +143,14 @@ std::optional<JointBhm> read_joint_bhm_information(const std::string& path) {
   detail::JointBhmState::read(c, m);
   detail::JointBhmState::read_retired(c, m);
   for (std::uint64_t id : c.uints<std::uint64_t>("data fingerprints")) m.add_data_id(id);
+  if (c.at() != r.payload_end()) {
+    const std::size_t hat = c.at();
+    const double half_life = c.f64();
+    if (!(half_life >= 0) || !std::isfinite(half_life))
+      r.fail(hat, "joint BHM options: half-life " + std::to_string(half_life) + " s");
+    detail::JointBhmMerge::set_half_life(m, half_life);
+  }
+  detail::JointBhmState::read_clock(c, m);
   c.finish();
   return m;
 }

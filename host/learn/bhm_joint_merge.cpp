@@ -160,8 +160,26 @@ JointBhm merge_joint_bhm(const std::vector<const JointBhm*>& maps,
             "those scans would count twice (allow_overlap merges them anyway)");
     }
   }
-  JointBhm c = *maps[0];
-  for (std::size_t i = 1; i < maps.size(); ++i) JointBhmMerge::add(c, *maps[i]);
+  // Forgetting: every map faded to the latest clock among them (the maps of one drive's parts
+  // share its clock; one run over the whole would have faded the earlier parts as much).
+  bool fading = false;
+  double clock = maps[0]->time();
+  for (const JointBhm* m : maps) {
+    fading = fading || m->options().half_life > 0;
+    clock = std::max(clock, m->time());
+  }
+  std::vector<JointBhm> now;
+  if (fading) {
+    now.reserve(maps.size());
+    for (const JointBhm* m : maps) {
+      now.push_back(*m);
+      now.back().set_time(clock);
+      now.back().catch_up();
+    }
+  }
+  auto at = [&](std::size_t i) -> const JointBhm& { return fading ? now[i] : *maps[i]; };
+  JointBhm c = at(0);
+  for (std::size_t i = 1; i < maps.size(); ++i) JointBhmMerge::add(c, at(i));
   JointBhmMerge::solve_means(c);
   return c;
 }

@@ -21,6 +21,8 @@ struct JointBhmMerge {
   static void solve_means(JointBhm& c);
   /// The grid as the constructor took it: bounded maps' origin and kernels per axis.
   static int dim(const JointBhm& m) { return m.dim_; }
+  /// The half-life of a learner read from a file (its options' other fields come first).
+  static void set_half_life(JointBhm& m, double half_life) { m.o_.half_life = half_life; }
   static void grid(const JointBhm& m, double lo[3], std::int64_t n[3]) {
     for (int d = 0; d < 3; ++d) {
       lo[d] = m.lo_[d];

@@ -74,10 +74,12 @@ void JointBhm::compact(const std::vector<std::uint8_t>& going) {
   const auto cells = static_cast<std::size_t>(tile_cells_);
   std::vector<Tile> tiles;
   std::vector<std::uint8_t> dirty;
+  std::vector<double> clocks;
   for (std::size_t t = 0; t < tiles_.size(); ++t)
     if (!going[t]) {
       tiles.push_back(tiles_[t]);
       dirty.push_back(tile_dirty_[t]);
+      clocks.push_back(tile_clock_[t]);
     }
   keep_blocks(prec_, going, cells * static_cast<std::size_t>(half_slots_));
   keep_blocks(eta_, going, cells);
@@ -89,6 +91,7 @@ void JointBhm::compact(const std::vector<std::uint8_t>& going) {
   keep_blocks(var_, going, cells);
   tiles_.swap(tiles);
   tile_dirty_.swap(dirty);
+  tile_clock_.swap(clocks);
   tile_index_.clear();
   for (std::size_t t = 0; t < tiles_.size(); ++t) {
     const std::int64_t c[3] = {tiles_[t].coord[0], tiles_[t].coord[1], tiles_[t].coord[2]};
@@ -126,6 +129,14 @@ std::size_t JointBhm::retire_far(const double centre[3], double radius) {
     }
   }
   if (n == 0) return 0;
+  // Forgetting: the tiles that go, and the neighbours whose couplings to them fold into eta
+  // (and whose precision their variance blocks read), faded to now first.
+  if (o_.half_life > 0)
+    for (std::size_t t = 0; t < tiles_.size(); ++t) {
+      bool near = going[t] != 0;
+      for (int k = 0; k < 27 && !near; ++k) near = tiles_[t].nb[k] >= 0 && going[tiles_[t].nb[k]];
+      if (near) catch_up_tile(t);
+    }
   // What a query needs of them, while their neighbours are all still there: the exported
   // variances of map().
   std::vector<double> scratch;
@@ -148,6 +159,7 @@ std::size_t JointBhm::retire_far(const double centre[3], double radius) {
                   mean_.begin() + std::ptrdiff_t((t + 1) * cells));
     r.var.assign(var_.begin() + std::ptrdiff_t(t * cells),
                  var_.begin() + std::ptrdiff_t((t + 1) * cells));
+    r.clock = clock_;
     const std::int64_t c[3] = {r.coord[0], r.coord[1], r.coord[2]};
     retired_index_[tile_key(c)] = static_cast<std::uint32_t>(retired_.size());
     retired_.push_back(std::move(r));
@@ -167,12 +179,15 @@ void JointBhm::revive(std::uint32_t id, std::uint64_t key) {
   const RetiredTile& rt = retired_[r];
   const auto cells = static_cast<std::size_t>(tile_cells_);
   const auto hs = static_cast<std::size_t>(half_slots_);
+  // Forgetting: the retired means and variances faded since the tile retired (its diagonal
+  // prior's data part, 1/v - 1/prior_var and mean/v, as any kernel's).
+  const double a = fade_since(rt.clock), p0 = 1.0 / o_.prior_var;
   for (std::size_t l = 0; l < cells; ++l) {
     const std::size_t s = std::size_t(id) * cells + l;
     const double v = std::min(o_.prior_var, std::max(double(rt.var[l]), 1e-9));
-    prec_[s * hs] = 1.0 / v;
-    mean_[s] = rt.mean[l];
-    eta_[s] = rt.mean[l] / v;
+    prec_[s * hs] = p0 + a * (1.0 / v - p0);
+    eta_[s] = a * rt.mean[l] / v;
+    mean_[s] = eta_[s] / prec_[s * hs];
     // Only kernels that held data come back as reached (the rest are at their prior).
     touched_[s] = rt.mean[l] != 0 || v < o_.prior_var;
   }

@@ -171,7 +171,8 @@ void JointBhmState::read(ContainerCursor& c, JointBhm& m) {
   m.stats_.residual = c.f64();
   m.tiles_ = std::move(restored);
   m.tile_index_ = std::move(index);
-  for (int k = 0; k < 4; ++k) {  // the tiles span_tiles() last found were m's old ones
+  m.tile_clock_.assign(ntiles, m.clock_);  // read_clock() may say otherwise
+  for (int k = 0; k < 4; ++k) {            // the tiles span_tiles() last found were m's old ones
     m.recent_key_[k] = ~0ull;
     m.recent_id_[k] = -1;
   }
@@ -216,6 +217,44 @@ void JointBhmState::write_data_ids(ContainerWriter& w, const JointBhm& m) {
 void JointBhmState::read_data_ids(ContainerCursor& c, JointBhm& m) {
   if (c.at() == c.reader().payload_end()) return;
   m.data_ids_ = c.uints<std::uint64_t>("data fingerprints");
+}
+
+void JointBhmState::write_clock(ContainerWriter& w, const JointBhm& m) {
+  w.f64(m.clock_);
+  put_u8(w, m.clock_set_ ? 1 : 0);
+  put_f64s(w, m.tile_clock_);
+  std::vector<double> retired;
+  retired.reserve(m.retired_.size());
+  for (const JointBhm::RetiredTile& r : m.retired_) retired.push_back(r.clock);
+  put_f64s(w, retired);
+}
+
+void JointBhmState::read_clock(ContainerCursor& c, JointBhm& m) {
+  if (c.at() == c.reader().payload_end()) {
+    m.clock_ = 0;
+    m.clock_set_ = false;
+    m.tile_clock_.assign(m.tiles_.size(), 0.0);
+    for (JointBhm::RetiredTile& r : m.retired_) r.clock = 0;
+    return;
+  }
+  std::size_t at = c.at();
+  const double clock = c.f64();
+  if (!std::isfinite(clock)) c.reader().fail(at, "joint BHM state: clock " + std::to_string(clock));
+  const bool set = c.u8() != 0;
+  at = c.at();
+  std::vector<double> tiles = c.f64s("tile clocks");
+  expect_size(c, at, "tile clocks", tiles, m.tiles_.size());
+  at = c.at();
+  const std::vector<double> retired = c.f64s("retired tile clocks");
+  expect_size(c, at, "retired tile clocks", retired, m.retired_.size());
+  for (double t : tiles)
+    if (!(t <= clock))
+      c.reader().fail(at, "joint BHM state: a tile clock " + std::to_string(t) +
+                              " past the clock " + std::to_string(clock));
+  m.clock_ = clock;
+  m.clock_set_ = set;
+  m.tile_clock_ = std::move(tiles);
+  for (std::size_t t = 0; t < retired.size(); ++t) m.retired_[t].clock = retired[t];
 }
 
 }  // namespace potmap::detail

@@ -25,6 +25,11 @@ struct JointBhmState {
   /// when bytes are left before the checksum (none: the learner records no earlier scan).
   static void write_data_ids(ContainerWriter& w, const JointBhm& m);
   static void read_data_ids(ContainerCursor& c, JointBhm& m);
+  /// The forgetting clock (JointBhm::set_time(): the time, whether it was set, each stored and
+  /// retired tile's fading time), after the data fingerprints; a state saved before it ends
+  /// earlier and restores a learner whose tiles are all up to date at time 0.
+  static void write_clock(ContainerWriter& w, const JointBhm& m);
+  static void read_clock(ContainerCursor& c, JointBhm& m);
 };
 
 }  // namespace potmap::detail

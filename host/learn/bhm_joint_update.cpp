@@ -83,6 +83,8 @@ void JointBhm::reach_rows(Scratch& sc) {
   rows.clear();
   dilate_rows(rows, reached, o_.solve_margin, dim_ == 3 ? o_.solve_margin : 0, sc);
   stats_.active = rows.size();
+  // Forgetting: what the solve reads faded to now before this scan's data are added.
+  catch_up_around(rows);
   if (o_.seeds_yield && o_.seeds_yield_fully)
     for (std::uint32_t k : rows)
       if (seeded_[k] && !touched_[k]) {
@@ -102,8 +104,19 @@ double JointBhm::prepare_solve(Scratch& sc) {
   double bias_outside = 0;
   if (o_.bias) {
     for (std::uint32_t k : sc.rows) mark_[k] = 1;
-    for (std::size_t a = 0; a < mean_.size(); ++a)
-      if (!mark_[a]) bias_outside += bcoup_[a] * mean_[a];
+    if (o_.half_life > 0) {
+      // A tile not yet faded to now holds its couplings as they were: faded here as a sum.
+      const auto cells = static_cast<std::size_t>(tile_cells_);
+      for (std::size_t t = 0; t < tiles_.size(); ++t) {
+        double sum = 0;
+        for (std::size_t a = t * cells; a < (t + 1) * cells; ++a)
+          if (!mark_[a]) sum += bcoup_[a] * mean_[a];
+        bias_outside += fade_since(tile_clock_[t]) * sum;
+      }
+    } else {
+      for (std::size_t a = 0; a < mean_.size(); ++a)
+        if (!mark_[a]) bias_outside += bcoup_[a] * mean_[a];
+    }
     for (std::uint32_t k : sc.rows) mark_[k] = 0;
   }
   return bias_outside;

@@ -90,6 +90,8 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
     ++st.held_out;
   }
   st.label_ms = ms_since(t0);
+  // The keyframe's time is the learner's clock (forgetting: bhm.half_life).
+  learner_.set_time(keyframe.timestamp);
   if (o_.dictionary && !train.empty() && keyframes_ % o_.transfer_every == 0) {
     const auto t2 = std::chrono::steady_clock::now();
     const ScanTransfer t = transfer_scan(ctx, *o_.dictionary, train, keyframe.origin(),

@@ -75,6 +75,7 @@ void DriveMapper::save_state(const std::string& path, const std::string& extra) 
   detail::JointBhmState::write(w, learner_);
   detail::JointBhmState::write_retired(w, learner_);
   detail::JointBhmState::write_data_ids(w, learner_);
+  detail::JointBhmState::write_clock(w, learner_);
   w.finish(path);
 }
 
@@ -110,6 +111,7 @@ std::string DriveMapper::load_state(const std::string& path) {
   detail::JointBhmState::read(c, learner);
   detail::JointBhmState::read_retired(c, learner);
   detail::JointBhmState::read_data_ids(c, learner);
+  detail::JointBhmState::read_clock(c, learner);
   c.finish();
   learner_ = std::move(learner);
   test_ = std::move(test);

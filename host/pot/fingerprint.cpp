@@ -140,6 +140,11 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
            j.cg_tolerance, j.cg_max_iterations, j.solve_margin, j.max_kernels, j.seeds_yield);
   // Appended only when on, so that states saved before it existed keep their fingerprint.
   if (j.seeds_yield_fully) f.i64(7);
+  // Forgetting: appended only when on, for the same reason.
+  if (j.half_life > 0) {
+    f.i64(9);
+    f.f64(j.half_life);
+  }
   f.values(o.seed_min_variance, overall.merge_radius, overall.gamma_ratio, overall.max_kernels,
            overall.retire_to);
   // Appended only when on, so that states saved before the averaged map keep their fingerprint.

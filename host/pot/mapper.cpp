@@ -16,6 +16,7 @@ namespace {
 struct Prepared {
   PreparedTransfer transfer;
   LabelledPoints test;
+  double time = 0;  // the scan's timestamp
 };
 
 void within_range(LabelledPoints& lp, const std::array<double, 3>& sensor, double range) {
@@ -57,6 +58,7 @@ Prepared prepare(Context* ctx, const Dictionary& dict, const Scan& scan, std::si
   p.transfer.timing.prepare_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   p.test = std::move(split.test);
+  p.time = scan.timestamp;
   return p;
 }
 
@@ -86,6 +88,7 @@ Solved solve(Context* ctx, const Dictionary& dict, Prepared&& cur, std::size_t i
   const auto t0 = std::chrono::steady_clock::now();
   Solved s;
   s.scan.index = i;
+  s.scan.time = cur.time;
   if (persistent_refine(o)) s.scan.train = cur.transfer.train;
   s.scan.test = std::move(cur.test);
   s.transfer = solve_transfer(ctx, dict, std::move(cur.transfer), po);
@@ -178,8 +181,10 @@ RepotMap::RepotMap(int dim, const MapperOptions& options)
     throw ArgumentError("RepotMap: seed_min_variance must be >= 0 and finite");
 }
 
-std::size_t RepotMap::add(const KernelMap& transported, const LabelledPoints& train, Context* ctx) {
+std::size_t RepotMap::add(const KernelMap& transported, const LabelledPoints& train, Context* ctx,
+                          double time) {
   export_.reset();
+  if (std::isfinite(time)) learner_.set_time(time);
   std::size_t seeded = 0;
   if (!transported.empty()) seeded = learner_.seed_unreached(transported, seed_min_variance_);
   learner_.update(train, ctx);
@@ -252,7 +257,7 @@ void Mapper::merge_scan(MappedScan& m, MapperMerge& merge, bool refine_into_scan
   const auto t1 = std::chrono::steady_clock::now();
   if (repot_) {
     merge.seeded =
-        repot_->add(m.transfer.map, m.train, options_.refine_on_host_team ? ctx_ : nullptr);
+        repot_->add(m.transfer.map, m.train, options_.refine_on_host_team ? ctx_ : nullptr, m.time);
     if (refine_into_scan)
       m.transfer.timing.refine_ms += ms_since(t1);
     else

@@ -63,7 +63,10 @@ struct MapperState {
     put_u8(w, m.repot_ ? 1 : 0);
     if (m.repot_) JointBhmState::write(w, m.repot_->learner_);
     if (m.averaged_) AveragedMapState::write(w, *m.averaged_);
-    if (m.repot_) JointBhmState::write_data_ids(w, m.repot_->learner_);
+    if (m.repot_) {
+      JointBhmState::write_data_ids(w, m.repot_->learner_);
+      JointBhmState::write_clock(w, m.repot_->learner_);
+    }
     w.finish(path);
   }
 
@@ -118,7 +121,10 @@ struct MapperState {
       averaged.emplace(m.dict_->dim, m.options_.averaged);
       AveragedMapState::read(c, *averaged);
     }
-    if (repot) JointBhmState::read_data_ids(c, repot->learner_);
+    if (repot) {
+      JointBhmState::read_data_ids(c, repot->learner_);
+      JointBhmState::read_clock(c, repot->learner_);
+    }
     c.finish();
     // Everything read: now the mapper changes, all at once.
     m.overall_ = std::move(overall);

@@ -301,7 +301,7 @@ typedef struct potmap_scan {
    *  3D: the 3 x 4 row-major [R | t] mapping sensor to world coordinates (default: identity). */
   double pose[12];
   double max_range;   /**< metres, > 0: a beam at or beyond it is a no-return (default 0: unset) */
-  double timestamp;   /**< seconds; informational (default 0) */
+  double timestamp;   /**< seconds: the mappers' clock for forgetting (half_life; default 0) */
   const double* hits; /**< end points of returned beams: num_hits * dim doubles, row-major */
   size_t num_hits;
   const double* no_return; /**< unit directions of beams with no return: num_no_return * dim */
@@ -325,14 +325,14 @@ POTMAP_EXPORT potmap_status potmap_dataset_load(const char* path, potmap_dataset
 /** How a ROS bag is read (potmap/data/bag.hpp, BagOptions). Strings are borrowed for the call;
  *  NULL or "" means the default. */
 typedef struct potmap_bag_options {
-  size_t struct_size;      /**< the caller's sizeof (potmap_bag_options_init sets it) */
-  const char* topic;       /**< LaserScan, MultiEchoLaserScan or PointCloud2 topic (NULL: the
-                                one with the most messages) */
-  const char* fixed_frame; /**< frame to map in (NULL: map when /tf links it, else odom) */
-  const char* pose_topic;  /**< Odometry or PoseStamped topic to take poses from (NULL: /tf) */
-  double max_range;        /**< metres (0: a LaserScan's range_max; 120 for point clouds) */
-  double keyframe_distance;/**< point clouds: metres between keyframes (default 1) */
-  double keyframe_angle;   /**< point clouds: radians of turn that start one (default 0.26) */
+  size_t struct_size;       /**< the caller's sizeof (potmap_bag_options_init sets it) */
+  const char* topic;        /**< LaserScan, MultiEchoLaserScan or PointCloud2 topic (NULL: the
+                                 one with the most messages) */
+  const char* fixed_frame;  /**< frame to map in (NULL: map when /tf links it, else odom) */
+  const char* pose_topic;   /**< Odometry or PoseStamped topic to take poses from (NULL: /tf) */
+  double max_range;         /**< metres (0: a LaserScan's range_max; 120 for point clouds) */
+  double keyframe_distance; /**< point clouds: metres between keyframes (default 1) */
+  double keyframe_angle;    /**< point clouds: radians of turn that start one (default 0.26) */
 } potmap_bag_options;
 
 /** Fills *options with the defaults; struct_size is the caller's sizeof(potmap_bag_options). */
@@ -517,6 +517,12 @@ typedef struct potmap_mapper_options {
    *  seed moved 2 m gains variance 1, so a poor match dragged far says less; the paper's rules
    *  0). */
   double seed_displacement_variance;
+  /* ---- appended in version 8 ---- */
+  /** RePOT's persistent map: forgetting. Its evidence halves every half_life seconds of the
+   *  scans' time (potmap_scan::timestamp), so a place seen free after it was seen occupied reads
+   *  free within a few scans and a place no longer seen drifts back to its prior; >= 0
+   *  (default 0: never forget, the exact posterior of every scan; docs/forgetting.md). */
+  double half_life;
 } potmap_mapper_options;
 
 /** Values of potmap_mapper_options::ranking. */
@@ -653,6 +659,10 @@ typedef struct potmap_drive_mapper_options {
    *  POTMAP_SUMS_DEVICE (any device with doubles). The map is the same up to the rounding of
    *  sums taken in another order. */
   int sums;
+  /* ---- appended in version 2 ---- */
+  /** Forgetting: the joint BHM's evidence halves every half_life seconds of the keyframes' time
+   *  (potmap_scan::timestamp); >= 0 (default 0: never; docs/forgetting.md). */
+  double half_life;
 } potmap_drive_mapper_options;
 
 /** potmap_drive_mapper_options::sums. */

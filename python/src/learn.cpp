@@ -146,6 +146,9 @@ void bind_learn_joint_bhm_options(py::module_& m) {
                      "RePOT then equals BHM near the data (default True)")
       .def_readwrite("max_kernels", &JointBhmOptions::max_kernels,
                      "stored-kernel guard (default 2^26)")
+      .def_readwrite("half_life", &JointBhmOptions::half_life,
+                     "forgetting: the data's evidence halves every half_life seconds of sensor "
+                     "time (set_time()); 0 (default): never")
       .def_property(
           "sums",
           [](const JointBhmOptions& o) {
@@ -198,6 +201,13 @@ void bind_learn_joint_bhm(py::module_& m) {
            "alone; the result is the same bit for bit).")
       .def("update_by_scan", unlocked(&JointBhm::update_by_scan), "samples"_a,
            "One update() per scan index, in increasing order.")
+      .def("set_time", unlocked(&JointBhm::set_time), "seconds"_a,
+           "The sensor time of the data update() adds next (a scan's stamp). With\n"
+           "half_life > 0 what was learned fades by 2**(-(t - time) / half_life); an\n"
+           "earlier time changes nothing; the first call only sets the clock.")
+      .def_property_readonly("time", &JointBhm::time, "the clock set_time() last advanced")
+      .def("catch_up", unlocked(&JointBhm::catch_up),
+           "Applies the fading every tile is owed now (map() does it on a copy otherwise).")
       .def(
           "seed_unreached",
           [](PyJointBhm& b, const KernelMap& field, double min_var, double min_support) {

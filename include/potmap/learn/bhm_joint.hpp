@@ -125,6 +125,15 @@ struct JointBhmOptions {
   /// holds its half precision stencil: 1 + (m - 1) / 2 doubles, m the grid points within
   /// 2 sqrt(tau / gamma) of a kernel (23 in 2D, 126 in 3D at the defaults), and 4 more.
   std::size_t max_kernels = std::size_t(1) << 26;
+  /// Forgetting (SPEC section 9): the data's part of the posterior halves every `half_life`
+  /// seconds of sensor time (set_time()), P <- P_0 + a (P - P_0) and eta <- a eta with
+  /// a = 2^(-dt / half_life), so evidence of a place that changed (a car that drove off) fades
+  /// and the new evidence wins, and a place no longer seen drifts back to its prior. Seeds are
+  /// priors and do not fade. 0 (default): never forget, the exact posterior of every scan.
+  /// Why off by default: a map that forgets is a map of the recent past, a choice of the
+  /// caller's (`potmap map|mapping --half-life`); docs/forgetting.md has what it does to held-out
+  /// scores and to the places vehicles left, and how to choose the half-life.
+  double half_life = 0;
   /// Where the sums run (default automatic: a GPU with doubles; see JointBhmSums).
   /// Either way the posterior is the same up to the rounding of sums taken in another order
   /// (relative 1e-12 in the tests).
@@ -166,6 +175,22 @@ class JointBhm {
   /// or without a context, and differ from the device's by rounding.
   void update(const LabelledPoints& samples, Context* ctx = nullptr);
 
+  /// The sensor time, seconds, of the data update() adds next (a scan's stamp; its index where
+  /// a log has none). With options.half_life > 0 the data already learned fade by
+  /// 2^(-(t - time()) / half_life); a time before time() changes nothing (data arriving out of
+  /// order do not rejuvenate the map). The first call sets the clock without fading anything.
+  /// The fading is applied lazily, a tile of kernels when an update reaches near it, when it
+  /// retires or revives, or when the map is exported, so a scan costs what it costs without
+  /// forgetting plus one pass over the tiles around it. Without half_life it only sets time().
+  void set_time(double seconds);
+  /// The clock set_time() last advanced (0 before any call).
+  double time() const { return clock_; }
+  /// Brings every tile's fading up to time() now (map() and the information form need it; they
+  /// work on a copy when the learner is not up to date, so calling this first saves the copy).
+  /// Later updates see the same posterior either way up to rounding (a fade in two steps is
+  /// 2^-a 2^-b for 2^-(a+b)).
+  void catch_up();
+
   /// Adds the samples of every scan index in increasing order, one update() per scan.
   void update_by_scan(const LabelledPoints& samples);
 
@@ -184,12 +209,13 @@ class JointBhm {
   /// predictive variance at each centre (the prior variance where no sample or seed reached
   /// its block); the bias weight with its posterior. Bounded: every grid kernel, in raster
   /// order. Growable: every stored kernel (whole tiles, in storage order), then the retired
-  /// tiles' as retire_far() left them; unstored kernels
+  /// tiles' as retire_far() left them (faded to time() with half_life); unstored kernels
   /// are at their prior mean 0 and left out. The means are polished by a solve over every
   /// reached kernel first (on a copy: the learner's state is unchanged, so when and how often
   /// a caller exports makes no difference to later updates). The variances, a small dense
   /// solve per kernel, are cached per tile and recomputed only for tiles whose precision
-  /// changed since the last call.
+  /// changed since the last call. With half_life, the posterior at time(): tiles not yet
+  /// faded to it are faded on a copy of the learner (catch_up() first avoids the copy).
   KernelMap map() const;
 
   /// Posterior mean and variance of the logit at n points (n * dim coordinates), exactly:
@@ -421,10 +447,27 @@ class JointBhm {
   struct RetiredTile {
     std::int32_t coord[3];
     std::vector<float> mean, var;
+    double clock = 0;  // time() when it retired (half_life: its fading since)
   };
   std::vector<RetiredTile> retired_;
   std::unordered_map<std::uint64_t, std::uint32_t> retired_index_;
   std::vector<std::uint64_t> data_ids_;  // data_ids()
+  // Forgetting (half_life): the clock, whether set_time() set it, and per stored tile the time
+  // its data's part was last faded to (tile_clock_[t] <= clock_; equal: up to date).
+  double clock_ = 0;
+  bool clock_set_ = false;
+  std::vector<double> tile_clock_;
+  // The fading from `since` to clock_, 2^(-(clock_ - since) / half_life) (1 without forgetting).
+  double fade_since(double since) const;
+  // Fades tile t's data to clock_, and marks the variances its block reaches out of date.
+  void catch_up_tile(std::size_t t);
+  // Fades the tiles of `rows` and their neighbours (whose half stencils couple to them): what a
+  // scan's solve reads.
+  void catch_up_around(const std::vector<std::uint32_t>& rows);
+  // Whether some tile or retired tile has fading not applied.
+  bool behind() const;
+  // map() on a learner whose fading is applied.
+  KernelMap map_current() const;
   void fold_retiring(const std::vector<std::uint8_t>& going);
   void compact(const std::vector<std::uint8_t>& going);
   void revive(std::uint32_t id, std::uint64_t key);

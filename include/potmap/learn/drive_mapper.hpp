@@ -64,7 +64,8 @@ struct DriveMapperOptions {
   /// Voxel edge the training samples are gathered in, metres (default 0.5, half the kernel
   /// spacing; 0: every sample on its own).
   double voxel = 0.5;
-  /// The learner (default drive_bhm_options(): the defaults above).
+  /// The learner (default drive_bhm_options(): the defaults above). Its clock for forgetting
+  /// (bhm.half_life, default 0: never) is the keyframes' timestamps.
   JointBhmOptions bhm = drive_bhm_options();
   /// After each keyframe the learner's tiles farther than this from the sensor (metres, in x
   /// and y) are retired (JointBhm::retire_far): memory follows the place, not the drive. -1

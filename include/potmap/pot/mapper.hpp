@@ -30,6 +30,7 @@
 #include <cstddef>
 #include <functional>
 #include <future>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -85,7 +86,8 @@ struct MapperOptions {
   /// coarser refine_map.spacing or false here.
   bool persistent_refine = true;
   /// The persistent map's grid and prior (default JointBhmOptions{}: kernels 0.5 m apart,
-  /// prior variance 10; unbounded, tiles allocated as the drive reaches them).
+  /// prior variance 10; unbounded, tiles allocated as the drive reaches them), and its
+  /// forgetting (half_life, default 0: never; the scans' timestamps are its clock).
   JointBhmOptions refine_map;
   /// The persistent map's update given the context (JointBhm::update's ctx: its features and
   /// sums on the device as refine_map.sums says, its solve in two parts on the context's host
@@ -153,6 +155,7 @@ PotOptions mapper_transfer_options(const MapperOptions& o);
 /// One mapped scan.
 struct MappedScan {
   std::size_t index = 0;  ///< position in the input
+  double time = 0;        ///< the scan's timestamp, seconds (Scan::timestamp)
   ScanTransfer transfer;  ///< instantaneous map, per-sector choices, stage timings
   /// The scan's held-out samples (never used for transport) within the sector radius of the
   /// sensor (PotOptions::max_range, else the dictionary's): no transported kernel reaches
@@ -178,9 +181,11 @@ class RepotMap {
   /// One scan: seeds from `transported` (may be empty), then learns `train`. Returns the
   /// number of kernels seeded. Throws ArgumentError on a dimension mismatch. `ctx` (default
   /// null: this thread alone): the update shares its work with the context's host helper
-  /// (JointBhm::update; the same map bit for bit either way).
-  std::size_t add(const KernelMap& transported, const LabelledPoints& train,
-                  Context* ctx = nullptr);
+  /// (JointBhm::update; the same map bit for bit either way). `time`: the scan's timestamp,
+  /// seconds, the learner's clock for forgetting (refine_map.half_life; JointBhm::set_time);
+  /// NaN (default) leaves the clock where it is.
+  std::size_t add(const KernelMap& transported, const LabelledPoints& train, Context* ctx = nullptr,
+                  double time = std::numeric_limits<double>::quiet_NaN());
   /// The map (JointBhm::map(): kernels with a bias weight), exported on the first call after
   /// an add() and kept until the next one: call it when the map is needed, not every scan.
   const KernelMap& map() const;
