@@ -9,15 +9,17 @@
 //  - overall: the final map on every scan's held-out samples (as `potmap mapping` scores);
 //  - now: every --now-every-th scan, the map right after it on that scan's own held-out
 //    samples: what the map says about the world as the sensor sees it at that moment;
-//  - left: the final map's probability at the places the data say something left: a cell
-//    (--cell metres) hit in some scan, then passed free by at least two later scans and never
-//    hit again (a car that drove off, a door opened, a person gone); the mean probability there
-//    and the fraction still read occupied (p > 0.5);
+//  - left: the map's probability at the places the data say something left, read at every
+//    --now-every-th scan: a cell (--cell metres) hit in --stood scans (default 3: something
+//    stood there), then passed free by at least two later scans (one of them since the last
+//    reading) and not hit again (a car that drove off, a door opened, a person gone); the mean
+//    probability there and the fraction still read occupied (p > 0.65, what a ROS map calls
+//    occupied). "left at end" reads the final map at every such cell;
 //  - ms per scan, and the learner's memory at the end.
 // Prints a table, writes JSON.
 //
 // Usage: forgetting INPUT [--half-life 0,5,20] [--first 0] [--max-scans 0] [--range-cut R]
-//                         [--now-every 10] [--cell C] [--json forgetting.json]
+//                         [--now-every 10] [--stood 3] [--cell C] [--json forgetting.json]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -49,6 +51,7 @@ struct Args {
   std::string input, json = "forgetting.json";
   std::vector<double> half_lives = {0, 5, 20};
   std::size_t first = 0, max_scans = 0, now_every = 10;
+  int stood = 3;                     // scans a place must be hit in before it was left
   double range_cut = -1, cell = -1;  // -1: 20 m and 0.25 m in 2D, 40 m and 0.5 m in 3D
 };
 
@@ -69,6 +72,8 @@ bool parse(int argc, char** argv, Args& a) {
       a.range_cut = std::stod(v);
     } else if (k == "--now-every") {
       a.now_every = std::max<std::size_t>(1, std::stoul(v));
+    } else if (k == "--stood") {
+      a.stood = std::max(1, std::stoi(v));
     } else if (k == "--cell") {
       a.cell = std::stod(v);
     } else if (k == "--json") {
@@ -112,11 +117,14 @@ Source open_source(const Args& a) {
 // Cells hit and later seen free (the "left" places above).
 class LeftPlaces {
  public:
-  explicit LeftPlaces(int dim, double cell) : dim_(dim), cell_(cell) {}
+  LeftPlaces(int dim, double cell, int stood) : dim_(dim), stood_(stood), cell_(cell) {}
   void add(const LabelledPoints& p, int scan) {
     for (std::size_t i = 0; i < p.size(); ++i) {
       Cell& c = cells_[key(&p.position[i * std::size_t(dim_)])];
       if (p.label[i]) {
+        // Scans that hit it since it was last seen free: how long something stood there.
+        if (c.free_after > 0) c.hit_scans = 0;
+        if (c.last_hit != scan) ++c.hit_scans;
         c.last_hit = scan;
         c.free_after = 0;
       } else if (c.last_hit >= 0 && scan > c.last_hit && c.last_free != scan) {
@@ -125,11 +133,11 @@ class LeftPlaces {
       }
     }
   }
-  // The centres of the cells left.
-  std::vector<double> centres() const {
+  // The centres of the cells left, those last seen free at scan `since` or later.
+  std::vector<double> centres(int since = -1) const {
     std::vector<double> out;
     for (const auto& [k, c] : cells_) {
-      if (c.last_hit < 0 || c.free_after < 2) continue;
+      if (c.hit_scans < stood_ || c.free_after < 2 || c.last_free < since) continue;
       for (int d = 0; d < dim_; ++d) {
         const auto idx = std::int64_t((k >> (21 * d)) & 0x1fffff) - (1 << 20);
         out.push_back((double(idx) + 0.5) * cell_);
@@ -140,7 +148,7 @@ class LeftPlaces {
 
  private:
   struct Cell {
-    int last_hit = -1, free_after = 0, last_free = -1;
+    int last_hit = -1, free_after = 0, last_free = -1, hit_scans = 0;
   };
   std::uint64_t key(const double* x) const {
     std::uint64_t k = 0;
@@ -150,7 +158,7 @@ class LeftPlaces {
     }
     return k;
   }
-  int dim_;
+  int dim_, stood_;
   double cell_;
   std::unordered_map<std::uint64_t, Cell> cells_;
 };
@@ -161,11 +169,26 @@ void append(LabelledPoints& to, const LabelledPoints& from) {
   to.label.insert(to.label.end(), from.label.begin(), from.label.end());
 }
 
+// Mean probability and the fraction above 0.5 at `points` on an evaluator's map, accumulated.
+struct LeftReading {
+  double sum = 0, occupied = 0;
+  std::size_t n = 0;
+  void add(MapEvaluator& ev, const std::vector<double>& points) {
+    if (points.empty()) return;
+    for (float p : ev.evaluate(points).prob) {
+      sum += p;
+      occupied += p > 0.65f ? 1 : 0;
+      ++n;
+    }
+  }
+  double mean() const { return n ? sum / double(n) : 0; }
+  double fraction() const { return n ? occupied / double(n) : 0; }
+};
+
 struct Row {
   double half_life = 0;
   Scores overall, now;
-  double left_mean = 0, left_occupied = 0;
-  std::size_t left = 0;
+  LeftReading left, left_end;
   double ms_per_scan = 0, memory_mb = 0;
 };
 
@@ -174,10 +197,8 @@ Scores scores_on(Context& ctx, const KernelMap& map, const LabelledPoints& test)
   return score(ev.evaluate(test.position).prob, test.label);
 }
 
-// One half-life over the whole input. `left` is filled on the first run (the data are the same
-// for every half-life).
-Row run(Context& ctx, const Source& src, const Args& a, double half_life, LeftPlaces* left,
-        std::vector<double>& left_points) {
+// One half-life over the whole input.
+Row run(Context& ctx, const Source& src, const Args& a, double half_life, double cell) {
   const double cut = a.range_cut > 0 ? a.range_cut : (src.dim == 3 ? 40 : 20);
   DriveMapperOptions dopt;
   dopt.range_cut = cut;
@@ -191,8 +212,10 @@ Row run(Context& ctx, const Source& src, const Args& a, double half_life, LeftPl
   else
     bhm = std::make_unique<JointBhm>(2, bopt);
   const LabelOptions labels = src.dim == 3 ? dopt.labels : LabelOptions{};
-  LabelledPoints all_test, now_test, now_prob_labels;
+  LabelledPoints all_test, now_prob_labels;
   std::vector<float> now_prob;
+  LeftPlaces left(src.dim, cell, a.stood);
+  Row r;
   double ms = 0;
   for (std::size_t i = 0; i < src.count; ++i) {
     const Scan scan = limit_range(src.at(i), cut);
@@ -208,37 +231,25 @@ Row run(Context& ctx, const Source& src, const Args& a, double half_life, LeftPl
       bhm->update(split.train, &ctx);
     }
     ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    if (left) {
-      left->add(split.train, int(i));
-      left->add(split.test, int(i));
-    }
+    left.add(split.train, int(i));
+    left.add(split.test, int(i));
     if (!drive) append(all_test, split.test);
     if (i % a.now_every == a.now_every - 1 && !split.test.empty()) {
       MapEvaluator ev(ctx, drive ? drive->map() : bhm->map());
       const MapValues v = ev.evaluate(split.test.position);
       now_prob.insert(now_prob.end(), v.prob.begin(), v.prob.end());
       append(now_prob_labels, split.test);
+      r.left.add(ev, left.centres(int(i + 1 - a.now_every)));
     }
   }
-  Row r;
   r.half_life = half_life;
   r.ms_per_scan = ms / double(std::max<std::size_t>(1, src.count));
   const KernelMap final_map = drive ? drive->map() : bhm->map();
   r.memory_mb = double(drive ? drive->memory_bytes() : bhm->memory_bytes()) / 1e6;
   r.overall = scores_on(ctx, final_map, drive ? drive->held_out() : all_test);
   if (!now_prob.empty()) r.now = score(now_prob, now_prob_labels.label);
-  if (left) left_points = left->centres();
-  r.left = left_points.size() / std::size_t(src.dim);
-  if (r.left > 0) {
-    MapEvaluator ev(ctx, final_map);
-    const MapValues v = ev.evaluate(left_points);
-    for (float p : v.prob) {
-      r.left_mean += p;
-      r.left_occupied += p > 0.5f ? 1 : 0;
-    }
-    r.left_mean /= double(r.left);
-    r.left_occupied /= double(r.left);
-  }
+  MapEvaluator ev(ctx, final_map);
+  r.left_end.add(ev, left.centres());
   return r;
 }
 
@@ -253,7 +264,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, a)) {
     std::fprintf(stderr,
                  "usage: forgetting INPUT [--half-life 0,5,20] [--first N] [--max-scans N] "
-                 "[--range-cut R] [--now-every K] [--cell C] [--json OUT]\n");
+                 "[--range-cut R] [--now-every K] [--stood S] [--cell C] [--json OUT]\n");
     return 2;
   }
   try {
@@ -261,18 +272,18 @@ int main(int argc, char** argv) {
     const Source src = open_source(a);
     if (src.count == 0) throw std::runtime_error(a.input + ": no scans");
     const double cell = a.cell > 0 ? a.cell : (src.dim == 3 ? 0.5 : 0.25);
-    LeftPlaces left(src.dim, cell);
-    std::vector<double> left_points;
     std::vector<Row> rows;
-    for (std::size_t k = 0; k < a.half_lives.size(); ++k) {
-      rows.push_back(run(ctx, src, a, a.half_lives[k], k == 0 ? &left : nullptr, left_points));
-      const Row& r = rows.back();
-      std::fprintf(stderr, "half-life %g s done (%.1f ms a scan)\n", r.half_life, r.ms_per_scan);
+    for (double h : a.half_lives) {
+      rows.push_back(run(ctx, src, a, h, cell));
+      std::fprintf(stderr, "half-life %g s done (%.1f ms a scan)\n", h, rows.back().ms_per_scan);
     }
-    std::printf("%s: %zu scans from %zu (%dD), %zu places left (cells of %g m)\n", a.input.c_str(),
-                src.count, src.first, src.dim, rows.front().left, cell);
-    std::printf("%-10s %-15s %-15s %-20s %-10s %-9s\n", "half-life", "overall AUC/NLL",
-                "now AUC/NLL", "left: mean p, p>0.5", "ms/scan", "MB");
+    std::printf(
+        "%s: %zu scans from %zu (%dD); places left: %zu readings, %zu at the end "
+        "(cells of %g m)\n",
+        a.input.c_str(), src.count, src.first, src.dim, rows.front().left.n,
+        rows.front().left_end.n, cell);
+    std::printf("%-9s  %-16s %-16s %-16s %-16s %-8s %s\n", "half-life", "overall AUC/NLL",
+                "now AUC/NLL", "left: p, p>0.65", "left at end", "ms/scan", "MB");
     nlohmann::json j = {{"input", a.input},
                         {"first", src.first},
                         {"scans", src.count},
@@ -281,15 +292,19 @@ int main(int argc, char** argv) {
                         {"now_every", a.now_every},
                         {"device", ctx.info().summary()}};
     for (const Row& r : rows) {
-      std::printf("%-10g %.4f / %.4f %.4f / %.4f %.3f, %5.1f %%      %-10.1f %-9.1f\n", r.half_life,
-                  r.overall.auc, r.overall.nll, r.now.auc, r.now.nll, r.left_mean,
-                  100 * r.left_occupied, r.ms_per_scan, r.memory_mb);
+      std::printf("%-9g  %.4f / %.4f  %.4f / %.4f  %.3f, %5.1f %%   %.3f, %5.1f %%   %-8.1f %.1f\n",
+                  r.half_life, r.overall.auc, r.overall.nll, r.now.auc, r.now.nll, r.left.mean(),
+                  100 * r.left.fraction(), r.left_end.mean(), 100 * r.left_end.fraction(),
+                  r.ms_per_scan, r.memory_mb);
       j["runs"].push_back({{"half_life_s", r.half_life},
                            {"overall", to_json(r.overall)},
                            {"now", to_json(r.now)},
-                           {"left_places", r.left},
-                           {"left_mean_prob", r.left_mean},
-                           {"left_occupied_fraction", r.left_occupied},
+                           {"left_readings", r.left.n},
+                           {"left_mean_prob", r.left.mean()},
+                           {"left_occupied_fraction", r.left.fraction()},
+                           {"left_at_end", r.left_end.n},
+                           {"left_at_end_mean_prob", r.left_end.mean()},
+                           {"left_at_end_occupied_fraction", r.left_end.fraction()},
                            {"ms_per_scan", r.ms_per_scan},
                            {"memory_mb", r.memory_mb}});
     }

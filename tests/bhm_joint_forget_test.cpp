@@ -5,12 +5,15 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "test_support.hpp"
 
@@ -213,6 +216,37 @@ double car_after_revival(double half_life) {
 TEST(JointBhmForget, RetiredTilesFadeAndReviveFaded) {
   EXPECT_GT(car_after_revival(0), 0.5) << "kept, three scans of the car outvote one without";
   EXPECT_LT(car_after_revival(1.0), 0.3) << "faded while retired, the car is gone at revival";
+}
+
+// A drive mapper that forgets, saved mid-drive and restored, continues as the one that never
+// stopped, bit for bit (the clocks of the learner and of its tiles are in the state), and its
+// map is not the one of a mapper that never forgets.
+TEST(JointBhmForget, DriveMapperStateContinuesBitForBit) {
+  const Drive drive = open_drive(test::shared_data("drives3d/hku-1"));
+  DriveMapperOptions o;
+  o.bhm.half_life = 0.5;
+  o.bhm.sums = JointBhmSums::host;
+  o.range_cut = 20;
+  DriveMapperOptions keep = o;
+  keep.bhm.half_life = 0;
+  DriveMapper a(o), never(keep);
+  const std::string path = test::temp_dir("forget-drive-state") + "/m.state";
+  std::optional<DriveMapper> b;
+  for (std::size_t i = 0; i < 6; ++i) {
+    const Scan k = read_keyframe(drive, i);
+    a.add(k, std::int64_t(i));
+    never.add(k, std::int64_t(i));
+    if (b) b->add(k, std::int64_t(i));
+    if (i == 2) {
+      a.save_state(path);
+      b.emplace(o);
+      b->load_state(path);
+    }
+  }
+  ASSERT_GT(a.learner().time(), 0.0);
+  EXPECT_EQ(b->learner().time(), a.learner().time());
+  test::expect_same_map(a.map(), b->map());
+  EXPECT_NE(a.map().w_mean, never.map().w_mean);
 }
 
 TEST(JointBhmForget, RefusesBadHalfLivesAndTimes) {

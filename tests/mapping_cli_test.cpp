@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -71,6 +72,39 @@ TEST(MappingCli, SeedRuleFlagChoosesTheRule) {
     ASSERT_FALSE(maps[k].empty());
   }
   EXPECT_TRUE(maps[0] != maps[1]) << "both seed rules wrote the same map";
+}
+
+// --half-life reaches RePOT's persistent map: over 40 scans of Intel (about two minutes of the
+// log) a 2 s half-life leaves the final map little of the early scans (measured: overall AUC
+// 0.66 against 0.98 without), the map file carries the half-life and the clock, and POT's map,
+// which does not forget, refuses it.
+TEST(MappingCli, HalfLifeFadesThePersistentMap) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string log = test::quoted(test::shared_data("radish/intel-corrected.log.gz"));
+  double auc[2] = {0, 0};
+  const char* half_lives[2] = {"0", "2"};
+  for (int k = 0; k < 2; ++k) {
+    const std::string d = test::temp_dir(std::string("mapping-half-life-") + half_lives[k]);
+    const test::CliResult r =
+        run_mapping_cli("mapping " + log + " --max-scans 40 -q --half-life " + half_lives[k] +
+                            " -o " + test::quoted(d) + " --json -",
+                        "2>/dev/null");
+    ASSERT_EQ(r.status, 0) << r.out;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["half_life_s"].get<double>(), std::stod(half_lives[k]));
+    auc[k] = j["overall"]["auc"].get<double>();
+    const std::optional<JointBhm> m = read_joint_bhm_information(d + "/map.potmap");
+    ASSERT_TRUE(m.has_value());
+    EXPECT_EQ(m->options().half_life, std::stod(half_lives[k]));
+    EXPECT_GT(m->time(), 0.0) << "the clock is the scans' timestamps";
+  }
+  EXPECT_GT(auc[0], 0.95);
+  EXPECT_LT(auc[1], 0.8) << "a 2 s half-life forgets most of two minutes of scans";
+  const test::CliResult pot =
+      run_mapping_cli("mapping " + log + " --max-scans 4 --method pot " + "--half-life 3 -o " +
+                      test::quoted(test::temp_dir("mapping-pot-hl")));
+  EXPECT_NE(pot.status, 0);
+  EXPECT_NE(pot.out.find("--half-life"), std::string::npos) << pot.out;
 }
 
 TEST(MappingCli, DefaultDictionaryIsCachedAndVersioned) {

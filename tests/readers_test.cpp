@@ -151,8 +151,8 @@ TEST(ReadersMalformed, UnknownFileNamesFormats) {
     FAIL() << "no InputError";
   } catch (const InputError& e) {
     const std::string m = e.what();
-    for (const char* n : {"junk.xyz", "no laser line", "'?\?junk?\?\?'", "RAWLASER1-4", ".bin", ".pcd",
-                          ".npz", ".csv", "poses.txt"})
+    for (const char* n : {"junk.xyz", "no laser line", "'?\?junk?\?\?'", "RAWLASER1-4", ".bin",
+                          ".pcd", ".npz", ".csv", "poses.txt"})
       EXPECT_NE(m.find(n), std::string::npos) << m << " lacks " << n;
     for (char c : m) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << "non-printable byte in " << m;
   }
@@ -352,20 +352,44 @@ TEST(Readers, RawLaserOutsideOdometry) {
   expect_input_error([&] { read_carmen(bad_t); }, {bad_t, "line 3", "x1"});
 }
 
+// A log whose stamps do not advance from most scans to the next (printed with six significant
+// digits, as CSAIL's: 1.13486e+09) carries no time: its scans are timed by their index. One
+// whose stamps advance keeps them, a step back or two included.
+TEST(Readers, StampsThatDoNotAdvanceBecomeIndices) {
+  const std::string d = test::temp_dir("readers_stamps");
+  auto flaser = [](const std::string& t) {
+    return "FLASER 3 1 1 1 0 0 0 0 0 0 " + t + " host " + t + "\n";
+  };
+  std::string coarse, fine;
+  for (int i = 0; i < 8; ++i) {
+    coarse += flaser(i < 7 ? "1.13486e+09" : "1.13487e+09");
+    fine += flaser(std::to_string(i == 4 ? 2.5 : 10.0 + i));
+  }
+  const Dataset c = read_carmen(write_file(d, "coarse.log", coarse));
+  ASSERT_EQ(c.scans.size(), 8u);
+  EXPECT_EQ(c.stats.stamps_replaced, 8u);
+  for (std::size_t i = 0; i < 8; ++i) EXPECT_EQ(c.scans[i].timestamp, double(i));
+  const Dataset f = read_carmen(write_file(d, "fine.log", fine));
+  EXPECT_EQ(f.stats.stamps_replaced, 0u);
+  EXPECT_EQ(f.scans[4].timestamp, 2.5);
+  EXPECT_EQ(f.scans[7].timestamp, 17.0);
+}
+
 // ROBOTLASER1 as CARMEN writes it, and as converters write it: without the velocity fields,
 // without anything after the poses, with the velocities but no timestamp.
 TEST(Readers, RobotLaserVariants) {
   const std::string d = test::temp_dir("readers_robot_variants");
   const std::string head = "ROBOTLASER1 0 0 0 0 8 0.01 0 1 2 0 ";
   const std::string p = write_file(d, "v.log",
-                                   head + "0 0 0 0 0 0 0 0 0 0 0 77.5 host 77.5\n" +  //
-                                       head + "1 0 0 1 0 0 55.5 host 55.5\n" +        //
+                                   head + "0 0 0 0 0 0 0 0 0 0 0 1.25 host 1.25\n" +  //
+                                       head + "1 0 0 1 0 0 1.75 host 1.75\n" +        //
                                        head + "0 1 1.5707963267948966 0 1 0\n" +      //
                                        head + "3 3 0 3 3 0 0 0 0 0 0\n");
   const Dataset ds = read_carmen(p);
   ASSERT_EQ(ds.scans.size(), 4u);
-  EXPECT_DOUBLE_EQ(ds.scans[0].timestamp, 77.5);
-  EXPECT_DOUBLE_EQ(ds.scans[1].timestamp, 55.5);
+  EXPECT_DOUBLE_EQ(ds.scans[0].timestamp, 1.25);
+  EXPECT_DOUBLE_EQ(ds.scans[1].timestamp, 1.75);
+  EXPECT_EQ(ds.stats.stamps_replaced, 0u);
   EXPECT_DOUBLE_EQ(ds.scans[2].timestamp, 2);
   EXPECT_DOUBLE_EQ(ds.scans[3].timestamp, 3);
   expect_hit(ds.scans[1], 0, 3, 0);

@@ -136,6 +136,9 @@ int scans_info(const std::string& file, const Dataset& ds) {
               << "xyz"[k] << " [" << lo[k] << ", " << hi[k] << "]";
   std::cout << "\nlines skipped: " << ds.stats.lines_skipped << "\n";
   std::cout << "points dropped (NaN/Inf): " << ds.stats.points_dropped << "\n";
+  if (ds.stats.stamps_replaced)
+    std::cout << "timestamps: the log's do not advance from most scans to the next; the "
+              << ds.stats.stamps_replaced << " scans are timed by their index\n";
   return 0;
 }
 

@@ -377,6 +377,19 @@ std::vector<Raw> parse_chosen(const std::string& path, const Scanned& sc, double
 
 }  // namespace
 
+// A log whose stamps do not advance from most scans to the next carries no time: a logger that
+// printed them with six significant digits (CSAIL's: 1.13486e+09, 405 of 406 scans on one
+// stamp, then a jump of 10,000 s). Its scans are timed by their index instead, as a log
+// without stamps, so that what runs on the scans' time (forgetting) sees a clock.
+void stamps_or_indices(Dataset& d) {
+  const std::size_t n = d.scans.size();
+  std::size_t advancing = 0;
+  for (std::size_t i = 1; i < n; ++i) advancing += d.scans[i].timestamp > d.scans[i - 1].timestamp;
+  if (n < 3 || 2 * advancing >= n - 1) return;
+  for (std::size_t i = 0; i < n; ++i) d.scans[i].timestamp = double(i);
+  d.stats.stamps_replaced = n;
+}
+
 Dataset read_carmen_log(const std::string& path, double flaser_max_range, double flaser_fov,
                         const std::string& hint) {
   if (!(flaser_fov > 0 && flaser_fov <= 2 * kPi))
@@ -419,6 +432,7 @@ Dataset read_carmen_log(const std::string& path, double flaser_max_range, double
     }
     out.scans.push_back(std::move(sc));
   }
+  stamps_or_indices(out);
   return out;
 }
 

@@ -599,6 +599,18 @@ class JointBhm:
     def update_by_scan(self, samples: LabelledPoints) -> None:
         """One update() per scan index, in increasing order."""
         ...
+    def set_time(self, seconds: float) -> None:
+        """The sensor time of the data update() adds next (a scan's stamp). With
+        half_life > 0 what was learned fades by 2**(-(t - time) / half_life); an
+        earlier time changes nothing; the first call only sets the clock."""
+        ...
+    @property
+    def time(self) -> float:
+        """the clock set_time() last advanced"""
+        ...
+    def catch_up(self) -> None:
+        """Applies the fading every tile is owed now (map() does it on a copy otherwise)."""
+        ...
     def seed_unreached(self, field: KernelMap, min_var: float = 1.0, min_support: float = 0.3) -> int:
         """Seeds the prior of kernels no sample reached from another KernelMap (RePOT).
         Returns the number seeded."""
@@ -717,6 +729,12 @@ class JointBhmOptions:
         ...
     @max_kernels.setter
     def max_kernels(self, value: Any) -> None: ...
+    @property
+    def half_life(self) -> float:
+        """forgetting: the data's evidence halves every half_life seconds of sensor time (set_time()); 0 (default): never"""
+        ...
+    @half_life.setter
+    def half_life(self, value: Any) -> None: ...
     @property
     def sums(self) -> str:
         """where update(samples, ctx) lists features and adds the sums: 'automatic' (default: the device when it is a GPU with doubles, else the host), 'host' or 'device'"""

@@ -98,3 +98,46 @@ def test_abhm_progress_exception_stops_training(samples):
     with pytest.raises(KeyError, match="stop here"):
         potmap.abhm_train(potmap.abhm_init_halton(lo, hi, 10), pts, steps=50, report_every=5,
                           progress=stop)
+
+
+def street(car, seed):
+    """Beams up the y axis over x in [0, 1]: ending on a car at y = 2, or on a wall at y = 5."""
+    end = 2.0 if car else 5.0
+    pos, lab = [], []
+    for b in range(11):
+        x = 0.1 * b
+        pos.append((x, end))
+        lab.append(1)
+        y = 0.2 + 0.05 * (seed % 7)
+        while y < end - 0.3:
+            pos.append((x, y))
+            lab.append(0)
+            y += 0.5
+    n = len(lab)
+    return potmap.LabelledPoints(np.array(pos), np.array(lab, dtype=np.uint8),
+                                 np.full(n, seed, dtype=np.int64))
+
+
+def test_joint_bhm_forgets_with_a_half_life():
+    # Ten scans with the car, then three without it, 0.1 s apart: with a 0.1 s half-life the
+    # map reads the car gone; without, the ten scans still outvote the three.
+    keep, forget = potmap.JointBhm(2), potmap.JointBhm(2, half_life=0.1)
+    assert forget.options.half_life == 0.1 and keep.options.half_life == 0
+    for t in range(13):
+        for m in (keep, forget):
+            m.set_time(0.1 * t)
+            m.update(street(t < 10, t))
+    assert forget.time == pytest.approx(1.2)
+    car = np.array([[0.5, 2.0]])
+
+    def prob(m):
+        return float(m.map().evaluate_exact(car).prob[0])
+
+    assert prob(keep) > 0.5
+    assert prob(forget) < 0.25
+    # catch_up() applies the fading map() would apply on a copy: the same map either way.
+    before = forget.map()
+    forget.catch_up()
+    same_map(before, forget.map(), rtol=1e-9, atol=1e-12)
+    with pytest.raises(potmap.ArgumentError):
+        potmap.JointBhm(2, half_life=-1.0)

@@ -36,7 +36,12 @@ TEST(CApiDriveMapper, OptionsInitToTheDriveDefaults) {
   EXPECT_EQ(o.voxel, 0.5);
   EXPECT_EQ(o.retire_radius, -1.0);
   EXPECT_EQ(o.sums, POTMAP_SUMS_AUTOMATIC);
+  EXPECT_EQ(o.half_life, 0.0);
   potmap_drive_mapper* m = nullptr;
+  o.half_life = -2;
+  POTMAP_EXPECT_FAIL(potmap_drive_mapper_create(nullptr, &o, &m), POTMAP_ERROR_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(potmap_last_error(), "half_life")) << potmap_last_error();
+  o.half_life = 0;
   o.sums = 3;
   POTMAP_EXPECT_FAIL(potmap_drive_mapper_create(nullptr, &o, &m), POTMAP_ERROR_INVALID_ARGUMENT);
   EXPECT_TRUE(contains(potmap_last_error(), "sums")) << potmap_last_error();

@@ -35,6 +35,7 @@ potmap::Scan to_cpp(const RoomScan& r) {
   s.dim = 2;
   s.max_range = r.max_range;
   s.pose2d = {r.x, r.y, r.yaw};
+  s.timestamp = r.timestamp;
   s.hits = r.hits;
   s.no_return = r.no_return;
   return s;
@@ -157,6 +158,7 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.refine_prior_var, 10.0);
   EXPECT_EQ(m.refine_em_iterations, 3);
   EXPECT_EQ(m.seed_displacement_variance, 0.25);
+  EXPECT_EQ(m.half_life, 0.0);
   // The paper's rules: the defaults but for the five the preset sets.
   potmap_mapper_options mp;
   POTMAP_ASSERT_OK(potmap_mapper_options_init_paper(&mp, sizeof mp));
@@ -466,6 +468,8 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
   bad_option([](potmap_mapper_options& b) { b.refine_em_iterations = 0; }, "refine_em_iterations");
   bad_option([](potmap_mapper_options& b) { b.refine_em_iterations = 101; },
              "refine_em_iterations");
+  bad_option([](potmap_mapper_options& b) { b.half_life = -1; }, "half_life");
+  bad_option([](potmap_mapper_options& b) { b.half_life = NAN; }, "half_life");
   bad_option([](potmap_mapper_options& b) { b.struct_size = 3; }, "struct_size");
   bad_option([](potmap_mapper_options& b) { b.struct_size = 4096; }, "newer");
   EXPECT_EQ(m, nullptr);
@@ -677,7 +681,9 @@ ThreeMaps persistent_maps(const potmap_mapper_options& o, const potmap::MapperOp
   if (!m) return r;
   potmap::Mapper same(&cpp_context(), dict, mo);
   potmap::Mapper plain(&cpp_context(), dict, cpp_options(1));
-  for (const RoomScan& t : targets(scans)) {
+  double time = 0;
+  for (RoomScan t : targets(scans)) {
+    t.timestamp = time++;  // a second apart: the mappers' clock (forgetting)
     const potmap_scan s = t.scan();
     EXPECT_EQ(potmap_mapper_add_scan(m, &s, nullptr), POTMAP_SUCCESS) << potmap_last_error();
     same.add_scan(to_cpp(t));
@@ -737,6 +743,19 @@ TEST(CApiMapper, PersistentMapSettingsReachTheMapper) {
   };
   EXPECT_NEAR(pitch(maps.c), 1.0, 1e-9);
   EXPECT_NEAR(pitch(maps.plain), 0.5, 1e-9);
+}
+
+// half_life reaches RePOT's persistent map, whose clock is the scans' timestamps: the C mapper
+// gives the C++ mapper's map with the same half-life, and a map other than one that never
+// forgets.
+TEST(CApiMapper, HalfLifeReachesThePersistentMap) {
+  potmap_mapper_options o = fast_options(1);
+  o.half_life = 0.5;
+  potmap::MapperOptions mo = cpp_options(1);
+  mo.refine_map.half_life = 0.5;
+  const ThreeMaps maps = persistent_maps(o, mo, 4);
+  expect_same(maps.c, maps.cpp, "overall map");
+  EXPECT_NE(maps.c.w_mean, maps.plain.w_mean);
 }
 
 // potmap_mapper_options_init_map_defaults maps as the C++ Mapper with `potmap map`'s settings

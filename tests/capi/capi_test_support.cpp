@@ -188,6 +188,7 @@ potmap_scan RoomScan::scan() const {
   s.pose[1] = y;
   s.pose[2] = yaw;
   s.max_range = max_range;
+  s.timestamp = timestamp;
   s.hits = hits.data();
   s.num_hits = hits.size() / 2;
   s.no_return = no_return.data();

@@ -92,6 +92,7 @@ cl_uint reference_count(cl_event e);
 /// description points into them: keep the RoomScan alive while it is used).
 struct RoomScan {
   double x = 0, y = 0, yaw = 0, max_range = 6;
+  double timestamp = 0;  ///< seconds (the mappers' clock for forgetting)
   std::vector<double> hits, no_return;
   potmap_scan scan() const;
 };

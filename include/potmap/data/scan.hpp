@@ -39,6 +39,9 @@ struct Scan {
 struct ReadStats {
   std::size_t lines_skipped = 0;   ///< lines of other types (CARMEN ODOM, PARAM, ...)
   std::size_t points_dropped = 0;  ///< NaN or Inf points dropped at the door
+  /// Scans timed by their index because the log's stamps do not advance from most scans to the
+  /// next (a CARMEN log whose stamps were printed with too few digits); 0: the log's stamps.
+  std::size_t stamps_replaced = 0;
 };
 
 struct Dataset {
@@ -78,7 +81,9 @@ struct Dataset {
 /// their field of view, centred on the heading (n odd: both ends included; n even: 1 degree
 /// steps for 180 beams over 180 degrees, the last beam one step short of +fov/2). Throws
 /// InputError naming file, line and value for a truncated line, wrong field count, non-numeric
-/// value, NaN pose or negative range.
+/// value, NaN pose or negative range. A log whose stamps do not advance from most scans to the
+/// next (printed with too few digits: CSAIL's) has its scans timed by their index
+/// (stats.stamps_replaced).
 Dataset read_carmen(const std::string& path, double flaser_max_range = 0,
                     double flaser_fov = 3.14159265358979323846);
 
