@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "potmap/map/evaluate.hpp"
+#include "potmap/map/height_band.hpp"
 
 #include "drive_band_picture.hpp"
 #include "potmap/error.hpp"
@@ -54,10 +55,7 @@ struct Band {
                j = long(std::floor((y - origin[1]) / res));
     if (i < 0 || j < 0 || std::size_t(i) >= nx || std::size_t(j) >= ny) return;
     const std::size_t c = std::size_t(i) + nx * std::size_t(j);
-    if (p > prob[c]) {
-      prob[c] = float(p);
-      var[c] = float(v);
-    }
+    keep_band_max(float(p), float(v), 0.0f, prob[c], var[c]);  // the raster's band rule
   }
 };
 

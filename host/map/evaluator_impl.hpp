@@ -1,7 +1,8 @@
 #pragma once
-// MapEvaluator's state, shared by its three paths, one file each: host points in batches
-// (evaluate.cpp, kernels/map/evaluate.cl), grids (evaluate_grid.cpp, kernels/map/raster.cl)
-// and points already on the device (evaluate_cells.cpp, kernels/map/evaluate_cells.cl).
+// MapEvaluator's state, shared by its paths, one file each: host points in batches
+// (evaluate.cpp, kernels/map/evaluate.cl), grids (evaluate_grid.cpp, kernels/map/raster.cl),
+// height bands (evaluate_band.cpp, kernels/map/raster.cl then kernels/map/band_max.cl) and
+// points already on the device (evaluate_cells.cpp, kernels/map/evaluate_cells.cl).
 
 #include <boost/compute/buffer.hpp>
 #include <string>
@@ -39,6 +40,10 @@ struct MapEvaluator::Impl {
       g_col_lo{"evaluator: grid columns (lo)"}, g_row_hi{"evaluator: grid rows (hi)"},
       g_row_lo{"evaluator: grid rows (lo)"}, g_row_out{"evaluator: grid row outputs"},
       g_start{"evaluator: grid list starts"}, g_list{"evaluator: grid kernel lists"};
+  // Band path (its levels go through the grid path's buffers first).
+  detail::GrowBuffer b_level_slot{"evaluator: band level slots"},
+      b_band_mean{"evaluator: band mean output"}, b_band_var{"evaluator: band variance output"},
+      b_band_prob{"evaluator: band probability output"};
   // Device path: per-cell kernel lists, built on first use.
   bool cells_built = false;
   double cell_size = 0;
@@ -50,6 +55,8 @@ struct MapEvaluator::Impl {
 
   void run_batch(const double* pts, std::size_t n, float* mean, float* var, float* prob);
   void run_grid(const GridSpec& grid, float* mean, float* var, float* prob);
+  void run_band(const GridSpec& columns, const std::vector<double>& levels, float* mean, float* var,
+                float* prob);
   void build_cells();
 };
 

@@ -91,6 +91,15 @@ class MapEvaluator {
   void evaluate_grid(const GridSpec& grid, float* mean, float* var, float* prob);
   MapValues evaluate_grid(const GridSpec& grid);
 
+  /// Height-band maximum of a 3D map (map/height_band.hpp) on the (x, y) cells of `columns`
+  /// (dim 3; count[2] and origin[2] are ignored): per cell, the largest probability over the
+  /// heights `levels` (metres, map frame; from height_band_levels) and the variance and mean at
+  /// that level. The levels are evaluated and reduced on the device; only the band comes back.
+  /// Outputs may be null; the others receive count[0] * count[1] floats, x fastest. No levels or
+  /// no cells does nothing. Throws ArgumentError for a 2D map or non-finite levels.
+  void evaluate_band_max(const GridSpec& columns, const std::vector<double>& levels, float* mean,
+                         float* var, float* prob);
+
   /// Values at n points that already live on the device, for a host mapper that keeps its data
   /// there. `points`: n * dim floats (x, y[, z] per point), metres relative to `origin` (dim
   /// doubles, metres, in the map's frame; keep points within a few km of it for millimetre
