@@ -67,3 +67,30 @@ TEST(RasterCli, BadBoundsNameTheValue) {
   EXPECT_NE(r.err.find("expected 4"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir + "/w_prob.png"));
 }
+
+TEST(RasterCli, HeightBandOfA3DMap) {
+  if (std::string(POTMAP_CLI).empty() || !fs::exists(POTMAP_CLI))
+    GTEST_SKIP() << "potmap command not built";
+  const std::string dir = potmap::test::temp_dir("raster-cli-band");
+  const std::string map = dir + "/map3.csv";
+  // One kernel 1 m up: a band from 0 to 2 m sees it; the slice at 0 barely does.
+  std::ofstream(map) << "x,y,z,gamma,w_mean,w_var\n0.5,0.25,1.0,4.0,3.0,0.5\n";
+  Result r = run_cli(dir, "raster --map '" + map +
+                              "' --bounds -1,2,-1,1.5 --res 0.05 --band 0,2 --band-step 0.25 "
+                              "--out '" +
+                              dir + "/b' --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("\"levels\": 9"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"prob_max\": 0.9"), std::string::npos) << r.out;
+  for (const char* f : {"_prob.png", "_var.png", "_prob.npy", "_var.npy"})
+    EXPECT_TRUE(fs::exists(dir + "/b" + f)) << f;
+  r = run_cli(dir, "raster --map '" + map + "' --bounds -1,2,-1,1.5 --res 0.05 --band 0 --out '" +
+                       dir + "/c'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("--band '0'"), std::string::npos) << r.err;
+  r = run_cli(dir, "raster --map '" + write_map_csv(dir) +
+                       "' --bounds -1,2,-1,1.5 --res 0.05 --band 0,2 --out '" + dir + "/d'");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("3D map"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir + "/d_prob.png"));
+}

@@ -81,7 +81,7 @@ TEST(RasterTilesCli, HelpNamesTheGeoTiffOptions) {
   if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const auto r = potmap::test::run_cli("raster --help");
   ASSERT_EQ(r.status, 0);
-  for (const char* opt :
-       {"--tile", "--work-dir", "--keep-tiles", "--crs", "--no-overviews", "--compress"})
+  for (const char* opt : {"--tile", "--work-dir", "--keep-tiles", "--crs", "--no-overviews",
+                          "--compress", "--band", "--band-step"})
     EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
 }

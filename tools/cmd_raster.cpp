@@ -22,8 +22,8 @@ namespace potmap::cli {
 namespace {
 
 struct RasterArgs {
-  std::string map, bounds, out, prob_cmap = "viridis", var_cmap = "magma";
-  double res = 0, z = 0;
+  std::string map, bounds, out, prob_cmap = "viridis", var_cmap = "magma", band;
+  double res = 0, z = 0, band_step = 0;
   std::size_t band_cells = RasterOptions{}.max_band_cells;
   bool no_png = false, no_npy = false, json = false;
   std::size_t tile = TiledRasterOptions{}.tile_cells;
@@ -71,6 +71,26 @@ void parse_bounds(const std::string& text, RasterSpec& spec) {
   }
 }
 
+// "ZLO,ZHI" -> the spec's height band; names the value that is wrong.
+void parse_height_band(const std::string& text, RasterSpec& spec) {
+  const std::size_t comma = text.find(',');
+  const std::string parts[2] = {text.substr(0, comma),
+                                comma == std::string::npos ? "" : text.substr(comma + 1)};
+  double* dest[2] = {&spec.band_lo, &spec.band_hi};
+  for (int i = 0; i < 2; ++i) {
+    std::size_t used = 0;
+    double v = NAN;
+    try {
+      v = std::stod(parts[i], &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (comma == std::string::npos || used == 0 || used != parts[i].size() || !std::isfinite(v))
+      throw ArgumentError("--band '" + text + "': expected ZLO,ZHI, two finite heights in metres");
+    *dest[i] = v;
+  }
+}
+
 }  // namespace
 
 void register_raster(CLI::App& app, Runner& runner) {
@@ -92,6 +112,15 @@ void register_raster(CLI::App& app, Runner& runner) {
                   "band 2 variance, float32) written in tiles, resumed if run again")
       ->required();
   cmd->add_option("--z", a->z, "Slice height for 3D maps, metres (default 0)");
+  cmd->add_option("--band", a->band,
+                  "3D maps: ZLO,ZHI in metres (map frame): instead of the slice at --z, each cell "
+                  "holds the largest probability over the heights ZLO..ZHI and the variance at "
+                  "that height (what stands between the ground and a vehicle's roof)");
+  cmd->add_option("--band-step", a->band_step,
+                  "Largest spacing of the band's heights, metres; both ends are sampled (default "
+                  "0: the standard deviation of the map's narrowest kernel, 1/sqrt(2 gamma_max), "
+                  "finer than which the map does not change)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--band-cells", a->band_cells,
                   "Most cells evaluated at once (memory ~24 bytes per cell; default 4194304)")
       ->check(CLI::PositiveNumber);
@@ -122,6 +151,8 @@ void register_raster(CLI::App& app, Runner& runner) {
       parse_bounds(a->bounds, spec);
       spec.resolution = a->res;
       spec.z = a->z;
+      if (!a->band.empty()) parse_height_band(a->band, spec);
+      spec.band_step = a->band_step;
       spec.validate();  // before reading a large map
       if (is_geotiff(a->out)) {
         TiledRunArgs t;
@@ -155,6 +186,8 @@ void register_raster(CLI::App& app, Runner& runner) {
                             {"height", s.height},
                             {"cells", s.cells},
                             {"bands", s.bands},
+                            {"levels", s.levels},
+                            {"level_spacing", s.level_spacing},
                             {"seconds", s.seconds},
                             {"read_seconds", setup.read_seconds},
                             {"device_seconds", setup.device_seconds},
@@ -170,6 +203,9 @@ void register_raster(CLI::App& app, Runner& runner) {
                   << (s.bands == 1 ? "" : "s") << ", " << s.seconds << " s; p in [" << s.prob_min
                   << ", " << s.prob_max << "], variance in [" << s.var_min << ", " << s.var_max
                   << "]\n";
+        if (s.levels)
+          std::cout << "height band: maximum over " << s.levels << " heights " << s.level_spacing
+                    << " m apart\n";
         for (const std::string& f : s.files) std::cout << "wrote " << f << "\n";
       }
       return 0;

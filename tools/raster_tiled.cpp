@@ -40,6 +40,8 @@ void print_summary(const TiledRasterSummary& s, int ranks, std::size_t busy, boo
                         {"computed", s.computed},
                         {"reused", s.reused},
                         {"stale", s.stale},
+                        {"levels", s.levels},
+                        {"level_spacing", s.level_spacing},
                         {"ranks", ranks},
                         {"seconds", s.seconds},
                         {"read_seconds", setup.read_seconds},
@@ -55,7 +57,11 @@ void print_summary(const TiledRasterSummary& s, int ranks, std::size_t busy, boo
             << " computed, " << s.reused << " reused from an earlier run"
             << (s.stale ? ", " + std::to_string(s.stale) + " stale recomputed" : std::string())
             << ") on " << ranks << " rank" << (ranks == 1 ? "" : "s") << ", " << s.seconds
-            << " s\nwrote " << s.output << "\nwrote " << s.manifest << "\n";
+            << " s\n";
+  if (s.levels)
+    std::cout << "height band: maximum over " << s.levels << " heights " << s.level_spacing
+              << " m apart\n";
+  std::cout << "wrote " << s.output << "\nwrote " << s.manifest << "\n";
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "io/npy_writer.hpp"
+#include "map/raster_window.hpp"
 #include "potmap/error.hpp"
 #include "render/png_writer.hpp"
 
@@ -156,7 +157,7 @@ void write_rows(const float* band, std::size_t W, std::size_t rows, detail::NpyW
 // so every band is evaluated by exactly the tiles a single pass would use: the values do not
 // depend on the band size. Encoding and writing band k (two threads: probability and variance)
 // overlap the evaluation of band k + 1; two sets of buffers take turns.
-std::size_t write_bands(MapEvaluator& ev, int dim, const RasterSpec& spec,
+std::size_t write_bands(detail::WindowEvaluator& ev, const RasterSpec& spec,
                         const RasterOptions& options, RasterFiles& files, MinMax& pstat,
                         MinMax& vstat) {
   const std::size_t W = spec.width(), H = spec.height();
@@ -185,19 +186,10 @@ std::size_t write_bands(MapEvaluator& ev, int dim, const RasterSpec& spec,
   try {
     while (j_hi > 0) {
       const std::size_t j_lo = (j_hi - 1) / band * band;
-      GridSpec g;
-      g.dim = dim;
-      g.resolution = spec.resolution;
-      g.origin[0] = spec.xmin;
-      g.origin[1] = spec.ymin + double(j_lo) * spec.resolution;
-      g.origin[2] = spec.z - 0.5 * spec.resolution;  // one layer centred on z (3D maps)
-      g.count[0] = W;
-      g.count[1] = j_hi - j_lo;
-      g.count[2] = 1;
-      const std::size_t n = g.cells(), rows = j_hi - j_lo;
+      const std::size_t rows = j_hi - j_lo, n = W * rows;
       var[slot].resize(n);
       prob[slot].resize(n);
-      ev.evaluate_grid(g, nullptr, var[slot].data(), prob[slot].data());
+      ev.rows(0, W, j_lo, rows, var[slot].data(), prob[slot].data());
       wait_writers();
       writing_p = std::async(std::launch::async, [&, rows, pr = prob[slot].data()] {
         write_rows(pr, W, rows, files.prob_npy.get(), files.prob_png.get(), false, pstat, idx_p);
@@ -231,9 +223,9 @@ std::size_t RasterSpec::height() const {
 }
 
 void RasterSpec::validate() const {
-  const char* names[] = {"xmin", "xmax", "ymin", "ymax", "resolution", "z"};
-  const double values[] = {xmin, xmax, ymin, ymax, resolution, z};
-  for (int i = 0; i < 6; ++i)
+  const char* names[] = {"xmin", "xmax", "ymin", "ymax", "resolution", "z", "band_step"};
+  const double values[] = {xmin, xmax, ymin, ymax, resolution, z, band_step};
+  for (int i = 0; i < 7; ++i)
     if (!std::isfinite(values[i]))
       throw ArgumentError(std::string("raster: ") + names[i] + " is not finite (" + num(values[i]) +
                           ")");
@@ -243,6 +235,15 @@ void RasterSpec::validate() const {
     throw ArgumentError("raster: xmin (" + num(xmin) + ") must be below xmax (" + num(xmax) + ")");
   if (!(ymin < ymax))
     throw ArgumentError("raster: ymin (" + num(ymin) + ") must be below ymax (" + num(ymax) + ")");
+  if (has_band() && (!std::isfinite(band_lo) || !std::isfinite(band_hi)))
+    throw ArgumentError("raster: height band " + num(band_lo) + ".." + num(band_hi) +
+                        " m: both ends must be finite");
+  if (has_band() && band_lo > band_hi)
+    throw ArgumentError("raster: height band bottom " + num(band_lo) + " m is above its top " +
+                        num(band_hi) + " m");
+  if (band_step < 0)
+    throw ArgumentError("raster: band_step must be >= 0 (0: the map's default), got " +
+                        num(band_step));
   if ((xmax - xmin) / resolution > double(kMaxAxisCells) ||
       (ymax - ymin) / resolution > double(kMaxAxisCells))
     throw ArgumentError("raster: window of " + num((xmax - xmin) / resolution) + " x " +
@@ -255,7 +256,7 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   const auto t0 = std::chrono::steady_clock::now();
   spec.validate();
   if (out_prefix.empty()) throw ArgumentError("raster: empty output prefix");
-  MapEvaluator ev(ctx, map, options.eval);  // validates the map
+  detail::WindowEvaluator ev(ctx, map, spec, options.eval);  // validates the map (and band)
 
   RasterSummary sum;
   sum.width = spec.width();
@@ -264,8 +265,10 @@ RasterSummary rasterize(Context& ctx, const KernelMap& map, const RasterSpec& sp
   // Writers first: an unwritable folder fails before any device work.
   RasterFiles files(out_prefix, sum.width, sum.height, options);
   MinMax pstat, vstat;
-  sum.bands = write_bands(ev, map.dim, spec, options, files, pstat, vstat);
+  sum.bands = write_bands(ev, spec, options, files, pstat, vstat);
   sum.files = files.install(out_prefix);
+  sum.levels = ev.levels().size();
+  if (sum.levels > 1) sum.level_spacing = ev.levels()[1] - ev.levels()[0];
   sum.prob_min = pstat.min();
   sum.prob_max = pstat.max();
   sum.var_min = vstat.min();

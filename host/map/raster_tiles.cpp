@@ -11,6 +11,7 @@
 #include "io/atomic_file.hpp"
 #include "io/container.hpp"
 #include "io/geotiff_writer.hpp"
+#include "map/raster_window.hpp"
 #include "potmap/error.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/version.h"
@@ -51,10 +52,11 @@ std::uint64_t hash_value(T v, std::uint64_t h) {
   return detail::fnv1a64(std::string_view(reinterpret_cast<const char*>(&v), sizeof v), h);
 }
 
-// Everything a tile's values depend on: the map, the window, the tile size, the evaluator's
-// cut-off, and the version of the code that computes them.
-std::uint64_t job_fingerprint(const KernelMap& m, const RasterSpec& s,
-                              const TiledRasterOptions& o) {
+// Everything a tile's values depend on: the map, the window, the height band's levels (a slice
+// hashes as before), the tile size, the evaluator's cut-off, and the version of the code that
+// computes them.
+std::uint64_t job_fingerprint(const KernelMap& m, const RasterSpec& s, const TiledRasterOptions& o,
+                              const std::vector<double>& levels) {
   std::uint64_t h = detail::fnv1a64("potmap raster tiles " POTMAP_VERSION_STRING);
   h = hash_value(m.dim, h);
   h = hash_doubles(m.position, h);
@@ -66,6 +68,7 @@ std::uint64_t job_fingerprint(const KernelMap& m, const RasterSpec& s,
   h = hash_value(m.bias_var, h);
   for (double v : {s.xmin, s.xmax, s.ymin, s.ymax, s.resolution, s.z, o.eval.tau})
     h = hash_value(v, h);
+  if (!levels.empty()) h = hash_doubles(levels, detail::fnv1a64("height band", h));
   return hash_value(static_cast<std::uint64_t>(o.tile_cells), h);
 }
 
@@ -87,7 +90,9 @@ struct TiledRaster::Impl {
   std::size_t width = 0, height = 0, cols = 0, rows = 0;
   std::vector<RasterTile> tiles;
   std::uint64_t fingerprint = 0;
-  std::unique_ptr<MapEvaluator> evaluator;  // made on first use: the assembling rank needs none
+  std::vector<double> levels;                          // the height band's (empty for a slice)
+  std::unique_ptr<detail::WindowEvaluator> evaluator;  // made on first use: the assembling rank
+                                                       // needs none
 
   Impl(Context& c, const KernelMap& m) : ctx(c), map(m) {}
 
@@ -198,7 +203,8 @@ TiledRaster::TiledRaster(Context& ctx, const KernelMap& map, const RasterSpec& s
       t.index = r * im.cols + c;
       im.tiles.push_back(t);
     }
-  im.fingerprint = job_fingerprint(map, spec, im.options);
+  im.levels = raster_levels(spec, map);  // a bad band fails before any tile
+  im.fingerprint = job_fingerprint(map, spec, im.options, im.levels);
   std::error_code ec;
   fs::create_directories(im.options.work_dir, ec);
   if (ec || !fs::is_directory(im.options.work_dir))
@@ -239,21 +245,15 @@ bool TiledRaster::complete(const RasterTile& tile, bool* stale) const {
 
 void TiledRaster::evaluate(const RasterTile& t, std::vector<float>& prob, std::vector<float>& var) {
   Impl& im = *impl_;
-  if (!im.evaluator) im.evaluator = std::make_unique<MapEvaluator>(im.ctx, im.map, im.options.eval);
+  if (!im.evaluator)
+    im.evaluator =
+        std::make_unique<detail::WindowEvaluator>(im.ctx, im.map, im.spec, im.options.eval);
   // Image rows y0 .. y0 + h - 1 are grid rows (counted from the bottom) H - y0 - h .. H - y0 - 1.
-  GridSpec g;
-  g.dim = im.map.dim;
-  g.resolution = im.spec.resolution;
-  g.origin[0] = im.spec.xmin + double(t.x0) * im.spec.resolution;
-  g.origin[1] = im.spec.ymin + double(im.height - t.y0 - t.height) * im.spec.resolution;
-  g.origin[2] = im.spec.z - 0.5 * im.spec.resolution;  // one layer centred on z (3D maps)
-  g.count[0] = t.width;
-  g.count[1] = t.height;
-  g.count[2] = 1;
-  std::vector<float> p(g.cells()), v(g.cells());
-  im.evaluator->evaluate_grid(g, nullptr, v.data(), p.data());
-  prob.resize(g.cells());
-  var.resize(g.cells());
+  const std::size_t n = t.width * t.height;
+  std::vector<float> p(n), v(n);
+  im.evaluator->rows(t.x0, t.width, im.height - t.y0 - t.height, t.height, v.data(), p.data());
+  prob.resize(n);
+  var.resize(n);
   for (std::size_t r = 0; r < t.height; ++r) {  // grid rows run up, image rows down
     const std::size_t from = (t.height - 1 - r) * t.width;
     std::memcpy(prob.data() + r * t.width, p.data() + from, t.width * sizeof(float));
@@ -327,6 +327,10 @@ TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& prog
   g.metadata = {{"POTMAP_VERSION", POTMAP_VERSION_STRING},
                 {"POTMAP_JOB", hex64(im.fingerprint)},
                 {"POTMAP_Z", num(im.spec.z)}};
+  if (!im.levels.empty())  // what the bands hold: the maximum over these heights
+    g.metadata.push_back({"POTMAP_HEIGHT_BAND", num(im.levels.front()) + " " +
+                                                    num(im.levels.back()) + " " +
+                                                    std::to_string(im.levels.size())});
   // Each tile's block goes into the GeoTIFF as the tile file holds it: compressed once, when
   // the tile was computed.
   detail::write_cog_encoded(
@@ -376,6 +380,8 @@ TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& prog
   s.width = im.width;
   s.height = im.height;
   s.tiles = im.tiles.size();
+  s.levels = im.levels.size();
+  if (s.levels > 1) s.level_spacing = im.levels[1] - im.levels[0];
   s.output = im.output;
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;

@@ -24,6 +24,7 @@
 //     entry 255 is the NaN grey. The colours are those of the continuous map to within one
 //     step of 1/254 (at most 2 units of 255 a channel for viridis and magma).
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -41,14 +42,25 @@ namespace potmap {
 
 /// The window to rasterise, in map coordinates (metres).
 struct RasterSpec {
-  double xmin = 0, xmax = 0;   ///< metres, xmin < xmax
-  double ymin = 0, ymax = 0;   ///< metres, ymin < ymax
-  double resolution = 0.1;     ///< cell edge, metres, > 0; default 0.1
-  double z = 0.0;              ///< height of the slice for 3D maps, metres; ignored in 2D
+  double xmin = 0, xmax = 0;  ///< metres, xmin < xmax
+  double ymin = 0, ymax = 0;  ///< metres, ymin < ymax
+  double resolution = 0.1;    ///< cell edge, metres, > 0; default 0.1
+  double z = 0.0;             ///< height of the slice for 3D maps, metres; ignored in 2D
+  /// Height band of a 3D map, metres in the map frame. When both are finite, every cell holds
+  /// the largest probability over the heights band_lo..band_hi and the variance at that height
+  /// (map/height_band.hpp), and z is unused: a planner's view of what stands between the ground
+  /// and a vehicle's roof. Default NaN: no band, the slice at z.
+  double band_lo = NAN, band_hi = NAN;
+  /// Largest spacing of the band's levels, metres (both ends are levels: height_band_levels);
+  /// 0 (default): default_band_step(map), the standard deviation of the map's narrowest kernel,
+  /// finer than which the map does not change along z (why: height_band.hpp).
+  double band_step = 0;
+  bool has_band() const { return !std::isnan(band_lo) || !std::isnan(band_hi); }
   std::size_t width() const;   ///< ceil((xmax - xmin) / resolution)
   std::size_t height() const;  ///< ceil((ymax - ymin) / resolution)
   /// Throws ArgumentError naming the bad value (non-finite, empty window, resolution <= 0,
-  /// more than 10^6 cells along an axis: the PNG limit).
+  /// more than 10^6 cells along an axis: the PNG limit; a band with one end NaN, band_lo above
+  /// band_hi, band_step negative or not finite).
   void validate() const;
 };
 
@@ -73,12 +85,19 @@ struct RasterSummary {
   std::size_t width = 0, height = 0;  ///< pixels
   std::size_t cells = 0;              ///< width * height
   std::size_t bands = 0;              ///< number of bands evaluated
+  std::size_t levels = 0;             ///< heights of the height band sampled; 0 for a slice
+  double level_spacing = 0;           ///< metres between those heights; 0 for fewer than 2
   double seconds = 0;                 ///< wall time of the whole run, seconds
   float prob_min = 0, prob_max = 0;   ///< over finite cells (0 if none)
   float var_min = 0, var_max = 0;     ///< over finite cells (0 if none)
   std::vector<std::string> files;     ///< files written, in order prob.png, var.png, prob.npy,
                                       ///< var.npy (those enabled)
 };
+
+/// The heights a raster of `spec` samples on `map`, metres: empty for a slice (no band), else
+/// height_band_levels(band_lo, band_hi, band_step or default_band_step(map)). Throws
+/// ArgumentError for a band on a 2D map or a band that height_band_levels refuses.
+std::vector<double> raster_levels(const RasterSpec& spec, const KernelMap& map);
 
 /// Evaluates `map` on the window and writes PREFIX_prob.png, PREFIX_var.png, PREFIX_prob.npy and
 /// PREFIX_var.npy (as enabled). Every file is written to a temporary name and renamed only when

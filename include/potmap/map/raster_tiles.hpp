@@ -70,6 +70,8 @@ struct TiledRasterSummary {
   std::size_t computed = 0;           ///< tiles this run evaluated
   std::size_t reused = 0;             ///< tiles found complete in the work folder (resume)
   std::size_t stale = 0;              ///< tiles found there but of another job or corrupt
+  std::size_t levels = 0;             ///< heights of the height band sampled; 0 for a slice
+  double level_spacing = 0;           ///< metres between those heights; 0 for fewer than 2
   double seconds = 0;                 ///< wall time of this run, seconds
   std::string output;                 ///< the GeoTIFF written (empty if not assembled)
   std::string manifest;               ///< OUT + ".manifest.json": the tiles and their CRC-32
