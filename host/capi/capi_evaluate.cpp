@@ -7,8 +7,10 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "capi_handles.hpp"
+#include "potmap/map/height_band.hpp"
 #include "runtime/cl_check.hpp"
 
 namespace bc = boost::compute;
@@ -92,6 +94,7 @@ potmap_status potmap_evaluator_create(potmap_context* context, const potmap_map*
     h->ctx = c.ctx;
     h->eval = std::make_unique<potmap::MapEvaluator>(*c.ctx, m.map, options);
     h->dim = m.map.dim;
+    h->band_step = potmap::default_band_step(m.map);
     *out = h.release();
   });
 }
@@ -139,6 +142,37 @@ potmap_status potmap_evaluate_grid(potmap_evaluator* evaluator, int dim, const d
     }
     check_outputs(mean, var, prob, capacity, cells);
     e.eval->evaluate_grid(grid, mean, var, prob);
+  });
+}
+
+potmap_status potmap_evaluate_band(potmap_evaluator* evaluator, const double origin[2],
+                                   double resolution, const size_t count[2], double z_lo,
+                                   double z_hi, double step, float* mean, float* var, float* prob,
+                                   size_t capacity) {
+  return guard("potmap_evaluate_band", POTMAP_ERROR_INTERNAL, [&] {
+    potmap_evaluator& e = checked(evaluator);
+    require(origin, "origin");
+    require(count, "count");
+    if (e.dim != 3)
+      fail(POTMAP_ERROR_DIMENSION_MISMATCH,
+           "a height band needs a 3D map; the map is " + std::to_string(e.dim) + "D");
+    if (!(step >= 0) || !std::isfinite(step))
+      fail(POTMAP_ERROR_INVALID_ARGUMENT,
+           "step must be finite and >= 0 (0: the map's default), got " + std::to_string(step));
+    potmap::GridSpec grid;
+    grid.dim = 3;
+    grid.resolution = resolution;
+    for (int d = 0; d < 2; ++d) {
+      grid.origin[d] = origin[d];
+      grid.count[d] = count[d];
+      check_count(count[d], "count");
+    }
+    if (count[1] != 0 && count[0] > std::numeric_limits<std::size_t>::max() / 64 / count[1])
+      fail(POTMAP_ERROR_INVALID_ARGUMENT, "the grid has too many cells");
+    check_outputs(mean, var, prob, capacity, count[0] * count[1]);
+    const std::vector<double> levels =
+        potmap::height_band_levels(z_lo, z_hi, step > 0 ? step : e.band_step);
+    e.eval->evaluate_band_max(grid, levels, mean, var, prob);
   });
 }
 

@@ -44,6 +44,7 @@ struct potmap_evaluator {
   std::shared_ptr<potmap::Context> ctx;  // declared first: destroyed after the evaluator
   std::unique_ptr<potmap::MapEvaluator> eval;
   int dim = 2;
+  double band_step = 0.1;  // the map's default height-band step (default_band_step)
 };
 
 struct potmap_dataset {

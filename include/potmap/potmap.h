@@ -267,6 +267,22 @@ POTMAP_EXPORT potmap_status potmap_evaluate_grid(potmap_evaluator* evaluator, in
                                                  const size_t count[3], float* mean, float* var,
                                                  float* prob, size_t capacity);
 
+/** Height-band maximum of a 3D map on a grid of (x, y) cells: per cell, the largest occupancy
+ *  probability over the heights z_lo to z_hi (metres, map frame) and the variance and mean at
+ *  the height where it is reached; what stands between the ground and a vehicle's roof. The
+ *  band is sampled at evenly spaced heights at most `step` metres apart, both ends included
+ *  (step 0: the standard deviation of the map's narrowest kernel, 1 / sqrt(2 gamma_max), finer
+ *  than which the map does not change). Cell centres origin[d] + (i + 0.5) * resolution for
+ *  d < 2, i < count[d] (origin and count hold 2 values each); flattened x fastest. Outputs as in
+ *  potmap_evaluate, each holding capacity >= count[0] * count[1] floats.
+ *  Errors: POTMAP_ERROR_DIMENSION_MISMATCH (a 2D map), POTMAP_ERROR_INVALID_ARGUMENT (z_lo above
+ *  z_hi, a non-finite value, step < 0, more than 4096 heights), POTMAP_ERROR_BUFFER_TOO_SMALL. */
+POTMAP_EXPORT potmap_status potmap_evaluate_band(potmap_evaluator* evaluator,
+                                                 const double origin[2], double resolution,
+                                                 const size_t count[2], double z_lo, double z_hi,
+                                                 double step, float* mean, float* var, float* prob,
+                                                 size_t capacity);
+
 /** Values at n points that live in the host's own device buffers. Does not block: the work is
  *  enqueued on the context's queue after the `num_wait_events` events of `wait_events` and
  *  finishes when *event completes.

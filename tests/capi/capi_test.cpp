@@ -1,4 +1,5 @@
 // The C API on host arrays: status codes, messages, maps, evaluation and every error path.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <set>
@@ -463,4 +464,53 @@ TEST(CApi, HandlesMayBeDestroyedInAnyOrder) {
   POTMAP_ASSERT_OK(potmap_evaluate(ev, pts.data(), 16, 2, nullptr, nullptr, prob.data(), 16));
   for (size_t i = 0; i < 16; ++i) EXPECT_NEAR(prob[i], want.prob[i], 1e-5) << i;
   POTMAP_ASSERT_OK(potmap_evaluator_destroy(ev));
+}
+
+TEST(CApi, HeightBandIsTheMaximumOverItsHeights) {
+  const Arrays a = random_map(3, 200, 41);
+  potmap_map* map = make_map(a);
+  potmap_evaluator* ev = nullptr;
+  POTMAP_ASSERT_OK(potmap_evaluator_create(shared_context(), map, 0.0, &ev));
+  const double origin[2] = {-1.0, 0.5};
+  const size_t count[2] = {23, 19};
+  const std::size_t n = count[0] * count[1];
+  std::vector<float> mean(n), var(n), prob(n);
+  // 2 to 8 m every 0.5 m at most: 13 heights, both ends included.
+  POTMAP_ASSERT_OK(potmap_evaluate_band(ev, origin, 1.0, count, 2.0, 8.0, 0.5, mean.data(),
+                                        var.data(), prob.data(), n));
+  std::vector<double> best(n, -1.0);
+  for (int k = 0; k <= 12; ++k) {
+    std::vector<double> pts;
+    for (std::size_t j = 0; j < count[1]; ++j)
+      for (std::size_t i = 0; i < count[0]; ++i)
+        pts.insert(pts.end(), {origin[0] + i + 0.5, origin[1] + j + 0.5, 2.0 + 0.5 * k});
+    const Values ref = reference(a, pts);
+    for (std::size_t c = 0; c < n; ++c) best[c] = std::max(best[c], ref.prob[c]);
+  }
+  for (std::size_t c = 0; c < n; ++c) ASSERT_NEAR(prob[c], best[c], 1e-6) << c;
+  // step 0: the map's own default; prob alone.
+  std::vector<float> p0(n, -1.f);
+  POTMAP_ASSERT_OK(
+      potmap_evaluate_band(ev, origin, 1.0, count, 2.0, 8.0, 0.0, nullptr, nullptr, p0.data(), n));
+  EXPECT_GE(*std::min_element(p0.begin(), p0.end()), 0.f);
+  POTMAP_EXPECT_FAIL(
+      potmap_evaluate_band(ev, origin, 1.0, count, 8.0, 2.0, 0.5, nullptr, nullptr, p0.data(), n),
+      POTMAP_ERROR_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(potmap_last_error(), "above")) << potmap_last_error();
+  POTMAP_EXPECT_FAIL(
+      potmap_evaluate_band(ev, origin, 1.0, count, 2.0, 8.0, -1.0, nullptr, nullptr, p0.data(), n),
+      POTMAP_ERROR_INVALID_ARGUMENT);
+  POTMAP_EXPECT_FAIL(potmap_evaluate_band(ev, origin, 1.0, count, 2.0, 8.0, 0.5, nullptr, nullptr,
+                                          p0.data(), n - 1),
+                     POTMAP_ERROR_BUFFER_TOO_SMALL);
+  POTMAP_ASSERT_OK(potmap_evaluator_destroy(ev));
+  POTMAP_ASSERT_OK(potmap_map_destroy(map));
+  // A 2D map has no heights.
+  map = make_map(random_map(2, 5, 42));
+  POTMAP_ASSERT_OK(potmap_evaluator_create(shared_context(), map, 0.0, &ev));
+  POTMAP_EXPECT_FAIL(
+      potmap_evaluate_band(ev, origin, 1.0, count, 2.0, 8.0, 0.5, nullptr, nullptr, p0.data(), n),
+      POTMAP_ERROR_DIMENSION_MISMATCH);
+  POTMAP_ASSERT_OK(potmap_evaluator_destroy(ev));
+  POTMAP_ASSERT_OK(potmap_map_destroy(map));
 }
