@@ -575,8 +575,9 @@ class Evaluator:
         float32 in metres. A float64 C-contiguous array is read in place (no copy).
         Non-finite coordinates give NaN."""
         ...
-    def raster(self, bounds: List[float], res: float, z: float = 0.0) -> Values:
-        """As KernelMap.raster: (height, width) float32 arrays, row 0 the top."""
+    def raster(self, bounds: List[float], res: float, z: float = 0.0, band: Optional[Tuple[float, float]] = None, band_step: float = 0.0) -> Values:
+        """As KernelMap.raster: (height, width) float32 arrays, row 0 the top; band =
+        (z_lo, z_hi) for a 3D map's height-band maximum."""
         ...
     @property
     def last_pairs(self) -> int:
@@ -825,13 +826,17 @@ class KernelMap:
         """The exact reference: a dense double-precision sum over every kernel (no cut-off),
         on the CPU. Probability, mean and variance as float64 arrays of n."""
         ...
-    def raster(self, bounds: List[float], res: float, ctx: Context, z: float = 0.0, tau: float = 18.0) -> Values:
+    def raster(self, bounds: List[float], res: float, ctx: Context, z: float = 0.0, tau: float = 18.0, band: Optional[Tuple[float, float]] = None, band_step: float = 0.0) -> Values:
         """Probability, mean and variance on the window bounds = (xmin, xmax, ymin, ymax)
         (metres) with cells res metres wide: float32 arrays of shape (height, width),
         row 0 the top (largest y), as `potmap raster` writes its .npy files (show with
         imshow(origin='upper')). Cell (r, c) is centred at x = xmin + (c + 0.5) res,
         y = ymin + (height - 1 - r + 0.5) res; width = ceil((xmax - xmin) / res).
-        z: height of the slice of a 3D map, metres (default 0)."""
+        z: height of the slice of a 3D map, metres (default 0).
+        band: (z_lo, z_hi) metres, 3D maps: instead of the slice, each cell holds the largest
+        probability over those heights and the mean and variance where it is reached;
+        band_step: largest spacing of the heights sampled, both ends included (default 0:
+        the standard deviation of the map's narrowest kernel)."""
         ...
     @property
     def gamma(self) -> numpy.ndarray:
@@ -2027,13 +2032,16 @@ def probit_probability(mean: float, var: float) -> float:
     """sigmoid(mean / sqrt(1 + pi var / 8))."""
     ...
 
-def rasterize(ctx: Context, map: KernelMap, bounds: List[float], res: float, out_prefix: str, z: float = 0.0, png: bool = True, npy: bool = True, band_cells: int = 4194304) -> dict:
+def rasterize(ctx: Context, map: KernelMap, bounds: List[float], res: float, out_prefix: str, z: float = 0.0, png: bool = True, npy: bool = True, band_cells: int = 4194304, band: Optional[Tuple[float, float]] = None, band_step: float = 0.0) -> dict:
     """Writes PREFIX_prob.png, PREFIX_var.png (8-bit indexed colour: viridis, magma on
     s2 / (1 + s2)) and PREFIX_prob.npy, PREFIX_var.npy (float32, row 0 the top), as
     `potmap raster`, streamed
     in bands of at most band_cells cells (default 4 Mi, about 80 MB). Files appear only when
-    all are complete. Returns a dict: width, height, cells, bands, seconds, prob_min/max,
-    var_min/max, files."""
+    all are complete. band = (z_lo, z_hi) metres, 3D maps: the height band's maximum
+    probability and the variance where it is reached, instead of the slice at z (heights
+    at most band_step apart, both ends included; 0: the map's narrowest kernel's deviation).
+    Returns a dict: width, height, cells, bands, seconds, prob_min/max, var_min/max,
+    levels (heights of the band; 0 for a slice), files."""
     ...
 
 def read_abhm_params(path: str) -> AbhmParams:

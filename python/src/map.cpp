@@ -5,10 +5,13 @@
 #include <cmath>
 #include <cstring>
 #include <mutex>
+#include <optional>
+#include <utility>
 
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "potmap/map/evaluate.hpp"
+#include "potmap/map/height_band.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/map/raster.hpp"
 #include "potmap/map/synthetic.hpp"
@@ -57,7 +60,11 @@ GridSpec window_grid(int dim, const RasterSpec& spec) {
   return g;
 }
 
-RasterSpec window(const std::vector<double>& bounds, double res, double z) {
+// A height band (z_lo, z_hi) in metres, or None for the slice at z.
+using Band = std::optional<std::pair<double, double>>;
+
+RasterSpec window(const std::vector<double>& bounds, double res, double z, const Band& band = {},
+                  double band_step = 0) {
   if (bounds.size() != 4) {
     throw py::value_error("bounds: expected (xmin, xmax, ymin, ymax), got " +
                           std::to_string(bounds.size()) + " values");
@@ -69,6 +76,11 @@ RasterSpec window(const std::vector<double>& bounds, double res, double z) {
   s.ymax = bounds[3];
   s.resolution = res;
   s.z = z;
+  if (band) {
+    s.band_lo = band->first;
+    s.band_hi = band->second;
+  }
+  s.band_step = band_step;
   return s;
 }
 
@@ -91,8 +103,10 @@ EvalOptions eval_options(double tau) {
 // MapEvaluator is not thread-safe, and the GIL is released around it: its own lock makes two
 // Python threads sharing one evaluator take turns instead of racing.
 struct Evaluator {
-  Evaluator(Context& ctx, const KernelMap& map, double tau) : ev(ctx, map, eval_options(tau)) {}
+  Evaluator(Context& ctx, const KernelMap& map, double tau)
+      : ev(ctx, map, eval_options(tau)), band_step(default_band_step(map)) {}
   MapEvaluator ev;
+  double band_step;  // the map's default height-band step
   std::mutex mu;
 };
 
@@ -110,13 +124,25 @@ Values evaluate_points(Evaluator& e, py::handle points) {
   return {prob, mean, var};
 }
 
-Values raster_values(Evaluator& e, const std::vector<double>& bounds, double res, double z) {
-  GridSpec g = window_grid(e.ev.dim(), window(bounds, res, z));
+Values raster_values(Evaluator& e, const std::vector<double>& bounds, double res, double z,
+                     const Band& band, double band_step) {
+  const RasterSpec spec = window(bounds, res, z, band, band_step);
+  GridSpec g = window_grid(e.ev.dim(), spec);
   MapValues v;
   {
     py::gil_scoped_release release;
     std::lock_guard<std::mutex> lock(e.mu);
-    v = e.ev.evaluate_grid(g);
+    if (spec.has_band()) {
+      const std::vector<double> levels =
+          height_band_levels(spec.band_lo, spec.band_hi, band_step > 0 ? band_step : e.band_step);
+      const std::size_t n = g.count[0] * g.count[1];
+      v.mean.resize(n);
+      v.var.resize(n);
+      v.prob.resize(n);
+      e.ev.evaluate_band_max(g, levels, v.mean.data(), v.var.data(), v.prob.data());
+    } else {
+      v = e.ev.evaluate_grid(g);
+    }
   }
   return {picture(v.prob, g.count[0], g.count[1]), picture(v.mean, g.count[0], g.count[1]),
           picture(v.var, g.count[0], g.count[1])};
@@ -180,21 +206,26 @@ void define_kernel_map_evaluation(py::class_<KernelMap>& kernel_map) {
       .def(
           "raster",
           [](KernelMap k, const std::vector<double>& bounds, double res, Context& ctx, double z,
-             double tau) {
+             double tau, const Band& band, double band_step) {
             std::unique_ptr<Evaluator> ev;
             {
               py::gil_scoped_release release;
               ev = std::make_unique<Evaluator>(ctx, k, tau);
             }
-            return raster_values(*ev, bounds, res, z);
+            return raster_values(*ev, bounds, res, z, band, band_step);
           },
           "bounds"_a, "res"_a, "ctx"_a, "z"_a = 0.0, "tau"_a = kDefaultCutoffTau,
+          "band"_a = py::none(), "band_step"_a = 0.0,
           "Probability, mean and variance on the window bounds = (xmin, xmax, ymin, ymax)\n"
           "(metres) with cells res metres wide: float32 arrays of shape (height, width),\n"
           "row 0 the top (largest y), as `potmap raster` writes its .npy files (show with\n"
           "imshow(origin='upper')). Cell (r, c) is centred at x = xmin + (c + 0.5) res,\n"
           "y = ymin + (height - 1 - r + 0.5) res; width = ceil((xmax - xmin) / res).\n"
-          "z: height of the slice of a 3D map, metres (default 0).");
+          "z: height of the slice of a 3D map, metres (default 0).\n"
+          "band: (z_lo, z_hi) metres, 3D maps: instead of the slice, each cell holds the largest\n"
+          "probability over those heights and the mean and variance where it is reached;\n"
+          "band_step: largest spacing of the heights sampled, both ends included (default 0:\n"
+          "the standard deviation of the map's narrowest kernel).");
 }
 
 // KernelMap: kernels read and assigned as whole arrays.
@@ -282,8 +313,10 @@ void bind_map_evaluator(py::module_& m) {
            "Probability, mean and variance (float32 arrays of n) at points, (n, dim) float64 or\n"
            "float32 in metres. A float64 C-contiguous array is read in place (no copy).\n"
            "Non-finite coordinates give NaN.")
-      .def("raster", &raster_values, "bounds"_a, "res"_a, "z"_a = 0.0,
-           "As KernelMap.raster: (height, width) float32 arrays, row 0 the top.")
+      .def("raster", &raster_values, "bounds"_a, "res"_a, "z"_a = 0.0, "band"_a = py::none(),
+           "band_step"_a = 0.0,
+           "As KernelMap.raster: (height, width) float32 arrays, row 0 the top; band =\n"
+           "(z_lo, z_hi) for a 3D map's height-band maximum.")
       .def_property_readonly(
           "last_pairs",
           [](Evaluator& e) {
@@ -295,12 +328,13 @@ void bind_map_evaluator(py::module_& m) {
   m.def(
       "rasterize",
       [](Context& ctx, KernelMap map, const std::vector<double>& bounds, double res,
-         const std::string& out_prefix, double z, bool png, bool npy, std::size_t band_cells) {
+         const std::string& out_prefix, double z, bool png, bool npy, std::size_t band_cells,
+         const Band& band, double band_step) {
         RasterOptions o;
         o.write_png = png;
         o.write_npy = npy;
         o.max_band_cells = band_cells;
-        RasterSpec spec = window(bounds, res, z);
+        RasterSpec spec = window(bounds, res, z, band, band_step);
         RasterSummary s;
         {
           py::gil_scoped_release release;
@@ -309,16 +343,20 @@ void bind_map_evaluator(py::module_& m) {
         return py::dict("width"_a = s.width, "height"_a = s.height, "cells"_a = s.cells,
                         "bands"_a = s.bands, "seconds"_a = s.seconds, "prob_min"_a = s.prob_min,
                         "prob_max"_a = s.prob_max, "var_min"_a = s.var_min, "var_max"_a = s.var_max,
-                        "files"_a = s.files);
+                        "levels"_a = s.levels, "files"_a = s.files);
       },
       "ctx"_a, "map"_a, "bounds"_a, "res"_a, "out_prefix"_a, "z"_a = 0.0, "png"_a = true,
-      "npy"_a = true, "band_cells"_a = std::size_t(1) << 22,
+      "npy"_a = true, "band_cells"_a = std::size_t(1) << 22, "band"_a = py::none(),
+      "band_step"_a = 0.0,
       "Writes PREFIX_prob.png, PREFIX_var.png (8-bit indexed colour: viridis, magma on\n"
       "s2 / (1 + s2)) and PREFIX_prob.npy, PREFIX_var.npy (float32, row 0 the top), as\n"
       "`potmap raster`, streamed\n"
       "in bands of at most band_cells cells (default 4 Mi, about 80 MB). Files appear only when\n"
-      "all are complete. Returns a dict: width, height, cells, bands, seconds, prob_min/max,\n"
-      "var_min/max, files.");
+      "all are complete. band = (z_lo, z_hi) metres, 3D maps: the height band's maximum\n"
+      "probability and the variance where it is reached, instead of the slice at z (heights\n"
+      "at most band_step apart, both ends included; 0: the map's narrowest kernel's deviation).\n"
+      "Returns a dict: width, height, cells, bands, seconds, prob_min/max, var_min/max,\n"
+      "levels (heights of the band; 0 for a slice), files.");
 }
 
 // The probit probability and the scores of predictions.

@@ -94,6 +94,29 @@ def test_raster_equals_the_potmap_command(scene, ctx, cli, tmp_path):
     np.testing.assert_array_equal(np.load(tmp_path / "p_prob.npy"), c_prob)
 
 
+def test_height_band_is_the_maximum_of_its_slices(rng, ctx, cli, tmp_path):
+    pos = np.column_stack([rng.uniform(0, 6, 80), rng.uniform(0, 5, 80), rng.uniform(0, 2, 80)])
+    m = potmap.KernelMap(pos, np.full(80, 3.0), rng.normal(size=80) * 3, np.full(80, 0.2))
+    bounds = (0.0, 6.0, 0.0, 5.0)
+    prob, mean, var = m.raster(bounds, 0.25, ctx, band=(0.0, 2.0), band_step=0.25)
+    slices = [m.raster(bounds, 0.25, ctx, z=0.25 * k) for k in range(9)]
+    best = np.max([s.prob for s in slices], axis=0)
+    assert np.max(np.abs(prob - best)) < 1e-5
+    at = np.argmax([s.prob for s in slices], axis=0)
+    pick = np.take_along_axis(np.array([s.var for s in slices]), at[None], 0)[0]
+    assert np.mean(np.abs(var - pick) < 1e-4 * (1 + pick)) > 0.99
+    # The command and rasterize() write the same band.
+    map_path = tmp_path / "m3.potmap"
+    m.save(str(map_path))
+    cli("raster", "--map", map_path, "--bounds", "0,6,0,5", "--res", 0.25, "--band", "0,2",
+        "--band-step", 0.25, "--out", tmp_path / "c", "--no-png")
+    s = potmap.rasterize(ctx, m, bounds, 0.25, str(tmp_path / "p"), png=False, band=(0.0, 2.0),
+                         band_step=0.25)
+    assert s["levels"] == 9
+    np.testing.assert_array_equal(np.load(tmp_path / "p_prob.npy"), np.load(tmp_path / "c_prob.npy"))
+    assert np.max(np.abs(np.load(tmp_path / "c_prob.npy") - prob)) < 1e-6
+
+
 @pytest.mark.parametrize("ext", ["csv", "npz", "potmap"])
 def test_every_format_round_trips(scene, tmp_path, ext):
     path = str(tmp_path / f"m.{ext}")
