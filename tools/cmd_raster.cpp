@@ -115,14 +115,16 @@ void register_raster(CLI::App& app, Runner& runner) {
   cmd->add_option("--band", a->band,
                   "3D maps: ZLO,ZHI in metres (map frame): instead of the slice at --z, each cell "
                   "holds the largest probability over the heights ZLO..ZHI and the variance at "
-                  "that height (what stands between the ground and a vehicle's roof)");
+                  "that height (what stands between the ground and a vehicle's roof); write a "
+                  "negative ZLO as --band=-1,1.5");
   cmd->add_option("--band-step", a->band_step,
                   "Largest spacing of the band's heights, metres; both ends are sampled (default "
                   "0: the standard deviation of the map's narrowest kernel, 1/sqrt(2 gamma_max), "
                   "finer than which the map does not change)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--band-cells", a->band_cells,
-                  "Most cells evaluated at once (memory ~24 bytes per cell; default 4194304)")
+                  "Most cells evaluated at once, in bands of whole rows (memory ~24 bytes per "
+                  "cell; default 4194304)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--prob-cmap", a->prob_cmap, "Colour map of probability (viridis, magma)");
   cmd->add_option("--var-cmap", a->var_cmap, "Colour map of variance (viridis, magma)");
