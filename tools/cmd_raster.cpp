@@ -115,8 +115,7 @@ void register_raster(CLI::App& app, Runner& runner) {
   cmd->add_option("--band", a->band,
                   "3D maps: ZLO,ZHI in metres (map frame): instead of the slice at --z, each cell "
                   "holds the largest probability over the heights ZLO..ZHI and the variance at "
-                  "that height (what stands between the ground and a vehicle's roof); write a "
-                  "negative ZLO as --band=-1,1.5");
+                  "that height (what stands between the ground and a vehicle's roof)");
   cmd->add_option("--band-step", a->band_step,
                   "Largest spacing of the band's heights, metres; both ends are sampled (default "
                   "0: the standard deviation of the map's narrowest kernel, 1/sqrt(2 gamma_max), "
