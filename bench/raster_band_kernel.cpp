@@ -4,9 +4,9 @@
 //
 // Usage: raster_band_kernel MAP XMIN,XMAX,YMIN,YMAX|auto RES ZLO,ZHI [STEP (0: the map's)]
 //        [REPEAT]
+#include <sys/resource.h>
 #include <algorithm>
 #include <chrono>
-#include <sys/resource.h>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
