@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <future>
 
+#include "potmap/error.hpp"
 #include "potmap/map/evaluate.hpp"
 
 namespace potmap {
@@ -63,6 +64,32 @@ void map_scored(Context* ctx, Mapper& mapper, const std::vector<Scan>& scans, Ma
 }
 
 MapRunSummary summarise_run(Context* ctx, const Mapper& mapper, const MapRunTotals& t) {
+  return summarise_run(ctx, mapper.overall_map(), t);
+}
+
+void add_totals(MapRunTotals& into, const MapRunTotals& part) {
+  if (!part.test.empty() && !into.test.empty() && part.test.dim != into.test.dim)
+    throw ArgumentError("add_totals: held-out samples of " + std::to_string(part.test.dim) +
+                        "D added to " + std::to_string(into.test.dim) + "D ones");
+  auto append = [](auto& a, const auto& b) { a.insert(a.end(), b.begin(), b.end()); };
+  append(into.inst_prob, part.inst_prob);
+  append(into.labels, part.labels);
+  if (into.test.empty()) into.test.dim = part.test.dim;
+  append(into.test.position, part.test.position);
+  append(into.test.label, part.test.label);
+  append(into.test.scan, part.test.scan);
+  into.timing.prepare_ms += part.timing.prepare_ms;
+  into.timing.ranking_ms += part.timing.ranking_ms;
+  into.timing.transport_ms += part.timing.transport_ms;
+  into.timing.placement_ms += part.timing.placement_ms;
+  into.timing.refine_ms += part.timing.refine_ms;
+  into.wall_ms += part.wall_ms;
+  into.max_wall_ms = std::max(into.max_wall_ms, part.max_wall_ms);
+  into.kernels += part.kernels;
+  into.scans += part.scans;
+}
+
+MapRunSummary summarise_run(Context* ctx, const KernelMap& overall, const MapRunTotals& t) {
   MapRunSummary r;
   r.scans = t.scans;
   if (r.scans > 0) {
@@ -80,7 +107,6 @@ MapRunSummary summarise_run(Context* ctx, const Mapper& mapper, const MapRunTota
   const LabelledPoints& test = t.test;
   if (!test.empty()) {
     std::vector<float> prob(test.size());
-    const KernelMap& overall = mapper.overall_map();
     if (ctx && !overall.empty()) {
       MapEvaluator ev(*ctx, overall);
       ev.evaluate(test.position.data(), test.size(), nullptr, nullptr, prob.data());

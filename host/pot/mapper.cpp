@@ -298,6 +298,15 @@ MapScansStart Mapper::continuation() const {
   return s;
 }
 
+void Mapper::start_at(std::size_t index) {
+  settle();
+  if (scans_ != 0)
+    throw ArgumentError("Mapper::start_at: the mapper already has " + std::to_string(scans_) +
+                        " scans; a part starts on an empty mapper");
+  scans_ = index;
+  last_.index = index > 0 ? index - 1 : 0;
+}
+
 const KernelMap& Mapper::overall_map() const {
   settle();
   return repot_ ? repot_->map() : averaged_ ? averaged_->map() : overall_.map();

@@ -59,5 +59,14 @@ struct MapRunSummary {
 /// sample of `totals` (on the device of `ctx`; null: the exact sum on the host).
 MapRunSummary summarise_run(Context* ctx, const Mapper& mapper, const MapRunTotals& totals);
 
+/// The same for an overall map made elsewhere (the parts of a run mapped apart and merged):
+/// `totals` are the parts' totals together (add_totals()).
+MapRunSummary summarise_run(Context* ctx, const KernelMap& overall, const MapRunTotals& totals);
+
+/// Appends the totals of a later part of a run to `into`: its held-out samples and per-scan
+/// values after `into`'s, its sums added, the largest scan time kept. Throws ArgumentError when
+/// the held-out samples' dimensions differ.
+void add_totals(MapRunTotals& into, const MapRunTotals& part);
+
 }  // namespace potmap
 POTMAP_CXX_API_END

@@ -273,6 +273,14 @@ class Mapper {
   /// Where map_scans() continues this mapper's run: scans() and the atoms of the two last scans.
   MapScansStart continuation() const;
 
+  /// Makes this mapper, which has no scans yet, map a part of a longer run that starts at scan
+  /// `index`: the next scan gets that index (which seeds its labelling and subsampling, so the
+  /// part's held-out samples are the whole run's), and scans() counts from it. The part starts
+  /// without warm candidates (those of a run's scans index - 2 and index - 1). The parts' maps
+  /// merge into the whole run's (merge_joint_bhm, AveragedMap::add_map: `mpirun potmap
+  /// mapping`). Throws ArgumentError when the mapper already has scans.
+  void start_at(std::size_t index);
+
   /// Writes the mapper's state to `path` (a binary container, written atomically: a
   /// half-written file never replaces an earlier one): the overall map (POT's merged kernels
   /// with their counts and ages, or RePOT's persistent learner with its precision, natural
