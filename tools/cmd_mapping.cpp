@@ -14,6 +14,8 @@
 #include "drive_mapping.hpp"
 #include "map_pictures.hpp"
 #include "map_pipeline.hpp"
+#include "mapping_merge.hpp"
+#include "mapping_ranks.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
@@ -52,7 +54,7 @@ std::string default_out(const std::string& log) {
 }
 
 // A 3D drive goes to the joint BHM's drive job with the options it shares.
-int run_drive(const MappingArgs& a, const std::string& device) {
+int run_drive(const MappingArgs& a, const std::string& device, MappingRanks& ranks) {
   DriveMappingArgs d = a.drive;
   d.drive = a.log;
   d.out = a.out;
@@ -66,15 +68,15 @@ int run_drive(const MappingArgs& a, const std::string& device) {
   d.method = a.method.empty() ? "bhm" : a.method;
   d.dict = a.dict;
   d.half_life = a.half_life;
-  return run_drive_mapping(d, device);
+  return run_drive_mapping(d, device, ranks);
 }
 
-int run_mapping(const MappingArgs& args, const std::string& device) {
+int map_log(const MappingArgs& args, const std::string& device, MappingRanks& ranks) {
   DriveOptions probe;
   probe.bag = args.drive.bag;
   if (is_drive(args.log, probe)) {
     if (args.preset != "default") throw ArgumentError("mapping: --preset is for 2D logs");
-    return run_drive(args, device);
+    return run_drive(args, device, ranks);
   }
   MappingArgs a = args;
   if (a.method.empty()) a.method = "repot";
@@ -85,8 +87,8 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
         "mapping: --half-life fades RePOT's persistent joint BHM; POT's averaged "
         "map does not forget (--method repot)");
   const std::string dir = a.out.empty() ? default_out(a.log) : a.out;
-  fs::create_directories(dir);
-  std::FILE* human = a.json == "-" ? stderr : stdout;
+  if (ranks.rank() == 0) fs::create_directories(dir);
+  std::FILE* human = a.json == "-" || ranks.rank() > 0 ? stderr : stdout;
 
   const double range_cut = a.range_cut < 0 ? 20 : a.range_cut;
   std::vector<Scan> all = read_scans(a.log, range_cut, a.drive.bag);
@@ -95,6 +97,9 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
                         std::to_string(all.size()) + " scans");
   std::vector<Scan> scans(all.begin() + static_cast<long>(a.first), all.end());
   if (a.max_scans > 0 && scans.size() > a.max_scans) scans.resize(a.max_scans);
+  const std::size_t selected = scans.size();
+  const RankPart part = ranks.part(0, selected, "scans");  // all of them on one process
+  scans.resize(part.end);
   std::string dict_file = a.dict;
   const Dictionary dict = a.dict.empty() ? default_dictionary(&dict_file) : read_dictionary(a.dict);
   if (scans.front().dim != dict.dim)
@@ -115,19 +120,25 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   job.mapper.refine_map.half_life = a.half_life;
   job.mapper.labels.seed = a.seed;
   job.verbose = !a.quiet;
+  job.start_at = part.begin;
+  if (ranks.size() > 1) check_rank_mergeable(job.mapper);
 
   Context ctx = make_context(device);
   std::fprintf(human, "mapping        %zu scans of %s (cut at %g m), %s, %zu atoms of %s\n",
-               scans.size(), a.log.c_str(), range_cut, a.method == "repot" ? "RePOT" : "POT",
+               selected, a.log.c_str(), range_cut, a.method == "repot" ? "RePOT" : "POT",
                dict.size(),
                a.dict.empty() ? ("the default dictionary " + dict_file).c_str() : a.dict.c_str());
-  const MapJobResult r = run_map_job(&ctx, dict, scans, job);
+  if (ranks.size() > 1)
+    std::fprintf(human, "rank           %d of %d: scans %zu-%zu\n", ranks.rank(), ranks.size(),
+                 part.begin, part.end - 1);
+  MapJobResult r = run_map_job(&ctx, dict, scans, job);
+  if (ranks.size() > 1 && !merge_rank_maps(ranks, &ctx, part, r)) return 0;
   const KernelMap& map = r.overall_map();
   if (map.empty()) throw InputError("mapping: " + a.log + " gave an empty map");
   const std::string map_file = (fs::path(dir) / "map.potmap").string();
   // With what merging needs (RePOT: the joint BHM's information form; POT: the averaged map's
   // anchor sums), so that maps of the same place made apart can be merged (`potmap merge`).
-  write_mapper_map(*r.mapper, map_file);
+  r.write_overall_map(map_file);
   const std::string prefix = (fs::path(dir) / "map").string();
   const double z = dict.dim == 3 ? scans.front().origin()[2] : 0;
   const double res = picture_resolution(map, 5, a.picture_pixels);
@@ -166,6 +177,12 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
   j["device"] = ctx.info().summary();
   write_scores_and_list(dir, j, files, a.json, human);
   return 0;
+}
+
+// Under mpirun (a build with MPI) every rank maps its part and rank 0 merges them.
+int run_mapping(const MappingArgs& args, const std::string& device) {
+  MappingRanks ranks;
+  return ranks.guard([&] { return map_log(args, ranks.device(device), ranks); });
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "default_dictionary.hpp"
 #include "drive_checkpoint.hpp"
 #include "drive_outputs.hpp"
+#include "drive_ranks.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
@@ -133,76 +134,30 @@ std::string layout_text(const Drive& drive) {
   return drive.layout == "slam" ? "SLAM keyframes" : "KITTI";
 }
 
-}  // namespace
+// What the run's outputs are written from: one process's mapper, or the ranks' maps merged.
+struct DriveResult {
+  const JointBhm& learner;
+  const KernelMap& map;
+  const LabelledPoints& held_out;
+  const DriveRun& run;
+  const nlohmann::json* ranks;  ///< the ranks' record (null: one process)
+};
 
-int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
-  DriveOptions dopt;
-  dopt.poses = a.poses;
-  dopt.bag = a.bag;
-  const Drive drive = open_drive(a.drive, dopt);
-  if (a.first >= drive.size())
-    throw ArgumentError("mapping: --first " + std::to_string(a.first) + " but " + a.drive +
-                        " has " + std::to_string(drive.size()) + " keyframes");
-  const std::size_t end =
-      a.max_keyframes ? std::min(drive.size(), a.first + a.max_keyframes) : drive.size();
+// The map, what robotics stacks load from it, the scores and scores.json.
+int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const DriveMapper& mapper,
+                        Context& ctx, const DriveResult& res, double mapping_s) {
   const std::string dir = a.out.empty() ? default_out(a.drive) : a.out;
-  fs::create_directories(dir);
   std::FILE* human = a.json == "-" ? stderr : stdout;
-  const auto t_run = std::chrono::steady_clock::now();
-
-  std::string dict_file;
-  const DriveMapperOptions mo = mapper_options(a, &dict_file);
-  DriveMapper mapper(mo);
-  DriveRun run;
-  run.record = drive_run_record(a, drive, mo);
-  const std::string ckpt = (fs::path(dir) / "map.ckpt").string();
-  std::size_t at = a.first;
-  if (a.resume && fs::exists(ckpt)) {
-    at = read_drive_checkpoint(ckpt, run, mapper);
-    std::fprintf(human, "resumed        at keyframe %zu from %s\n", at, ckpt.c_str());
-  }
-  Context ctx = make_context(device);
-  std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), %s\n", a.first,
-               end - 1, a.drive.c_str(), layout_text(drive).c_str(), a.range_cut,
-               mo.dictionary ? ("RePOT: the joint BHM seeded from " +
-                                std::to_string(mo.dictionary->size()) + " atoms of " + dict_file)
-                                   .c_str()
-                             : "joint BHM");
-  if (at < end) {
-    // The device's programs are built at their first launch (seconds on PoCL): a throwaway
-    // mapper maps the first keyframe once, so that no keyframe's time counts a build.
-    const auto t_build = std::chrono::steady_clock::now();
-    const KeyframeStats first =
-        DriveMapper(mo).add(read_keyframe(drive, at), std::int64_t(at), &ctx);
-    std::fprintf(human,
-                 "device         %s; kernels built in %.1f s (counted in no keyframe); the "
-                 "learner's sums on the %s\n",
-                 ctx.info().summary().c_str(), seconds_since(t_build),
-                 first.sums_on_device ? "device" : "host");
-  }
-  DriveProgress progress;
-  progress.total = end - at;
-  progress.quiet = a.quiet;
-  progress.bar = terminal_progress("mapping");
-  for (std::size_t i = at; i < end; ++i) {
-    const Scan kf = read_keyframe(drive, i);
-    const KeyframeStats st = mapper.add(kf, std::int64_t(i), &ctx);
-    run.add(st, drive.poses[i]);
-    progress.step(i, st);
-    if (a.checkpoint_every && (i + 1 - a.first) % a.checkpoint_every == 0 && i + 1 < end)
-      write_drive_checkpoint(ckpt, run, mapper, i + 1);
-  }
-  const double mapping_s = seconds_since(t_run);
-
   const auto t_out = std::chrono::steady_clock::now();
-  const KernelMap map = mapper.map();
+  const KernelMap& map = res.map;
+  const DriveRun& run = res.run;
   if (map.empty()) throw InputError("mapping: " + a.drive + " gave an empty map");
   const std::string map_file = (fs::path(dir) / "map.potmap").string();
   // The information form (for `potmap merge`) only where it is whole: a retired tile's
   // couplings went into its neighbours' information vector.
-  const std::size_t retired = mapper.learner().retired_tiles();
+  const std::size_t retired = res.learner.retired_tiles();
   if (retired == 0) {
-    write_joint_bhm_map(mapper.learner(), map_file, &map);
+    write_joint_bhm_map(res.learner, map_file, &map);
   } else {
     write_map(map, map_file);
     std::fprintf(human,
@@ -210,7 +165,7 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
                  "cannot be merged (--keep-tiles keeps them)\n",
                  retired, map_file.c_str());
   }
-  const LabelledPoints& test = mapper.held_out();
+  const LabelledPoints& test = res.held_out;
   const std::vector<float> prob = probability_by_columns(ctx, map, test.position);
   const Scores sc = score(prob, test.label);
 
@@ -229,7 +184,7 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   std::fprintf(human,
                "held-out beams ACC %.4f  AUC %.4f  NLL %.4f  (%zu samples: every %zu-th of 20 %% "
                "of every keyframe's beams, never mapped)\n",
-               sc.acc, sc.auc, sc.nll, sc.n, mo.test_stride);
+               sc.acc, sc.auc, sc.nll, sc.n, mapper.options().test_stride);
   std::fprintf(human,
                "map            %zu kernels, %.1f MB held; %.0f ms a keyframe (%.0f labelling and "
                "gathering, %.0f transfer, %.0f update) -> %s\n",
@@ -242,6 +197,10 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   files.insert(files.end(), outs.files.begin(), outs.files.end());
 
   nlohmann::json j = summary_json(a, drive, run, mapper, map.size(), sc);
+  if (res.ranks) {
+    j["ranks"] = *res.ranks;
+    j["memory_mb"] = res.learner.memory_bytes() / 1e6;  // the merged map's learner
+  }
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
   j["device"] = ctx.info().summary();
@@ -249,8 +208,98 @@ int run_drive_mapping(const DriveMappingArgs& a, const std::string& device) {
   j["outputs"] = outs.json;
   write_scores_and_list(dir, j, files, a.json, human);
   std::error_code ec;
-  if (!a.keep_checkpoint) fs::remove(ckpt, ec);
+  if (!a.keep_checkpoint) fs::remove((fs::path(dir) / "map.ckpt"), ec);
   return 0;
+}
+
+// Under mpirun: every tile kept, so that the ranks' maps merge exactly, and no checkpoints
+// (each rank's would be its part's).
+DriveMappingArgs rank_args(DriveMappingArgs a, const MappingRanks& ranks) {
+  if (ranks.size() == 1) return a;
+  if (a.resume)
+    throw ArgumentError(
+        "mapping: --resume continues a run of one process; the ranks of an mpirun job keep no "
+        "checkpoints");
+  a.keep_tiles = true;
+  a.checkpoint_every = 0;
+  return a;
+}
+
+}  // namespace
+
+int run_drive_mapping(const DriveMappingArgs& args, const std::string& device,
+                      MappingRanks& ranks) {
+  const DriveMappingArgs a = rank_args(args, ranks);
+  DriveOptions dopt;
+  dopt.poses = a.poses;
+  dopt.bag = a.bag;
+  const Drive drive = open_drive(a.drive, dopt);
+  if (a.first >= drive.size())
+    throw ArgumentError("mapping: --first " + std::to_string(a.first) + " but " + a.drive +
+                        " has " + std::to_string(drive.size()) + " keyframes");
+  const std::size_t end =
+      a.max_keyframes ? std::min(drive.size(), a.first + a.max_keyframes) : drive.size();
+  const RankPart part = ranks.part(a.first, end, "keyframes");  // all of them on one process
+  const std::string dir = a.out.empty() ? default_out(a.drive) : a.out;
+  if (ranks.rank() == 0) fs::create_directories(dir);
+  std::FILE* human = a.json == "-" || ranks.rank() > 0 ? stderr : stdout;
+  const auto t_run = std::chrono::steady_clock::now();
+
+  std::string dict_file;
+  const DriveMapperOptions mo = mapper_options(a, &dict_file);
+  DriveMapper mapper(mo);
+  DriveRun run;
+  run.record = drive_run_record(a, drive, mo);
+  const std::string ckpt = (fs::path(dir) / "map.ckpt").string();
+  std::size_t at = part.begin;
+  if (a.resume && fs::exists(ckpt)) {
+    at = read_drive_checkpoint(ckpt, run, mapper);
+    std::fprintf(human, "resumed        at keyframe %zu from %s\n", at, ckpt.c_str());
+  }
+  Context ctx = make_context(device);
+  std::fprintf(human, "mapping        keyframes %zu-%zu of %s (%s, cut at %g m), %s\n", a.first,
+               end - 1, a.drive.c_str(), layout_text(drive).c_str(), a.range_cut,
+               mo.dictionary ? ("RePOT: the joint BHM seeded from " +
+                                std::to_string(mo.dictionary->size()) + " atoms of " + dict_file)
+                                   .c_str()
+                             : "joint BHM");
+  if (ranks.size() > 1)
+    std::fprintf(human, "rank           %d of %d: keyframes %zu-%zu, every tile kept\n",
+                 ranks.rank(), ranks.size(), part.begin, part.end - 1);
+  if (at < part.end) {
+    // The device's programs are built at their first launch (seconds on PoCL): a throwaway
+    // mapper maps the first keyframe once, so that no keyframe's time counts a build.
+    const auto t_build = std::chrono::steady_clock::now();
+    const KeyframeStats first =
+        DriveMapper(mo).add(read_keyframe(drive, at), std::int64_t(at), &ctx);
+    std::fprintf(human,
+                 "device         %s; kernels built in %.1f s (counted in no keyframe); the "
+                 "learner's sums on the %s\n",
+                 ctx.info().summary().c_str(), seconds_since(t_build),
+                 first.sums_on_device ? "device" : "host");
+  }
+  DriveProgress progress;
+  progress.total = part.end - at;
+  progress.quiet = a.quiet;
+  progress.bar = terminal_progress("mapping");
+  for (std::size_t i = at; i < part.end; ++i) {
+    const Scan kf = read_keyframe(drive, i);
+    const KeyframeStats st = mapper.add(kf, std::int64_t(i), &ctx);
+    run.add(st, drive.poses[i]);
+    progress.step(i, st);
+    if (a.checkpoint_every && (i + 1 - a.first) % a.checkpoint_every == 0 && i + 1 < end)
+      write_drive_checkpoint(ckpt, run, mapper, i + 1);
+  }
+  const double mapping_s = seconds_since(t_run);
+  if (ranks.size() == 1) {
+    const KernelMap map = mapper.map();
+    return write_drive_results(a, drive, mapper, ctx,
+                               {mapper.learner(), map, mapper.held_out(), run, nullptr}, mapping_s);
+  }
+  const std::optional<DriveMerged> m = merge_drive_ranks(ranks, part, mapper, run);
+  if (!m) return 0;
+  return write_drive_results(a, drive, mapper, ctx,
+                             {*m->joint, m->map, m->held_out, m->run, &m->record}, mapping_s);
 }
 
 }  // namespace potmap::cli

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "mapping_ranks.hpp"
 #include "potmap/data/bag_options.hpp"
 
 namespace potmap::cli {
@@ -36,6 +37,8 @@ struct DriveMappingArgs {
 };
 
 /// Runs the job; prints a summary on stdout (stderr with --json -), returns the exit status.
-int run_drive_mapping(const DriveMappingArgs& a, const std::string& device);
+/// On several MPI ranks each maps its part of the keyframes and rank 0 merges their maps
+/// (drive_ranks.hpp) and writes the outputs.
+int run_drive_mapping(const DriveMappingArgs& a, const std::string& device, MappingRanks& ranks);
 
 }  // namespace potmap::cli

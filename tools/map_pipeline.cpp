@@ -7,6 +7,7 @@
 #include "map_checkpoint.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {
@@ -58,9 +59,10 @@ void start_or_resume(const MapCheckpointing& ck, Mapper& mapper, MapRunTotals& t
   }
 }
 
-// The per-scan means, and the overall map scored on every scan's held-out samples.
+}  // namespace
+
 void summarise(MapJobResult& r, const MapRunTotals& t, Context* ctx) {
-  const MapRunSummary s = summarise_run(ctx, *r.mapper, t);
+  const MapRunSummary s = summarise_run(ctx, r.overall_map(), t);
   r.scans = s.scans;
   r.mean_timing = s.mean_timing;
   r.mean_wall_ms = s.mean_wall_ms;
@@ -70,27 +72,36 @@ void summarise(MapJobResult& r, const MapRunTotals& t, Context* ctx) {
   r.overall_scores = s.overall;
 }
 
-}  // namespace
+void MapJobResult::write_overall_map(const std::string& path) const {
+  if (!merged)
+    write_mapper_map(*mapper, path);
+  else if (merged->joint)
+    write_joint_bhm_map(*merged->joint, path, &merged->map);
+  else
+    write_averaged_map(*merged->averaged, path);
+}
 
 nlohmann::json MapJobResult::to_json() const {
-  return {{"scans", scans},
-          {"overall_kernels", overall_kernels()},
-          {"overall_memory_bytes", overall_memory_bytes()},
-          {"overall_kind", persistent()                        ? "persistent joint BHM"
-                           : mapper->options().average_overall ? "averaged maps"
-                                                               : "merged kernels"},
-          {"kernels_per_scan", kernels_per_scan},
-          {"instantaneous", scores_json(instantaneous)},
-          {"overall", scores_json(overall_scores)},
-          {"ms_per_scan",
-           {{"prepare", mean_timing.prepare_ms},
-            {"ranking", mean_timing.ranking_ms},
-            {"transport", mean_timing.transport_ms},
-            {"placement", mean_timing.placement_ms},
-            {"refine", mean_timing.refine_ms},
-            {"solve_wall", mean_wall_ms},
-            {"solve_wall_max", max_wall_ms}}},
-          {"total_seconds", total_seconds}};
+  nlohmann::json j = {{"scans", scans},
+                      {"overall_kernels", overall_kernels()},
+                      {"overall_memory_bytes", overall_memory_bytes()},
+                      {"overall_kind", persistent()                        ? "persistent joint BHM"
+                                       : mapper->options().average_overall ? "averaged maps"
+                                                                           : "merged kernels"},
+                      {"kernels_per_scan", kernels_per_scan},
+                      {"instantaneous", scores_json(instantaneous)},
+                      {"overall", scores_json(overall_scores)},
+                      {"ms_per_scan",
+                       {{"prepare", mean_timing.prepare_ms},
+                        {"ranking", mean_timing.ranking_ms},
+                        {"transport", mean_timing.transport_ms},
+                        {"placement", mean_timing.placement_ms},
+                        {"refine", mean_timing.refine_ms},
+                        {"solve_wall", mean_wall_ms},
+                        {"solve_wall_max", max_wall_ms}}},
+                      {"total_seconds", total_seconds}};
+  if (merged) j["ranks"] = merged->record;
+  return j;
 }
 
 MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
@@ -101,6 +112,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   const MapCheckpointing& ck = job.checkpoint;
   MapRunTotals t;
   t.test.dim = dict.dim;
+  if (job.start_at > 0) mapper.start_at(job.start_at);
   start_or_resume(ck, mapper, t, scans.size(), r);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_checkpoint = t0;
@@ -124,7 +136,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
                    tr.timing.ranking_ms, tr.timing.transport_ms, tr.timing.placement_ms,
                    tr.timing.refine_ms, mapper.overall_kernels());
     } else if (progress) {
-      progress(double(done.index + 1) / double(scans.size()));
+      progress(double(done.index + 1 - job.start_at) / double(scans.size() - job.start_at));
     }
     // A checkpoint after the last scan would only be removed again.
     if (ck.path.empty() || t.scans == scans.size()) return;
@@ -143,6 +155,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   map_scored(ctx, mapper, scans, t, after_scan);
   summarise(r, t, ctx);
   r.total_seconds = t.seconds + seconds_since(t0);
+  r.totals = std::move(t);
   return r;
 }
 

@@ -10,8 +10,11 @@
 #include <string>
 #include <vector>
 
+#include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/pot/atoms.hpp"
+#include "potmap/pot/averaged_map.hpp"
+#include "potmap/pot/map_run.hpp"
 #include "potmap/pot/mapper.hpp"
 #include "potmap/pot/overall_map.hpp"
 #include "potmap/runtime/context.hpp"
@@ -30,19 +33,44 @@ struct MapCheckpointing {
 
 struct MapJob {
   MapperOptions mapper;
+  /// Index of the first scan of `scans` to map (those before it are skipped): an MPI rank's
+  /// part of a run, labelled as in the whole run (Mapper::start_at).
+  std::size_t start_at = 0;
   OverallMapOptions overall;
   std::string instantaneous_dir;  ///< write each instantaneous map here (empty: don't)
   bool verbose = true;            ///< a line per scan on stderr (else a progress bar on a tty)
   MapCheckpointing checkpoint;
 };
 
+/// The overall maps of a run's parts (MPI ranks) merged into one: RePOT's persistent maps in
+/// information form, or POT's averaged maps by their sums (learn/bhm_joint_merge.hpp).
+struct MergedOverall {
+  std::optional<JointBhm> joint;
+  std::optional<AveragedMap> averaged;
+  KernelMap map;          ///< the merged map's export
+  nlohmann::json record;  ///< the parts and the merge, for scores.json
+  std::size_t kernels() const { return joint ? joint->size() : averaged->size(); }
+  std::size_t memory_bytes() const {
+    return joint ? joint->memory_bytes() : averaged->memory_bytes();
+  }
+};
+
 struct MapJobResult {
   /// The overall map: POT's merged map, or RePOT's persistent map (persistent_refine()).
   std::unique_ptr<Mapper> mapper;
-  const KernelMap& overall_map() const { return mapper->overall_map(); }
-  std::size_t overall_kernels() const { return mapper->overall_kernels(); }
-  std::size_t overall_memory_bytes() const { return mapper->overall_memory_bytes(); }
+  /// Set on rank 0 of an MPI run once the ranks' maps are merged: then the overall map.
+  std::shared_ptr<const MergedOverall> merged;
+  const KernelMap& overall_map() const { return merged ? merged->map : mapper->overall_map(); }
+  std::size_t overall_kernels() const {
+    return merged ? merged->kernels() : mapper->overall_kernels();
+  }
+  std::size_t overall_memory_bytes() const {
+    return merged ? merged->memory_bytes() : mapper->overall_memory_bytes();
+  }
   bool persistent() const { return mapper->repot() != nullptr; }
+  /// Writes the overall map with what merging needs (write_mapper_map, or the merged form).
+  void write_overall_map(const std::string& path) const;
+  MapRunTotals totals;            ///< the run's held-out samples and sums (a rank's: its part's)
   std::size_t resumed_at = 0;     ///< scans a checkpoint held when the run began (0: none)
   std::size_t checkpoints = 0;    ///< checkpoints written by this stretch of the run
   double checkpoint_seconds = 0;  ///< wall-clock time they took
@@ -56,6 +84,10 @@ struct MapJobResult {
   std::size_t kernels_per_scan = 0;
   nlohmann::json to_json() const;
 };
+
+/// Fills `r`'s scans, timings and scores from `totals`, the overall map (r.overall_map()) scored
+/// on every held-out sample of `totals` on `ctx`'s device.
+void summarise(MapJobResult& r, const MapRunTotals& totals, Context* ctx);
 
 MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
                          const MapJob& job);

@@ -1,0 +1,33 @@
+#pragma once
+// `mpirun -n N potmap mapping DRIVE`: each rank maps a contiguous part of the keyframes into
+// its own joint BHM (every tile kept, so that its map carries the information form), then
+// sends its map, held-out samples and run totals to rank 0, which merges the maps exactly in
+// information form (learn/bhm_joint_merge.hpp) and scores the merged map on every keyframe's
+// held-out samples, as one process scores its map (docs/mapping-ranks.md).
+#include <nlohmann/json.hpp>
+
+#include <optional>
+
+#include "drive_checkpoint.hpp"
+#include "mapping_ranks.hpp"
+#include "potmap/learn/bhm_joint.hpp"
+#include "potmap/learn/drive_mapper.hpp"
+
+namespace potmap::cli {
+
+/// The ranks' maps merged, with what one process would have of its run.
+struct DriveMerged {
+  std::optional<JointBhm> joint;
+  KernelMap map;            ///< joint->map()
+  LabelledPoints held_out;  ///< every rank's, in keyframe order
+  DriveRun run;             ///< every rank's keyframes, in order
+  nlohmann::json record;    ///< the parts and the merge, for scores.json
+};
+
+/// On rank 0: receives the other ranks' maps and runs and merges them with `mapper`'s and
+/// `run`'s. On the other ranks: sends this rank's and returns std::nullopt (nothing is left
+/// for them to do). `part` is this rank's keyframes.
+std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart& part,
+                                             const DriveMapper& mapper, const DriveRun& run);
+
+}  // namespace potmap::cli

@@ -1,0 +1,118 @@
+#include "mapping_ranks.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
+#include <iostream>
+
+#include "potmap/error.hpp"
+#include "potmap/runtime/context.hpp"
+
+#ifdef POTMAP_WITH_MPI
+#include <mpi.h>
+#endif
+
+namespace potmap::cli {
+
+namespace {
+
+bool started_by_mpirun() {
+  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
+}
+
+#ifdef POTMAP_WITH_MPI
+// MPI counts in int: a map of several GB goes in pieces under 1 GiB.
+constexpr std::size_t kPiece = std::size_t(1) << 30;
+
+void send_bytes(const std::string& b, int to) {
+  const std::uint64_t n = b.size();
+  MPI_Send(&n, 1, MPI_UINT64_T, to, 0, MPI_COMM_WORLD);
+  for (std::size_t at = 0; at < b.size(); at += kPiece)
+    MPI_Send(b.data() + at, int(std::min(kPiece, b.size() - at)), MPI_BYTE, to, 1, MPI_COMM_WORLD);
+}
+
+std::string receive_bytes(int from) {
+  std::uint64_t n = 0;
+  MPI_Recv(&n, 1, MPI_UINT64_T, from, 0, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  std::string b(n, '\0');
+  for (std::size_t at = 0; at < b.size(); at += kPiece)
+    MPI_Recv(b.data() + at, int(std::min(kPiece, b.size() - at)), MPI_BYTE, from, 1, MPI_COMM_WORLD,
+             MPI_STATUS_IGNORE);
+  return b;
+}
+#endif
+
+}  // namespace
+
+MappingRanks::MappingRanks() {
+#ifdef POTMAP_WITH_MPI
+  if (!started_by_mpirun()) return;
+  int provided = 0;
+  // Only the main thread calls MPI (the mapper's worker threads never do).
+  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+  mpi_ = true;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  MPI_Comm node;
+  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &node);
+  MPI_Comm_rank(node, &local_rank_);
+  MPI_Comm_free(&node);
+#else
+  (void)started_by_mpirun;
+#endif
+}
+
+MappingRanks::~MappingRanks() {
+#ifdef POTMAP_WITH_MPI
+  if (mpi_) MPI_Finalize();
+#endif
+}
+
+RankPart MappingRanks::part(std::size_t first, std::size_t end, const std::string& what) const {
+  const std::size_t n = end > first ? end - first : 0;
+  if (n < std::size_t(size_))
+    throw ArgumentError("mapping: " + std::to_string(n) + " " + what + " cannot be split over " +
+                        std::to_string(size_) + " ranks (give at most " + std::to_string(n) +
+                        " ranks, or more " + what + ")");
+  RankPart p;
+  p.begin = first + n * std::size_t(rank_) / std::size_t(size_);
+  p.end = first + n * std::size_t(rank_ + 1) / std::size_t(size_);
+  return p;
+}
+
+std::vector<std::string> MappingRanks::gather(const std::string& bytes) {
+  if (!mpi_) return {bytes};
+#ifdef POTMAP_WITH_MPI
+  if (rank_ != 0) {
+    send_bytes(bytes, 0);
+    return {};
+  }
+  std::vector<std::string> all{bytes};
+  for (int r = 1; r < size_; ++r) all.push_back(receive_bytes(r));
+  return all;
+#else
+  return {bytes};
+#endif
+}
+
+std::string MappingRanks::device(const std::string& requested) const {
+  if (size_ == 1 || !requested.empty() || std::getenv("POTMAP_DEVICE")) return requested;
+  const auto devices = list_devices();
+  if (devices.empty()) return requested;
+  return devices[std::size_t(local_rank_) % devices.size()].name;
+}
+
+int MappingRanks::guard(const std::function<int()>& job) {
+  if (size_ == 1) return job();
+  try {
+    return job();
+  } catch (const std::exception& e) {
+    std::cerr << "potmap: rank " << rank_ << " of " << size_ << ": error: " << e.what() << "\n";
+#ifdef POTMAP_WITH_MPI
+    MPI_Abort(MPI_COMM_WORLD, 1);
+#endif
+    std::exit(1);
+  }
+}
+
+}  // namespace potmap::cli
