@@ -84,8 +84,8 @@ void merge_maps(const Mapper& own, std::vector<ReceivedMap>& others, MergedOvera
 void check_rank_mergeable(const MapperOptions& o) {
   if (!persistent_refine(o) && !o.average_overall)
     throw ArgumentError(
-        "mapping: POT's summed kernels (--preset paper) keep nothing to merge: map with them on "
-        "one process, or use the default preset under mpirun");
+        "mapping: POT's summed kernels (--method pot --preset paper) keep nothing to merge: map "
+        "with them on one process, or use the default preset under mpirun");
 }
 
 bool merge_rank_maps(MappingRanks& ranks, Context* ctx, const RankPart& part, MapJobResult& r) {

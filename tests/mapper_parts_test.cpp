@@ -1,0 +1,102 @@
+// A run mapped in contiguous parts (what `mpirun potmap mapping` does on its ranks): a mapper
+// started at scan k (Mapper::start_at) labels its scans as the whole run does, so the parts'
+// held-out samples together are the whole run's, and the parts' maps merged score as the
+// whole run's map on them.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "potmap/data/simulator.hpp"
+#include "potmap/error.hpp"
+#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/pot/atoms.hpp"
+#include "potmap/pot/map_run.hpp"
+#include "potmap/pot/mapper.hpp"
+#include "test_support.hpp"
+
+namespace potmap {
+namespace {
+
+struct PartsScene {
+  std::vector<Scan> scans;
+  std::shared_ptr<Dictionary> dict = std::make_shared<Dictionary>();
+  PartsScene() {
+    SimOptions so;
+    so.scans = 10;
+    so.spacing = 3;
+    Simulation sim = simulate(Town::builtin("town1"), so);
+    build_dictionary({sim.scans[0], sim.scans[1]}, test::grid_around(sim.scans[0].origin(), 30), {},
+                     *dict);
+    scans.assign(sim.scans.begin() + 2, sim.scans.end());
+  }
+};
+
+const PartsScene& parts_scene() {
+  static const PartsScene s;
+  return s;
+}
+
+// Maps scans [begin, end) of `scans` on a fresh mapper, as a rank maps its part.
+MapRunTotals map_part(Mapper& m, const std::vector<Scan>& scans, std::size_t begin,
+                      std::size_t end) {
+  m.start_at(begin);
+  MapRunTotals t;
+  t.test.dim = 2;
+  map_scored(&test::context(), m, std::vector<Scan>(scans.begin(), scans.begin() + long(end)), t);
+  return t;
+}
+
+TEST(MapperParts, PartsHoldTheWholeRunsHeldOutSamplesAndMergeIntoItsMap) {
+  const PartsScene& s = parts_scene();
+  const std::size_t n = s.scans.size(), half = n / 2;
+  for (const bool refine : {true, false}) {
+    SCOPED_TRACE(refine ? "RePOT" : "POT");
+    const MapperOptions o = test::small_mapper_options(refine);
+    Mapper whole(&test::context(), s.dict, o), first(&test::context(), s.dict, o),
+        second(&test::context(), s.dict, o);
+    const MapRunTotals tw = map_part(whole, s.scans, 0, n);
+    MapRunTotals tp = map_part(first, s.scans, 0, half);
+    add_totals(tp, map_part(second, s.scans, half, n));
+    EXPECT_EQ(second.scans(), n);
+    EXPECT_EQ(tp.scans, n);
+    ASSERT_GT(tw.test.size(), 100u);
+    // The same held-out samples, in the same order: each scan labelled by its index.
+    EXPECT_EQ(tp.test.position, tw.test.position);
+    EXPECT_EQ(tp.test.label, tw.test.label);
+    EXPECT_EQ(tp.test.scan, tw.test.scan);
+
+    KernelMap merged;
+    if (refine) {
+      merged = merge_joint_bhm({&first.repot()->learner(), &second.repot()->learner()}).map();
+    } else {
+      AveragedMap a = *first.averaged();
+      a.add_map(*second.averaged());
+      merged = a.map();
+    }
+    const MapRunSummary w = summarise_run(&test::context(), whole, tw);
+    const MapRunSummary m = summarise_run(&test::context(), merged, tp);
+    const MapRunSummary alone = summarise_run(&test::context(), first.overall_map(), tp);
+    std::printf("%s: whole AUC %.4f NLL %.4f, merged AUC %.4f NLL %.4f, first part alone AUC "
+                "%.4f NLL %.4f\n",
+                refine ? "RePOT" : "POT", w.overall.auc, w.overall.nll, m.overall.auc,
+                m.overall.nll, alone.overall.auc, alone.overall.nll);
+    EXPECT_EQ(m.overall.n, w.overall.n);
+    // The merge bar (docs/merging.md); the first part alone misses it.
+    EXPECT_LE(std::abs(m.overall.auc - w.overall.auc), 0.005);
+    EXPECT_LE(std::abs(m.overall.nll - w.overall.nll), 0.01);
+    EXPECT_GT(alone.overall.nll - w.overall.nll, 0.01);
+    EXPECT_EQ(m.instantaneous.n, w.instantaneous.n);
+  }
+}
+
+TEST(MapperParts, StartAtOnAMapperWithScansIsRefused) {
+  const PartsScene& s = parts_scene();
+  Mapper m(&test::context(), s.dict, test::small_mapper_options(true));
+  m.add_scan(s.scans[0]);
+  EXPECT_THROW(m.start_at(4), ArgumentError);
+  EXPECT_EQ(m.scans(), 1u);
+}
+
+}  // namespace
+}  // namespace potmap
