@@ -39,14 +39,16 @@ def scores(j):
     return s["auc"], s["nll"], s.get("points", s.get("n"))
 
 
-def rows_for(name, potmap, args_, ranks, env, work):
-    """One process, then mpirun -n N for each N: wall time, scores, differences."""
+def rows_for(name, potmap, args_, ranks, env, work, extra_one=None):
+    """One process, then mpirun -n N for each N: wall time, scores, differences. `extra_one`:
+    options of a second one-process row (shown, not the reference)."""
     mpirun = shutil.which("mpirun")
     rows = []
     base = None
-    for n in [0] + ranks:
-        out = os.path.join(work, "%s-%d" % (name, n))
-        cmd = [potmap, "mapping"] + args_ + ["--out", out, "--json", "-", "-q"]
+    runs = [(0, [])] + ([(0, extra_one)] if extra_one else []) + [(n, []) for n in ranks]
+    for i, (n, extra) in enumerate(runs):
+        out = os.path.join(work, "%s-%d" % (name, i))
+        cmd = [potmap, "mapping"] + args_ + extra + ["--out", out, "--json", "-", "-q"]
         if n:
             if not mpirun:
                 sys.exit("mpirun not found (install openmpi-bin)")
@@ -54,16 +56,19 @@ def rows_for(name, potmap, args_, ranks, env, work):
                    "POTMAP_CACHE_DIR"] + cmd
         wall, j = run(cmd, env)
         auc, nll, points = scores(j)
-        row = {"data": name, "ranks": n, "wall_s": wall, "auc": auc, "nll": nll,
+        row = {"data": name, "ranks": n, "options": " ".join(extra), "wall_s": wall, "auc": auc, "nll": nll,
                "held_out": points, "device": j.get("device", ""), "command": " ".join(cmd)}
         if "ranks" in j:
             row["merge_s"] = j["ranks"]["merge_seconds"]
             row["wait_s"] = j["ranks"]["wait_seconds"]
+            row["export_s"] = j["ranks"].get("export_seconds", 0.0)
         if name == "drive":
             row["keyframes"] = j["keyframes"]
             row["path_m"] = j["path_m"]
             row["mapping_s"] = j["mapping_s"]
             row["ms_per_keyframe"] = j["ms_per_keyframe"]
+            row["memory_mb"] = j["memory_mb"]
+            row["peak_rss_mb"] = j["peak_rss_mb"]
         else:
             row["scans"] = j["scans"]
         if base is None:
@@ -72,19 +77,28 @@ def rows_for(name, potmap, args_, ranks, env, work):
         row["d_nll"] = nll - base["nll"]
         row["speedup"] = base["wall_s"] / wall
         rows.append(row)
-        print("  %s %s: %.1f s, AUC %.4f NLL %.4f" % (name, "one process" if not n else
-                                                     "%d ranks" % n, wall, auc, nll), flush=True)
+        print("  %s %s: %.1f s, AUC %.4f NLL %.4f" % (name, label(row), wall, auc, nll), flush=True)
     return rows
 
 
-def city(drive_row):
-    """Kilometres of drive a rank maps in an hour at the one process's keyframe rate."""
-    spacing = drive_row["path_m"] / max(drive_row["keyframes"] - 1, 1)
-    per_hour = 3600e3 / drive_row["ms_per_keyframe"]
-    km = spacing * per_hour / 1000
-    return {"keyframe_spacing_m": spacing, "keyframes_per_rank_hour": per_hour,
-            "km_per_rank_hour": km,
-            "rank_hours_for_1000_km": 1000 / km}
+def label(r):
+    return ("one process " + r["options"]).strip() if not r["ranks"] else "%d" % r["ranks"]
+
+
+def city(one, kept, merged):
+    """Kilometres of drive a rank maps in an hour at the one process's keyframe rate; the
+    memory a rank's part takes with every tile kept, and rank 0's merge, per km."""
+    km = one["path_m"] / 1000
+    spacing = one["path_m"] / max(one["keyframes"] - 1, 1)
+    per_hour = 3600e3 / one["ms_per_keyframe"]
+    km_hour = spacing * per_hour / 1000
+    c = {"keyframe_spacing_m": spacing, "keyframes_per_rank_hour": per_hour,
+         "km_per_rank_hour": km_hour, "rank_hours_for_1000_km": 1000 / km_hour}
+    if kept:
+        c["kept_tiles_mb_per_km"] = kept["memory_mb"] / km
+    if merged:
+        c["merge_s_per_km"] = (merged["merge_s"] + merged["export_s"]) / km
+    return c
 
 
 def main():
@@ -108,32 +122,39 @@ def main():
             res["rows"] += rows_for("log", potmap, log_args, ranks, env, work)
         if a.drive:
             drive_args = [a.drive, "--max-scans", str(a.max_keyframes)]
-            res["rows"] += rows_for("drive", potmap, drive_args, ranks, env, work)
+            res["rows"] += rows_for("drive", potmap, drive_args, ranks, env, work,
+                                    ["--keep-tiles"])
     res["load_average_end"] = os.getloadavg()
-    drive_one = [r for r in res["rows"] if r["data"] == "drive" and r["ranks"] == 0]
-    if drive_one:
-        res["city"] = city(drive_one[0])
+    drive = [r for r in res["rows"] if r["data"] == "drive"]
+    one = [r for r in drive if r["ranks"] == 0 and not r["options"]]
+    kept = [r for r in drive if r["ranks"] == 0 and r["options"]]
+    merged = [r for r in drive if r["ranks"] >= 2]
+    if one:
+        res["city"] = city(one[0], kept[0] if kept else None, merged[0] if merged else None)
 
     print("\n%s, %d CPUs, load average %.2f at the start, %.2f at the end" % (
         res["rows"][0]["device"] if res["rows"] else "", res["cpus"],
         res["load_average_start"][0], res["load_average_end"][0]))
-    print("| data | ranks | wall | AUC / NLL | minus one process | merge |")
+    print("| data | ranks | wall | AUC / NLL | minus one process | merge + variances |")
     print("|---|---|---|---|---|---|")
     for r in res["rows"]:
-        label = "%s (%s)" % (os.path.basename(a.log.rstrip("/")) if r["data"] == "log" else
+        name = "%s (%s)" % (os.path.basename(a.log.rstrip("/")) if r["data"] == "log" else
                              os.path.basename(a.drive.rstrip("/")),
                              "%d scans" % r["scans"] if r["data"] == "log" else
                              "%d keyframes" % r["keyframes"])
         print("| %s | %s | %.1f s | %.4f / %.4f | %+.4f / %+.4f | %s |" % (
-            label, "one process" if not r["ranks"] else r["ranks"], r["wall_s"], r["auc"],
+            name, label(r), r["wall_s"], r["auc"],
             r["nll"], r["d_auc"], r["d_nll"],
-            "%.2f s" % r["merge_s"] if "merge_s" in r else "-"))
+            "%.2f + %.2f s" % (r["merge_s"], r["export_s"]) if "merge_s" in r else "-"))
     if "city" in res:
         c = res["city"]
         print("\ncity: %.1f m between keyframes, %.0f keyframes a rank-hour: %.1f km of drive a "
               "rank-hour, %.0f rank-hours for 1000 km" % (
                   c["keyframe_spacing_m"], c["keyframes_per_rank_hour"], c["km_per_rank_hour"],
                   c["rank_hours_for_1000_km"]))
+        if "kept_tiles_mb_per_km" in c and "merge_s_per_km" in c:
+            print("      every tile kept: %.0f MB a km of drive; rank 0's merge: %.0f s a km" % (
+                c["kept_tiles_mb_per_km"], c["merge_s_per_km"]))
     if a.out:
         with open(a.out, "w") as f:
             json.dump(res, f, indent=1)

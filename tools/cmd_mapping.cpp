@@ -195,7 +195,11 @@ void register_mapping(CLI::App& app, Runner& runner) {
       "a ROS map DIR/map.yaml + map.pgm and DIR/scores.json (held-out beams). A 3D drive folder is "
       "mapped by the joint BHM a keyframe at a time into DIR/map.potmap, an OctoMap DIR/map.bt, "
       "the occupied voxels DIR/map_occupied.ply, a height band's pictures DIR/map_band_*.png and "
-      "ROS map DIR/map_band.yaml, and DIR/scores.json (docs/drives-3d.md)");
+      "ROS map DIR/map_band.yaml, and DIR/scores.json (docs/drives-3d.md). Under mpirun "
+      "(`mpirun -n N potmap mapping LOG`, a build with MPI) each rank maps a contiguous part of "
+      "the scans or keyframes (a drive's with every tile kept) and rank 0 merges the ranks' maps "
+      "in information form and writes the outputs, scored on every scan's held-out beams "
+      "(docs/mapping-ranks.md)");
   auto a = std::make_shared<MappingArgs>();
   auto device = add_device_option(cmd);
   cmd->add_option("LOG", a->log,

@@ -63,7 +63,12 @@ std::string pack(const RankPart& part, const DriveMapper& mapper, const DriveRun
   o.put(std::uint64_t(part.end));
   put_run(o, run);
   o.put(mapper.held_out());
-  o.put(potmap_bytes([&](const std::string& p) { write_joint_bhm_map(mapper.learner(), p); }));
+  // Only the information form travels: rank 0 solves the merged map's means and variances
+  // itself, so this rank's own (a solve over its kernels) would be computed for nothing.
+  KernelMap unsolved;
+  unsolved.dim = 3;
+  o.put(potmap_bytes(
+      [&](const std::string& p) { write_joint_bhm_map(mapper.learner(), p, &unsolved); }));
   return std::move(o.bytes());
 }
 
@@ -109,16 +114,19 @@ std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart
   std::vector<const JointBhm*> maps = {&mapper.learner()};
   for (const JointBhm& j : others) maps.push_back(&j);
   m.joint = merge_joint_bhm(maps, o);
-  m.map = m.joint->map();
   const double merge_s = seconds_since(t_merge);
+  const auto t_export = std::chrono::steady_clock::now();
+  m.map = m.joint->map();
+  const double export_s = seconds_since(t_export);
   std::fprintf(stderr,
-               "potmap: merged the maps of %d ranks: %zu kernels in %.2f s (waited %.2f s for "
-               "the other ranks)\n",
-               ranks.size(), m.joint->size(), merge_s, waited);
+               "potmap: merged the maps of %d ranks: %zu kernels in %.2f s, their variances in "
+               "%.2f s (waited %.2f s for the other ranks)\n",
+               ranks.size(), m.joint->size(), merge_s, export_s, waited);
   m.record = {{"ranks", ranks.size()},
               {"parts", parts},
               {"wait_seconds", waited},
-              {"merge_seconds", merge_s}};
+              {"merge_seconds", merge_s},
+              {"export_seconds", export_s}};
   return m;
 }
 
