@@ -58,7 +58,9 @@ MappingRanks::MappingRanks() {
   MPI_Comm_rank(node, &local_rank_);
   MPI_Comm_free(&node);
 #else
-  (void)started_by_mpirun;
+  if (started_by_mpirun())
+    std::cerr << "potmap: warning: started by mpirun, but this potmap was built without MPI: "
+                 "every process maps every scan (configure with libopenmpi-dev installed)\n";
 #endif
 }
 
