@@ -115,17 +115,19 @@ std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart
   for (const JointBhm& j : others) maps.push_back(&j);
   m.joint = merge_joint_bhm(maps, o);
   const double merge_s = seconds_since(t_merge);
+  const JointBhmStats solved = m.joint->last_stats();  // the merge's solve (map() adds its own)
   const auto t_export = std::chrono::steady_clock::now();
   m.map = m.joint->map();
   const double export_s = seconds_since(t_export);
   std::fprintf(stderr,
-               "potmap: merged the maps of %d ranks: %zu kernels in %.2f s, their variances in "
-               "%.2f s (waited %.2f s for the other ranks)\n",
-               ranks.size(), m.joint->size(), merge_s, export_s, waited);
+               "potmap: merged the maps of %d ranks: %zu kernels in %.2f s (%zu CG iterations), "
+               "the merged map in %.2f s (waited %.2f s for the other ranks)\n",
+               ranks.size(), m.joint->size(), merge_s, solved.cg_iterations, export_s, waited);
   m.record = {{"ranks", ranks.size()},
               {"parts", parts},
               {"wait_seconds", waited},
               {"merge_seconds", merge_s},
+              {"merge_cg_iterations", solved.cg_iterations},
               {"export_seconds", export_s}};
   return m;
 }
