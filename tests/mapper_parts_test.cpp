@@ -88,10 +88,11 @@ TEST(MapperParts, PartsHoldTheWholeRunsHeldOutSamplesAndMergeIntoItsMap) {
     const MapRunSummary w = summarise_run(&test::context(), whole, tw);
     const MapRunSummary m = summarise_run(&test::context(), merged, tp);
     const MapRunSummary alone = summarise_run(&test::context(), first.overall_map(), tp);
-    std::printf("%s: whole AUC %.4f NLL %.4f, merged AUC %.4f NLL %.4f, first part alone AUC "
-                "%.4f NLL %.4f\n",
-                refine ? "RePOT" : "POT", w.overall.auc, w.overall.nll, m.overall.auc,
-                m.overall.nll, alone.overall.auc, alone.overall.nll);
+    std::printf(
+        "%s: whole AUC %.4f NLL %.4f, merged AUC %.4f NLL %.4f, first part alone AUC "
+        "%.4f NLL %.4f\n",
+        refine ? "RePOT" : "POT", w.overall.auc, w.overall.nll, m.overall.auc, m.overall.nll,
+        alone.overall.auc, alone.overall.nll);
     EXPECT_EQ(m.overall.n, w.overall.n);
     EXPECT_EQ(m.instantaneous.n, w.instantaneous.n);
     if (!refine) continue;  // POT's transport from this two-scan dictionary scores at chance here
