@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 
@@ -109,7 +110,11 @@ int MappingRanks::guard(const std::function<int()>& job) {
   try {
     return job();
   } catch (const std::exception& e) {
-    std::cerr << "potmap: rank " << rank_ << " of " << size_ << ": error: " << e.what() << "\n";
+    // One write, so that the ranks' lines do not interleave.
+    const std::string line = "potmap: rank " + std::to_string(rank_) + " of " +
+                             std::to_string(size_) + ": error: " + e.what() + "\n";
+    std::fputs(line.c_str(), stderr);
+    std::fflush(stderr);
 #ifdef POTMAP_WITH_MPI
     MPI_Abort(MPI_COMM_WORLD, 1);
 #endif
