@@ -57,7 +57,7 @@ void add_points(LabelledPoints& into, const LabelledPoints& p) {
 }
 
 // What a rank other than 0 sends: its part, its run, its held-out samples and its map.
-std::string pack(const RankPart& part, const DriveMapper& mapper, const DriveRun& run) {
+std::string pack_drive_part(const RankPart& part, const DriveMapper& mapper, const DriveRun& run) {
   RankBytesOut o;
   o.put(std::uint64_t(part.begin));
   o.put(std::uint64_t(part.end));
@@ -78,7 +78,7 @@ std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart
                                              const DriveMapper& mapper, const DriveRun& run) {
   const auto t0 = std::chrono::steady_clock::now();
   if (ranks.rank() != 0) {
-    ranks.gather(pack(part, mapper, run));
+    ranks.gather(pack_drive_part(part, mapper, run));
     return std::nullopt;
   }
   std::vector<std::string> all = ranks.gather(std::string());

@@ -41,7 +41,7 @@ MapRunTotals get_totals(RankBytesIn& in) {
 }
 
 // What a rank sends: its part, its time, its totals and (not rank 0) its map's bytes.
-std::string pack(const RankPart& part, const MapJobResult& r, bool with_map) {
+std::string pack_log_part(const RankPart& part, const MapJobResult& r, bool with_map) {
   RankBytesOut o;
   o.put(std::uint64_t(part.begin));
   o.put(std::uint64_t(part.end));
@@ -90,7 +90,7 @@ void check_rank_mergeable(const MapperOptions& o) {
 
 bool merge_rank_maps(MappingRanks& ranks, Context* ctx, const RankPart& part, MapJobResult& r) {
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::string> all = ranks.gather(pack(part, r, ranks.rank() != 0));
+  std::vector<std::string> all = ranks.gather(pack_log_part(part, r, ranks.rank() != 0));
   if (ranks.rank() != 0) return false;
   const double waited = seconds_since(t0);
   auto merged = std::make_shared<MergedOverall>();
