@@ -4,10 +4,13 @@ held-out beams and the wall time, for a 2D log and a 3D drive, and the arithmeti
 (kilometres of drive per rank-hour). Prints a table and writes JSON.
 
 Usage: bench/mapping_ranks.py [--build build] [--ranks 1,2,4] [--log PATH] [--max-scans 0]
-                              [--drive PATH] [--max-keyframes 40] [--out mapping-ranks.json]
+                              [--drive PATH] [--max-keyframes 40] [--repeat 1]
+                              [--out mapping-ranks.json]
 
 Every row is one whole process (`potmap mapping ... --json -`, or `mpirun -n N --oversubscribe
-potmap mapping ...`), timed from exec to exit. The reference is the same command without mpirun.
+potmap mapping ...`), timed from exec to exit; with --repeat R the rows run R rounds, one after
+another, and each row keeps its median wall time (the scores are the same every round). The
+reference is the same command without mpirun.
 Scores: the merged map on the held-out beams of every scan (20 % of every scan's beams, never
 learned by any rank), as one process scores its own map, so the rows compare directly. The bar
 (docs/merging.md): within 0.005 AUC and 0.01 NLL of one process.
@@ -37,6 +40,25 @@ def run(cmd, env):
 def scores(j):
     s = j["overall"] if "overall" in j else j["scores"]
     return s["auc"], s["nll"], s.get("points", s.get("n"))
+
+
+def median(v):
+    v = sorted(v)
+    n = len(v)
+    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
+
+
+def repeated(name, potmap, args_, ranks, env, work, extra_one, repeat):
+    """rows_for() `repeat` times, round by round; each row's median wall time."""
+    rounds = [rows_for(name, potmap, args_, ranks, env, work, extra_one) for _ in range(repeat)]
+    rows = rounds[0]
+    for i, row in enumerate(rows):
+        walls = [r[i]["wall_s"] for r in rounds]
+        row["wall_s"] = median(walls)
+        row["walls_s"] = walls
+    for row in rows:
+        row["speedup"] = rows[0]["wall_s"] / row["wall_s"]
+    return rows
 
 
 def rows_for(name, potmap, args_, ranks, env, work, extra_one=None):
@@ -109,21 +131,23 @@ def main():
     p.add_argument("--max-scans", type=int, default=0)
     p.add_argument("--drive", default=os.path.join(DATA, "drives3d", "riverside-a"))
     p.add_argument("--max-keyframes", type=int, default=40)
+    p.add_argument("--repeat", type=int, default=1)
     p.add_argument("--out", default="")
     a = p.parse_args()
     potmap = os.path.join(a.build, "tools", "potmap")
     ranks = [int(x) for x in a.ranks.split(",") if x]
     env = dict(os.environ)
     env.setdefault("POTMAP_CACHE_DIR", os.path.join(os.path.abspath(a.build), "kernel-cache"))
-    res = {"load_average_start": os.getloadavg(), "cpus": os.cpu_count(), "rows": []}
+    res = {"load_average_start": os.getloadavg(), "cpus": os.cpu_count(), "repeat": a.repeat,
+           "rows": []}
     with tempfile.TemporaryDirectory() as work:
         if a.log:
             log_args = [a.log] + (["--max-scans", str(a.max_scans)] if a.max_scans else [])
-            res["rows"] += rows_for("log", potmap, log_args, ranks, env, work)
+            res["rows"] += repeated("log", potmap, log_args, ranks, env, work, None, a.repeat)
         if a.drive:
             drive_args = [a.drive, "--max-scans", str(a.max_keyframes)]
-            res["rows"] += rows_for("drive", potmap, drive_args, ranks, env, work,
-                                    ["--keep-tiles"])
+            res["rows"] += repeated("drive", potmap, drive_args, ranks, env, work,
+                                    ["--keep-tiles"], a.repeat)
     res["load_average_end"] = os.getloadavg()
     drive = [r for r in res["rows"] if r["data"] == "drive"]
     one = [r for r in drive if r["ranks"] == 0 and not r["options"]]
