@@ -27,14 +27,17 @@ void ContainerWriter::patch_u64(std::size_t at, std::uint64_t v) {
   out_.replace(at, 8, b);
 }
 
-void ContainerWriter::finish(const std::string& path) {
+std::uint32_t ContainerWriter::finish(const std::string& path) {
   if (layout_.size_field != ContainerLayout::kNoSizeField) {
     std::string total;
     put_u64(total, out_.size() + kCrcBytes);
     out_.replace(layout_.size_field, 8, total);
   }
-  put_u32(out_, crc32_of(reinterpret_cast<const unsigned char*>(out_.data()), out_.size()));
+  const std::uint32_t crc =
+      crc32_of(reinterpret_cast<const unsigned char*>(out_.data()), out_.size());
+  put_u32(out_, crc);
   write_file_atomically(path, out_);
+  return crc;
 }
 
 ContainerReader::ContainerReader(const std::string& path, const ContainerLayout& layout)

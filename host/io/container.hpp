@@ -53,7 +53,9 @@ class ContainerWriter {
   std::size_t size() const { return out_.size(); }
   /// Overwrites the u64 at `at` (a length known only once what follows it is written).
   void patch_u64(std::size_t at, std::uint64_t v);
-  void finish(const std::string& path);
+  /// Writes the file; returns its CRC-32 (the trailer), so that a caller keeping a record of
+  /// the file need not read it back.
+  std::uint32_t finish(const std::string& path);
 
  private:
   const ContainerLayout& layout_;
