@@ -244,6 +244,31 @@ TEST(RasterTiles, AStoppedJobResumesToTheSameFile) {
   EXPECT_EQ(potmap::test::file_bytes(out), potmap::test::file_bytes(dir + "/whole.tif"));
 }
 
+// The job that stores the tiles assembles from its own record of them (checksums, first
+// overview level); a job that finds them on disk reads the files. Both write the same bytes.
+TEST(RasterTiles, AssemblyFromTheRecordEqualsAssemblyFromTheFiles) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  TilesFixture f;
+  const std::string dir = test::temp_dir("raster-tiles-record");
+  TiledRasterOptions o = f.options(dir);
+  o.remove_tiles = false;
+  const TiledRasterSummary s =
+      rasterize_tiled(test::context(), f.scene.map, f.spec, dir + "/stored.tif", o);
+  EXPECT_EQ(s.computed, s.tiles);
+  EXPECT_GT(s.evaluate_seconds, 0.0);
+  EXPECT_GT(s.store_seconds, 0.0);
+  EXPECT_GT(s.assemble_seconds, 0.0);
+  EXPECT_LE(s.evaluate_seconds + s.store_wait_seconds + s.assemble_seconds, s.seconds);
+
+  TiledRaster found(test::context(), f.scene.map, f.spec, dir + "/found.tif", o);
+  found.assemble();
+  EXPECT_TRUE(test::file_bytes(dir + "/stored.tif") == test::file_bytes(dir + "/found.tif"));
+  std::string a = test::file_bytes(dir + "/stored.tif.manifest.json");
+  std::string b = test::file_bytes(dir + "/found.tif.manifest.json");
+  a.replace(a.find("stored.tif"), 10, "found.tif");
+  EXPECT_EQ(a, b) << "the tiles' checksums";
+}
+
 TEST(RasterTiles, CorruptAndForeignTilesAreRecomputed) {
   if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
   TilesFixture f;

@@ -146,19 +146,27 @@ std::string encode_block(const std::string& path, const GeoTiffSpec& spec,
   if (nb != spec.band_names.size() || width > B || height > B)
     throw Error(path + ": internal: a block of " + std::to_string(width) + " x " +
                 std::to_string(height) + " pixels and " + std::to_string(nb) + " bands");
-  std::vector<float> px(B * n, 0.0f);  // zeros past the image edge, as GDAL pads
+  // Megabytes a block, reused by a thread that encodes block after block (the tiled job's
+  // writer) rather than allocated and faulted in afresh each time.
+  thread_local std::vector<float> px;
+  thread_local std::vector<unsigned char> bytes, tmp;
+  thread_local std::string tiff;
+  px.assign(B * n, 0.0f);  // zeros past the image edge, as GDAL pads
   for (std::size_t r = 0; r < height; ++r)
     for (std::size_t b = 0; b < nb; ++b)
       for (std::size_t c = 0; c < width; ++c) px[r * n + c * nb + b] = bands[b][r * width + c];
-  std::vector<unsigned char> bytes(4 * B * n);
+  bytes.resize(4 * B * n);
   if (spec.compression == "NONE") {
     std::memcpy(bytes.data(), px.data(), bytes.size());
   } else {
-    std::vector<unsigned char> tmp(4 * n);
+    tmp.resize(4 * n);
     for (std::size_t r = 0; r < B; ++r)
       predict_row(px.data() + r * n, n, nb, tmp.data(), bytes.data() + 4 * r * n);
   }
   MemoryTiff m;
+  m.data = std::move(tiff);
+  m.data.clear();
+  m.data.reserve(bytes.size() + 4096);  // the block and libtiff's directory, one allocation
   std::uint64_t offset = 0, size = 0;
   {
     Tiff t = open_memory(m, "wl", path);
@@ -168,7 +176,9 @@ std::string encode_block(const std::string& path, const GeoTiffSpec& spec,
     offset = TIFFGetStrileOffset(t.get(), 0);
     size = TIFFGetStrileByteCount(t.get(), 0);
   }
-  return m.data.substr(std::size_t(offset), std::size_t(size));
+  std::string block = m.data.substr(std::size_t(offset), std::size_t(size));
+  tiff = std::move(m.data);
+  return block;
 }
 
 void decode_block(const std::string& path, const GeoTiffSpec& spec, const std::string& bytes,

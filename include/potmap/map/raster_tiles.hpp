@@ -75,6 +75,10 @@ struct TiledRasterSummary {
   double seconds = 0;                 ///< wall time of this run, seconds
   std::string output;                 ///< the GeoTIFF written (empty if not assembled)
   std::string manifest;               ///< OUT + ".manifest.json": the tiles and their CRC-32
+  /// Where this run's time went, seconds of wall time: evaluating tiles on the device, the
+  /// writer compressing and storing them (beside the evaluation), the evaluation waiting for
+  /// the writer, and the assembly of the GeoTIFF. Zero where the caller ran the steps itself.
+  double evaluate_seconds = 0, store_seconds = 0, store_wait_seconds = 0, assemble_seconds = 0;
 };
 
 /// A tiled rasterisation job over one map and window, writing `output` (a .tif path). Cheap to
