@@ -8,14 +8,18 @@ Usage: bench/raster_cog.py [--build build] [--repeat 5] [--out docs/raster-cog.j
 The runs alternate (kernel, GeoTIFF, kernel, GeoTIFF, ...), so that a load that changes while
 it runs (other builds on a shared machine) falls on both sides of the ratio; the ratio is the
 median GeoTIFF time over the median kernel time, and the JSON keeps every time and the load
-average before and after. Kernel: BM_Town1GridOpenCLFine of potmap_bench, one iteration per
+average before and after, and the job's CPU time (user + system of all its threads, PoCL's
+included), which on a loaded machine still compares the work done. Kernel: BM_Town1GridOpenCLFine of potmap_bench, one iteration per
 process, warm (program built, buffers allocated). End to end: the whole `potmap raster`
-process, wall time from exec to exit, with the phases its --json reports. --npy adds the PNG +
-.npy job (the band writer) to each round.
+process, wall time from exec to exit, with the phases its --json reports (the GeoTIFF job's:
+evaluating the tiles, the writer compressing and storing them beside that, the evaluation
+waiting for the writer, the assembly). --npy adds the PNG + .npy job (the band writer) to each
+round.
 """
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -27,6 +31,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 TOWN1 = os.path.join(HERE, "..", "..", "shared", "data", "carla", "town1_abhm_map.csv")
 KERNEL = "BM_Town1GridOpenCLFine"
 RES = 0.05
+PHASES = ("evaluate", "store", "store_wait", "assemble")
 
 
 def map_bounds(path):
@@ -39,6 +44,12 @@ def map_bounds(path):
             lo = [min(lo[0], x), min(lo[1], y)]
             hi = [max(hi[0], x), max(hi[1], y)]
     return lo, hi
+
+
+def child_cpu():
+    """User + system seconds of the children waited for so far (every thread of each)."""
+    u = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return u.ru_utime + u.ru_stime
 
 
 def kernel_once(build):
@@ -57,12 +68,14 @@ def kernel_once(build):
 
 
 def job_once(cmd, env):
-    t = time.perf_counter()
+    t, c = time.perf_counter(), child_cpu()
     r = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     dt = time.perf_counter() - t
     if r.returncode != 0:
         sys.exit("failed: %s\n%s" % (" ".join(cmd), r.stderr))
-    return dt, json.loads(r.stdout)
+    j = json.loads(r.stdout)
+    j["cpu_seconds"] = child_cpu() - c
+    return dt, j
 
 
 def main():
@@ -122,11 +135,18 @@ def main():
             sys.exit("%s: %d cells, the kernel benchmark %d" % (name, n, cells))
         row = {"job": name, "seconds": times, "median": med, "ratio": med / kmed,
                "job_seconds": j["seconds"], "setup_seconds": j["setup_seconds"],
-               "start_exit_seconds": t - j["seconds"] - j["setup_seconds"]}
+               "start_exit_seconds": t - j["seconds"] - j["setup_seconds"],
+               "cpu_seconds": j["cpu_seconds"]}
+        phases = {k: j[k + "_seconds"] for k in PHASES if k + "_seconds" in j}
+        if phases:
+            row["phases_seconds"] = phases
         result["jobs"].append(row)
         print("%-26s %10d %10.3f %10.3f %7.2fx  %.3f / %.3f / %.3f" % (
             name, cells, kmed, med, row["ratio"], j["seconds"], j["setup_seconds"],
             row["start_exit_seconds"]))
+        if phases:
+            print("%-26s %s" % ("", ", ".join("%s %.3f s" % (k, v) for k, v in phases.items())))
+        print("%-26s CPU (user + system, all threads) %.2f s" % ("", j["cpu_seconds"]))
     print("device: %s; %d rounds; load average %.2f at the start, %.2f at the end" % (
         label, a.repeat, load_start[0], load_end[0]))
     shutil.rmtree(work, ignore_errors=True)
