@@ -10,60 +10,24 @@
 #include <functional>
 #include <mutex>
 #include <thread>
-#include <utility>
 
 namespace potmap::detail {
 
 class SerialWorker {
  public:
-  SerialWorker() : thread_([this] { loop(); }) {}
-  ~SerialWorker() {
-    {
-      std::lock_guard<std::mutex> lock(m_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    thread_.join();
-  }
+  SerialWorker();
+  ~SerialWorker();
   SerialWorker(const SerialWorker&) = delete;
   SerialWorker& operator=(const SerialWorker&) = delete;
 
   /// Waits for the job before (rethrowing its exception), then starts `job`.
-  void submit(std::function<void()> job) {
-    wait();
-    {
-      std::lock_guard<std::mutex> lock(m_);
-      job_ = std::move(job);
-    }
-    cv_.notify_all();
-  }
+  void submit(std::function<void()> job);
 
   /// Waits for the job running, if any; rethrows its exception.
-  void wait() {
-    std::unique_lock<std::mutex> lock(m_);
-    cv_.wait(lock, [this] { return !job_; });
-    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
-  }
+  void wait();
 
  private:
-  void loop() {
-    std::unique_lock<std::mutex> lock(m_);
-    for (;;) {
-      cv_.wait(lock, [this] { return stop_ || job_; });
-      if (!job_) return;  // stopped with nothing left to run
-      lock.unlock();
-      std::exception_ptr error;
-      try {
-        job_();
-      } catch (...) {
-        error = std::current_exception();
-      }
-      lock.lock();
-      job_ = nullptr;
-      error_ = error;
-      cv_.notify_all();
-    }
-  }
+  void loop();
 
   std::mutex m_;
   std::condition_variable cv_;
