@@ -16,9 +16,10 @@
 #                     the module is the library's code, which every other test here reaches.
 #   install_consumer, abi_exports  packaging and the shared library's symbols, not memory
 #                     safety (this build links the static library).
-# raster_mpi_ranks runs on its own afterwards without LeakSanitizer (ASan and UBSan still check
-# every access): Open MPI's runtime and its plug-ins keep allocations to exit, and the plug-ins
-# are unloaded by then, so LeakSanitizer cannot name (or suppress) them.
+# The tests under mpirun (raster_mpi_ranks, raster_mpi_band, mapping_mpi_ranks) run on their own
+# afterwards without LeakSanitizer (ASan and UBSan still check every access): Open MPI's runtime
+# and its plug-ins keep allocations to exit, and the plug-ins are unloaded by then, so
+# LeakSanitizer cannot name (or suppress) them.
 # LeakSanitizer suppressions: scripts/lsan-opencl.supp (the OpenCL driver only, never potmap).
 # Usage: scripts/sanitize_suite.sh [BUILD_DIR]   (extra ctest flags in POTMAP_SANITIZE_ARGS)
 set -euo pipefail
@@ -29,7 +30,8 @@ source "$root/scripts/sanitizer_build.sh"
 sanitizer_configure "$root" "$build"
 cmake --build "$build" -j"$(nproc)" --target potmap_tests potmap_capi_tests potmap_cli >/dev/null
 
-exclude='^(python_|install_consumer$|abi_exports$|raster_mpi_ranks$)'
+mpi_tests='^(raster_mpi_ranks|raster_mpi_band|mapping_mpi_ranks)$'
+exclude='^(python_|install_consumer$|abi_exports$|raster_mpi_ranks$|raster_mpi_band$|mapping_mpi_ranks$)'
 # The built-in default dictionary (the MappingCli tests' fixture, default_dictionary_cache) from
 # the Release build's cache when that has it: the same bytes (its build uses no device and is
 # deterministic), and building it here would cost 200 s of one core instrumented, for code
@@ -54,8 +56,8 @@ export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 # shellcheck disable=SC2086
 ctest --test-dir "$build" -j"$(nproc)" --output-on-failure --timeout 900 -E "$exclude" \
   ${POTMAP_SANITIZE_ARGS:-}
-if ctest --test-dir "$build" -N -R '^raster_mpi_ranks$' | grep -q 'Total Tests: 1'; then
+if ! ctest --test-dir "$build" -N -R "$mpi_tests" | grep -q 'Total Tests: 0'; then
   ASAN_OPTIONS=detect_leaks=0:check_initialization_order=1:strict_string_checks=1:intercept_tls_get_addr=0 \
-    ctest --test-dir "$build" --output-on-failure --timeout 900 -R '^raster_mpi_ranks$'
+    ctest --test-dir "$build" --output-on-failure --timeout 900 -R "$mpi_tests"
 fi
 echo "sanitize_suite: the tests passed under ASan + UBSan + LSan (inputs: ${POTMAP_TEST_INPUTS:-full})"
