@@ -1,5 +1,7 @@
 #include "mapping_ranks.hpp"
 
+#include "mpi_start.hpp"
+
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -16,10 +18,6 @@
 namespace potmap::cli {
 
 namespace {
-
-bool started_by_mpirun() {
-  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
-}
 
 #ifdef POTMAP_WITH_MPI
 // MPI counts in int: a map of several GB goes in pieces under 1 GiB.
@@ -47,19 +45,14 @@ std::string receive_bytes(int from) {
 
 MappingRanks::MappingRanks() {
 #ifdef POTMAP_WITH_MPI
-  if (!started_by_mpirun()) return;
-  int provided = 0;
-  // Only the main thread calls MPI (the mapper's worker threads never do).
-  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+  if (!launched_by_mpirun()) return;
+  const MpiPlace p = start_mpi();  // only the main thread calls MPI, never the mapper's workers
   mpi_ = true;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  MPI_Comm_size(MPI_COMM_WORLD, &size_);
-  MPI_Comm node;
-  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &node);
-  MPI_Comm_rank(node, &local_rank_);
-  MPI_Comm_free(&node);
+  rank_ = p.rank;
+  size_ = p.size;
+  local_rank_ = p.local_rank;
 #else
-  if (started_by_mpirun())
+  if (launched_by_mpirun())
     std::cerr << "potmap: warning: started by mpirun, but this potmap was built without MPI: "
                  "every process maps every scan (configure with libopenmpi-dev installed)\n";
 #endif

@@ -1,5 +1,7 @@
 #include "raster_ranks.hpp"
 
+#include "mpi_start.hpp"
+
 #include <cstdlib>
 
 #ifdef POTMAP_WITH_MPI
@@ -8,25 +10,15 @@
 
 namespace potmap::cli {
 
-namespace {
-bool launched_by_mpirun() {
-  return std::getenv("OMPI_COMM_WORLD_SIZE") || std::getenv("PMI_SIZE") || std::getenv("PMIX_RANK");
-}
-}  // namespace
-
 #ifdef POTMAP_WITH_MPI
 
 RasterRanks::RasterRanks() {
   if (!launched_by_mpirun()) return;
-  int provided = 0;
-  MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+  const MpiPlace p = start_mpi();
   mpi_ = true;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  MPI_Comm_size(MPI_COMM_WORLD, &size_);
-  MPI_Comm node;
-  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &node);
-  MPI_Comm_rank(node, &local_rank_);
-  MPI_Comm_free(&node);
+  rank_ = p.rank;
+  size_ = p.size;
+  local_rank_ = p.local_rank;
   // The shared tile counter lives in rank 0's window; the others reach it one-sided.
   MPI_Win win;
   MPI_Win_allocate(rank_ == 0 ? sizeof(long) : 0, sizeof(long), MPI_INFO_NULL, MPI_COMM_WORLD,
