@@ -4,6 +4,7 @@ resumable Cloud-Optimized GeoTIFF) end to end beside the grid kernel alone on th
 the whole Town 1 map at 0.05 m (8692 x 7384 = 64.2 M cells). Prints a table and writes JSON.
 
 Usage: bench/raster_cog.py [--build build] [--repeat 5] [--out docs/raster-cog.json] [--npy]
+                           [--level N ...]
 
 The runs alternate (kernel, GeoTIFF, kernel, GeoTIFF, ...), so that a load that changes while
 it runs (other builds on a shared machine) falls on both sides of the ratio; the ratio is the
@@ -14,7 +15,8 @@ process, warm (program built, buffers allocated). End to end: the whole `potmap 
 process, wall time from exec to exit, with the phases its --json reports (the GeoTIFF job's:
 evaluating the tiles, the writer compressing and storing them beside that, the evaluation
 waiting for the writer, the assembly). --npy adds the PNG + .npy job (the band writer) to each
-round.
+round; --level N (repeatable) adds the GeoTIFF job at ZSTD level N beside the default level.
+Each GeoTIFF row gives its file's size.
 """
 import argparse
 import json
@@ -75,6 +77,8 @@ def job_once(cmd, env):
         sys.exit("failed: %s\n%s" % (" ".join(cmd), r.stderr))
     j = json.loads(r.stdout)
     j["cpu_seconds"] = child_cpu() - c
+    if str(j.get("output", "")).endswith(".tif"):
+        j["file_bytes"] = os.path.getsize(j["output"])
     return dt, j
 
 
@@ -86,6 +90,8 @@ def main():
     ap.add_argument("--out", default="raster-cog.json")
     ap.add_argument("--npy", action="store_true", help="also time the PNG + .npy job")
     ap.add_argument("--work", default=None, help="folder of the outputs (default: a temp dir)")
+    ap.add_argument("--level", type=int, action="append", default=[],
+                    help="also time the GeoTIFF job at this ZSTD level (repeatable)")
     a = ap.parse_args()
     if not os.path.exists(TOWN1):
         sys.exit("needs ../shared/data/carla/town1_abhm_map.csv")
@@ -97,6 +103,10 @@ def main():
     env.setdefault("POTMAP_CACHE_DIR", os.path.join(work, "cache"))
     base = [potmap, "raster", "--map", TOWN1, "--bounds", bounds, "--res", str(RES), "--json"]
     jobs = [("GeoTIFF (ZSTD, 512 tiles)", base + ["--out", os.path.join(work, "w.tif")])]
+    for level in a.level:
+        jobs.append(("GeoTIFF (ZSTD %d, 512 tiles)" % level,
+                     base + ["--out", os.path.join(work, "w%d.tif" % level),
+                             "--compress-level", str(level)]))
     if a.npy:
         jobs.append(("PNG + .npy", base + ["--out", os.path.join(work, "w")]))
     job_once(base[:-2] + ["1", "--json", "--no-png", "--out", os.path.join(work, "warm")], env)
@@ -137,6 +147,8 @@ def main():
                "job_seconds": j["seconds"], "setup_seconds": j["setup_seconds"],
                "start_exit_seconds": t - j["seconds"] - j["setup_seconds"],
                "cpu_seconds": j["cpu_seconds"]}
+        if "file_bytes" in j:
+            row["file_bytes"] = j["file_bytes"]
         phases = {k: j[k + "_seconds"] for k in PHASES if k + "_seconds" in j}
         if phases:
             row["phases_seconds"] = phases
@@ -146,7 +158,9 @@ def main():
             row["start_exit_seconds"]))
         if phases:
             print("%-26s %s" % ("", ", ".join("%s %.3f s" % (k, v) for k, v in phases.items())))
-        print("%-26s CPU (user + system, all threads) %.2f s" % ("", j["cpu_seconds"]))
+        print("%-26s CPU (user + system, all threads) %.2f s%s" % (
+            "", j["cpu_seconds"],
+            ", file %.1f MB" % (j["file_bytes"] / 1e6) if "file_bytes" in j else ""))
     print("device: %s; %d rounds; load average %.2f at the start, %.2f at the end" % (
         label, a.repeat, load_start[0], load_end[0]))
     shutil.rmtree(work, ignore_errors=True)

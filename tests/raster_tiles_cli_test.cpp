@@ -82,6 +82,32 @@ TEST(RasterTilesCli, HelpNamesTheGeoTiffOptions) {
   const auto r = potmap::test::run_cli("raster --help");
   ASSERT_EQ(r.status, 0);
   for (const char* opt : {"--tile", "--work-dir", "--keep-tiles", "--crs", "--no-overviews",
-                          "--compress", "--band", "--band-step"})
+                          "--compress", "--compress-level", "--band", "--band-step"})
     EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
+}
+
+// --compress-level reaches the blocks (the tiles record it, so a job at another level
+// recomputes them), and a level the codec has not is refused before any tile, naming it.
+TEST(RasterTilesCli, CompressLevelReachesTheFileAndABadOneIsNamed) {
+  if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  if (!potmap::geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  const std::string dir = potmap::test::temp_dir("raster-cli-level");
+  const std::string out = dir + "/map.tif";
+  const std::string args =
+      "raster --map " + quoted(potmap::test::shared_data("carla/town1_abhm_map.csv")) +
+      " --bounds -300,-200,0,100 --res 0.5 --tile 128 --keep-tiles --json --out " + quoted(out);
+  const auto fast = potmap::test::run_cli(args, "2>/dev/null");
+  ASSERT_EQ(fast.status, 0) << fast.out;
+  const std::string fast_bytes = potmap::test::file_bytes(out);
+  const auto small = potmap::test::run_cli(args + " --compress-level 19", "2>/dev/null");
+  ASSERT_EQ(small.status, 0) << small.out;
+  EXPECT_NE(small.out.find("\"reused\": 0"), std::string::npos) << small.out;
+  EXPECT_LT(potmap::test::file_bytes(out).size(), fast_bytes.size());
+
+  const auto bad = potmap::test::run_cli(args + " --compress lzw --compress-level 5", "2>&1");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.out.find("level 5 for LZW"), std::string::npos) << bad.out;
+  const auto bad2 = potmap::test::run_cli(args + " --compress-level 23", "2>&1");
+  EXPECT_NE(bad2.status, 0);
+  EXPECT_NE(bad2.out.find("level 23 for ZSTD"), std::string::npos) << bad2.out;
 }

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <set>
 
 #include <tiffio.h>
 
@@ -151,6 +152,42 @@ std::vector<std::string> raw_blocks(const std::string& path) {
   return out;
 }
 
+// Every directory of a GeoTIFF as libtiff reads it: the fields that describe its image (all
+// but where its blocks are and their compressed sizes), then each block decoded.
+std::vector<std::string> decoded_directories(const std::string& path) {
+  std::unique_ptr<TIFF, void (*)(TIFF*)> t(TIFFOpen(path.c_str(), "r"), TIFFClose);
+  EXPECT_TRUE(t) << path;
+  std::vector<std::string> out;
+  if (!t) return out;
+  do {
+    std::string d;
+    for (ttag_t tag :
+         {TIFFTAG_SUBFILETYPE, TIFFTAG_IMAGEWIDTH, TIFFTAG_IMAGELENGTH, TIFFTAG_COMPRESSION,
+          TIFFTAG_PHOTOMETRIC, TIFFTAG_SAMPLESPERPIXEL, TIFFTAG_PLANARCONFIG, TIFFTAG_PREDICTOR,
+          TIFFTAG_TILEWIDTH, TIFFTAG_TILELENGTH, TIFFTAG_BITSPERSAMPLE, TIFFTAG_SAMPLEFORMAT}) {
+      std::uint32_t v = 0;
+      if (tag == TIFFTAG_SUBFILETYPE || tag == TIFFTAG_IMAGEWIDTH || tag == TIFFTAG_IMAGELENGTH ||
+          tag == TIFFTAG_TILEWIDTH || tag == TIFFTAG_TILELENGTH) {
+        TIFFGetField(t.get(), tag, &v);
+      } else {
+        std::uint16_t u = 0;
+        TIFFGetField(t.get(), tag, &u);
+        v = u;
+      }
+      d += std::to_string(tag) + "=" + std::to_string(v) + ";";
+    }
+    std::string block(std::size_t(TIFFTileSize(t.get())), '\0');
+    for (ttile_t i = 0; i < TIFFNumberOfTiles(t.get()); ++i) {
+      EXPECT_EQ(TIFFReadEncodedTile(t.get(), i, block.data(), tmsize_t(block.size())),
+                tmsize_t(block.size()))
+          << path << " block " << i;
+      d += block;
+    }
+    out.push_back(std::move(d));
+  } while (TIFFReadDirectory(t.get()));
+  return out;
+}
+
 // The compressed block a tile file holds: its last bytes before the CRC-32.
 std::string tile_block(const std::string& tile_file, std::size_t bytes) {
   const std::string f = potmap::test::file_bytes(tile_file);
@@ -162,24 +199,34 @@ std::string tile_block(const std::string& tile_file, std::size_t bytes) {
 // Each tile is compressed once, when it is computed: the GeoTIFF's full-resolution blocks are
 // the tile files' bytes, copied. And the file is the one GDAL's COG driver writes from the same
 // values (write_cog: staging, then GDAL's copy, compressing every block again), byte for byte.
+// ZSTD's fast levels (below 1) are libzstd's and libtiff's but not GDAL's, whose COG driver
+// writes level 1 for them: there the file has the directories of GDAL's level-1 file and the
+// same values in every block, and only the compressed bytes differ.
 TEST(RasterTiles, BlocksAreCompressedOnceAndTheFileIsGdalsCog) {
   if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
   TilesFixture f;
   const std::string dir = test::temp_dir("raster-tiles-once");
-  for (const char* codec : {"ZSTD", "DEFLATE", "LZW", "NONE"}) {
-    TiledRasterOptions o = f.options(dir + "/" + codec);
+  // Each codec at its default level, and levels other than the default (ZSTD's fast and
+  // ordinary ones, DEFLATE's strongest).
+  const std::vector<std::pair<std::string, int>> codecs = {
+      {"ZSTD", 0},    {"ZSTD", 1}, {"ZSTD", -7}, {"DEFLATE", 0},
+      {"DEFLATE", 9}, {"LZW", 0},  {"NONE", 0}};
+  for (const auto& [codec, level] : codecs) {
+    const std::string name = codec + std::to_string(level);
+    TiledRasterOptions o = f.options(dir + "/" + name);
     o.remove_tiles = false;
     o.compression = codec;
-    const std::string out = dir + "/" + codec + ".tif";
+    o.compression_level = level;
+    const std::string out = dir + "/" + name + ".tif";
     rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
     TiledRaster job(test::context(), f.scene.map, f.spec, out, o);
     const std::vector<std::string> blocks = raw_blocks(out);
-    ASSERT_EQ(blocks.size(), job.tiles().size()) << codec;
+    ASSERT_EQ(blocks.size(), job.tiles().size()) << name;
     for (const RasterTile& t : job.tiles()) {
       const std::string file =
           o.work_dir + "/tile_" + std::to_string(t.row) + "_" + std::to_string(t.col) + ".bin";
       ASSERT_TRUE(blocks[t.index] == tile_block(file, blocks[t.index].size()))
-          << codec << " tile " << t.row << "," << t.col;
+          << name << " tile " << t.row << "," << t.col;
     }
 
     // GDAL's COG driver from the same values and fields.
@@ -191,6 +238,7 @@ TEST(RasterTiles, BlocksAreCompressedOnceAndTheFileIsGdalsCog) {
     g.top = f.spec.ymin + double(job.height()) * f.spec.resolution;
     g.pixel = f.spec.resolution;
     g.compression = codec;
+    g.level = level;
     g.band_names = {"probability", "variance"};
     g.metadata = {{"POTMAP_VERSION", POTMAP_VERSION_STRING},
                   {"POTMAP_JOB", detail::hex64(job.fingerprint())},
@@ -204,15 +252,93 @@ TEST(RasterTiles, BlocksAreCompressedOnceAndTheFileIsGdalsCog) {
           std::copy(p.begin(), p.end(), b[0]);
           std::copy(v.begin(), v.end(), b[1]);
         });
-    if (std::string(codec) == "NONE") {  // GDAL 3.6 lays an uncompressed COG out otherwise
+    if (codec == "NONE") {  // GDAL 3.6 lays an uncompressed COG out otherwise
       EXPECT_EQ(detail::read_geotiff_band(dir + "/gdal.tif", 2).values.size(),
                 detail::read_geotiff_band(out, 2).values.size());
       continue;
     }
+    if (codec == "ZSTD" && detail::default_level(codec, level) < 1) {
+      const std::vector<std::string> ours = decoded_directories(out);
+      EXPECT_EQ(ours.size(), detail::read_geotiff_band(out, 1).overviews + 1) << name;
+      EXPECT_TRUE(ours == decoded_directories(dir + "/gdal.tif")) << name;
+      EXPECT_FALSE(raw_blocks(out) == raw_blocks(dir + "/gdal.tif")) << name;
+      continue;
+    }
     // (EXPECT_TRUE: a failure would print both files.)
     EXPECT_TRUE(potmap::test::file_bytes(out) == potmap::test::file_bytes(dir + "/gdal.tif"))
-        << codec;
+        << name;
   }
+}
+
+// The overviews computed in memory (up to GeoTiffSpec::overview_memory: levels with even
+// sources halved here, the rest by GDAL) and in a staging file (past it: all by GDAL) make the
+// same file, and it is the file GDAL's COG driver writes from the values.
+TEST(RasterTiles, OverviewsInMemoryEqualOverviewsStagedInAFile) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  const std::string dir = test::temp_dir("raster-overviews-memory");
+  detail::GeoTiffSpec g;
+  // Levels 336 x 211, 168 x 106, 84 x 53 (even sides: halved), 42 x 27 (from an odd side:
+  // GDAL weighs the cells past it).
+  g.width = 336;
+  g.height = 211;
+  g.block = 64;
+  g.level = 1;  // a level GDAL's COG driver writes too
+  g.band_names = {"probability", "variance"};
+  std::vector<float> a(g.width * g.height), b(a.size());
+  for (std::size_t y = 0; y < g.height; ++y)
+    for (std::size_t x = 0; x < g.width; ++x) {
+      const bool unknown = x > 200 && x < 260 && y > 30 && y < 120;
+      a[y * g.width + x] = unknown ? std::nanf("") : float(0.5 + 0.5 * std::sin(0.05 * x * y));
+      b[y * g.width + x] = unknown ? std::nanf("") : float(1e-3 * (x + 1) / (y + 1));
+    }
+  const std::size_t bx = (g.width + g.block - 1) / g.block, by = (g.height + g.block - 1) / g.block;
+  const std::string blocks_file = dir + "/blocks.bin";
+  std::vector<std::vector<float>> parts;  // each block's bands, one after the other
+  std::vector<detail::EncodedBlock> where;
+  std::string blob;
+  for (std::size_t r = 0; r < by; ++r)
+    for (std::size_t c = 0; c < bx; ++c) {
+      const std::size_t x0 = c * g.block, y0 = r * g.block;
+      const std::size_t w = std::min(g.block, g.width - x0), h = std::min(g.block, g.height - y0);
+      std::vector<float> part(2 * w * h);
+      for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+          part[y * w + x] = a[(y0 + y) * g.width + x0 + x];
+          part[w * h + y * w + x] = b[(y0 + y) * g.width + x0 + x];
+        }
+      const std::string bytes =
+          detail::encode_block(blocks_file, g, {part.data(), part.data() + w * h}, w, h);
+      where.push_back({blocks_file, blob.size(), bytes.size()});
+      blob += bytes;
+      parts.push_back(std::move(part));
+    }
+  std::ofstream(blocks_file, std::ios::binary) << blob;
+  const detail::EncodedBlockSource source = [&](std::size_t r, std::size_t c,
+                                                const std::vector<float*>& halves) {
+    const std::size_t x0 = c * g.block, y0 = r * g.block;
+    const std::size_t w = std::min(g.block, g.width - x0), h = std::min(g.block, g.height - y0);
+    for (std::size_t k = 0; k < halves.size(); ++k)
+      detail::average_halves(parts[r * bx + c].data() + k * w * h, w, h, halves[k]);
+    return where[r * bx + c];
+  };
+  detail::write_cog_encoded(dir + "/memory.tif", g, source);
+  g.overview_memory = 0;
+  detail::write_cog_encoded(dir + "/file.tif", g, source);
+  detail::write_cog(dir + "/gdal.tif", g,
+                    [&](std::size_t x0, std::size_t y0, std::size_t w, std::size_t h,
+                        std::vector<float*>& bands) {
+                      for (std::size_t y = 0; y < h; ++y)
+                        for (std::size_t x = 0; x < w; ++x) {
+                          bands[0][y * w + x] = a[(y0 + y) * g.width + x0 + x];
+                          bands[1][y * w + x] = b[(y0 + y) * g.width + x0 + x];
+                        }
+                    });
+  EXPECT_EQ(detail::read_geotiff_band(dir + "/memory.tif", 1).overviews, 3u);
+  EXPECT_TRUE(test::file_bytes(dir + "/memory.tif") == test::file_bytes(dir + "/file.tif"));
+  EXPECT_TRUE(test::file_bytes(dir + "/memory.tif") == test::file_bytes(dir + "/gdal.tif"));
+  std::set<std::string> left;  // no staging or partial file left behind
+  for (const auto& e : fs::directory_iterator(dir)) left.insert(e.path().filename().string());
+  EXPECT_EQ(left, (std::set<std::string>{"blocks.bin", "file.tif", "gdal.tif", "memory.tif"}));
 }
 
 TEST(RasterTiles, AStoppedJobResumesToTheSameFile) {
@@ -355,6 +481,55 @@ TEST(RasterTiles, BadOptionsAreNamed) {
     EXPECT_NE(std::string(e.what()).find("NOT-A-CRS:42"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(fs::exists(dir + "/y.tif"));
+}
+
+TEST(RasterTiles, ALevelChangesTheBytesNotTheValuesAndItsTilesAreRecomputed) {
+  if (!geotiff_supported()) GTEST_SKIP() << "built without GDAL";
+  TilesFixture f;
+  const std::string dir = test::temp_dir("raster-tiles-levels");
+  TiledRasterOptions o = f.options(dir + "/work");
+  o.remove_tiles = false;
+  const std::string out = dir + "/map.tif";
+  std::vector<float> reference;
+  std::string previous;
+  for (int level : {0, 1, -20, 19}) {
+    o.compression_level = level;
+    const TiledRasterSummary s = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+    // The tiles of the run before hold blocks of another level: none is reused.
+    EXPECT_EQ(s.computed, s.tiles) << level;
+    EXPECT_EQ(s.stale, previous.empty() ? 0u : s.tiles) << level;
+    const std::string bytes = potmap::test::file_bytes(out);
+    EXPECT_NE(bytes, previous) << "level " << level << " wrote the file of the level before";
+    previous = bytes;
+    const detail::GeoTiffImage prob = detail::read_geotiff_band(out, 1);
+    EXPECT_EQ(prob.layout, "COG") << level;
+    if (reference.empty()) reference = prob.values;
+    ASSERT_EQ(prob.values.size(), reference.size());
+    for (std::size_t i = 0; i < reference.size(); ++i)
+      ASSERT_TRUE(prob.values[i] == reference[i] ||
+                  (std::isnan(prob.values[i]) && std::isnan(reference[i])))
+          << "level " << level << " pixel " << i;
+  }
+  // The same level again reuses every tile.
+  const TiledRasterSummary again = rasterize_tiled(test::context(), f.scene.map, f.spec, out, o);
+  EXPECT_EQ(again.reused, again.tiles);
+  EXPECT_EQ(potmap::test::file_bytes(out), previous);
+
+  const std::vector<std::pair<std::string, int>> bad = {
+      {"ZSTD", 23}, {"ZSTD", -21}, {"DEFLATE", 10}, {"DEFLATE", -1}, {"LZW", 5}, {"NONE", 1}};
+  for (const auto& [codec, level] : bad) {
+    o.compression = codec;
+    o.compression_level = level;
+    try {
+      TiledRaster job(test::context(), f.scene.map, f.spec, dir + "/bad.tif", o);
+      ADD_FAILURE() << codec << " level " << level << " accepted";
+    } catch (const ArgumentError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("level " + std::to_string(level) + " for " + codec), std::string::npos)
+          << what;
+      EXPECT_NE(what.find("bad.tif"), std::string::npos) << what;
+    }
+  }
 }
 
 TEST(RasterTiles, EveryCodecHoldsTheSameValues) {

@@ -92,7 +92,8 @@ int codec_of(const std::string& path, const std::string& compression) {
   return COMPRESSION_NONE;
 }
 
-// The fields of a one-tile TIFF of this spec, as GDAL sets them (level 1 for ZSTD and DEFLATE).
+// The fields of a one-tile TIFF of this spec, as GDAL sets them (the spec's codec and level;
+// libtiff takes ZSTD's fast levels, below 1, with a warning, ignored here).
 // The predictor is applied outside libtiff (below), so the codec sees the same bytes as with
 // libtiff's own, faster.
 void set_block_fields(TIFF* t, const GeoTiffSpec& spec, const std::string& path) {
@@ -108,8 +109,9 @@ void set_block_fields(TIFF* t, const GeoTiffSpec& spec, const std::string& path)
   TIFFSetField(t, TIFFTAG_TILEWIDTH, B);
   TIFFSetField(t, TIFFTAG_TILELENGTH, B);
   TIFFSetField(t, TIFFTAG_COMPRESSION, codec);
-  if (codec == COMPRESSION_ZSTD) TIFFSetField(t, TIFFTAG_ZSTD_LEVEL, 1);
-  if (codec == COMPRESSION_ADOBE_DEFLATE) TIFFSetField(t, TIFFTAG_ZIPQUALITY, 1);
+  const int level = default_level(spec.compression, spec.level);
+  if (codec == COMPRESSION_ZSTD) TIFFSetField(t, TIFFTAG_ZSTD_LEVEL, level);
+  if (codec == COMPRESSION_ADOBE_DEFLATE) TIFFSetField(t, TIFFTAG_ZIPQUALITY, level);
 }
 
 // libtiff's floating-point predictor (Predictor 3) on one row of n float32 samples, `stride`
@@ -117,11 +119,16 @@ void set_block_fields(TIFF* t, const GeoTiffSpec& spec, const std::string& path)
 // less the one `stride` bytes before it. `tmp` holds 4 n bytes.
 void predict_row(const float* row, std::size_t n, std::size_t stride, unsigned char* tmp,
                  unsigned char* out) {
-  const auto* b = reinterpret_cast<const unsigned char*>(row);
-  const bool le = host_is_little_endian();
-  for (std::size_t k = 0; k < 4; ++k) {
-    unsigned char* plane = tmp + (le ? 3 - k : k) * n;
-    for (std::size_t i = 0; i < n; ++i) plane[i] = b[4 * i + k];
+  // Each sample's bits as an integer, its bytes taken by shifts: most significant first
+  // whatever the host's byte order, and a loop the compiler vectorises.
+  unsigned char* p[4] = {tmp, tmp + n, tmp + 2 * n, tmp + 3 * n};
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t x;
+    std::memcpy(&x, row + i, 4);
+    p[0][i] = (unsigned char)(x >> 24);
+    p[1][i] = (unsigned char)(x >> 16);
+    p[2][i] = (unsigned char)(x >> 8);
+    p[3][i] = (unsigned char)x;
   }
   for (std::size_t i = 0; i < stride; ++i) out[i] = tmp[i];
   for (std::size_t i = stride; i < 4 * n; ++i) out[i] = (unsigned char)(tmp[i] - tmp[i - stride]);
@@ -142,6 +149,7 @@ void unpredict_row(unsigned char* in, std::size_t n, std::size_t stride, float* 
 std::string encode_block(const std::string& path, const GeoTiffSpec& spec,
                          const std::vector<const float*>& bands, std::size_t width,
                          std::size_t height) {
+  check_level(spec.compression, spec.level, path);
   const std::size_t B = spec.block, nb = bands.size(), n = B * nb;
   if (nb != spec.band_names.size() || width > B || height > B)
     throw Error(path + ": internal: a block of " + std::to_string(width) + " x " +

@@ -139,21 +139,25 @@ class BoundedBlockCache {
   GIntBig old_;
 };
 
-// The staging GTiff, empty: tiled, uncompressed, georeferenced, its bands named.
+// The staging GTiff, empty: tiled, uncompressed, georeferenced, its bands named. In memory
+// (GDAL's MEM driver, `staging` then only names it in errors) when `in_memory`.
 Dataset create_staging(const std::string& path, const GeoTiffSpec& spec, const std::string& staging,
-                       const std::string& wkt) {
-  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
+                       const std::string& wkt, bool in_memory = false) {
+  GDALDriverH driver = GDALGetDriverByName(in_memory ? "MEM" : "GTiff");
   Options o;
-  o.set("TILED", "YES")
-      .set("BLOCKXSIZE", std::to_string(spec.block))
-      .set("BLOCKYSIZE", std::to_string(spec.block))
-      .set("COMPRESS", "NONE")
-      .set("INTERLEAVE", "BAND")
-      .set("BIGTIFF", "IF_SAFER");
+  if (!in_memory)
+    o.set("TILED", "YES")
+        .set("BLOCKXSIZE", std::to_string(spec.block))
+        .set("BLOCKYSIZE", std::to_string(spec.block))
+        .set("COMPRESS", "NONE")
+        .set("INTERLEAVE", "BAND")
+        .set("BIGTIFF", "IF_SAFER");
   const int nb = static_cast<int>(spec.band_names.size());
-  Dataset ds(GDALCreate(gtiff, staging.c_str(), static_cast<int>(spec.width),
+  Dataset ds(GDALCreate(driver, in_memory ? "" : staging.c_str(), static_cast<int>(spec.width),
                         static_cast<int>(spec.height), nb, GDT_Float32, o.get()));
-  if (!ds) fail(path, "cannot create the staging file " + staging);
+  if (!ds)
+    fail(path,
+         "cannot create the staging " + std::string(in_memory ? "image " : "file ") + staging);
   double gt[6] = {spec.left, spec.pixel, 0, spec.top, 0, -spec.pixel};
   GDALSetGeoTransform(ds.get(), gt);
   GDALSetProjection(ds.get(), wkt.c_str());
@@ -271,11 +275,11 @@ void write_staging(const std::string& path, const GeoTiffSpec& spec, const std::
   if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
 }
 
-// The COG layout: overviews and blocks in the order readers expect. Level 1 with the
-// floating-point predictor: float32 maps are mostly mantissa noise to a compressor without it,
-// and higher levels buy a few per cent of size for several times the time
-// (docs/raster-scale.md). Blocks are compressed on every core; GDAL writes them in order, so the
-// file is the same for the same input whatever the thread count (no time stamp either).
+// The COG layout: overviews and blocks in the order readers expect. The spec's level
+// (default_level()) with the floating-point predictor: float32 maps are mostly mantissa noise
+// to a compressor without it, and higher levels buy a few per cent of size for several times
+// the time (docs/raster-scale.md). Blocks are compressed on every core; GDAL writes them in order,
+// so the file is the same for the same input whatever the thread count (no time stamp either).
 void write_cog_copy(const std::string& path, const GeoTiffSpec& spec, const std::string& staging,
                     const std::string& final_temp, const std::function<void(double)>& progress) {
   GDALDriverH cog = GDALGetDriverByName("COG");
@@ -289,7 +293,8 @@ void write_cog_copy(const std::string& path, const GeoTiffSpec& spec, const std:
       .set("OVERVIEWS", spec.overviews ? "AUTO" : "NONE")
       .set("RESAMPLING", "AVERAGE")
       .set("BIGTIFF", "IF_SAFER");
-  if (compression == "ZSTD" || compression == "DEFLATE") o.set("LEVEL", "1");
+  if (compression == "ZSTD" || compression == "DEFLATE")
+    o.set("LEVEL", std::to_string(default_level(compression, spec.level)));
   if (compression != "NONE") o.set("PREDICTOR", "YES");
   struct Ctx {
     const std::function<void(double)>* progress;
@@ -317,6 +322,7 @@ void check_spec(const std::string& path, const GeoTiffSpec& spec) {
                         " bands, block " + std::to_string(spec.block) +
                         ": needs pixels, a band and a block that is a multiple of 16");
   check_compression(spec.compression, path);
+  check_level(spec.compression, spec.level, path);
   if (!GDALGetDriverByName("GTiff") || !GDALGetDriverByName("COG"))
     fail(path, "GDAL lacks the GTiff or COG driver");
 }
@@ -348,6 +354,7 @@ class CogFile {
       done += std::size_t(k);
     }
     pos_ += n;
+    hand_over();
   }
   // `n` bytes of `from` at `offset`, in the kernel where it can.
   void copy(const std::string& from, std::uint64_t offset, std::uint64_t n) {
@@ -380,6 +387,7 @@ class CogFile {
       left -= std::uint64_t(k);
     }
     pos_ += n;
+    hand_over();
   }
   // Syncs the file and renames it to the output.
   void finish() {
@@ -392,9 +400,22 @@ class CogFile {
   }
 
  private:
+  // Starts writing out each 8 MiB written past the last handed over (the file is written front
+  // to back but for its header), so that finish()'s fsync waits for the tail only, not for the
+  // whole file (about 0.2 s of a 64 M-cell job). A hint: a failure shows at the fsync.
+  void hand_over() {
+#ifdef __linux__
+    if (pos_ > handed_over_ + (std::uint64_t(8) << 20)) {
+      ::sync_file_range(fd_, off64_t(handed_over_), off64_t(pos_ - handed_over_),
+                        SYNC_FILE_RANGE_WRITE);
+      handed_over_ = pos_;
+    }
+#endif
+  }
+
   std::string path_, file_;
   int fd_ = -1;
-  std::uint64_t pos_ = 0;
+  std::uint64_t pos_ = 0, handed_over_ = 0;
   bool kept_ = false;
 };
 
@@ -465,24 +486,61 @@ std::vector<CogLevel> cog_levels(const GeoTiffSpec& spec) {
   return levels;
 }
 
+// Overview `from + 1` of every band of `ds` from its source (the band for `from` -1, else
+// overview `from`) when both of the source's sides are even, each cell the average of the
+// 2 x 2 below it (average_halves()); false, and nothing done, when a side is odd.
+bool halve_exactly(GDALDatasetH ds, const std::string& path, int bands, int from) {
+  std::vector<float> in, out;
+  for (int b = 0; b < bands; ++b) {
+    GDALRasterBandH band = GDALGetRasterBand(ds, b + 1);
+    GDALRasterBandH src = from < 0 ? band : GDALGetOverview(band, from);
+    GDALRasterBandH dst = GDALGetOverview(band, from + 1);
+    const int w = GDALGetRasterBandXSize(src), h = GDALGetRasterBandYSize(src);
+    if (w % 2 || h % 2 || GDALGetRasterBandXSize(dst) != w / 2 ||
+        GDALGetRasterBandYSize(dst) != h / 2)
+      return false;
+    in.resize(std::size_t(w) * std::size_t(h));
+    out.resize(in.size() / 4);
+    if (GDALRasterIO(src, GF_Read, 0, 0, w, h, in.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+      fail(path, "reading overview level " + std::to_string(from + 1) + " in memory");
+    average_halves(in.data(), std::size_t(w), std::size_t(h), out.data());
+    if (GDALRasterIO(dst, GF_Write, 0, 0, w / 2, h / 2, out.data(), w / 2, h / 2, GDT_Float32, 0,
+                     0) != CE_None)
+      fail(path, "writing overview level " + std::to_string(from + 2) + " in memory");
+  }
+  return true;
+}
+
+// Where the full-resolution blocks' bytes are, and the overviews: the first level as the
+// staging image's bands, the coarser ones as its overviews (null without overviews).
+struct Staged {
+  std::vector<EncodedBlock> blocks;
+  Dataset overviews;
+};
+
 // Takes every full-resolution block from `source`, its first overview level into the staging
-// GTiff (uncompressed; the coarser levels its overviews, computed from it by GDAL, as
-// write_cog() computes them). Returns where the blocks' bytes are.
-std::vector<EncodedBlock> stage_overviews(const std::string& path, const GeoTiffSpec& spec,
-                                          const std::string& staging, const std::string& wkt,
-                                          bool overviews, const EncodedBlockSource& source,
-                                          const std::function<void(double)>& progress) {
+// image (uncompressed; the coarser levels its overviews, computed from it by GDAL, as
+// write_cog() computes them). The image is held in memory when its levels fit
+// spec.overview_memory (no file to write and read back, and GDAL's block cache out of the way),
+// else in the GTiff `staging`.
+Staged stage_overviews(const std::string& path, const GeoTiffSpec& spec, const std::string& staging,
+                       const std::string& wkt, bool overviews, const EncodedBlockSource& source,
+                       const std::function<void(double)>& progress) {
   const std::size_t B = spec.block, nb = spec.band_names.size();
   const std::size_t bx = (spec.width + B - 1) / B, by = (spec.height + B - 1) / B;
   std::vector<std::vector<float>> half(overviews ? nb : 0, std::vector<float>((B / 2) * (B / 2)));
   std::vector<float*> ptr;
   for (auto& h : half) ptr.push_back(h.data());
   Dataset ds;
+  bool in_memory = false;
   if (overviews) {
     GeoTiffSpec first = spec;
     first.width = (spec.width + 1) / 2;
     first.height = (spec.height + 1) / 2;
-    ds = create_staging(path, first, staging, wkt);
+    // The first level and the coarser ones (a third of it), float32 bands.
+    const double bytes = 4.0 * 4.0 / 3.0 * double(first.width) * double(first.height) * double(nb);
+    in_memory = bytes <= double(spec.overview_memory);
+    ds = create_staging(path, first, staging, wkt, in_memory);
     add_empty_overviews(ds.get(), path, first, staging);
   }
   std::vector<EncodedBlock> blocks;
@@ -499,13 +557,18 @@ std::vector<EncodedBlock> stage_overviews(const std::string& path, const GeoTiff
                          std::to_string(y0) + ") of " + staging);
       if (progress) progress(0.3 * double(blocks.size()) / double(bx * by));
     }
-  if (!overviews) return blocks;
-  if (GDALGetOverviewCount(GDALGetRasterBand(ds.get(), 1)) > 0)
-    regenerate_coarser_overviews(ds.get(), path, int(nb), staging, progress, -1);
+  if (!overviews) return {std::move(blocks), nullptr};
+  // In memory, the levels whose source has even sides are halved here (GDAL's ratio is exactly
+  // 2 there, its average the 2 x 2 one, and its general resampler takes several times as
+  // long); GDAL computes the levels from the first source with an odd side on.
+  const int count = GDALGetOverviewCount(GDALGetRasterBand(ds.get(), 1));
+  int from = -1;  // the level the rest are computed from: -1 the bands, k overview k
+  while (in_memory && from + 1 < count && halve_exactly(ds.get(), path, int(nb), from)) ++from;
+  if (from + 1 < count)
+    regenerate_coarser_overviews(ds.get(), path, int(nb), staging, progress, from);
   GDALFlushCache(ds.get());
-  ds.reset();
   if (CPLGetLastErrorType() >= CE_Failure) fail(path, "writing " + staging);
-  return blocks;
+  return {std::move(blocks), std::move(ds)};
 }
 
 // Compresses overview level `k` (>= 1) from the staging file's bands (level 1) or their
@@ -567,15 +630,14 @@ void write_cog_encoded(const std::string& path, const GeoTiffSpec& spec,
 
   const std::string staging = temp_name(path, "overviews");
   RemoveOnExit remove_staging{staging};
-  const std::vector<EncodedBlock> blocks =
+  const Staged staged =
       stage_overviews(path, spec, staging, wkt, levels.size() > 1, source, progress);
+  const std::vector<EncodedBlock>& blocks = staged.blocks;
   CogFile out(path, temp_name(path, "partial"));
   out.seek(cog_header(fields, levels).size());
   if (levels.size() > 1) {
-    Dataset ds(GDALOpen(staging.c_str(), GA_ReadOnly));
-    if (!ds) fail(path, "cannot reopen " + staging);
     for (std::size_t k = levels.size() - 1; k >= 1; --k) {
-      put_level(path, spec, ds.get(), k, levels[k], out);
+      put_level(path, spec, staged.overviews.get(), k, levels[k], out);
       if (progress) progress(0.4 + 0.2 * double(levels.size() - k) / double(levels.size() - 1));
     }
   }

@@ -36,12 +36,14 @@ constexpr detail::ContainerLayout kTileLayout{"POTTILE\n", "a potmap raster tile
                                               16};
 constexpr std::size_t kBands = 2;  // probability, variance
 
-// The codec of a tile's block, in its header (offset 12): a tile of another codec is
-// recomputed. Not part of the job's fingerprint, which the GeoTIFF's metadata holds.
-std::uint32_t codec_id(const std::string& compression) {
+// The codec and level of a tile's block, in its header (offset 12: the codec's number in the
+// low byte, the level plus 128 above it): a tile of another codec or level is recomputed. Not
+// part of the job's fingerprint, which the GeoTIFF's metadata holds.
+std::uint32_t codec_id(const std::string& compression, int level) {
   const char* names[] = {"ZSTD", "DEFLATE", "LZW", "NONE"};
+  const auto l = std::uint32_t(detail::default_level(compression, level) + 128) << 8;
   for (std::uint32_t i = 0; i < 4; ++i)
-    if (compression == names[i]) return i + 1;
+    if (compression == names[i]) return (i + 1) | l;
   return 0;
 }
 
@@ -133,6 +135,7 @@ struct TiledRaster::Impl {
     g.block = options.tile_cells;
     g.overviews = options.overviews;
     g.compression = options.compression;
+    g.level = options.compression_level;
     g.band_names = {"probability", "variance"};
     return g;
   }
@@ -160,10 +163,13 @@ struct TiledRaster::Impl {
     const std::string path = tile_path(t);
     detail::ContainerReader r(path, kTileLayout);
     TileParts p;
-    if (r.u32(12) != codec_id(options.compression))
-      r.fail(12, "block compressed with codec " + std::to_string(r.u32(12)) + ", this job " +
-                     std::to_string(codec_id(options.compression)) + " (" + options.compression +
-                     ")");
+    const std::uint32_t codec = codec_id(options.compression, options.compression_level);
+    if (r.u32(12) != codec)
+      r.fail(12, "block compressed with codec " + std::to_string(r.u32(12) & 0xff) + " level " +
+                     std::to_string(int(r.u32(12) >> 8) - 128) + ", this job " +
+                     std::to_string(codec & 0xff) + " (" + options.compression + ") level " +
+                     std::to_string(
+                         detail::default_level(options.compression, options.compression_level)));
     p.block_bytes = r.u64(48);
     p.half_w = r.u32(56);
     p.half_h = r.u32(60);
@@ -214,6 +220,7 @@ TiledRaster::TiledRaster(Context& ctx, const KernelMap& map, const RasterSpec& s
   detail::check_crs(options.crs, output);  // before any tile is computed
   for (char& ch : options.compression) ch = char(std::toupper(static_cast<unsigned char>(ch)));
   detail::check_compression(options.compression, output);
+  detail::check_level(options.compression, options.compression_level, output);
   if (options.work_dir.empty()) options.work_dir = output + ".tiles";
   Impl& im = *impl_;
   im.spec = spec;
@@ -322,7 +329,7 @@ void TiledRaster::store(const RasterTile& t, const std::vector<float>& prob,
   }
   if (keep) kept.halves.reserve(kBands * half.size());
   detail::ContainerWriter w(kTileLayout, kTileHeader + 4 * kBands * half.size() + block.size() + 4);
-  w.u32(codec_id(im.options.compression));
+  w.u32(codec_id(im.options.compression, im.options.compression_level));
   w.u64(0);  // size, filled by finish()
   w.u64(im.fingerprint);
   w.u32(std::uint32_t(t.row));
