@@ -92,6 +92,30 @@ void parse_height_band(const std::string& text, RasterSpec& spec) {
   }
 }
 
+// The options of the tiled GeoTIFF job (an output ending in .tif).
+void add_geotiff_options(CLI::App* cmd, RasterArgs& a) {
+  cmd->add_option("--tile", a.tile,
+                  "GeoTIFF: tile edge in cells, a multiple of 64 (default 512); each tile is "
+                  "computed and kept on its own")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--work-dir", a.work_dir,
+                  "GeoTIFF: folder of the finished tiles (default OUT.tiles); a later run with "
+                  "the same arguments skips the tiles found complete there");
+  cmd->add_flag("--keep-tiles", a.keep_tiles, "GeoTIFF: keep the tile folder when done");
+  cmd->add_option("--crs", a.crs,
+                  "GeoTIFF: coordinate reference system of the map frame (EPSG:n, WKT or PROJ); "
+                  "default a local frame in metres");
+  cmd->add_flag("--no-overviews", a.no_overviews, "GeoTIFF: no reduced-resolution overviews");
+  cmd->add_option("--compress", a.compress,
+                  "GeoTIFF: codec of the blocks: zstd (default: about as small as deflate, "
+                  "several times faster), deflate (for readers without ZSTD), lzw, none "
+                  "(fastest, largest)");
+  cmd->add_option("--compress-level", a.compress_level,
+                  "GeoTIFF: the codec's level: zstd -20..-1 (fast) or 1..22, deflate 1..9; "
+                  "default zstd -3, deflate 1 (the fastest within a few per cent of the "
+                  "smallest files these maps make at a usable speed)");
+}
+
 }  // namespace
 
 void register_raster(CLI::App& app, Runner& runner) {
@@ -131,26 +155,7 @@ void register_raster(CLI::App& app, Runner& runner) {
   cmd->add_flag("--no-png", a->no_png, "Do not write the PNG pictures");
   cmd->add_flag("--no-npy", a->no_npy, "Do not write the .npy arrays");
   cmd->add_flag("--json", a->json, "Print the summary as JSON on stdout");
-  cmd->add_option("--tile", a->tile,
-                  "GeoTIFF: tile edge in cells, a multiple of 64 (default 512); each tile is "
-                  "computed and kept on its own")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--work-dir", a->work_dir,
-                  "GeoTIFF: folder of the finished tiles (default OUT.tiles); a later run with "
-                  "the same arguments skips the tiles found complete there");
-  cmd->add_flag("--keep-tiles", a->keep_tiles, "GeoTIFF: keep the tile folder when done");
-  cmd->add_option("--crs", a->crs,
-                  "GeoTIFF: coordinate reference system of the map frame (EPSG:n, WKT or PROJ); "
-                  "default a local frame in metres");
-  cmd->add_flag("--no-overviews", a->no_overviews, "GeoTIFF: no reduced-resolution overviews");
-  cmd->add_option("--compress", a->compress,
-                  "GeoTIFF: codec of the blocks: zstd (default: about as small as deflate, "
-                  "several times faster), deflate (for readers without ZSTD), lzw, none "
-                  "(fastest, largest)");
-  cmd->add_option("--compress-level", a->compress_level,
-                  "GeoTIFF: the codec's level: zstd -20..-1 (fast) or 1..22, deflate 1..9; "
-                  "default zstd -3, deflate 1 (the fastest within a few per cent of the "
-                  "smallest files these maps make at a usable speed)");
+  add_geotiff_options(cmd, *a);
   cmd->callback([&runner, a, device] {
     runner.action = [a, device] {
       RasterSpec spec;
