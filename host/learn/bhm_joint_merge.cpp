@@ -3,11 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <string>
 #include <unordered_map>
 
+#include "io/text_io.hpp"
 #include "learn/bhm_joint_merge_detail.hpp"
 #include "potmap/error.hpp"
 
@@ -15,10 +15,9 @@ namespace potmap::detail {
 
 namespace {
 
+// The shortest text that reads back as the same double.
 std::string value_text(double v) {
-  char b[40];
-  std::snprintf(b, sizeof b, "%.17g", v);
-  return b;
+  return detail::format_double(v);
 }
 
 }  // namespace

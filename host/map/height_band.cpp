@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <limits>
-#include <sstream>
 #include <string>
 
+#include "io/text_io.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -15,11 +15,9 @@ namespace {
 
 constexpr std::size_t kMaxLevels = 4096;
 
+// The shortest text that reads back as the same double.
 std::string num(double v) {
-  std::ostringstream s;
-  s.precision(17);
-  s << v;
-  return s.str();
+  return detail::format_double(v);
 }
 
 }  // namespace

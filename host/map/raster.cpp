@@ -8,9 +8,9 @@
 #include <future>
 #include <limits>
 #include <memory>
-#include <sstream>
 
 #include "io/npy_writer.hpp"
+#include "io/text_io.hpp"
 #include "map/raster_window.hpp"
 #include "potmap/error.hpp"
 #include "render/png_writer.hpp"
@@ -26,11 +26,9 @@ std::size_t axis_cells(double lo, double hi, double res) {
   return n > 0 ? static_cast<std::size_t>(n) : 0;
 }
 
+// The shortest text that reads back as the same double.
 std::string num(double v) {
-  std::ostringstream s;
-  s.precision(17);
-  s << v;
-  return s.str();
+  return detail::format_double(v);
 }
 
 struct MinMax {
