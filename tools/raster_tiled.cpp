@@ -110,26 +110,17 @@ int run_tiled_raster(const TiledRunArgs& a) {
     TiledRaster job(ctx, map, a.spec, a.out, a.options);
     const std::size_t total = job.tiles().size();
     auto progress = ranks.rank() == 0 ? terminal_progress("raster") : std::function<void(double)>();
-    std::size_t computed = 0, reused = 0, stale = 0;
-    std::vector<float> prob, var;
     ranks.all_ok(true);  // every rank has its device before the first claim
-    for (std::size_t i = ranks.claim(total); i < total; i = ranks.claim(total)) {
-      const RasterTile& t = job.tiles()[i];
-      bool was_stale = false;
-      if (job.complete(t, &was_stale)) {
-        ++reused;
-      } else {
-        stale += was_stale;
-        job.evaluate(t, prob, var);
-        job.store(t, prob, var);
-        ++computed;
-      }
-      if (progress) progress(0.9 * double(i + 1) / double(total));
-    }
-    const std::size_t busy = ranks.sum(computed + reused > 0 ? 1 : 0);
-    computed = ranks.sum(computed);
-    reused = ranks.sum(reused);
-    stale = ranks.sum(stale);
+    // Each rank stores a tile while it evaluates the next it claims, as one process does.
+    const TiledRasterSummary run = compute_tiles(
+        job, [&] { return ranks.claim(total); },
+        [&](std::size_t i) {
+          if (progress) progress(0.9 * double(i + 1) / double(total));
+        });
+    const std::size_t busy = ranks.sum(run.computed + run.reused > 0 ? 1 : 0);
+    const std::size_t computed = ranks.sum(run.computed);
+    const std::size_t reused = ranks.sum(run.reused);
+    const std::size_t stale = ranks.sum(run.stale);
     if (ranks.rank() == 0) {
       TiledRasterSummary s = job.assemble();
       s.computed = computed;

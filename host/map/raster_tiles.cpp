@@ -12,6 +12,7 @@
 #include "io/atomic_file.hpp"
 #include "io/container.hpp"
 #include "io/geotiff_writer.hpp"
+#include "io/text_io.hpp"
 #include "map/raster_window.hpp"
 #include "potmap/error.hpp"
 #include "potmap/map/evaluate.hpp"
@@ -85,11 +86,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// The shortest text that reads back as the same double.
 std::string num(double v) {
-  std::ostringstream s;
-  s.precision(17);
-  s << v;
-  return s.str();
+  return detail::format_double(v);
 }
 
 }  // namespace
@@ -454,57 +453,66 @@ TiledRasterSummary TiledRaster::assemble(const std::function<void(double)>& prog
   return s;
 }
 
+TiledRasterSummary compute_tiles(TiledRaster& job, const std::function<std::size_t()>& next,
+                                 const std::function<void(std::size_t)>& done) {
+  TiledRasterSummary s;
+  const std::size_t total = job.tiles().size();
+  // Writing tile k overlaps evaluating tile k + 1; two sets of buffers take turns. The writer
+  // is one thread for the whole run, so its buffers are reused from tile to tile.
+  std::vector<float> prob[2], var[2];
+  int slot = 0;
+  detail::SerialWorker writer;
+  double& store_s = s.store_seconds;
+  for (std::size_t i = next(); i < total; i = next()) {
+    const RasterTile& t = job.tiles()[i];
+    bool was_stale = false;
+    if (job.complete(t, &was_stale)) {
+      ++s.reused;
+    } else {
+      s.stale += was_stale;
+      auto at = std::chrono::steady_clock::now();
+      job.evaluate(t, prob[slot], var[slot]);
+      s.evaluate_seconds += seconds_since(at);
+      at = std::chrono::steady_clock::now();
+      writer.submit([&job, &store_s, t, &p = prob[slot], &v = var[slot]] {
+        const auto t1 = std::chrono::steady_clock::now();
+        job.store(t, p, v);
+        store_s += seconds_since(t1);
+      });  // rethrows a failed write of the tile before
+      s.store_wait_seconds += seconds_since(at);
+      slot ^= 1;
+      ++s.computed;
+    }
+    if (done) done(i);
+  }
+  const auto at = std::chrono::steady_clock::now();
+  writer.wait();
+  s.store_wait_seconds += seconds_since(at);
+  return s;
+}
+
 TiledRasterSummary rasterize_tiled(Context& ctx, const KernelMap& map, const RasterSpec& spec,
                                    const std::string& output, const TiledRasterOptions& options,
                                    const std::function<void(double)>& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   TiledRaster job(ctx, map, spec, output, options);
-  std::size_t computed = 0, reused = 0, stale = 0;
   const std::size_t total = job.tiles().size();
-  // Writing tile k overlaps evaluating tile k + 1; two sets of buffers take turns. The writer
-  // is one thread for the whole job, so its buffers are reused from tile to tile.
-  std::vector<float> prob[2], var[2];
-  double evaluate_s = 0, store_s = 0, wait_s = 0;
-  int slot = 0;
-  std::size_t done = 0;
-  {
-    detail::SerialWorker writer;
-    for (const RasterTile& t : job.tiles()) {
-      bool was_stale = false;
-      if (job.complete(t, &was_stale)) {
-        ++reused;
-      } else {
-        stale += was_stale;
-        auto at = std::chrono::steady_clock::now();
-        job.evaluate(t, prob[slot], var[slot]);
-        evaluate_s += seconds_since(at);
-        at = std::chrono::steady_clock::now();
-        writer.submit([&job, &store_s, t, &p = prob[slot], &v = var[slot]] {
-          const auto t1 = std::chrono::steady_clock::now();
-          job.store(t, p, v);
-          store_s += seconds_since(t1);
-        });  // rethrows a failed write of the tile before
-        wait_s += seconds_since(at);
-        slot ^= 1;
-        ++computed;
-      }
-      ++done;
-      if (progress) progress(0.9 * double(done) / double(total));
-    }
-    const auto at = std::chrono::steady_clock::now();
-    writer.wait();
-    wait_s += seconds_since(at);
-  }
+  std::size_t handed = 0, done = 0;
+  const TiledRasterSummary run = compute_tiles(
+      job, [&] { return handed++; },
+      [&](std::size_t) {
+        if (progress) progress(0.9 * double(++done) / double(total));
+      });
   const auto assembling = std::chrono::steady_clock::now();
   TiledRasterSummary s = job.assemble(
       progress ? std::function<void(double)>([&](double f) { progress(0.9 + 0.1 * f); })
                : std::function<void(double)>());
-  s.computed = computed;
-  s.reused = reused;
-  s.stale = stale;
-  s.evaluate_seconds = evaluate_s;
-  s.store_seconds = store_s;
-  s.store_wait_seconds = wait_s;
+  s.computed = run.computed;
+  s.reused = run.reused;
+  s.stale = run.stale;
+  s.evaluate_seconds = run.evaluate_seconds;
+  s.store_seconds = run.store_seconds;
+  s.store_wait_seconds = run.store_wait_seconds;
   s.assemble_seconds = seconds_since(assembling);
   s.seconds = seconds_since(t0);
   return s;

@@ -129,6 +129,17 @@ class TiledRaster {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Computes the tiles that `next()` hands out (an index into job.tiles(); job.tiles().size()
+/// or more when there are none left) and are not complete on disk: each is evaluated on this
+/// thread and stored by a writer thread while the next one is evaluated (two sets of buffers
+/// take turns), so the device does not wait for compression and disk. Used by
+/// rasterize_tiled() (every tile in order) and by MPI ranks (tiles claimed from a shared
+/// counter). `done` (may be empty) gets each handed-out index once its tile is evaluated or
+/// found complete. Returns the counts and the phases' seconds (assemble_seconds 0; the rest of
+/// the summary empty). A failed write is rethrown at the next tile or at the end.
+TiledRasterSummary compute_tiles(TiledRaster& job, const std::function<std::size_t()>& next,
+                                 const std::function<void(std::size_t)>& done = {});
+
 /// Runs a whole job in this process: computes every tile not yet complete (evaluation of one
 /// tile overlaps the writing of the previous one), then assembles. `progress` (may be empty)
 /// gets the fraction of tiles done, including reused ones. An exception thrown from it stops
