@@ -1974,6 +1974,10 @@ def devices() -> List[DeviceInfo]:
     """Every OpenCL device of every platform, in platform order."""
     ...
 
+def geotiff_supported() -> bool:
+    """Whether this build writes GeoTIFFs (GDAL was found when it was configured)."""
+    ...
+
 def is_bag(path: str) -> bool:
     """Whether path is a ROS 1 .bag or a ROS 2 bag (folder, metadata.yaml or .db3)."""
     ...
@@ -2042,6 +2046,20 @@ def rasterize(ctx: Context, map: KernelMap, bounds: List[float], res: float, out
     at most band_step apart, both ends included; 0: the map's narrowest kernel's deviation).
     Returns a dict: width, height, cells, bands, seconds, prob_min/max, var_min/max,
     levels (heights of the band; 0 for a slice), files."""
+    ...
+
+def rasterize_geotiff(ctx: Context, map: KernelMap, bounds: List[float], res: float, out: str, z: float = 0.0, band: Optional[Tuple[float, float]] = None, band_step: float = 0.0, tile: int = 512, work_dir: str = '', keep_tiles: bool = False, crs: str = '', overviews: bool = True, compress: str = 'zstd', compress_level: int = 0) -> dict:
+    """Writes the window as one Cloud-Optimized GeoTIFF at `out` (band 1 probability, band 2
+    variance, float32), as `potmap raster ... OUT.tif`: computed in tiles of `tile` cells
+    (a multiple of 64, default 512) kept in work_dir (default OUT.tiles), so that a job run
+    again with the same arguments skips the tiles found complete; removed when done unless
+    keep_tiles. band = (z_lo, z_hi): a 3D map's height-band maximum instead of the slice at
+    z. crs: the map frame's reference system as GDAL reads it (default a local frame in
+    metres); overviews: averaged reduced levels; compress: zstd (default), deflate, lzw or
+    none; compress_level: zstd -20..-1 or 1..22, deflate 1..9, 0 the default (zstd -3,
+    deflate 1). Returns a dict: width, height, tiles, computed, reused, stale, levels,
+    seconds, output, manifest and the phases' seconds. ArgumentError for a bad option,
+    Error if this build has no GDAL (geotiff_supported())."""
     ...
 
 def read_abhm_params(path: str) -> AbhmParams:

@@ -9,6 +9,7 @@ namespace potmap::python {
 void bind_errors(pybind11::module_& m);
 void bind_runtime(pybind11::module_& m);
 void bind_map(pybind11::module_& m);
+void bind_raster_tiles(pybind11::module_& m);
 void bind_io(pybind11::module_& m);
 void bind_data(pybind11::module_& m);
 void bind_bags(pybind11::module_& m);

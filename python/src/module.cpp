@@ -12,6 +12,7 @@ PYBIND11_MODULE(_potmap, m) {
   bind_errors(m);
   bind_runtime(m);
   bind_map(m);
+  bind_raster_tiles(m);
   bind_io(m);
   bind_data(m);
   bind_learn(m);

@@ -164,3 +164,27 @@ def test_threads_sharing_one_evaluator_take_turns(scene, ctx, rng):
         t.join()
     for a, b in zip(out, serial):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.skipif(not potmap.geotiff_supported(), reason="built without GDAL")
+def test_geotiff_job_equals_the_potmap_command_and_resumes(scene, ctx, cli, tmp_path):
+    map_path = tmp_path / "scene.potmap"
+    scene.map.save(str(map_path))
+    xmin, xmax, ymin, ymax = scene.bounds
+    bounds = (xmin, xmax, ymin, ymax - 3.3)
+    cli("raster", "--map", map_path, "--bounds", ",".join(map(repr, bounds)), "--res", 0.05,
+        "--tile", 64, "--compress-level", 5, "--out", tmp_path / "c.tif")
+    out = str(tmp_path / "p.tif")
+    s = potmap.rasterize_geotiff(ctx, scene.map, bounds, 0.05, out, tile=64, compress_level=5,
+                                 keep_tiles=True)
+    assert s["tiles"] > 4 and s["computed"] == s["tiles"] and s["reused"] == 0
+    assert s["output"] == out
+    assert (tmp_path / "p.tif").read_bytes() == (tmp_path / "c.tif").read_bytes()
+    again = potmap.rasterize_geotiff(ctx, scene.map, bounds, 0.05, out, tile=64,
+                                     compress_level=5)
+    assert again["reused"] == again["tiles"] and again["computed"] == 0
+    assert (tmp_path / "p.tif").read_bytes() == (tmp_path / "c.tif").read_bytes()
+    assert not (tmp_path / "p.tif.tiles").exists()
+    with pytest.raises(potmap.ArgumentError, match="level 5 for LZW"):
+        potmap.rasterize_geotiff(ctx, scene.map, bounds, 0.05, str(tmp_path / "x.tif"),
+                                 compress="lzw", compress_level=5)
