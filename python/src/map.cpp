@@ -15,6 +15,7 @@
 #include "potmap/map/metrics.hpp"
 #include "potmap/map/raster.hpp"
 #include "potmap/map/synthetic.hpp"
+#include "raster_window.hpp"
 #include "values.hpp"
 
 namespace potmap::python {
@@ -58,30 +59,6 @@ GridSpec window_grid(int dim, const RasterSpec& spec) {
   g.count[1] = spec.height();
   g.count[2] = 1;
   return g;
-}
-
-// A height band (z_lo, z_hi) in metres, or None for the slice at z.
-using Band = std::optional<std::pair<double, double>>;
-
-RasterSpec window(const std::vector<double>& bounds, double res, double z, const Band& band = {},
-                  double band_step = 0) {
-  if (bounds.size() != 4) {
-    throw py::value_error("bounds: expected (xmin, xmax, ymin, ymax), got " +
-                          std::to_string(bounds.size()) + " values");
-  }
-  RasterSpec s;
-  s.xmin = bounds[0];
-  s.xmax = bounds[1];
-  s.ymin = bounds[2];
-  s.ymax = bounds[3];
-  s.resolution = res;
-  s.z = z;
-  if (band) {
-    s.band_lo = band->first;
-    s.band_hi = band->second;
-  }
-  s.band_step = band_step;
-  return s;
 }
 
 // Flips grid rows (y up) into picture rows (y down).

@@ -9,6 +9,7 @@
 
 #include "bindings.hpp"
 #include "potmap/map/raster_tiles.hpp"
+#include "raster_window.hpp"
 
 namespace py = pybind11;
 using namespace pybind11::literals;
@@ -17,26 +18,10 @@ namespace potmap::python {
 
 namespace {
 
-using Band = std::optional<std::pair<double, double>>;
-
 py::dict geotiff_job(Context& ctx, const KernelMap& map, const std::vector<double>& bounds,
                      double res, const std::string& out, double z, const Band& band,
                      double band_step, const TiledRasterOptions& o) {
-  if (bounds.size() != 4)
-    throw py::value_error("bounds: expected (xmin, xmax, ymin, ymax), got " +
-                          std::to_string(bounds.size()) + " values");
-  RasterSpec spec;
-  spec.xmin = bounds[0];
-  spec.xmax = bounds[1];
-  spec.ymin = bounds[2];
-  spec.ymax = bounds[3];
-  spec.resolution = res;
-  spec.z = z;
-  if (band) {
-    spec.band_lo = band->first;
-    spec.band_hi = band->second;
-  }
-  spec.band_step = band_step;
+  const RasterSpec spec = window(bounds, res, z, band, band_step);
   TiledRasterSummary s;
   {
     py::gil_scoped_release release;
