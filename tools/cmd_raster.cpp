@@ -112,7 +112,7 @@ void add_geotiff_options(CLI::App* cmd, RasterArgs& a) {
                   "(fastest, largest)");
   cmd->add_option("--compress-level", a.compress_level,
                   "GeoTIFF: the codec's level: zstd -20..-1 (fast) or 1..22, deflate 1..9; "
-                  "default zstd -3 (about twice level 1's speed for 6 % more bytes), deflate 1");
+                  "default zstd -1 (faster than level 1 for 3 % more bytes), deflate 1");
 }
 
 }  // namespace

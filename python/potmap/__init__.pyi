@@ -2056,7 +2056,7 @@ def rasterize_geotiff(ctx: Context, map: KernelMap, bounds: List[float], res: fl
     keep_tiles. band = (z_lo, z_hi): a 3D map's height-band maximum instead of the slice at
     z. crs: the map frame's reference system as GDAL reads it (default a local frame in
     metres); overviews: averaged reduced levels; compress: zstd (default), deflate, lzw or
-    none; compress_level: zstd -20..-1 or 1..22, deflate 1..9, 0 the default (zstd -3,
+    none; compress_level: zstd -20..-1 or 1..22, deflate 1..9, 0 the default (zstd -1,
     deflate 1). Returns a dict: width, height, tiles, computed, reused, stale, levels,
     seconds, output, manifest and the phases' seconds. ArgumentError for a bad option,
     Error if this build has no GDAL (geotiff_supported())."""

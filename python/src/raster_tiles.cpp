@@ -67,7 +67,7 @@ void bind_raster_tiles(py::module_& m) {
       "keep_tiles. band = (z_lo, z_hi): a 3D map's height-band maximum instead of the slice at\n"
       "z. crs: the map frame's reference system as GDAL reads it (default a local frame in\n"
       "metres); overviews: averaged reduced levels; compress: zstd (default), deflate, lzw or\n"
-      "none; compress_level: zstd -20..-1 or 1..22, deflate 1..9, 0 the default (zstd -3,\n"
+      "none; compress_level: zstd -20..-1 or 1..22, deflate 1..9, 0 the default (zstd -1,\n"
       "deflate 1). Returns a dict: width, height, tiles, computed, reused, stale, levels,\n"
       "seconds, output, manifest and the phases' seconds. ArgumentError for a bad option,\n"
       "Error if this build has no GDAL (geotiff_supported()).");
