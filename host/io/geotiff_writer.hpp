@@ -7,8 +7,9 @@
 // compressing only the overviews; write_cog() stages the bands uncompressed and has GDAL's COG
 // driver copy them (each block compressed there). For the same values and options both write
 // the same bytes (tested), except uncompressed files, where GDAL 3.6 writes no COG header and
-// write_cog_encoded() does. Memory stays bounded by a block and a bounded GDAL block cache,
-// whatever the image size.
+// write_cog_encoded() does. Memory stays bounded whatever the image size: a block, a bounded
+// GDAL block cache, and write_cog_encoded()'s overviews up to GeoTiffSpec::overview_memory
+// (in a staging file past it).
 //
 // In a shared build geotiff_writer.cpp is a module of its own, libpotmap_gdal.so beside
 // libpotmap, which geotiff_module.cpp loads on the first call: processes that write no GeoTIFF
@@ -167,8 +168,9 @@ using EncodedBlockSource = std::function<EncodedBlock(std::size_t row, std::size
                                                       const std::vector<float*>& halves)>;
 
 /// Writes the COG at `path` from blocks compressed beforehand: the coarser overviews computed
-/// by GDAL from the first level, the overviews compressed here, the blocks' bytes copied as
-/// they are. A temporary name in the same folder, synced and renamed when complete; nothing is
+/// from the first level (halved here where a level's source has even sides, by GDAL's
+/// resampler from the first odd one), the overviews compressed here, the blocks' bytes copied
+/// as they are. A temporary name in the same folder, synced and renamed when complete; nothing is
 /// left behind on failure. Throws potmap::Error naming the file.
 void write_cog_encoded(const std::string& path, const GeoTiffSpec& spec,
                        const EncodedBlockSource& source,
