@@ -149,7 +149,6 @@ void unpredict_row(unsigned char* in, std::size_t n, std::size_t stride, float* 
 std::string encode_block(const std::string& path, const GeoTiffSpec& spec,
                          const std::vector<const float*>& bands, std::size_t width,
                          std::size_t height) {
-  check_level(spec.compression, spec.level, path);
   const std::size_t B = spec.block, nb = bands.size(), n = B * nb;
   if (nb != spec.band_names.size() || width > B || height > B)
     throw Error(path + ": internal: a block of " + std::to_string(width) + " x " +
