@@ -2,7 +2,8 @@
 // MapEvaluator's state, shared by its paths, one file each: host points in batches
 // (evaluate.cpp, kernels/map/evaluate.cl), grids (evaluate_grid.cpp, kernels/map/raster.cl),
 // height bands (evaluate_band.cpp, kernels/map/raster.cl then kernels/map/band_max.cl) and
-// points already on the device (evaluate_cells.cpp, kernels/map/evaluate_cells.cl).
+// points already on the device (evaluate_cells.cpp, kernels/map/evaluate_cells.cl), and a 3D
+// map's voxel blocks (evaluate_blocks.cpp, kernels/map/blocks.cl).
 
 #include <boost/compute/buffer.hpp>
 #include <string>
@@ -57,6 +58,7 @@ struct MapEvaluator::Impl {
   void run_grid(const GridSpec& grid, float* mean, float* var, float* prob);
   void run_band(const GridSpec& columns, const std::vector<double>& levels, float* mean, float* var,
                 float* prob);
+  void run_blocks(const VoxelBlocks& blocks, float* var, float* prob, float* support);
   void build_cells();
 };
 

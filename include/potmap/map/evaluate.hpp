@@ -26,6 +26,8 @@
 POTMAP_CXX_API_BEGIN
 namespace potmap {
 
+struct VoxelBlocks;  // map/voxel_blocks.hpp
+
 /// Values of the map at a set of points (float: what the device computes).
 struct MapValues {
   std::vector<float> mean;  ///< mu(x)
@@ -99,6 +101,15 @@ class MapEvaluator {
   /// no cells does nothing. Throws ArgumentError for a 2D map or non-finite levels.
   void evaluate_band_max(const GridSpec& columns, const std::vector<double>& levels, float* mean,
                          float* var, float* prob);
+
+  /// Values at every voxel of 3D blocks (map/voxel_blocks.hpp: 4096 values a block, block after
+  /// block): the logit's variance, the probability and the support sum_m phi_m^2 (the sum of
+  /// the kernels' squares, which io/known_cells.hpp's rule reads). Outputs may be null; the
+  /// others receive blocks.size() * 4096 floats. Each block is evaluated with the kernels that
+  /// reach it (kernels/map/blocks.cl, separable factors: a multiply-add per kernel and voxel);
+  /// sums in float, p within 1e-5 of evaluate_blocks_exact. Throws ArgumentError for a 2D map or
+  /// a voxel that is not positive.
+  void evaluate_blocks(const VoxelBlocks& blocks, float* var, float* prob, float* support);
 
   /// Values at n points that already live on the device, for a host mapper that keeps its data
   /// there. `points`: n * dim floats (x, y[, z] per point), metres relative to `origin` (dim
