@@ -40,8 +40,9 @@ struct TestBlocks {
   std::vector<std::vector<OctomapState>> states;
 };
 
-// liboctomap's bytes for the same voxels, each set to its state's clamping value.
-std::string liboctomap_bytes(const TestBlocks& t) {
+// liboctomap's bytes for the same voxels, each set to its state's clamping value; `leaves`
+// gets its tree's leaves.
+std::string liboctomap_bytes(const TestBlocks& t, std::size_t* leaves = nullptr) {
   octomap::OcTree tree(t.res);
   for (std::size_t b = 0; b < t.states.size(); ++b)
     for (int k = 0; k < 16; ++k)
@@ -61,13 +62,14 @@ std::string liboctomap_bytes(const TestBlocks& t) {
   tree.updateInnerOccupancy();
   std::ostringstream out;
   EXPECT_TRUE(tree.writeBinary(out));
+  if (leaves) *leaves = tree.getNumLeafNodes();
   return out.str();
 }
 
 std::string our_bytes(const TestBlocks& t) {
   std::vector<OctomapBlockCode> codes;
   for (const auto& s : t.states) codes.push_back(encode_octomap_block(s.data()));
-  return octomap_binary_file(t.res, t.index, codes);
+  return octomap_binary_file(t.res, t.index, codes).bytes;
 }
 
 }  // namespace
@@ -94,8 +96,12 @@ TEST(OctomapBinary, BytesAreLiboctomapsForBlocksOfEveryKind) {
   // Far from the origin on every axis, each side.
   add(2040, -2047, 100, block_states(rng, 1, {0.5, 0.3, 0.2}));
   add(-2048, 2047, -100, block_states(rng, 2, {0.5, 0.3, 0.2}));
-  const std::string expected = liboctomap_bytes(t);
+  std::size_t leaves = 0;
+  const std::string expected = liboctomap_bytes(t, &leaves);
   const std::string got = our_bytes(t);
+  std::vector<OctomapBlockCode> codes;
+  for (const auto& s : t.states) codes.push_back(encode_octomap_block(s.data()));
+  EXPECT_EQ(octomap_binary_file(t.res, t.index, codes).leaves, leaves);
   ASSERT_GT(expected.size(), 2000u);
   EXPECT_EQ(got.size(), expected.size());
   EXPECT_TRUE(got == expected) << "the files differ";
@@ -119,7 +125,7 @@ TEST(OctomapBinary, NoKnownVoxelIsTheEmptyTree) {
   t.index = {0, 0, 0};
   t.states.push_back(std::vector<OctomapState>(kBlockVoxels, OctomapState::unknown));
   EXPECT_TRUE(our_bytes(t) == liboctomap_bytes(t));
-  EXPECT_TRUE(octomap_binary_file(0.4, {}, {}) == liboctomap_bytes(TestBlocks{}));
+  EXPECT_TRUE(octomap_binary_file(0.4, {}, {}).bytes == liboctomap_bytes(TestBlocks{}));
 }
 
 TEST(OctomapBinary, BlocksOutsideTheKeysOrGivenTwiceAreRefused) {

@@ -22,6 +22,7 @@
 #include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
+#include "potmap/mapping/drive_volume.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "progress.hpp"
 
@@ -174,8 +175,8 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
   oo.band_high = a.band_high;
   oo.picture_res = a.picture_res;
   oo.picture_pixels = a.picture_pixels;
-  oo.ros_res = a.ros_res;
   oo.voxel = a.voxel_out;
+  oo.progress = stage_progress("outputs", a.quiet);
   const DriveOutputs outs =
       write_drive_outputs(ctx, map, run.positions, (fs::path(dir) / "map").string(), oo);
   const double output_s = seconds_since(t_out);

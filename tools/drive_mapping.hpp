@@ -21,7 +21,7 @@ struct DriveMappingArgs {
   std::size_t first = 0, max_keyframes = 0;
   std::uint64_t seed = 0;
   double band_low = -1.0, band_high = 0.5;               ///< metres about the sensor's height
-  double picture_res = 0, ros_res = 0, voxel_out = 0.4;  ///< metres (0: automatic)
+  double picture_res = 0, voxel_out = 0.4;  ///< metres (0: automatic)
   std::size_t picture_pixels = 1200;  ///< along the longer side (as 2D mapping's pictures)
   std::size_t checkpoint_every = 25;  ///< keyframes (0: no checkpoints)
   std::size_t transfer_every = 4;     ///< RePOT: keyframes between transfers

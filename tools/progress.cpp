@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 
 #include "potmap/error.hpp"
 
@@ -23,6 +24,20 @@ std::function<void(double)> terminal_progress(const std::string& label) {
                  100 * f, el, eta);
     if (f >= 1) std::fprintf(stderr, "\n");
     std::fflush(stderr);
+  };
+}
+
+std::function<void(double)> stage_progress(const std::string& label, bool quiet) {
+  if (auto bar = terminal_progress(label)) return bar;
+  if (quiet) return {};
+  const auto start = std::chrono::steady_clock::now();
+  auto next = std::make_shared<double>(0.1);
+  return [start, label, next](double f) {
+    if (f < *next && f < 1) return;
+    while (*next <= f) *next += 0.1;
+    const double el = seconds_since(start);
+    std::fprintf(stderr, "potmap: %s %.0f%%; elapsed %.0f s, ETA %.0f s\n", label.c_str(), 100 * f,
+                 el, f > 0 ? el * (1 - f) / f : 0.0);
   };
 }
 

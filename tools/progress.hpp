@@ -19,6 +19,10 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 /// empty function when stderr is not a terminal (logs and pipes get the summary only).
 std::function<void(double fraction)> terminal_progress(const std::string& label);
 
+/// A stage's progress: terminal_progress on a terminal, else (unless `quiet`) a line on stderr
+/// at every tenth, "potmap: <label> 40%; elapsed 3 s, ETA 4 s", as the keyframes' lines.
+std::function<void(double fraction)> stage_progress(const std::string& label, bool quiet);
+
 /// Writes text to path through a temporary file in the same folder and a rename; throws
 /// potmap::Error naming the file on failure (and leaves nothing behind).
 void write_text_atomically(const std::string& path, const std::string& text);

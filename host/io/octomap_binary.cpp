@@ -141,7 +141,7 @@ OctomapBlockCode encode_octomap_block(const OctomapState* states) {
   return code;
 }
 
-std::string octomap_binary_file(double resolution, const std::vector<std::int64_t>& block_index,
+OctomapFile octomap_binary_file(double resolution, const std::vector<std::int64_t>& block_index,
                                 const std::vector<OctomapBlockCode>& codes) {
   const std::size_t n = codes.size();
   if (block_index.size() != 3 * n)
@@ -178,11 +178,20 @@ std::string octomap_binary_file(double resolution, const std::vector<std::int64_
     up.nodes = 1;
     up.emit(0, 0, n, data);
   }
+  OctomapFile file;
+  file.nodes = up.nodes;
+  // Leaves are the children named free or occupied in some inner node's two bytes.
+  for (char byte : data)
+    for (int c = 0; c < 4; ++c) {
+      const unsigned t = static_cast<unsigned char>(byte) >> (2 * c) & 3;
+      file.leaves += t == 1 || t == 2;
+    }
   std::ostringstream head;
   head << "# Octomap OcTree binary file\n# (feel free to add / change comments, but leave the "
           "first line as it is!)\n#\nid OcTree\nsize "
        << up.nodes << "\nres " << resolution << "\ndata\n";
-  return head.str() + data;
+  file.bytes = head.str() + data;
+  return file;
 }
 
 }  // namespace potmap

@@ -37,12 +37,19 @@ struct OctomapBlockCode {
 /// Encodes a block from its 4096 voxel states (i + 16 (j + 16 k), VoxelBlocks's order).
 OctomapBlockCode encode_octomap_block(const OctomapState* states);
 
+/// A .bt file's bytes and what its tree holds.
+struct OctomapFile {
+  std::string bytes;
+  std::uint64_t nodes = 0;   ///< every node, inner ones included (the header's "size")
+  std::uint64_t leaves = 0;  ///< free and occupied leaves, pruned ones counted once
+};
+
 /// The whole .bt file: the header (resolution in metres, printed as OctoMap prints it), then the
 /// tree above the blocks and each block's code. `block_index`: three block coordinates a block
 /// (VoxelBlocks::index, each block 16 voxels of `resolution` a side), distinct, any order;
 /// `codes[b]` is block b's. Throws ArgumentError when a block lies outside OctoMap's key range
 /// (+-32768 voxels from the origin on each axis) or the sizes disagree.
-std::string octomap_binary_file(double resolution, const std::vector<std::int64_t>& block_index,
+OctomapFile octomap_binary_file(double resolution, const std::vector<std::int64_t>& block_index,
                                 const std::vector<OctomapBlockCode>& codes);
 
 }  // namespace potmap
