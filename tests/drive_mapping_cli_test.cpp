@@ -5,8 +5,11 @@
 #include <octomap/OcTree.h>
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "potmap/io/map_io.hpp"
 #include "potmap/pot/dictionary_io.hpp"
@@ -105,6 +108,63 @@ TEST(DriveMappingCli, ResumedRunEndsAsAnUninterruptedOne) {
       test::run_cli("mapping " + drive + common + " --range-cut 30 --resume -o " + test::quoted(b));
   EXPECT_NE(c.status, 0);
   EXPECT_NE(c.out.find("--range-cut"), std::string::npos) << c.out;
+}
+
+namespace {
+
+// Starts `potmap mapping` on hku-1 into `dir` in the background, sends `signal` once its
+// checkpoint appears, and returns the shell's report of how it ended ("ended 137": killed).
+std::string interrupted_run(const std::string& dir, const std::string& args, const char* signal) {
+  const std::string cmd = test::quoted(POTMAP_CLI) + " mapping " +
+                          test::quoted(test::shared_data("drives3d/hku-1")) + args + " -o " +
+                          test::quoted(dir) + " > /dev/null 2>&1 & pid=$!; while [ ! -f " +
+                          test::quoted(dir + "/map.ckpt") +
+                          " ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; kill -" + signal +
+                          " $pid; wait $pid; echo ended $?";
+  std::string out;
+  FILE* p = popen(("sh -c " + test::quoted(cmd)).c_str(), "r");
+  if (!p) return out;
+  char buf[256];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  pclose(p);
+  return out;
+}
+
+// Temporary files left in a folder (FILE.tmp-PID...).
+std::vector<std::string> temporaries(const std::string& dir) {
+  std::vector<std::string> t;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().filename().string().find(".tmp-") != std::string::npos)
+      t.push_back(e.path().filename().string());
+  return t;
+}
+
+}  // namespace
+
+TEST(DriveMappingCli, KilledOrInterruptedRunsResumeToTheSameFilesByteForByte) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string drive = test::quoted(test::shared_data("drives3d/hku-1"));
+  const std::string common = " --max-scans 10 --voxel 0.5 --checkpoint-every 2";
+  const std::string a = test::temp_dir("drive-kill-a"), b = test::temp_dir("drive-kill-b"),
+                    c = test::temp_dir("drive-kill-c");
+  ASSERT_EQ(test::run_cli("mapping " + drive + common + " -q -o " + test::quoted(a)).status, 0);
+  // SIGKILL once the first checkpoint is there: no chance to clean up, the resumed run does.
+  EXPECT_EQ(interrupted_run(b, common, "KILL"), "ended 137\n");
+  ASSERT_TRUE(fs::exists(b + "/map.ckpt"));
+  // Ctrl-C (SIGINT): the run stops at its next keyframe, exits 130, removes what it was
+  // writing and keeps its checkpoint.
+  EXPECT_EQ(interrupted_run(c, common, "INT"), "ended 130\n");
+  ASSERT_TRUE(fs::exists(c + "/map.ckpt"));
+  EXPECT_EQ(temporaries(c), std::vector<std::string>{});
+  for (const std::string& d : {b, c}) {
+    const test::CliResult r =
+        test::run_cli("mapping " + drive + common + " -q --resume -o " + test::quoted(d));
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("resumed        at keyframe"), std::string::npos) << r.out;
+    EXPECT_EQ(temporaries(d), std::vector<std::string>{}) << d;
+    for (const char* f : {"map.potmap", "map.bt", "map_occupied.ply", "map_band.pgm"})
+      EXPECT_TRUE(test::file_bytes(a + "/" + f) == test::file_bytes(d + "/" + f)) << d << " " << f;
+  }
 }
 
 TEST(DriveMappingCli, RefusesPotOnADriveAndNamesABadPoseLine) {

@@ -15,6 +15,8 @@
 #include "drive_checkpoint.hpp"
 #include "drive_outputs.hpp"
 #include "drive_ranks.hpp"
+#include "interrupt.hpp"
+#include "map_checkpoint.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
@@ -176,7 +178,10 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
   oo.picture_res = a.picture_res;
   oo.picture_pixels = a.picture_pixels;
   oo.voxel = a.voxel_out;
-  oo.progress = stage_progress("outputs", a.quiet);
+  oo.progress = [bar = stage_progress("outputs", a.quiet)](double f) {
+    stop_if_interrupted();
+    if (bar) bar(f);
+  };
   const DriveOutputs outs =
       write_drive_outputs(ctx, map, run.positions, (fs::path(dir) / "map").string(), oo);
   const double output_s = seconds_since(t_out);
@@ -242,7 +247,13 @@ int run_drive_mapping(const DriveMappingArgs& args, const std::string& device,
       a.max_keyframes ? std::min(drive.size(), a.first + a.max_keyframes) : drive.size();
   const RankPart part = ranks.part(a.first, end, "keyframes");  // all of them on one process
   const std::string dir = a.out.empty() ? default_out(a.drive) : a.out;
-  if (ranks.rank() == 0) fs::create_directories(dir);
+  if (ranks.rank() == 0) {
+    fs::create_directories(dir);
+    // What runs killed outright (SIGKILL, a power cut) left while writing.
+    for (const char* f : {"map.potmap", "map.bt", "map_occupied.ply", "map_band_prob.png",
+                          "map_band_var.png", "map_band.yaml", "map_band.pgm", "scores.json"})
+      remove_stale_temporaries((fs::path(dir) / f).string());
+  }
   std::FILE* human = a.json == "-" || ranks.rank() > 0 ? stderr : stdout;
   const auto t_run = std::chrono::steady_clock::now();
 
@@ -285,6 +296,7 @@ int run_drive_mapping(const DriveMappingArgs& args, const std::string& device,
   progress.bar = terminal_progress("mapping");
   for (std::size_t i = at; i < part.end; ++i) {
     const Scan kf = read_keyframe(drive, i);
+    stop_if_interrupted();
     const KeyframeStats st = mapper.add(kf, std::int64_t(i), &ctx);
     run.add(st, drive.poses[i]);
     progress.step(i, st);

@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "potmap/error.hpp"
 #include "potmap/runtime/context.hpp"
 #include "potmap/version.hpp"
@@ -36,8 +37,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  potmap::cli::catch_interrupts();
   try {
     return runner.run();
+  } catch (const potmap::cli::Interrupted&) {
+    std::cerr << "potmap: interrupted; files being written were removed (a checkpoint written "
+                 "before stays for --resume)\n";
+    return 130;
   } catch (const potmap::Error& e) {
     std::cerr << "potmap: error: " << e.what() << "\n";
     return 1;

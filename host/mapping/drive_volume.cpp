@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstring>
 #include <map>
-#include <unordered_map>
 
 #include "io/atomic_file.hpp"
 #include "potmap/error.hpp"
@@ -24,6 +23,9 @@ namespace {
 
 constexpr double kGroup = 64.0;      // metres: the columns of blocks that share one upload
 constexpr std::size_t kBatch = 256;  // blocks a launch (a million voxels)
+// Metres between the corners where the band's height is the path's (bilinear between them): a
+// car's road climbs a few centimetres over it, and a corner costs a search of the whole path.
+constexpr double kHeightStep = 8.0;
 constexpr std::size_t kVox = VoxelBlocks::kVoxels;
 constexpr int kSide = VoxelBlocks::kSide;
 
@@ -48,11 +50,11 @@ double path_height(const std::vector<double>& pos, double x, double y) {
   return z;
 }
 
-// path_height at the corners of the block columns, bilinear inside them: continuous across
-// blocks, and one path search per corner rather than per voxel.
+// path_height at the corners of a square lattice, bilinear inside its squares: continuous, and
+// one path search per corner rather than per voxel.
 struct BandHeight {
   const std::vector<double>& pos;
-  double edge;  // a block's side, metres
+  double edge;  // the corners' spacing, metres
   std::map<Column, double> corner;
   double at_corner(long i, long j) {
     const auto it = corner.find({i, j});
@@ -220,10 +222,11 @@ void volume_pass(Context& ctx, const KernelMap& map, const VoxelBlocks& blocks, 
                  const std::function<void(double)>& progress) {
   std::map<Column, std::vector<std::size_t>> groups;
   const double edge = kSide * blocks.voxel;
-  for (std::size_t b = 0; b < blocks.size(); ++b)
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
     groups[{long(std::floor((blocks.corner(b, 0) + 0.5 * edge) / kGroup)),
             long(std::floor((blocks.corner(b, 1) + 0.5 * edge) / kGroup))}]
         .push_back(b);
+  }
   double gmin = HUGE_VAL;
   for (double g : map.gamma) gmin = std::min(gmin, g);
   const double reach = std::sqrt(kDefaultCutoffTau / gmin) + edge;
@@ -294,7 +297,7 @@ DriveVolume export_drive_volume(Context& ctx, const KernelMap& map, const std::v
   check(map, path, o);
   const VoxelBlocks blocks = blocks_holding_kernels(map, o.voxel);
   Sinks sinks{
-      blocks, o, map.has_bias ? map.bias_var : 0.0, {path, kSide * o.voxel, {}}, make_band(blocks)};
+      blocks, o, map.has_bias ? map.bias_var : 0.0, {path, kHeightStep, {}}, make_band(blocks)};
   sinks.codes.resize(blocks.size());
   volume_pass(ctx, map, blocks, sinks, o.progress);
   DriveVolume out;

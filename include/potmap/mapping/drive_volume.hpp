@@ -53,8 +53,8 @@ struct HeightBandRaster {
 };
 
 struct DriveVolume {
-  double voxel = 0;                                 ///< the voxel edge used, metres
-  std::size_t blocks = 0;                           ///< blocks of 16^3 voxels evaluated
+  double voxel = 0;        ///< the voxel edge used, metres
+  std::size_t blocks = 0;  ///< blocks of 16^3 voxels evaluated: those holding kernels
   std::size_t occupied = 0, free = 0, unknown = 0;  ///< voxels
   std::uint64_t octomap_nodes = 0, octomap_leaves = 0;
   HeightBandRaster band;  ///< at the voxel edge
