@@ -71,6 +71,7 @@ Method ogm_method(double resolution) {
     f.fit_seconds = seconds_since(t0);
     f.info["cell_m"] = resolution;
     f.info["leaves"] = double(grid->leaf_count());
+    f.info["memory_mb"] = double(grid->memory_bytes()) / 1e6;
     f.query = [grid](const double* pts, std::size_t n, double* prob, double* var) {
       grid->probability(pts, n, prob);
       if (var)
@@ -113,7 +114,7 @@ std::string box_text(int dim, const double lo[3], const double hi[3]) {
 
 KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
                     const double hi[3], const LabelledPoints& samples, double* spacing_out,
-                    double* gamma_out) {
+                    double* gamma_out, std::size_t* learner_bytes_out) {
   double spacing = setup.spacing;
   if (setup.count > 0) {
     double v = 1;
@@ -140,6 +141,7 @@ KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double l
     JointBhm& learner = *bounded;
     learner.update_by_scan(setup.voxel > 0 ? aggregate_voxels(samples, setup.voxel) : samples);
     if (gamma_out) *gamma_out = learner.gamma();
+    if (learner_bytes_out) *learner_bytes_out = learner.memory_bytes();
     return learner.map();
   }
   const double gamma = setup.gamma > 0 ? setup.gamma : 8.0 / (spacing * spacing);
@@ -147,6 +149,9 @@ KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double l
   KernelMap map = bhm_grid_prior(dim, lo, hi, spacing, gamma, 0.0,
                                  setup.prior_var > 0 ? setup.prior_var : 1e4, setup.bias);
   bhm_update_sequential(ctx, map, samples, setup.options);
+  if (learner_bytes_out)
+    *learner_bytes_out = sizeof(double) * (map.position.size() + map.gamma.size() +
+                                           map.w_mean.size() + map.w_var.size());
   return map;
 }
 
@@ -156,8 +161,9 @@ Method bhm_method(const BhmSetup& setup, const std::string& name) {
   m.fit = [setup](Context* ctx, const MapTask& task) {
     const auto t0 = std::chrono::steady_clock::now();
     double spacing = 0, gamma = 0;
+    std::size_t bytes = 0;
     auto map = std::make_shared<KernelMap>(
-        learn_bhm(ctx, setup, task.dim, task.lo, task.hi, task.train, &spacing, &gamma));
+        learn_bhm(ctx, setup, task.dim, task.lo, task.hi, task.train, &spacing, &gamma, &bytes));
     const double secs = seconds_since(t0);
     FittedMap f = kernel_fitted_map(ctx, map);
     f.fit_seconds = secs;
@@ -165,6 +171,7 @@ Method bhm_method(const BhmSetup& setup, const std::string& name) {
     f.info["spacing_m"] = spacing;
     f.info["gamma"] = gamma;
     f.info["joint"] = setup.joint ? 1.0 : 0.0;
+    f.info["memory_mb"] = double(bytes) / 1e6;
     return f;
   };
   return m;

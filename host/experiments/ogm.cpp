@@ -91,5 +91,8 @@ double OccupancyGrid::resolution() const {
 std::size_t OccupancyGrid::leaf_count() const {
   return impl_->tree.getNumLeafNodes();
 }
+std::size_t OccupancyGrid::memory_bytes() const {
+  return impl_->tree.memoryUsage();
+}
 
 }  // namespace potmap

@@ -131,10 +131,13 @@ JointBhmOptions joint_bhm_options(const BhmSetup& setup);
 
 /// Learns the BHM of `setup` on a grid over [lo, hi] from `samples`, scan by scan (the
 /// posterior after one scan is the prior of the next). The diagonal model runs on `ctx` when
-/// it is given; the joint one on the host. `spacing_out`/`gamma_out` receive what was used.
+/// it is given; the joint one on the host. `spacing_out`/`gamma_out` receive what was used;
+/// `learner_bytes_out` the joint learner's memory at the end (JointBhm::memory_bytes; the
+/// diagonal model: the map's kernels).
 KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
                     const double hi[3], const LabelledPoints& samples,
-                    double* spacing_out = nullptr, double* gamma_out = nullptr);
+                    double* spacing_out = nullptr, double* gamma_out = nullptr,
+                    std::size_t* learner_bytes_out = nullptr);
 
 /// Online BHM: the posterior after one scan is the prior of the next (bhm_update_sequential).
 Method bhm_method(const BhmSetup& setup, const std::string& name = "BHM");

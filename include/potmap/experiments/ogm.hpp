@@ -45,7 +45,8 @@ class OccupancyGrid {
 
   int dim() const;
   double resolution() const;
-  std::size_t leaf_count() const;  ///< cells the octree stores (memory grows with it)
+  std::size_t leaf_count() const;    ///< cells the octree stores (memory grows with it)
+  std::size_t memory_bytes() const;  ///< the octree's own count (OcTree::memoryUsage)
 
  private:
   struct Impl;
