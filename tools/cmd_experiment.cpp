@@ -20,6 +20,26 @@ namespace {
 using exp::Harness;
 using exp::Settings;
 
+// The wavemap peer's settings (used by builds with wavemap; accepted by every build).
+void add_wavemap_options(CLI::App* cmd, std::vector<double>& cells, experiment::WavemapSetup& w) {
+  cmd->add_option("--wavemap-cells", cells, "wavemap: smallest cell sizes, metres, one run each")
+      ->expected(1, -1)
+      ->capture_default_str();
+  cmd->add_option("--wavemap-pitch", w.azimuth_pitch_deg,
+                  "wavemap: the range image's azimuth pixel, degrees (the field of view is the "
+                  "keyframes')")
+      ->capture_default_str();
+  cmd->add_option("--wavemap-elevation-pitch", w.elevation_pitch_deg,
+                  "wavemap: the range image's elevation pixel, degrees")
+      ->capture_default_str();
+  cmd->add_option("--wavemap-angle-sigma", w.options.angle_sigma_deg,
+                  "wavemap: the continuous beam model's angular sigma, degrees")
+      ->capture_default_str();
+  cmd->add_option("--wavemap-min-range", w.options.min_range,
+                  "wavemap: no update closer than this, metres")
+      ->capture_default_str();
+}
+
 // Which seeds, scans and methods a comparison runs.
 void add_run_options(CLI::App* cmd, Settings& s) {
   cmd->add_option(
@@ -27,11 +47,14 @@ void add_run_options(CLI::App* cmd, Settings& s) {
          "Seeds of the beam split, free samples, simulated routes and ABHM (default 0 1 2)")
       ->expected(1, -1);
   cmd->add_option("--scans", s.scans, "Use at most this many scans of each dataset (0: all)");
-  cmd->add_option("--methods", s.methods, "Comma-separated: ogm, bhm, abhm, pot, repot")
+  cmd->add_option("--methods", s.methods,
+                  "Comma-separated: ogm, bhm, abhm, pot, repot; wavemap in builds with it "
+                  "(-DPOTMAP_WAVEMAP_DIR)")
       ->capture_default_str();
   cmd->add_option("--ogm-cells", s.ogm_cells, "OGM cell sizes, metres; the best by AUC is reported")
       ->expected(1, -1)
       ->capture_default_str();
+  add_wavemap_options(cmd, s.wavemap_cells, s.wavemap);
 }
 
 // The BHM and ABHM methods' settings.

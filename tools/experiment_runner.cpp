@@ -166,6 +166,21 @@ std::vector<std::vector<Scan>> Harness::load_places(const std::string& spec, std
   return places;
 }
 
+void Harness::add_wavemap(std::vector<Method>& out) const {
+#ifdef POTMAP_WITH_WAVEMAP
+  for (double c : s_.wavemap_cells) {
+    experiment::WavemapSetup w = s_.wavemap;
+    w.options.cell = c;
+    out.push_back(experiment::wavemap_method(w));
+  }
+#else
+  (void)out;
+  throw ArgumentError(
+      "--methods wavemap: this potmap was built without wavemap (configure with "
+      "-DPOTMAP_WAVEMAP_DIR=<wavemap's install prefix>; docs/drives-3d.md)");
+#endif
+}
+
 std::vector<Method> Harness::methods() const {
   std::vector<Method> out;
   for (const std::string& m : split_list(s_.methods, ',')) {
@@ -178,8 +193,11 @@ std::vector<Method> Harness::methods() const {
     } else if (m == "pot" || m == "repot") {
       out.push_back(
           experiment::pot_method(pot_setup(m == "repot"), m == "pot" ? "POT" : "RePOT", atoms_));
+    } else if (m == "wavemap") {
+      add_wavemap(out);
     } else {
-      throw ArgumentError("--methods: unknown method '" + m + "' (ogm, bhm, abhm, pot, repot)");
+      throw ArgumentError("--methods: unknown method '" + m +
+                          "' (ogm, bhm, abhm, pot, repot, wavemap)");
     }
   }
   return out;

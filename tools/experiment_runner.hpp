@@ -15,6 +15,7 @@
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/experiments/figure_panels.hpp"
 #include "potmap/experiments/structure_score.hpp"
+#include "potmap/experiments/wavemap_method.hpp"
 
 #include "potmap/runtime/context.hpp"
 
@@ -29,6 +30,9 @@ struct Settings {
   int moving = 40;                ///< moving vehicles of the dynamic scene
   std::string methods = "ogm,bhm,abhm,pot,repot";
   std::vector<double> ogm_cells{0.1, 0.5, 1, 5, 10};
+  /// wavemap (builds with POTMAP_WITH_WAVEMAP only): one method per cell size.
+  std::vector<double> wavemap_cells{0.1, 0.2};
+  experiment::WavemapSetup wavemap;
   experiment::BhmSetup bhm;
   experiment::AbhmSetup abhm;
   experiment::PotSetup pot;   ///< POT and RePOT (refine is set per method)
@@ -96,7 +100,8 @@ class Harness {
   /// Short label of a dataset name (file stem or the spec itself).
   static std::string label(const std::string& spec);
 
-  /// The methods of settings.methods (ogm: one per cell size; bhm; abhm; pot; repot).
+  /// The methods of settings.methods (ogm: one per cell size; bhm; abhm; pot; repot; wavemap:
+  /// one per cell size, in builds with wavemap).
   std::vector<experiment::Method> methods() const;
 
   /// Maps `target` (scans labelled from first_index on) with every method and scores the held-out
@@ -121,6 +126,8 @@ class Harness {
   void add(Record r) { records_.push_back(std::move(r)); }
   /// settings.pot with the rotations applied and refine set (RePOT).
   experiment::PotSetup pot_setup(bool refine) const;
+  /// wavemap's methods (settings.wavemap_cells); an ArgumentError in builds without wavemap.
+  void add_wavemap(std::vector<experiment::Method>& out) const;
   /// Fits and scores one method on one task (no caching); figures when `figures` is set; the
   /// structural score against `reference` when it is not null.
   // The pictures' view of a task: 3D tasks top down over a height band about the sensors.
