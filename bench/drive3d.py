@@ -3,7 +3,7 @@
 
 Usage: bench/drive3d.py [--build build] [--drives riverside-a,hku-1] [--cuts 20,40]
                         [--keyframes 30] [--source 10] [--methods ogm,bhm,pot,repot]
-                        [--mapping bhm,repot] [--out docs/drive3d-speed.json]
+                        [--mapping bhm,repot] [--wavemap] [--out docs/drive3d-speed.json]
                         [--doc docs/drives-3d.md] [-- EXTRA potmap experiment options]
 
 For every drive of ../shared/data/drives3d and every cut (a horizontal range, metres, applied
@@ -24,6 +24,24 @@ keeps a quarter), the experiment's on all of them.
 
 --doc FILE puts the table into FILE between the lines "<!-- bench/drive3d.py table -->" and
 "<!-- end of bench/drive3d.py table -->", so the page shows the last run's figures.
+
+--wavemap adds a second peer, wavemap (github.com/ethz-asl/wavemap), beside OctoMap: the method
+"wavemap" of `potmap experiment`, at the cells of --wavemap-cells (default 0.1 and 0.2 m), on
+the same keyframes, cut and training beams, scored on the same held-out samples, and a column
+"map MB" (each method's own count of its map: OctoMap's memoryUsage(), wavemap's
+getMemoryUsage(), the joint BHM learner's memory_bytes()). Its table goes between
+"<!-- bench/drive3d.py wavemap table -->" and "<!-- end of bench/drive3d.py wavemap table -->".
+It needs a potmap built with wavemap, which CI never does. With wavemap's sources in WAVEMAP
+(github.com/ethz-asl/wavemap, outside this repository) and PREFIX a folder to install it in:
+
+  apt-get install libgoogle-glog-dev libeigen3-dev libboost-dev
+  cmake -S WAVEMAP/library/cpp -B WAVEMAP/build -DCMAKE_BUILD_TYPE=Release \
+        -DCMAKE_INSTALL_PREFIX=PREFIX
+  cmake --build WAVEMAP/build -j2 && cmake --install WAVEMAP/build
+  cmake -S . -B build-wavemap -DCMAKE_BUILD_TYPE=Release -DPOTMAP_WAVEMAP_DIR=PREFIX
+  cmake --build build-wavemap --target potmap_cli
+  bench/drive3d.py --build build-wavemap --wavemap --methods ogm,bhm --mapping '' \
+        --out docs/drive3d-wavemap.json --doc docs/drives-3d.md
 """
 import argparse
 import json
@@ -68,9 +86,10 @@ def run_mapping(build, drive, cut, keyframes, source, method):
     return json.loads(done.stdout)
 
 
-def put_table(doc, table, device):
+def put_table(doc, table, device, name="table"):
     """Replaces the marked table of `doc` (a temporary file renamed into place)."""
-    start, end = "<!-- bench/drive3d.py table -->", "<!-- end of bench/drive3d.py table -->"
+    start = "<!-- bench/drive3d.py %s -->" % name
+    end = "<!-- end of bench/drive3d.py %s -->" % name
     with open(doc) as f:
         text = f.read()
     if start not in text or end not in text:
@@ -83,6 +102,21 @@ def put_table(doc, table, device):
     os.replace(doc + ".tmp", doc)
 
 
+def make_table(rows, memory):
+    """The Markdown table; `memory` adds each map's own count of its memory."""
+    head = "| drive | cut | method | AUC | NLL | ms / keyframe | x OctoMap 0.2 m |"
+    table = [head + (" map MB |" if memory else ""), "|---" * (8 if memory else 7) + "|"]
+    for r in rows:
+        line = "| %s | %g m | %s | %.3f | %.3f | %.0f | %.2f |" % (
+            r["drive"], r["cut_m"], r["method"], r["auc"], r["nll"], r["ms_per_keyframe"],
+            r["ratio_to_octomap_0.2"])
+        if memory:
+            mb = r.get("map_mb")
+            line += " %s |" % ("%.1f" % mb if mb is not None else "")
+        table.append(line)
+    return table
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default=os.path.join(HERE, "..", "build"))
@@ -93,14 +127,17 @@ def main():
     ap.add_argument("--methods", default="ogm,bhm,pot,repot")
     ap.add_argument("--mapping", default="bhm,repot",
                     help="potmap mapping methods run after each experiment ('' for none)")
+    ap.add_argument("--wavemap", action="store_true",
+                    help="add wavemap beside OctoMap (a build with -DPOTMAP_WAVEMAP_DIR)")
     ap.add_argument("--out", default="drive3d-speed.json")
     ap.add_argument("--doc", default="", help="page whose marked table this run replaces")
     ap.add_argument("extra", nargs="*", help="more potmap experiment intra options (after --)")
     a = ap.parse_args()
+    methods = a.methods + (",wavemap" if a.wavemap and "wavemap" not in a.methods else "")
     rows, device = [], ""
     for drive in a.drives.split(","):
         for cut in a.cuts.split(","):
-            data = run(a.build, drive, cut, a.keyframes, a.source, a.methods, a.extra)
+            data = run(a.build, drive, cut, a.keyframes, a.source, methods, a.extra)
             device = data.get("device", "")
             runs = data["runs"]
             base = next(r for r in runs if r["method"] == "OGM 0.2 m")["ms_per_scan"]
@@ -109,7 +146,8 @@ def main():
                              "auc": r["auc"], "nll": r["nll"], "acc": r["acc"],
                              "ms_per_keyframe": r["ms_per_scan"],
                              "ratio_to_octomap_0.2": r["ms_per_scan"] / base,
-                             "keyframes": r["scans"], "n_test": r["n_test"]})
+                             "keyframes": r["scans"], "n_test": r["n_test"],
+                             "map_mb": r.get("info", {}).get("memory_mb")})
             for m in [x for x in a.mapping.split(",") if x]:
                 j = run_mapping(a.build, drive, cut, a.keyframes, a.source, m)
                 rows.append({"drive": drive, "cut_m": float(cut), "method": "mapping " + j["method"],
@@ -118,15 +156,10 @@ def main():
                              "ratio_to_octomap_0.2": j["ms_per_keyframe"] / base,
                              "keyframes": j["keyframes"], "n_test": j["scores"]["n"],
                              "transfer_ms_per_keyframe": j.get("transfer_ms_per_keyframe", 0)})
-    table = ["| drive | cut | method | AUC | NLL | ms / keyframe | x OctoMap 0.2 m |",
-             "|---|---|---|---|---|---|---|"]
-    for r in rows:
-        table.append("| %s | %g m | %s | %.3f | %.3f | %.0f | %.2f |" % (
-            r["drive"], r["cut_m"], r["method"], r["auc"], r["nll"], r["ms_per_keyframe"],
-            r["ratio_to_octomap_0.2"]))
+    table = make_table(rows, a.wavemap)
     print("\n".join(table))
     if a.doc:
-        put_table(a.doc, table, device)
+        put_table(a.doc, table, device, "wavemap table" if a.wavemap else "table")
     meta = {"command": "bench/drive3d.py " + " ".join(sys.argv[1:]), "device": device,
             "machine": platform.processor() or platform.machine(),
             "cpus": os.cpu_count(), "keyframes": a.keyframes, "source": a.source,
