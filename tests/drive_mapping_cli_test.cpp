@@ -167,6 +167,21 @@ TEST(DriveMappingCli, KilledOrInterruptedRunsResumeToTheSameFilesByteForByte) {
   }
 }
 
+TEST(DriveMappingCli, ExportsWhileMappingLeaveTheFinalFilesAsTheyAre) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string drive = test::quoted(test::shared_data("drives3d/hku-1"));
+  const std::string a = test::temp_dir("drive-export-a"), b = test::temp_dir("drive-export-b");
+  const std::string common = " --max-scans 7 --voxel 0.5 --checkpoint-every 0";
+  ASSERT_EQ(test::run_cli("mapping " + drive + common + " -q -o " + test::quoted(a)).status, 0);
+  const test::CliResult r =
+      test::run_cli("mapping " + drive + common + " --export-every 3 -o " + test::quoted(b));
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("exported       after keyframe 3:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("exported       after keyframe 6:"), std::string::npos) << r.out;
+  for (const char* f : {"map.potmap", "map.bt", "map_occupied.ply", "map_band.pgm"})
+    EXPECT_TRUE(test::file_bytes(a + "/" + f) == test::file_bytes(b + "/" + f)) << f;
+}
+
 TEST(DriveMappingCli, RefusesPotOnADriveAndNamesABadPoseLine) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const test::CliResult r = test::run_cli(

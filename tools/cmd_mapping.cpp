@@ -249,6 +249,11 @@ void register_mapping(CLI::App& app, Runner& runner) {
   cmd->add_option("--checkpoint-every", a->drive.checkpoint_every,
                   "3D drives: write DIR/map.ckpt after every N keyframes (0: never)")
       ->capture_default_str();
+  cmd->add_option("--export-every", a->drive.export_every,
+                  "3D drives: also write DIR/map.bt, map_occupied.ply and the band's files of the "
+                  "map so far after every N keyframes, for a planner reading them while the drive "
+                  "goes on (each file replaced whole; 0: only at the end)")
+      ->capture_default_str();
   cmd->add_flag("--resume", a->drive.resume,
                 "3D drives: continue from DIR/map.ckpt when it is there");
   cmd->add_flag("--keep-checkpoint", a->drive.keep_checkpoint,

@@ -146,6 +146,31 @@ struct DriveResult {
   const nlohmann::json* ranks;  ///< the ranks' record (null: one process)
 };
 
+// The outputs' options of the command line.
+DriveOutputOptions output_options(const DriveMappingArgs& a) {
+  DriveOutputOptions oo;
+  oo.band_low = a.band_low;
+  oo.band_high = a.band_high;
+  oo.picture_res = a.picture_res;
+  oo.picture_pixels = a.picture_pixels;
+  oo.voxel = a.voxel_out;
+  return oo;
+}
+
+// --export-every: the map so far, exported where the end's outputs go, replacing the last.
+void export_so_far(const DriveMappingArgs& a, const std::string& dir, DriveMapper& mapper,
+                   Context& ctx, const DriveRun& run, std::FILE* human) {
+  const auto t0 = std::chrono::steady_clock::now();
+  DriveOutputOptions oo = output_options(a);
+  oo.progress = [](double) { stop_if_interrupted(); };
+  const KernelMap map = mapper.map();
+  const DriveOutputs outs =
+      write_drive_outputs(ctx, map, run.positions, (fs::path(dir) / "map").string(), oo);
+  std::fprintf(
+      human, "exported       after keyframe %zu: %zu kernels, %s voxels occupied, %.1f s\n",
+      run.keyframes, map.size(), outs.json["occupied_voxels"].dump().c_str(), seconds_since(t0));
+}
+
 // The map, what robotics stacks load from it, the scores and scores.json.
 int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const DriveMapper& mapper,
                         Context& ctx, const DriveResult& res, double mapping_s) {
@@ -172,12 +197,7 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
   const std::vector<float> prob = probability_by_columns(ctx, map, test.position);
   const Scores sc = score(prob, test.label);
 
-  DriveOutputOptions oo;
-  oo.band_low = a.band_low;
-  oo.band_high = a.band_high;
-  oo.picture_res = a.picture_res;
-  oo.picture_pixels = a.picture_pixels;
-  oo.voxel = a.voxel_out;
+  DriveOutputOptions oo = output_options(a);
   oo.progress = [bar = stage_progress("outputs", a.quiet)](double f) {
     stop_if_interrupted();
     if (bar) bar(f);
@@ -302,6 +322,9 @@ int run_drive_mapping(const DriveMappingArgs& args, const std::string& device,
     progress.step(i, st);
     if (a.checkpoint_every && (i + 1 - a.first) % a.checkpoint_every == 0 && i + 1 < end)
       write_drive_checkpoint(ckpt, run, mapper, i + 1);
+    if (a.export_every && ranks.size() == 1 && (i + 1 - a.first) % a.export_every == 0 &&
+        i + 1 < end)
+      export_so_far(a, dir, mapper, ctx, run, human);
   }
   const double mapping_s = seconds_since(t_run);
   if (ranks.size() == 1) {

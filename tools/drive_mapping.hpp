@@ -20,11 +20,13 @@ struct DriveMappingArgs {
   double range_cut = 40;  ///< metres
   std::size_t first = 0, max_keyframes = 0;
   std::uint64_t seed = 0;
-  double band_low = -1.0, band_high = 0.5;               ///< metres about the sensor's height
+  double band_low = -1.0, band_high = 0.5;  ///< metres about the sensor's height
   double picture_res = 0, voxel_out = 0.4;  ///< metres (0: automatic)
-  std::size_t picture_pixels = 1200;  ///< along the longer side (as 2D mapping's pictures)
-  std::size_t checkpoint_every = 25;  ///< keyframes (0: no checkpoints)
-  std::size_t transfer_every = 4;     ///< RePOT: keyframes between transfers
+  std::size_t picture_pixels = 1200;        ///< along the longer side (as 2D mapping's pictures)
+  std::size_t checkpoint_every = 25;        ///< keyframes (0: no checkpoints)
+  /// Keyframes between exports of the map so far while the drive goes on (0: only at the end).
+  std::size_t export_every = 0;
+  std::size_t transfer_every = 4;  ///< RePOT: keyframes between transfers
   /// Where the joint BHM's features and sums run: "auto", "host" or "device" (JointBhmSums).
   std::string sums = "auto";
   BagOptions bag;  ///< ROS bags: topic, fixed frame, poses, keyframe spacing

@@ -21,6 +21,8 @@ constexpr std::size_t kMapperOptionsV1 = offsetof(potmap_mapper_options, persist
 constexpr std::size_t kScanStatsV1 = sizeof(potmap_scan_stats);
 constexpr std::size_t kDriveMapperOptionsV1 = offsetof(potmap_drive_mapper_options, transfer_every);
 constexpr std::size_t kBagOptionsV1 = sizeof(potmap_bag_options);
+constexpr std::size_t kDriveVolumeOptionsV1 = sizeof(potmap_drive_volume_options);
+constexpr std::size_t kDriveVolumeSummaryV1 = sizeof(potmap_drive_volume_summary);
 constexpr std::size_t kKeyframeStatsV1 = offsetof(potmap_keyframe_stats, transfer_ms);
 
 inline void check_struct_size(std::size_t size, std::size_t min, const char* what,

@@ -763,6 +763,48 @@ POTMAP_EXPORT potmap_status potmap_drive_mapper_save_state(const potmap_drive_ma
 POTMAP_EXPORT potmap_status potmap_drive_mapper_load_state(potmap_drive_mapper* mapper,
                                                            const char* path);
 
+/* ---- a 3D map's volume as files (potmap/mapping/drive_volume.hpp) ------------------------ */
+
+/** What potmap_export_drive_volume writes and how. */
+typedef struct potmap_drive_volume_options {
+  size_t struct_size; /**< the caller's sizeof (potmap_drive_volume_options_init sets it) */
+  /** Voxel edge, metres, > 0 (default 0.4: the drive map's kernels are 1 m apart, finer voxels
+   *  show the same surfaces at 8 times the work a halving). */
+  double voxel;
+  double band_low;          /**< the height band's bottom, metres about the path's height (-1.0) */
+  double band_high;         /**< and its top, above band_low (default 0.5: a van's roof) */
+  const char* octomap_path; /**< OctoMap .bt of every known voxel to write, or NULL */
+  const char* cloud_path;   /**< PLY of the occupied voxels to write, or NULL */
+} potmap_drive_volume_options;
+
+/** What potmap_export_drive_volume found. */
+typedef struct potmap_drive_volume_summary {
+  size_t struct_size;     /**< set by the caller to sizeof(potmap_drive_volume_summary) */
+  size_t blocks;          /**< blocks of 16^3 voxels evaluated (those holding kernels) */
+  size_t occupied_voxels; /**< known and p > 0.5 */
+  size_t free_voxels;     /**< known and p <= 0.5 */
+  size_t unknown_voxels;  /**< left out of the OctoMap */
+  uint64_t octomap_nodes; /**< nodes of the .bt's tree */
+  uint64_t octomap_leaves;
+} potmap_drive_volume_summary;
+
+/** Fills *options with the defaults above; struct_size as for potmap_scan_init. */
+POTMAP_EXPORT potmap_status potmap_drive_volume_options_init(potmap_drive_volume_options* options,
+                                                             size_t struct_size);
+
+/** Evaluates a 3D map on the context's device over the blocks of 16^3 voxels that hold its
+ *  kernels and writes the files `options` names (each whole or not at all), as `potmap mapping
+ *  DRIVE` writes map.bt and map_occupied.ply. `path`: `positions` sensor positions in order (x
+ *  y z each, metres; at least one), whose height the band follows. Call it on
+ *  potmap_drive_mapper_map's map between keyframes for the map so far. `summary` may be NULL.
+ *  Errors: POTMAP_ERROR_DIMENSION_MISMATCH (a 2D map), POTMAP_ERROR_INVALID_ARGUMENT (an empty
+ *  map or path, an option out of range: field and value named), POTMAP_ERROR_IO. */
+POTMAP_EXPORT potmap_status potmap_export_drive_volume(potmap_context* context,
+                                                       const potmap_map* map, const double* path,
+                                                       size_t positions,
+                                                       const potmap_drive_volume_options* options,
+                                                       potmap_drive_volume_summary* summary);
+
 #ifdef __cplusplus
 } /* extern "C" */
 #endif

@@ -1974,6 +1974,17 @@ def devices() -> List[DeviceInfo]:
     """Every OpenCL device of every platform, in platform order."""
     ...
 
+def export_drive_volume(ctx: Context, map: KernelMap, path: List[float], octomap: str = '', cloud: str = '', voxel: float = 0.4, band_low: float = -1.0, band_high: float = 0.5, progress: Any = None) -> dict:
+    """A 3D map's volume, evaluated on the device over the blocks holding its kernels, as the
+    files `potmap mapping DRIVE` writes: octomap: a .bt of every known voxel; cloud: a .ply
+    of the occupied voxels (empty: not written). path: the sensor's positions in order
+    (x, y, z, ...), whose height the band follows; voxel, band_low, band_high in metres;
+    progress(fraction) after each batch (raise to stop: nothing is written). Call it on
+    DriveMapper.map() between keyframes for the map so far. Returns a dict: voxel counts,
+    the OctoMap's nodes and leaves, and the band (band_prob, band_var: (ny, nx) arrays from
+    band_origin at band_res metres; band_prob -1 where nothing of the band is known)."""
+    ...
+
 def geotiff_supported() -> bool:
     """Whether this build writes GeoTIFFs (GDAL was found when it was configured)."""
     ...

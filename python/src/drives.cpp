@@ -15,6 +15,7 @@
 #include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_volume.hpp"
 #include "potmap/runtime/context.hpp"
 
 namespace potmap::python {
@@ -132,10 +133,58 @@ void bind_drive_options(py::module_& m) {
       .def_readonly("memory_bytes", &KeyframeStats::memory_bytes, "held after it");
 }
 
+// What export_drive_volume returns, as a dict (the band as (ny, nx) arrays, -1: unknown).
+py::dict volume_dict(const DriveVolume& v) {
+  const HeightBandRaster& b = v.band;
+  const std::vector<py::ssize_t> shape = {py::ssize_t(b.ny), py::ssize_t(b.nx)};
+  return py::dict("voxel"_a = v.voxel, "blocks"_a = v.blocks, "occupied"_a = v.occupied,
+                  "free"_a = v.free, "unknown"_a = v.unknown, "octomap_nodes"_a = v.octomap_nodes,
+                  "octomap_leaves"_a = v.octomap_leaves,
+                  "band_origin"_a = py::make_tuple(b.origin[0], b.origin[1]), "band_res"_a = b.res,
+                  "band_prob"_a = to_array(b.prob, shape), "band_var"_a = to_array(b.var, shape));
+}
+
+void bind_drive_volume(py::module_& m) {
+  m.def(
+      "export_drive_volume",
+      [](Context& ctx, const KernelMap& map, const std::vector<double>& path,
+         const std::string& octomap, const std::string& cloud, double voxel, double band_low,
+         double band_high, py::object progress) {
+        DriveVolumeOptions o;
+        o.octomap_path = octomap;
+        o.cloud_path = cloud;
+        o.voxel = voxel;
+        o.band_low = band_low;
+        o.band_high = band_high;
+        if (!progress.is_none())
+          o.progress = [progress](double f) {  // an exception from it stops the export
+            py::gil_scoped_acquire acquire;
+            progress(f);
+          };
+        DriveVolume v;
+        {
+          py::gil_scoped_release release;
+          v = export_drive_volume(ctx, map, path, o);
+        }
+        return volume_dict(v);
+      },
+      "ctx"_a, "map"_a, "path"_a, "octomap"_a = "", "cloud"_a = "", "voxel"_a = 0.4,
+      "band_low"_a = -1.0, "band_high"_a = 0.5, "progress"_a = py::none(),
+      "A 3D map's volume, evaluated on the device over the blocks holding its kernels, as the\n"
+      "files `potmap mapping DRIVE` writes: octomap: a .bt of every known voxel; cloud: a .ply\n"
+      "of the occupied voxels (empty: not written). path: the sensor's positions in order\n"
+      "(x, y, z, ...), whose height the band follows; voxel, band_low, band_high in metres;\n"
+      "progress(fraction) after each batch (raise to stop: nothing is written). Call it on\n"
+      "DriveMapper.map() between keyframes for the map so far. Returns a dict: voxel counts,\n"
+      "the OctoMap's nodes and leaves, and the band (band_prob, band_var: (ny, nx) arrays from\n"
+      "band_origin at band_res metres; band_prob -1 where nothing of the band is known).");
+}
+
 }  // namespace
 
 void bind_drives(py::module_& m) {
   bind_drive(m);
+  bind_drive_volume(m);
   bind_drive_options(m);
   py::class_<PyDriveMapper>(m, "DriveMapper",
                             "The joint BHM over a 3D drive, a keyframe at a time, in memory that\n"

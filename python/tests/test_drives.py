@@ -45,6 +45,35 @@ def test_map_drive_equals_the_command_and_beats_the_grid(ctx, cli, tmp_path):
     assert s.auc > 0.975  # measured 0.982 (OctoMap 0.2 m on this drive: 0.96)
 
 
+def test_the_map_so_far_is_exported_between_keyframes_as_the_command_writes_it(ctx, cli, tmp_path):
+    d = potmap.open_drive(HKU)
+    m = potmap.DriveMapper()
+    path = []
+    for i in range(6):
+        m.add(d.keyframe(i), i, ctx)
+        path += list(d.poses[i][:, 3])
+        if i == 2:  # a planner's look at the map so far, between keyframes
+            v = potmap.export_drive_volume(ctx, m.map(), path, octomap=str(tmp_path / "so_far.bt"))
+            assert v["occupied"] > 1000 and v["free"] > v["occupied"]
+            assert v["band_prob"].shape == (int(round(v["band_prob"].size / v["band_prob"].shape[1])),
+                                            v["band_prob"].shape[1])
+            assert (v["band_prob"] >= 0).sum() > 1000  # known band cells
+    fractions = []
+    v = potmap.export_drive_volume(ctx, m.map(), path, octomap=str(tmp_path / "map.bt"),
+                                   cloud=str(tmp_path / "map.ply"), progress=fractions.append)
+    assert fractions and fractions[-1] == 1.0
+    cli("mapping", HKU, "--max-scans", 6, "-q", "-o", tmp_path / "cmd")
+    for f, g in (("map.bt", "map.bt"), ("map.ply", "map_occupied.ply")):
+        assert (tmp_path / f).read_bytes() == (tmp_path / "cmd" / g).read_bytes(), f
+    # A progress callback that raises stops the export, and nothing is written.
+    def stop(fraction):
+        raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        potmap.export_drive_volume(ctx, m.map(), path, octomap=str(tmp_path / "stopped.bt"),
+                                   progress=stop)
+    assert not any(p.name.startswith("stopped") for p in tmp_path.iterdir())
+
+
 def test_drive_mapper_keyframe_by_keyframe_with_a_saved_state(tmp_path):
     d = potmap.open_drive(HKU)
     a = potmap.DriveMapper(range_cut=20)

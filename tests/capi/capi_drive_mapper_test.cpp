@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -121,6 +122,65 @@ TEST(CApiDriveMapper, MapsADriveReadAsADataset) {
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m));
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m2));
   POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(nullptr));
+  POTMAP_ASSERT_OK(potmap_dataset_destroy(data));
+}
+
+TEST(CApiDriveMapper, TheMapSoFarExportsAnOctomapAndACloud) {
+  potmap_dataset* data = nullptr;
+  POTMAP_ASSERT_OK(potmap_dataset_load(shared_data("drives3d/hku-1").c_str(), &data));
+  potmap_drive_mapper* m = nullptr;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), nullptr, &m));
+  potmap_scan s;
+  POTMAP_ASSERT_OK(potmap_scan_init(&s, sizeof s));
+  std::vector<double> path;
+  for (size_t i = 0; i < 4; ++i) {
+    POTMAP_ASSERT_OK(potmap_dataset_scan(data, i, &s));
+    POTMAP_ASSERT_OK(potmap_drive_mapper_add_keyframe(m, &s, int64_t(i), nullptr));
+    path.insert(path.end(), {s.pose[3], s.pose[7], s.pose[11]});
+  }
+  potmap_map* map = nullptr;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_map(m, &map));
+  const std::string dir = temp_dir("capi-drive-volume");
+  const std::string bt = dir + "/so_far.bt", ply = dir + "/so_far.ply";
+  potmap_drive_volume_options o;
+  POTMAP_ASSERT_OK(potmap_drive_volume_options_init(&o, sizeof o));
+  EXPECT_EQ(o.voxel, 0.4);
+  EXPECT_EQ(o.band_low, -1.0);
+  o.octomap_path = bt.c_str();
+  o.cloud_path = ply.c_str();
+  potmap_drive_volume_summary v;
+  v.struct_size = sizeof v;
+  POTMAP_ASSERT_OK(potmap_export_drive_volume(shared_context(), map, path.data(), 4, &o, &v));
+  EXPECT_GT(v.blocks, 10u);
+  EXPECT_GT(v.occupied_voxels, 1000u);
+  EXPECT_GT(v.free_voxels, v.occupied_voxels);
+  EXPECT_EQ(v.occupied_voxels + v.free_voxels + v.unknown_voxels, v.blocks * 4096);
+  EXPECT_GT(v.octomap_leaves, 1000u);
+  auto first_line = [](const std::string& file) {
+    std::ifstream f(file, std::ios::binary);
+    std::string line;
+    std::getline(f, line);
+    return line;
+  };
+  EXPECT_EQ(first_line(bt), "# Octomap OcTree binary file");
+  EXPECT_EQ(first_line(ply), "ply");
+  // Refusals name the field; a bad call writes nothing.
+  o.voxel = 0;
+  o.octomap_path = (dir + "/bad.bt").c_str();
+  POTMAP_EXPECT_FAIL(potmap_export_drive_volume(shared_context(), map, path.data(), 4, &o, &v),
+                     POTMAP_ERROR_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(potmap_last_error(), "voxel")) << potmap_last_error();
+  EXPECT_FALSE(std::ifstream(dir + "/bad.bt").good());
+  POTMAP_ASSERT_OK(potmap_drive_volume_options_init(&o, sizeof o));
+  POTMAP_EXPECT_FAIL(potmap_export_drive_volume(shared_context(), map, path.data(), 0, &o, &v),
+                     POTMAP_ERROR_INVALID_ARGUMENT);
+  potmap_map* flat = nullptr;
+  POTMAP_ASSERT_OK(potmap_map_create(2, 0, nullptr, nullptr, nullptr, nullptr, &flat));
+  POTMAP_EXPECT_FAIL(potmap_export_drive_volume(shared_context(), flat, path.data(), 4, &o, &v),
+                     POTMAP_ERROR_DIMENSION_MISMATCH);
+  POTMAP_ASSERT_OK(potmap_map_destroy(flat));
+  POTMAP_ASSERT_OK(potmap_map_destroy(map));
+  POTMAP_ASSERT_OK(potmap_drive_mapper_destroy(m));
   POTMAP_ASSERT_OK(potmap_dataset_destroy(data));
 }
 
