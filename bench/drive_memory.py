@@ -1,36 +1,72 @@
 #!/usr/bin/env python3
-"""Whole drives through `potmap mapping`: memory against keyframes, time per keyframe, scores.
+"""Whole drives through `potmap mapping`: the whole job against its keyframes, CPU, memory.
 
 Usage: bench/drive_memory.py [--build build] [--drives riverside-a,hku-1] [--cut 40]
-                             [--out docs/drive-memory.json] [--plot docs/drive-memory.png]
+                             [--cores 2] [--out docs/drive-memory.json]
+                             [--plot docs/drive-memory.png] [--doc docs/drives-3d.md]
 
 Each drive of ../shared/data/drives3d is mapped end to end, as a user runs it (`potmap mapping
 DRIVE`, the 3D drive defaults). The command reports, per keyframe, the memory its mapper holds
 (the joint BHM's active tiles and retired tiles, the kept held-out samples) and the keyframe's
 time (labelling, gathering, update, retiring), and at the end the process's peak resident
 memory (VmHWM: everything, the OpenCL runtime and the exports included) and the scores on the
-held-out beams. The table prints one row a drive; the JSON keeps the curves; the plot puts
-memory against keyframes.
+held-out beams. From outside, the script times the whole job (start to exit: reading, the
+device's program builds, every keyframe, the scores and every output file) and takes the CPU
+time it used (user + system, all threads), so the table gives the whole job's time as a multiple
+of its keyframes' mapping time and the CPU use in per cent of one core. --cores 1,2 runs each
+drive pinned to that many cores (taskset): the threads table. The table prints one row a drive
+and core count; the JSON keeps the curves; the plot puts memory against keyframes; --doc FILE
+puts the table between "<!-- bench/drive_memory.py table -->" and "<!-- end of
+bench/drive_memory.py table -->".
 """
 import argparse
 import json
 import os
 import platform
+import resource
+import shutil
 import subprocess
 import sys
 import tempfile
+import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
 
 
-def run(build, drive, cut):
+def run(build, drive, cut, cores):
+    """The command's JSON, with the whole job's wall and CPU seconds measured from outside."""
     out = tempfile.mkdtemp(prefix="drive-memory-")
     cmd = [os.path.join(build, "tools", "potmap"), "mapping", os.path.join(DRIVES, drive),
            "--range-cut", str(cut), "-q", "-o", out, "--json", "-"]
-    print("bench/drive_memory.py:", " ".join(cmd[1:]), file=sys.stderr, flush=True)
+    if cores:
+        cmd = ["taskset", "-c", ",".join(str(c) for c in range(cores))] + cmd
+    print("bench/drive_memory.py:", " ".join(cmd), file=sys.stderr, flush=True)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.monotonic()
     r = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
-    return json.loads(r.stdout)
+    wall = time.monotonic() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    shutil.rmtree(out, ignore_errors=True)
+    j = json.loads(r.stdout)
+    j["job_s"] = wall
+    j["cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return j
+
+
+def put_table(doc, table):
+    """Replaces the marked table of `doc` (a temporary file renamed into place)."""
+    start = "<!-- bench/drive_memory.py table -->"
+    end = "<!-- end of bench/drive_memory.py table -->"
+    with open(doc) as f:
+        text = f.read()
+    if start not in text or end not in text:
+        sys.exit("bench/drive_memory.py: %s has no lines %r and %r" % (doc, start, end))
+    head, rest = text.split(start, 1)
+    tail = rest.split(end, 1)[1]
+    with open(doc + ".tmp", "w") as f:
+        f.write(head + start + "\n" + "\n".join(table) + "\n" + end + tail)
+    os.replace(doc + ".tmp", doc)
 
 
 def plot(rows, path):
@@ -65,27 +101,43 @@ def main():
     ap.add_argument("--cut", type=float, default=40)
     ap.add_argument("--out", default="drive-memory.json")
     ap.add_argument("--plot", default="")
+    ap.add_argument("--cores", default="", help="comma-separated core counts (taskset)")
+    ap.add_argument("--doc", default="")
     a = ap.parse_args()
     rows = []
+    cores = [int(c) for c in a.cores.split(",")] if a.cores else [0]
     for drive in a.drives.split(","):
-        j = run(a.build, drive, a.cut)
-        ms = j["keyframe_ms"]
-        rows.append({"drive": drive, "cut_m": a.cut, "keyframes": j["keyframes"],
-                     "path_km": j.get("path_m", 0) / 1000, "auc": j["scores"]["auc"],
-                     "nll": j["scores"]["nll"], "ms_per_keyframe": j["ms_per_keyframe"],
-                     "max_keyframe_ms": max(ms), "kernels": j["kernels"],
-                     "final_memory_mb": j["memory_mb"], "mapper_peak_mb": j["peak_memory_mb"],
-                     "peak_rss_mb": j["peak_rss_mb"], "mapping_s": j["mapping_s"],
-                     "outputs_s": j["outputs_s"], "memory_mb": j["keyframe_memory_mb"],
-                     "keyframe_ms": ms, "device": j["device"]})
-    print("| drive | keyframes | AUC | NLL | ms / keyframe | kernels | mapper MB (end / peak) "
-          "| peak RSS MB | mapping s | exports s |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+        for c in cores:
+            j = run(a.build, drive, a.cut, c)
+            ms = j["keyframe_ms"]
+            keyframes_s = sum(ms) / 1000
+            rows.append({"drive": drive, "cut_m": a.cut, "cores": c or os.cpu_count(),
+                         "job_s": j["job_s"], "cpu_s": j["cpu_s"], "keyframes_s": keyframes_s,
+                         "job_per_keyframes": j["job_s"] / keyframes_s,
+                         "cpu_percent": 100 * j["cpu_s"] / j["job_s"], "keyframes": j["keyframes"],
+                         "path_km": j.get("path_m", 0) / 1000, "auc": j["scores"]["auc"],
+                         "nll": j["scores"]["nll"], "ms_per_keyframe": j["ms_per_keyframe"],
+                         "max_keyframe_ms": max(ms), "kernels": j["kernels"],
+                         "final_memory_mb": j["memory_mb"], "mapper_peak_mb": j["peak_memory_mb"],
+                         "peak_rss_mb": j["peak_rss_mb"], "mapping_s": j["mapping_s"],
+                         "outputs_s": j["outputs_s"], "memory_mb": j["keyframe_memory_mb"],
+                         "keyframe_ms": ms, "device": j["device"]})
+    table = [
+        "| drive | cores | keyframes | AUC | NLL | ms / keyframe | keyframes s | whole job s "
+        "| job / keyframes | CPU % | outputs s | kernels | mapper MB (end / peak) | peak RSS MB |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        print("| %s | %d | %.3f | %.3f | %.0f | %d | %.0f / %.0f | %.0f | %.0f | %.0f |" % (
-            r["drive"], r["keyframes"], r["auc"], r["nll"], r["ms_per_keyframe"], r["kernels"],
-            r["final_memory_mb"], r["mapper_peak_mb"], r["peak_rss_mb"], r["mapping_s"],
-            r["outputs_s"]))
+        table.append(
+            "| %s | %d | %d | %.3f | %.3f | %.0f | %.1f | %.1f | %.2f | %.0f | %.1f | %d "
+            "| %.0f / %.0f | %.0f |" % (
+                r["drive"], r["cores"], r["keyframes"], r["auc"], r["nll"], r["ms_per_keyframe"],
+                r["keyframes_s"], r["job_s"], r["job_per_keyframes"], r["cpu_percent"],
+                r["outputs_s"], r["kernels"], r["final_memory_mb"], r["mapper_peak_mb"],
+                r["peak_rss_mb"]))
+    device = rows[0]["device"] if rows else ""
+    table += ["", "Device: %s; %d CPUs (%s)." % (device, os.cpu_count(),
+                                                 platform.processor() or platform.machine())]
+    print("\n".join(table))
     meta = {"command": "bench/drive_memory.py " + " ".join(sys.argv[1:]),
             "machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
             "rows": rows}
@@ -93,7 +145,9 @@ def main():
         json.dump(meta, f, indent=1)
     os.replace(a.out + ".tmp", a.out)
     if a.plot:
-        plot(rows, a.plot)
+        plot([r for r in rows if r["cores"] == rows[0]["cores"]], a.plot)
+    if a.doc:
+        put_table(a.doc, table)
 
 
 if __name__ == "__main__":

@@ -194,7 +194,9 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
                  retired, map_file.c_str());
   }
   const LabelledPoints& test = res.held_out;
+  const double write_s = seconds_since(t_out);
   const std::vector<float> prob = probability_by_columns(ctx, map, test.position);
+  const double scored_s = seconds_since(t_out);
   const Scores sc = score(prob, test.label);
 
   DriveOutputOptions oo = output_options(a);
@@ -229,6 +231,9 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
   }
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
+  j["outputs_phases_s"] = {{"map_file", write_s},
+                           {"scores", scored_s - write_s},
+                           {"volume_and_band", output_s - scored_s}};
   j["device"] = ctx.info().summary();
   j["sums_on_device"] = mapper.learner().last_stats().sums_on_device;
   j["outputs"] = outs.json;
