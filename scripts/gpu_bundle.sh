@@ -7,6 +7,9 @@
 #
 # GDAL's hundred-odd libraries would triple the bundle, so the test program travels relinked
 # without the GeoTIFF writer (its tests are filtered out there) and libpotmap_gdal stays behind.
+# The device takes 64 MiB: the shared data travels but for hku-2 and riverside-a past its first
+# 60 keyframes (a drive folder cut there is still a drive; the tests that count its 281
+# keyframes are filtered out there too).
 #
 # Usage: scripts/gpu_bundle.sh [build] [POT dictionary cache folder, as bench/pot_scale's --cache]
 set -euo pipefail
@@ -31,7 +34,16 @@ for b in "$dev"/stage/bin/*; do ldd "$b" | awk '$3 ~ /^\// {print $1, $3}'; done
   while read -r name path; do cp -L "$path" "$dev/stage/lib/$name"; done
 tar -C "$dev/stage" -cf - bin lib | xz -T0 -6 >"$dev/bundle.tar.xz"
 rm -rf "$dev/stage"
-cp -r "$root/../shared/data" "$dev/shared/"
+mkdir -p "$dev/shared/data/drives3d/riverside-a/Scans"
+for d in "$root"/../shared/data/*; do
+  [[ $(basename "$d") == drives3d ]] || cp -r "$d" "$dev/shared/data/"
+done
+cp -r "$root/../shared/data/drives3d/hku-1" "$dev/shared/data/drives3d/"
+river=$root/../shared/data/drives3d/riverside-a
+ls "$river/Scans" | sort | head -60 | while read -r f; do cp "$river/Scans/$f" "$dev/shared/data/drives3d/riverside-a/Scans/"; done
+for f in odom_poses.txt times.txt; do
+  [[ -f $river/$f ]] && head -60 "$river/$f" >"$dev/shared/data/drives3d/riverside-a/$f"
+done
 [[ -n $cache && -f $cache/town2_first10_200.potdict ]] && cp "$cache/town2_first10_200.potdict" "$dev/ps_cache/"
 cp "$root/scripts/gpu_check.sh" "$dev/"
 du -sh "$dev"

@@ -3,8 +3,9 @@
 # potmap's build (scripts/gpu_bundle.sh packs what it needs into .dev/; run this from the
 # checkout's root there): finds the driver's OpenCL library and registers it with the bundled
 # ICD loader, runs the test suite on the GPU (sharded), docs/performance.md's benchmarks, POT
-# at 200 atoms on town2 (pipelined and one scan at a time), the tuning sweep, and raster jobs end
-# to end. Every stage has its own limit inside BUDGET seconds (default 560); the log goes to
+# at 200 atoms on town2 (pipelined and one scan at a time), the 3D drive benchmarks (the joint
+# BHM against OctoMap per keyframe, and whole drives: the job against its keyframes' time), the
+# tuning sweep, and raster jobs end to end. Every stage has its own limit inside BUDGET seconds (default 560); the log goes to
 # $OUT/run.log and stdout, results (at most 8 files) to $OUT.
 # LOCAL_DRY=1 runs the same stages on this machine's default device (a check of the script).
 set -u -o pipefail
@@ -79,6 +80,7 @@ mkdir -p /tmp/kc /tmp/uc
 
 # 1. Correctness: the suite (less its GeoTIFF tests: GDAL does not travel) on the GPU, sharded.
 FILTER='-RasterTiles.*:RasterTilesCli.*:WriteFaults.RasterGeoTiffAndManifest:WriteFaults.RasterTiles'
+FILTER+=':DriveReader.IndexesTheRiversideDriveAsItIs:DriveReader.SummarisesBothSharedDrives'
 run_tests() {
   local n=${SHARDS:-12} i
   for i in $(seq 0 $((n - 1))); do
@@ -107,6 +109,13 @@ stage bench "${T_BENCH:-100}" build/bench/potmap_bench \
   '--benchmark_filter=^BM_(EvalPointsOpenCL/(1000|10000|100000)/(1000000|10000000)/|SinkhornOpenCL/(1|36|270|512)/200/0/|SinkhornOpenCL/(1|8)/1500/0/|SinkhornScan|PotOpenCL/atoms:200/rotations:8/refine:./candidates:0/indexed:1|BhmUpdate/(10000|50000)/0|AbhmStep)' \
   --benchmark_min_time=0.2 --benchmark_out="$OUT/bench_gpu.json" --benchmark_out_format=json 2>&1 |
   grep -E "^BM_|rror" | cut -c1-220
+
+# 2b. 3D drives on the GPU: the joint BHM (sums on the device) against OctoMap, keyframes 10-29 at
+# both cuts, then whole drives as users run them (riverside-a: its first 60 keyframes travel).
+stage drive3d "${T_DRIVE:-110}" python3 bench/drive3d.py --build build --drives riverside-a,hku-1 \
+  --methods ogm,bhm --mapping bhm --out /tmp/drive3d_gpu.json 2>&1 | grep -E "^\||rror"
+stage drive_job "${T_DRIVE_JOB:-90}" python3 bench/drive_memory.py --build build \
+  --drives hku-1,riverside-a --out /tmp/drive_job_gpu.json 2>&1 | grep -E "^\||Device|rror"
 
 # 3. POT per scan, town2, 200 atoms (the issue's row), pipelined and one scan at a time.
 stage pot_scale "${T_POT:-70}" build/bench/pot_scale --target town2 --atoms 200 \
