@@ -9,7 +9,6 @@
 #include <string>
 
 #include "map/evaluator_impl.hpp"
-#include "map/split_float.hpp"
 #include "potmap/error.hpp"
 #include "potmap/map/voxel_blocks.hpp"
 
@@ -57,40 +56,47 @@ void MapEvaluator::Impl::run_blocks(const VoxelBlocks& blocks, float* out_v, flo
   std::snprintf(defs, sizeof defs, "-DTAU=%#.9gf -cl-denorms-are-zero", opt.tau);
   KernelLease lease = ctx->lend_kernel("map/blocks", "map_blocks", defs);
 
-  std::vector<std::uint32_t> start, flat, scratch;
-  std::vector<float> corner_hi, corner_lo;
+  std::vector<std::uint32_t> start, scratch;
+  std::vector<float> ex, ey, ez, eg, ewm, ewv;
   for (std::size_t b0 = 0; b0 < n; b0 += per_launch) {
     const std::size_t nb = std::min(n, b0 + per_launch) - b0;
     start.assign(1, 0);
-    flat.clear();
-    corner_hi.resize(3 * nb);
-    corner_lo.resize(3 * nb);
+    for (auto* v : {&ex, &ey, &ez, &eg, &ewm, &ewv}) v->clear();
     for (std::size_t b = 0; b < nb; ++b) {
       double lo[3], hi[3];
       centre_box(blocks, b0 + b, lo, hi);
       scratch.clear();
       index.query_box(lo, hi, scratch);
-      flat.insert(flat.end(), scratch.begin(), scratch.end());
-      start.push_back(static_cast<std::uint32_t>(flat.size()));
-      for (int d = 0; d < 3; ++d)
-        detail::split(blocks.corner(b0 + b, d) - anchor[d], corner_hi[3 * b + d],
-                      corner_lo[3 * b + d]);
+      const double c[3] = {blocks.corner(b0 + b, 0), blocks.corner(b0 + b, 1),
+                           blocks.corner(b0 + b, 2)};
+      for (std::uint32_t k : scratch) {
+        ex.push_back(static_cast<float>(c[0] - map.position[3 * k]));
+        ey.push_back(static_cast<float>(c[1] - map.position[3 * k + 1]));
+        ez.push_back(static_cast<float>(c[2] - map.position[3 * k + 2]));
+        eg.push_back(static_cast<float>(map.gamma[k]));
+        ewm.push_back(static_cast<float>(map.w_mean[k]));
+        ewv.push_back(static_cast<float>(map.w_var[k]));
+      }
+      start.push_back(static_cast<std::uint32_t>(ex.size()));
     }
-    if (flat.empty()) flat.push_back(0);  // a buffer is never empty
+    if (ex.empty())  // a buffer is never empty
+      for (auto* v : {&ex, &ey, &ez, &eg, &ewm, &ewv}) v->push_back(0.f);
     last_pairs += std::size_t(start.back()) * VoxelBlocks::kVoxels;
 
     const std::size_t cells = nb * VoxelBlocks::kVoxels;
     detail::BatchedReads reads(q);  // after the vectors it reads: see its comment
-    bc::buffer& b_hi = g_row_hi.put(cx, q, corner_hi);
-    bc::buffer& b_lo = g_row_lo.put(cx, q, corner_lo);
+    bc::buffer& b_x = blk_x.put(cx, q, ex);
+    bc::buffer& b_y = blk_y.put(cx, q, ey);
+    bc::buffer& b_z = blk_z.put(cx, q, ez);
+    bc::buffer& b_g = blk_g.put(cx, q, eg);
+    bc::buffer& b_wm = blk_wm.put(cx, q, ewm);
+    bc::buffer& b_wv = blk_wv.put(cx, q, ewv);
     bc::buffer& b_start = g_start.put(cx, q, start);
-    bc::buffer& b_list = g_list.put(cx, q, flat);
     bc::buffer& b_v = out_var.get(cx, cells * 4);
     bc::buffer& b_p = out_prob.get(cx, cells * 4);
     bc::buffer& b_s = out_mean.get(cx, cells * 4);  // the support in the mean's buffer
-    detail::set_kernel_args(*lease, "map_blocks", kpos_hi, kpos_lo, kpar, b_hi, b_lo,
-                            static_cast<float>(blocks.voxel), b_start, b_list, bias_mean, bias_var,
-                            b_v, b_p, b_s);
+    detail::set_kernel_args(*lease, "map_blocks", b_x, b_y, b_z, b_g, b_wm, b_wv, b_start,
+                            static_cast<float>(blocks.voxel), bias_mean, bias_var, b_v, b_p, b_s);
     detail::enqueue_1d(q, *lease, "map_blocks", nb * kItemsPerBlock, kItemsPerBlock);
     float* const dsts[3] = {out_v, out_p, out_s};
     bc::buffer* const bufs[3] = {&b_v, &b_p, &b_s};

@@ -45,6 +45,11 @@ struct MapEvaluator::Impl {
   detail::GrowBuffer b_level_slot{"evaluator: band level slots"},
       b_band_mean{"evaluator: band mean output"}, b_band_var{"evaluator: band variance output"},
       b_band_prob{"evaluator: band probability output"};
+  // Block path: each block's kernels as entries (corner less centre, gamma, weight).
+  detail::GrowBuffer blk_x{"evaluator: block entries (x)"}, blk_y{"evaluator: block entries (y)"},
+      blk_z{"evaluator: block entries (z)"}, blk_g{"evaluator: block entries (gamma)"},
+      blk_wm{"evaluator: block entries (weight mean)"},
+      blk_wv{"evaluator: block entries (weight variance)"};
   // Device path: per-cell kernel lists, built on first use.
   bool cells_built = false;
   double cell_size = 0;
