@@ -79,7 +79,7 @@ def run_mapping(build, drive, cut, keyframes, source, method):
     out = tempfile.mkdtemp()
     cmd = [os.path.join(build, "tools", "potmap"), "mapping", os.path.join(DRIVES, drive),
            "--method", method, "--range-cut", str(cut), "--first", str(source), "--max-scans",
-           str(keyframes - source), "--checkpoint-every", "0", "-q", "-o", out, "--json", "-"]
+           str(keyframes - source), "--checkpoint-every", "0", "--checkpoint-seconds", "0", "-q", "-o", out, "--json", "-"]
     print("bench/drive3d.py:", " ".join(cmd[1:]), file=sys.stderr, flush=True)
     done = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True)
     subprocess.run(["rm", "-rf", out], check=True)

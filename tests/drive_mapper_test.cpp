@@ -73,6 +73,8 @@ TEST(DriveMapper, ASavedStateContinuesBitForBit) {
   ASSERT_GT(a.learner().retired_tiles(), 0u);
   const std::string path = test::temp_dir("drive-mapper-state") + "/s.potdrv";
   b.save_state(path, "run record");
+  EXPECT_TRUE(test::file_bytes(path) ==
+              b.state_bytes("run record"));  // what a writer thread writes
   DriveMapper c(o);
   EXPECT_EQ(c.load_state(path), "run record");
   EXPECT_EQ(DriveMapper::state_extra(path), "run record");
@@ -82,6 +84,8 @@ TEST(DriveMapper, ASavedStateContinuesBitForBit) {
     c.add(k, std::int64_t(i));
   }
   test::expect_same_map(a.map(), c.map());
+  // The map polished on a context's host team and every core is the same, bit for bit.
+  test::expect_same_map(a.map(), a.map(&test::context()));
   EXPECT_EQ(a.held_out().position, c.held_out().position);
   // Other options: refused, naming the file.
   DriveMapperOptions other = o;

@@ -171,7 +171,7 @@ TEST(DriveMappingCli, ExportsWhileMappingLeaveTheFinalFilesAsTheyAre) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string drive = test::quoted(test::shared_data("drives3d/hku-1"));
   const std::string a = test::temp_dir("drive-export-a"), b = test::temp_dir("drive-export-b");
-  const std::string common = " --max-scans 7 --voxel 0.5 --checkpoint-every 0";
+  const std::string common = " --max-scans 7 --voxel 0.5 --checkpoint-seconds 0";
   ASSERT_EQ(test::run_cli("mapping " + drive + common + " -q -o " + test::quoted(a)).status, 0);
   const test::CliResult r =
       test::run_cli("mapping " + drive + common + " --export-every 3 -o " + test::quoted(b));

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "potmap/runtime/context.hpp"
+#include "runtime/host_team.hpp"
 #include "test_support.hpp"
 
 using namespace potmap;
@@ -55,6 +56,29 @@ TEST(HostParallel, EveryItemOnceAndTheHelperTakesPart) {
 // The caller takes items from the front and the helper from the back, so each keeps its end
 // of the range from one run to the next (the joint BHM's two parts stay on their cores): the
 // caller's items are a prefix (empty when the helper took them all), the helper's the rest.
+TEST(HostParallel, OnEveryCoreEachItemRunsOnceAndTheFirstErrorComesBack) {
+  std::vector<std::atomic<int>> runs(1000);
+  std::mutex m;
+  std::set<std::thread::id> threads;
+  detail::for_each_on_cores(runs.size(), [&](std::size_t i) {
+    busy_for(20);
+    runs[i].fetch_add(1);
+    const std::lock_guard<std::mutex> lock(m);
+    threads.insert(std::this_thread::get_id());
+  });
+  for (const auto& r : runs) EXPECT_EQ(r.load(), 1);
+  EXPECT_EQ(threads.size() > 1, std::thread::hardware_concurrency() > 1);  // every core helps
+  std::atomic<int> done{0};
+  EXPECT_THROW(detail::for_each_on_cores(50,
+                                         [&](std::size_t i) {
+                                           done.fetch_add(1);
+                                           if (i % 10 == 3) throw std::runtime_error("item");
+                                         }),
+               std::runtime_error);
+  EXPECT_EQ(done.load(), 50);  // the other items still ran
+  detail::for_each_on_cores(0, [](std::size_t) { FAIL(); });
+}
+
 TEST(HostParallel, TheCallerTakesTheFrontAndTheHelperTheBack) {
   Context& ctx = test::context();
   const auto caller = std::this_thread::get_id();

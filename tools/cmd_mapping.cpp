@@ -247,7 +247,13 @@ void register_mapping(CLI::App& app, Runner& runner) {
       ->check(CLI::IsMember({"auto", "host", "device"}))
       ->capture_default_str();
   cmd->add_option("--checkpoint-every", a->drive.checkpoint_every,
-                  "3D drives: write DIR/map.ckpt after every N keyframes (0: never)")
+                  "3D drives: write DIR/map.ckpt after every N keyframes (default 0: not by "
+                  "count)")
+      ->capture_default_str();
+  cmd->add_option("--checkpoint-seconds", a->drive.checkpoint_seconds,
+                  "3D drives: and when T seconds have passed since the last one (default 30; 0: "
+                  "not by time). With both 0 no checkpoint is written")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_option("--export-every", a->drive.export_every,
                   "3D drives: also write DIR/map.bt, map_occupied.ply and the band's files of the "

@@ -1,5 +1,7 @@
 #include "drive_checkpoint.hpp"
 
+#include "progress.hpp"
+
 #include <algorithm>
 #include <filesystem>
 
@@ -43,8 +45,17 @@ nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
   return r;
 }
 
-void write_drive_checkpoint(const std::string& path, const DriveRun& run, const DriveMapper& mapper,
-                            std::size_t next) {
+DriveCheckpoints::~DriveCheckpoints() {
+  if (pending_.valid()) pending_.wait();
+}
+
+void DriveCheckpoints::wait() {
+  if (pending_.valid()) pending_.get();
+}
+
+void DriveCheckpoints::write(const std::string& path, const DriveRun& run,
+                             const DriveMapper& mapper, std::size_t next) {
+  wait();
   const nlohmann::json extra = {{"record", run.record},          {"next", next},
                                 {"keyframes", run.keyframes},    {"label_ms", run.label_ms},
                                 {"update_ms", run.update_ms},    {"transfer_ms", run.transfer_ms},
@@ -52,7 +63,9 @@ void write_drive_checkpoint(const std::string& path, const DriveRun& run, const 
                                 {"positions", run.positions},    {"memory_mb", run.memory_mb},
                                 {"keyframe_ms", run.keyframe_ms}};
   remove_stale_temporaries(path);
-  mapper.save_state(path, extra.dump());
+  pending_ = std::async(std::launch::async, [path, bytes = mapper.state_bytes(extra.dump())] {
+    write_text_atomically(path, bytes);
+  });
 }
 
 std::size_t read_drive_checkpoint(const std::string& path, DriveRun& run, DriveMapper& mapper) {

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstddef>
+#include <future>
 #include <string>
 #include <vector>
 
@@ -31,9 +32,27 @@ struct DriveRun {
 nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
                                 const DriveMapperOptions& options);
 
-/// Writes the mapper and the run to `path`; `next` is the first keyframe not yet mapped.
-void write_drive_checkpoint(const std::string& path, const DriveRun& run, const DriveMapper& mapper,
-                            std::size_t next);
+/// Checkpoints written beside the mapping: the mapper's state and the run are copied into bytes
+/// at once (the mapper goes on), and the file is written, synced and renamed into place on a
+/// thread of its own, one at a time (a state of a city drive's mapper is a few hundred MB: the
+/// disk took about as long as a keyframe, every checkpoint).
+class DriveCheckpoints {
+ public:
+  DriveCheckpoints() = default;
+  DriveCheckpoints(const DriveCheckpoints&) = delete;
+  DriveCheckpoints& operator=(const DriveCheckpoints&) = delete;
+  /// Waits for a write still going (an interrupted run keeps its checkpoint whole).
+  ~DriveCheckpoints();
+  /// Waits for the previous write (rethrowing its error), then starts writing the mapper and
+  /// the run to `path`; `next` is the first keyframe not yet mapped.
+  void write(const std::string& path, const DriveRun& run, const DriveMapper& mapper,
+             std::size_t next);
+  /// Waits for the write going, if any; rethrows its error.
+  void wait();
+
+ private:
+  std::future<void> pending_;
+};
 
 /// Restores `mapper` and `run` from `path` (written by the same command and options: throws
 /// ArgumentError naming each option that differs) and returns the next keyframe.

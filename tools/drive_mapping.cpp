@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iostream>
 
 #include "commands.hpp"
@@ -163,7 +164,7 @@ void export_so_far(const DriveMappingArgs& a, const std::string& dir, DriveMappe
   const auto t0 = std::chrono::steady_clock::now();
   DriveOutputOptions oo = output_options(a);
   oo.progress = [](double) { stop_if_interrupted(); };
-  const KernelMap map = mapper.map();
+  const KernelMap map = mapper.map(&ctx);
   const DriveOutputs outs =
       write_drive_outputs(ctx, map, run.positions, (fs::path(dir) / "map").string(), oo);
   std::fprintf(
@@ -184,17 +185,22 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
   // The information form (for `potmap merge`) only where it is whole: a retired tile's
   // couplings went into its neighbours' information vector.
   const std::size_t retired = res.learner.retired_tiles();
-  if (retired == 0) {
-    write_joint_bhm_map(res.learner, map_file, &map);
-  } else {
-    write_map(map, map_file);
+  if (retired > 0)
     std::fprintf(human,
                  "note           %zu tiles were retired: %s holds no information form and "
                  "cannot be merged (--keep-tiles keeps them)\n",
                  retired, map_file.c_str());
-  }
+  // The map file (hundreds of MB for a city drive: a copy, a CRC and the disk) is written
+  // beside the scoring and the volume, which keep the device busy.
+  auto map_written = std::async(std::launch::async, [&] {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (retired == 0)
+      write_joint_bhm_map(res.learner, map_file, &map);
+    else
+      write_map(map, map_file);
+    return seconds_since(t0);
+  });
   const LabelledPoints& test = res.held_out;
-  const double write_s = seconds_since(t_out);
   const std::vector<float> prob = probability_by_columns(ctx, map, test.position);
   const double scored_s = seconds_since(t_out);
   const Scores sc = score(prob, test.label);
@@ -206,6 +212,7 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
   };
   const DriveOutputs outs =
       write_drive_outputs(ctx, map, run.positions, (fs::path(dir) / "map").string(), oo);
+  const double write_s = map_written.get();
   const double output_s = seconds_since(t_out);
 
   const std::size_t n = run.keyframes;
@@ -231,9 +238,8 @@ int write_drive_results(const DriveMappingArgs& a, const Drive& drive, const Dri
   }
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
-  j["outputs_phases_s"] = {{"map_file", write_s},
-                           {"scores", scored_s - write_s},
-                           {"volume_and_band", output_s - scored_s}};
+  j["outputs_phases_s"] = {
+      {"map_file_beside", write_s}, {"scores", scored_s}, {"volume_and_band", output_s - scored_s}};
   j["device"] = ctx.info().summary();
   j["sums_on_device"] = mapper.learner().last_stats().sums_on_device;
   j["outputs"] = outs.json;
@@ -253,6 +259,7 @@ DriveMappingArgs rank_args(DriveMappingArgs a, const MappingRanks& ranks) {
         "checkpoints");
   a.keep_tiles = true;
   a.checkpoint_every = 0;
+  a.checkpoint_seconds = 0;
   return a;
 }
 
@@ -275,8 +282,9 @@ int run_drive_mapping(const DriveMappingArgs& args, const std::string& device,
   if (ranks.rank() == 0) {
     fs::create_directories(dir);
     // What runs killed outright (SIGKILL, a power cut) left while writing.
-    for (const char* f : {"map.potmap", "map.bt", "map_occupied.ply", "map_band_prob.png",
-                          "map_band_var.png", "map_band.yaml", "map_band.pgm", "scores.json"})
+    for (const char* f :
+         {"map.ckpt", "map.potmap", "map.bt", "map_occupied.ply", "map_band_prob.png",
+          "map_band_var.png", "map_band.yaml", "map_band.pgm", "scores.json"})
       remove_stale_temporaries((fs::path(dir) / f).string());
   }
   std::FILE* human = a.json == "-" || ranks.rank() > 0 ? stderr : stdout;
@@ -319,21 +327,35 @@ int run_drive_mapping(const DriveMappingArgs& args, const std::string& device,
   progress.total = part.end - at;
   progress.quiet = a.quiet;
   progress.bar = terminal_progress("mapping");
+  // The next keyframe is read (a file parsed) on another thread while this one is mapped.
+  auto read_ahead = [&drive](std::size_t i) {
+    return std::async(std::launch::async, [&drive, i] { return read_keyframe(drive, i); });
+  };
+  std::future<Scan> next = at < part.end ? read_ahead(at) : std::future<Scan>();
+  DriveCheckpoints checkpoints;
+  auto last_checkpoint = std::chrono::steady_clock::now();
   for (std::size_t i = at; i < part.end; ++i) {
-    const Scan kf = read_keyframe(drive, i);
+    const Scan kf = next.get();
+    if (i + 1 < part.end) next = read_ahead(i + 1);
     stop_if_interrupted();
     const KeyframeStats st = mapper.add(kf, std::int64_t(i), &ctx);
     run.add(st, drive.poses[i]);
     progress.step(i, st);
-    if (a.checkpoint_every && (i + 1 - a.first) % a.checkpoint_every == 0 && i + 1 < end)
-      write_drive_checkpoint(ckpt, run, mapper, i + 1);
+    const bool by_count = a.checkpoint_every && (i + 1 - a.first) % a.checkpoint_every == 0;
+    const bool by_time =
+        a.checkpoint_seconds > 0 && seconds_since(last_checkpoint) >= a.checkpoint_seconds;
+    if ((by_count || by_time) && i + 1 < end) {
+      checkpoints.write(ckpt, run, mapper, i + 1);
+      last_checkpoint = std::chrono::steady_clock::now();
+    }
     if (a.export_every && ranks.size() == 1 && (i + 1 - a.first) % a.export_every == 0 &&
         i + 1 < end)
       export_so_far(a, dir, mapper, ctx, run, human);
   }
+  checkpoints.wait();  // before the run's end removes the checkpoint
   const double mapping_s = seconds_since(t_run);
   if (ranks.size() == 1) {
-    const KernelMap map = mapper.map();
+    const KernelMap map = mapper.map(&ctx);
     return write_drive_results(a, drive, mapper, ctx,
                                {mapper.learner(), map, mapper.held_out(), run, nullptr}, mapping_s);
   }

@@ -23,7 +23,12 @@ struct DriveMappingArgs {
   double band_low = -1.0, band_high = 0.5;  ///< metres about the sensor's height
   double picture_res = 0, voxel_out = 0.4;  ///< metres (0: automatic)
   std::size_t picture_pixels = 1200;        ///< along the longer side (as 2D mapping's pictures)
-  std::size_t checkpoint_every = 25;        ///< keyframes (0: no checkpoints)
+  /// A checkpoint after every N keyframes (0: not by count) and when this many seconds have
+  /// passed since the last (0: not by time); with both 0 none. As `potmap map`'s: a drive
+  /// mapper's state is 100-200 MB, so a count of keyframes alone would copy it every second
+  /// on a drive mapped at 50 keyframes a second.
+  std::size_t checkpoint_every = 0;
+  double checkpoint_seconds = 30;
   /// Keyframes between exports of the map so far while the drive goes on (0: only at the end).
   std::size_t export_every = 0;
   std::size_t transfer_every = 4;  ///< RePOT: keyframes between transfers

@@ -146,7 +146,7 @@ potmap_status potmap_drive_mapper_map(const potmap_drive_mapper* mapper, potmap_
     const potmap_drive_mapper& h = checked(mapper);
     require(out, "out");
     auto m = std::make_unique<potmap_map>();
-    m->map = h.mapper->map();
+    m->map = h.mapper->map(h.ctx.get());
     *out = m.release();
   });
 }

@@ -28,6 +28,15 @@ void ContainerWriter::patch_u64(std::size_t at, std::uint64_t v) {
 }
 
 std::uint32_t ContainerWriter::finish(const std::string& path) {
+  const std::string bytes = finish_bytes();
+  write_file_atomically(path, bytes);
+  return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[bytes.size() - 4])) |
+         static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[bytes.size() - 3])) << 8 |
+         static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[bytes.size() - 2])) << 16 |
+         static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[bytes.size() - 1])) << 24;
+}
+
+std::string ContainerWriter::finish_bytes() {
   if (layout_.size_field != ContainerLayout::kNoSizeField) {
     std::string total;
     put_u64(total, out_.size() + kCrcBytes);
@@ -36,8 +45,7 @@ std::uint32_t ContainerWriter::finish(const std::string& path) {
   const std::uint32_t crc =
       crc32_of(reinterpret_cast<const unsigned char*>(out_.data()), out_.size());
   put_u32(out_, crc);
-  write_file_atomically(path, out_);
-  return crc;
+  return std::move(out_);
 }
 
 ContainerReader::ContainerReader(const std::string& path, const ContainerLayout& layout)

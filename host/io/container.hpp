@@ -56,6 +56,9 @@ class ContainerWriter {
   /// Writes the file; returns its CRC-32 (the trailer), so that a caller keeping a record of
   /// the file need not read it back.
   std::uint32_t finish(const std::string& path);
+  /// The file's bytes (size field and CRC trailer filled in) instead of the file: a caller
+  /// writes them later, on another thread. The writer is then empty.
+  std::string finish_bytes();
 
  private:
   const ContainerLayout& layout_;

@@ -12,6 +12,7 @@
 #include "bhm_joint_grid.hpp"
 #include "map/kernel_index.hpp"
 #include "potmap/error.hpp"
+#include "runtime/host_team.hpp"
 
 namespace potmap {
 
@@ -137,16 +138,16 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
   return seeded;
 }
 
-KernelMap JointBhm::map() const {
-  if (!behind()) return map_current();
+KernelMap JointBhm::map(Context* ctx) const {
+  if (!behind()) return map_current(ctx);
   // Forgetting: the tiles no scan has faded to now, faded on a copy (the learner's state is
   // left as it is, as the polish below leaves it).
   JointBhm now = *this;
   now.catch_up();
-  return now.map_current();
+  return now.map_current(ctx);
 }
 
-KernelMap JointBhm::map_current() const {
+KernelMap JointBhm::map_current(Context* ctx) const {
   // Polish the means over every kernel a sample or a seed reached, on a copy.
   std::vector<std::uint32_t> rows;
   for (std::size_t a = 0; a < touched_.size(); ++a)
@@ -155,20 +156,26 @@ KernelMap JointBhm::map_current() const {
   double meanb = meanb_;
   if (!rows.empty()) {
     Scratch sc;
-    solve(rows, mean, meanb, 1e-8, 4 * o_.cg_max_iterations, nullptr, sc);
+    const detail::HelperHold hold(ctx);
+    solve(rows, mean, meanb, 1e-8, 4 * o_.cg_max_iterations, nullptr, sc, false, ctx);
   }
-  // Variances of the tiles whose precision changed since the last export.
-  std::vector<double> scratch;
-  for (std::size_t t = 0; t < tiles_.size(); ++t) {
-    if (!tile_dirty_[t]) continue;
+  // Variances of the tiles whose precision changed since the last export: a small dense solve
+  // a kernel, each tile's on its own, so on every core (the same values on any number).
+  std::vector<std::size_t> dirty;
+  for (std::size_t t = 0; t < tiles_.size(); ++t)
+    if (tile_dirty_[t]) dirty.push_back(t);
+  detail::for_each_on_cores(dirty.size(), [&](std::size_t u) {
+    thread_local std::vector<double> tile_scratch;
+    const std::size_t t = dirty[u];
     for (std::int64_t l = 0; l < tile_cells_; ++l) {
       const auto s = static_cast<std::uint32_t>(std::int64_t(t) * tile_cells_ + l);
       std::int64_t g[3];
       cell_of(s, g);
-      var_[s] = in_grid(g) ? exported_var(g, s, scratch) : o_.prior_var;
+      var_[s] = in_grid(g) ? exported_var(g, s, tile_scratch) : o_.prior_var;
     }
     tile_dirty_[t] = 0;
-  }
+  });
+  std::vector<double> scratch;
   KernelMap m;
   m.dim = dim_;
   m.reserve(size());

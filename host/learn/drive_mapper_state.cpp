@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "io/container_cursor.hpp"
+#include "io/file_util.hpp"
 #include "learn/bhm_joint_state.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/drive_mapper.hpp"
@@ -61,6 +62,10 @@ std::uint64_t options_fingerprint(const DriveMapperOptions& o) {
 }  // namespace
 
 void DriveMapper::save_state(const std::string& path, const std::string& extra) const {
+  detail::write_file_atomically(path, state_bytes(extra));
+}
+
+std::string DriveMapper::state_bytes(const std::string& extra) const {
   detail::ContainerWriter w(kLayout);
   w.u32(0);
   w.u64(0);  // the file size: filled in by finish()
@@ -76,7 +81,7 @@ void DriveMapper::save_state(const std::string& path, const std::string& extra) 
   detail::JointBhmState::write_retired(w, learner_);
   detail::JointBhmState::write_data_ids(w, learner_);
   detail::JointBhmState::write_clock(w, learner_);
-  w.finish(path);
+  return w.finish_bytes();
 }
 
 std::string DriveMapper::state_extra(const std::string& path) {

@@ -1,7 +1,9 @@
 // The host fork-join team (host_team.hpp).
 #include "host_team.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <vector>
 
 #include "potmap/runtime/context.hpp"
 
@@ -139,6 +141,27 @@ void for_each_item(Context* ctx, std::size_t n, const std::function<void(std::si
     } catch (...) {
       if (!first) first = std::current_exception();
     }
+  if (first) std::rethrow_exception(first);
+}
+
+void for_each_on_cores(std::size_t n, const std::function<void(std::size_t)>& fn) {
+  const std::size_t threads =
+      std::min<std::size_t>({n, std::max(1u, std::thread::hardware_concurrency()), 64});
+  std::atomic<std::size_t> next{0};
+  std::mutex m;
+  std::exception_ptr first;
+  auto work = [&] {
+    for (std::size_t i; (i = next.fetch_add(1)) < n;) try {
+        fn(i);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(m);
+        if (!first) first = std::current_exception();
+      }
+  };
+  std::vector<std::thread> team;
+  for (std::size_t t = 1; t < threads; ++t) team.emplace_back(work);
+  work();
+  for (std::thread& t : team) t.join();
   if (first) std::rethrow_exception(first);
 }
 

@@ -65,6 +65,12 @@ class HostTeam {
 /// ctx->host_parallel_for(n, fn), or every item on this thread when ctx is null.
 void for_each_item(Context* ctx, std::size_t n, const std::function<void(std::size_t)>& fn);
 
+/// fn(i) for every i in [0, n) on every core of the host (threads started for the call, the
+/// calling thread among them; items taken in turn), for long jobs of many independent items
+/// where no Context is at hand (a map's export). Returns when all are done; the first exception
+/// an item throws is rethrown (the other items still run). Small n runs on this thread.
+void for_each_on_cores(std::size_t n, const std::function<void(std::size_t)>& fn);
+
 /// Context::hold_host_helper() for a scope (nothing when ctx is null).
 class HelperHold {
  public:

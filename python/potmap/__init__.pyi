@@ -465,8 +465,9 @@ class DriveMapper:
     def add(self, keyframe: Scan, index: int, ctx: Context = None) -> KeyframeStats:
         """Adds a 3D Scan (world frame) as keyframe `index` (which seeds its labelling)."""
         ...
-    def map(self) -> KernelMap:
-        """The KernelMap of every keyframe so far (retired tiles included)."""
+    def map(self, ctx: Context = None) -> KernelMap:
+        """The KernelMap of every keyframe so far (retired tiles included); with ctx its
+        polishing solve runs on the context's host team (the same map)."""
         ...
     def save_map(self, path: str) -> None:
         """Writes the map (format by extension). Into a .potmap with no tile retired
@@ -616,7 +617,7 @@ class JointBhm:
         """Seeds the prior of kernels no sample reached from another KernelMap (RePOT).
         Returns the number seeded."""
         ...
-    def map(self) -> KernelMap:
+    def map(self, arg0: Context) -> KernelMap:
         """The KernelMap: posterior means, variances that reproduce the predictive variance
         at each centre, and the bias."""
         ...

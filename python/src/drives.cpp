@@ -204,12 +204,14 @@ void bind_drives(py::module_& m) {
           "Adds a 3D Scan (world frame) as keyframe `index` (which seeds its labelling).")
       .def(
           "map",
-          [](PyDriveMapper& d) {
+          [](PyDriveMapper& d, Context* ctx) {
             py::gil_scoped_release release;
             std::lock_guard<std::mutex> lock(*d.mu);
-            return d.m.map();
+            return d.m.map(ctx);
           },
-          "The KernelMap of every keyframe so far (retired tiles included).")
+          "ctx"_a = nullptr,
+          "The KernelMap of every keyframe so far (retired tiles included); with ctx its\n"
+          "polishing solve runs on the context's host team (the same map).")
       .def(
           "save_map",
           [](PyDriveMapper& d, const std::string& path) {

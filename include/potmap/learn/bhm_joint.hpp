@@ -216,7 +216,9 @@ class JointBhm {
   /// solve per kernel, are cached per tile and recomputed only for tiles whose precision
   /// changed since the last call. With half_life, the posterior at time(): tiles not yet
   /// faded to it are faded on a copy of the learner (catch_up() first avoids the copy).
-  KernelMap map() const;
+  /// `ctx`: the polishing solve's products run on its host team and the variances on every
+  /// core (the same map as without, bit for bit); null: the solve on the calling thread.
+  KernelMap map(Context* ctx = nullptr) const;
 
   /// Posterior mean and variance of the logit at n points (n * dim coordinates), exactly:
   /// phi^T P^-1 eta and phi^T P^-1 phi, by a sparse Cholesky factorisation of the whole
@@ -467,7 +469,7 @@ class JointBhm {
   // Whether some tile or retired tile has fading not applied.
   bool behind() const;
   // map() on a learner whose fading is applied.
-  KernelMap map_current() const;
+  KernelMap map_current(Context* ctx) const;
   void fold_retiring(const std::vector<std::uint8_t>& going);
   void compact(const std::vector<std::uint8_t>& going);
   void revive(std::uint32_t id, std::uint64_t key);

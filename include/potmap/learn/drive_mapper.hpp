@@ -123,8 +123,8 @@ class DriveMapper {
   /// host's) and the learner's update runs on its host team. Throws ArgumentError for a 2D scan.
   KeyframeStats add(const Scan& keyframe, std::int64_t index, Context* ctx = nullptr);
 
-  /// The map (JointBhm::map()).
-  KernelMap map() const { return learner_.map(); }
+  /// The map (JointBhm::map(): with `ctx`, polished on its host team, the same bits).
+  KernelMap map(Context* ctx = nullptr) const { return learner_.map(ctx); }
   /// The held-out samples kept (every test_stride-th of every keyframe's).
   const LabelledPoints& held_out() const { return test_; }
   const JointBhm& learner() const { return learner_; }
@@ -138,6 +138,9 @@ class DriveMapper {
   /// the caller's `extra` bytes (a run's record) to `path`, atomically: a mapper restored from
   /// it continues bit for bit as this one would.
   void save_state(const std::string& path, const std::string& extra = {}) const;
+  /// The bytes save_state() writes, for a caller that writes them itself (on another thread,
+  /// while the mapper goes on: `potmap mapping`'s checkpoints).
+  std::string state_bytes(const std::string& extra = {}) const;
   /// Restores a state that save_state() wrote with the same options; returns its extra bytes.
   /// Throws InputError naming the file and byte for a damaged file or one saved with other
   /// options (the mapper is then unchanged).
