@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "experiment_breakdown.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
@@ -249,7 +250,8 @@ experiment::PictureView Harness::picture_view(const MapTask& task) const {
 
 Record Harness::fit_and_score(const Method& m, const MapTask& task, const LabelledPoints& test,
                               bool figures, const std::string& case_label,
-                              const StructureReference* reference) {
+                              const StructureReference* reference,
+                              const experiment::SamplePlaces* places) {
   FittedMap f = m.fit(context(), task);
   Record r;
   r.method = m.name;
@@ -258,7 +260,9 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
   r.scans = task.train_scans.size();
   r.fit_s = f.fit_seconds;
   r.per_scan_ms = r.scans ? 1e3 * f.fit_seconds / double(r.scans) : NAN;
-  r.scores = experiment::score_map(f, test, &r.query_s);
+  const std::vector<double> prob = experiment::query_map(f, test, &r.query_s);
+  r.scores = potmap::score(prob, test.label);
+  if (places) r.breakdown = experiment::score_breakdown(prob, test, *places);
   r.info = f.info;
   if (reference) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -328,6 +332,11 @@ void Harness::run_case(const std::string& source_label,
   }
   const std::shared_ptr<const StructureReference> ref = ref_it->second;
   if (figs) compare_refs_[{source_label, target_label}] = ref;
+  // 3D tasks: where each held-out sample lies, for the scores' breakdown.
+  std::unique_ptr<experiment::SamplePlaces> places;
+  if (task.dim == 3)
+    places = std::make_unique<experiment::SamplePlaces>(
+        experiment::place_test_samples(target, lo, first_index, test));
   for (const Method& m : methods) {
     const std::string key = target_label + "\n" + std::to_string(seed) + "\n" + m.name;
     Record r;
@@ -336,8 +345,8 @@ void Harness::run_case(const std::string& source_label,
       r = hit->second.front();
     } else {
       r = fit_and_score(m, task, test, figs,
-                        m.uses_source ? source_label + "-" + target_label : target_label,
-                        ref.get());
+                        m.uses_source ? source_label + "-" + target_label : target_label, ref.get(),
+                        places.get());
       if (!m.uses_source) cache_[key] = {r};
       std::fprintf(stderr,
                    "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f F1 %.3f chamfer %.2f m  %.1f "
@@ -710,6 +719,7 @@ nlohmann::json run_json(const Record& r) {
   x["structure_tolerance_m"] = finite_or_null(r.structure_tolerance_m);
   x["structure_s"] = r.structure_s;
   x["info"] = r.info;
+  if (!r.breakdown.empty()) x["breakdown"] = breakdown_json(r.breakdown);
   return x;
 }
 
@@ -762,8 +772,9 @@ void Harness::finish(const std::string& spread) {
     chosen[key.first * sum.groups.size() + key.second] = cell.chosen;
   const nlohmann::json compare = write_compare_figures(sum.cases, sum.groups, chosen);
   const std::string text = table_text(experiment_, spread, sum, s_);
-  // With the JSON on stdout the table goes to stderr, so that stdout parses.
-  (s_.json == "-" ? std::cerr : std::cout) << text << std::flush;
+  const std::string bins = breakdown_text(records_);
+  // With the JSON on stdout the tables go to stderr, so that stdout parses.
+  (s_.json == "-" ? std::cerr : std::cout) << text << bins << std::flush;
 
   if (s_.json.empty()) return;
   nlohmann::json j;
@@ -779,6 +790,7 @@ void Harness::finish(const std::string& spread) {
   for (const Record& r : records_) runs.push_back(run_json(r));
   j["runs"] = runs;
   j["table_text"] = text;
+  j["breakdown_text"] = bins;
   if (s_.json == "-")
     std::cout << j.dump(1) << "\n";
   else

@@ -14,6 +14,7 @@
 #include "potmap/data/scan.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/experiments/figure_panels.hpp"
+#include "potmap/experiments/score_breakdown.hpp"
 #include "potmap/experiments/structure_score.hpp"
 #include "potmap/experiments/wavemap_method.hpp"
 
@@ -70,6 +71,8 @@ struct Record {
   std::size_t scans = 0;   ///< scans the method learned from
   double fit_s = 0, per_scan_ms = 0, query_s = 0;
   std::map<std::string, double> info;
+  /// Held-out scores by range, height and kind of sample (3D tasks; score_breakdown.hpp).
+  std::vector<experiment::BinScores> breakdown;
   std::vector<std::string> figures;
   /// Probability picture for the case's comparison figure (figure records only).
   std::shared_ptr<const experiment::Picture> picture;
@@ -129,12 +132,14 @@ class Harness {
   /// wavemap's methods (settings.wavemap_cells); an ArgumentError in builds without wavemap.
   void add_wavemap(std::vector<experiment::Method>& out) const;
   /// Fits and scores one method on one task (no caching); figures when `figures` is set; the
-  /// structural score against `reference` when it is not null.
+  /// structural score against `reference` when it is not null; the breakdown of the scores
+  /// when `places` (of the test samples) is not null.
   // The pictures' view of a task: 3D tasks top down over a height band about the sensors.
   experiment::PictureView picture_view(const experiment::MapTask& task) const;
   Record fit_and_score(const experiment::Method& m, const experiment::MapTask& task,
                        const LabelledPoints& test, bool figures, const std::string& case_label,
-                       const StructureReference* reference = nullptr);
+                       const StructureReference* reference = nullptr,
+                       const experiment::SamplePlaces* places = nullptr);
   /// The structural reference of a task (null for a task that is not 2D), with its picture
   /// when `picture` is set.
   std::shared_ptr<const StructureReference> make_reference(const experiment::MapTask& task,

@@ -202,13 +202,18 @@ Method abhm_method(const AbhmSetup& setup, const std::string& name) {
   return m;
 }
 
-Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query_seconds) {
+std::vector<double> query_map(const FittedMap& map, const LabelledPoints& test,
+                              double* query_seconds) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<double> prob(test.size());
   if (!test.empty()) map.query(test.position.data(), test.size(), prob.data(), nullptr);
   if (query_seconds) *query_seconds = seconds_since(t0);
   for (double& p : prob) p = std::min(1.0, std::max(0.0, p));  // float rounding past 1
-  return score(prob, test.label);
+  return prob;
+}
+
+Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query_seconds) {
+  return score(query_map(map, test, query_seconds), test.label);
 }
 
 }  // namespace potmap::experiment

@@ -270,6 +270,11 @@ Method pot_method(const PotSetup& setup, const std::string& name,
 /// A kernel map as a FittedMap (device evaluator when ctx is given, exact CPU sum otherwise).
 FittedMap kernel_fitted_map(Context* ctx, std::shared_ptr<const KernelMap> map);
 
+/// A fitted map's probabilities at labelled points, each in [0, 1]; query_seconds receives the
+/// wall time of the query.
+std::vector<double> query_map(const FittedMap& map, const LabelledPoints& test,
+                              double* query_seconds = nullptr);
+
 /// Scores a fitted map on labelled points; query_seconds receives the wall time of the query.
 Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query_seconds = nullptr);
 
