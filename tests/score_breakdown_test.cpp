@@ -96,6 +96,15 @@ TEST(ScoreBreakdown, PlacesTheHeldOutSamplesOfMakeTask) {
     // A past-cut free sample lies on a beam that runs out to the cut: the no-returns rise,
     // the cut returns at 60 m rise 1 m over 60 m.
     if (p.past_cut[i]) EXPECT_FALSE(test.label[i]);
+    // A free sample of a hit beam lies before its hit: closer to the sensor than the hit by
+    // its distance to it.
+    if (!test.label[i] && !p.past_cut[i]) {
+      ASSERT_TRUE(std::isfinite(p.to_hit[i]));
+      EXPECT_GT(p.to_hit[i], 0.0);
+      EXPECT_LT(p.to_hit[i], 40.0);
+    } else {
+      EXPECT_TRUE(std::isnan(p.to_hit[i]));
+    }
   }
   EXPECT_GT(kinds[SampleKind::ground_hit], 0u);
   EXPECT_GT(kinds[SampleKind::other_hit], 0u);
@@ -119,6 +128,7 @@ TEST(ScoreBreakdown, ScoresEachBinOnItsOwnSamples) {
   p.range = {5, 5, 35, 35};
   p.height = {-1.8, -1.0, 0.5, 3.0};
   p.past_cut = {0, 0, 0, 1};
+  p.to_hit = {NAN, 0.7, NAN, NAN};
   const std::vector<double> prob{0.9, 0.2, 0.4, 0.6};
   std::map<std::string, Scores> by;
   for (const BinScores& b : score_breakdown(prob, t, p)) by[b.axis + "/" + b.bin] = b.scores;
@@ -134,5 +144,8 @@ TEST(ScoreBreakdown, ScoresEachBinOnItsOwnSamples) {
   EXPECT_NEAR(by.at("kind/hit other").nll, -std::log(0.4), 1e-9);
   EXPECT_TRUE(std::isnan(by.at("kind/hit other").auc));
   EXPECT_EQ(by.at("kind@range/free (past cut) 30-40 m").n, 1u);
+  EXPECT_EQ(by.at("free to hit/0.5..1 m").n, 1u);
+  EXPECT_NEAR(by.at("free to hit/0.5..1 m").nll, -std::log(0.8), 1e-9);
+  EXPECT_EQ(by.count("free to hit/< 0.5 m"), 0u);
   EXPECT_THROW(score_breakdown({0.5}, t, p), ArgumentError);
 }

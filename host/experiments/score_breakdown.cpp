@@ -50,6 +50,7 @@ SamplePlaces place_test_samples(const std::vector<Scan>& scans, const LabelOptio
   out.range.resize(n);
   out.height.resize(n);
   out.past_cut.resize(n);
+  out.to_hit.assign(n, NAN);
   const int d = test.dim;
   std::size_t at = 0;
   auto fail = [](const std::string& why) {
@@ -78,6 +79,12 @@ SamplePlaces place_test_samples(const std::vector<Scan>& scans, const LabelOptio
         out.range[at] = std::hypot(p[0] - org[0], p[1] - org[1]);
         out.height[at] = d == 3 ? p[2] - org[2] : 0.0;
         out.past_cut[at] = !hit;
+        if (hit && j > 0) {
+          const double* h = &test.position[(at - j) * d];  // the beam's hit, first
+          double r2 = 0;
+          for (int k = 0; k < d; ++k) r2 += (p[k] - h[k]) * (p[k] - h[k]);
+          out.to_hit[at] = std::sqrt(r2);
+        }
       }
     }
   }
@@ -152,6 +159,10 @@ std::vector<BinScores> score_breakdown(const std::vector<double>& prob, const La
   for (SampleKind k : kinds)
     for (const std::string& r : ranges)
       order.emplace_back("kind@range", std::string(kind_name(k)) + " " + r);
+  const bool to_hit = places.to_hit.size() == n;
+  const std::vector<std::string> near = bin_names(o.to_hit_edges, true);
+  if (to_hit)
+    for (const std::string& b : near) order.emplace_back("free to hit", b);
   std::map<std::pair<std::string, std::string>, std::vector<std::size_t>> members;
   for (std::size_t i = 0; i < n; ++i) {
     const bool past = places.past_cut[i] != 0;
@@ -161,6 +172,9 @@ std::vector<BinScores> score_breakdown(const std::vector<double>& prob, const La
     members[{"height", heights[bin_index(places.height[i], o.height_edges, true)]}].push_back(i);
     members[{"kind", kind_name(k)}].push_back(i);
     members[{"kind@range", std::string(kind_name(k)) + " " + r}].push_back(i);
+    if (to_hit && k == SampleKind::free_of_hit && std::isfinite(places.to_hit[i]))
+      members[{"free to hit", near[bin_index(places.to_hit[i], o.to_hit_edges, true)]}].push_back(
+          i);
   }
   std::vector<BinScores> out;
   for (const auto& key : order) {

@@ -25,6 +25,9 @@ struct SamplePlaces {
   /// 1: a free sample of a beam with no return within the scan's range (a no-return, or a
   /// return beyond the cut); 0: a hit, or a free sample of a beam that ends in a hit.
   std::vector<std::uint8_t> past_cut;
+  /// Free samples of beams that end in a hit: their distance to that hit, metres; NaN for the
+  /// others. Empty: not known (the axis "free to hit" is left out).
+  std::vector<double> to_hit;
 };
 
 /// The held-out samples of make_task(scans, labels, test, margin, first_index) placed: walks
@@ -46,6 +49,9 @@ struct BreakdownOptions {
   /// Hits lower than this relative to the sensor count as ground (default -1.2 m: a car's roof
   /// sensor is 1.8 to 2 m above the road), the others as walls and objects.
   double ground_below = -1.2;
+  /// Bin edges of a free sample's distance to its beam's hit, metres (default 0.5, 1, 2, 4;
+  /// open at both ends): how the map reads the space just before a surface.
+  std::vector<double> to_hit_edges{0.5, 1, 2, 4};
 };
 
 /// What a sample is.
@@ -64,14 +70,15 @@ std::vector<std::string> bin_names(const std::vector<double>& edges, bool open_b
 
 /// The scores of the samples of one bin (NaN AUC where the bin holds one class).
 struct BinScores {
-  std::string axis;  ///< "range", "height", "kind", or "kind@range"
+  std::string axis;  ///< "range", "height", "kind", "kind@range" or "free to hit"
   std::string bin;   ///< the bin's name
   Scores scores;
 };
 
 /// Scores of `prob` (one per sample of `test`, in [0, 1]) in every bin: axis "range" (the
-/// range bins and "past cut"), "height", "kind", and "kind@range" (each kind per range bin;
-/// past-cut free samples by their own range). Empty bins are left out.
+/// range bins and "past cut"), "height", "kind", "kind@range" (each kind per range bin;
+/// past-cut free samples by their own range) and "free to hit" (free samples of beams that end
+/// in a hit, by their distance to it; when places.to_hit is given). Empty bins are left out.
 std::vector<BinScores> score_breakdown(const std::vector<double>& prob, const LabelledPoints& test,
                                        const SamplePlaces& places, const BreakdownOptions& o = {});
 
