@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "grid_queries.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
@@ -72,14 +73,7 @@ Method ogm_method(double resolution) {
     f.info["cell_m"] = resolution;
     f.info["leaves"] = double(grid->leaf_count());
     f.info["memory_mb"] = double(grid->memory_bytes()) / 1e6;
-    f.query = [grid](const double* pts, std::size_t n, double* prob, double* var) {
-      grid->probability(pts, n, prob);
-      if (var)
-        for (std::size_t i = 0; i < n; ++i) var[i] = std::numeric_limits<double>::quiet_NaN();
-    };
-    f.known = [grid](const double* pts, std::size_t n, std::uint8_t* known) {
-      grid->observed(pts, n, known);
-    };
+    detail::set_grid_queries(f, grid);
     return f;
   };
   return m;

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "../grid_queries.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap {
@@ -106,14 +107,7 @@ Method wavemap_method(const WavemapSetup& setup) {
     f.info["azimuth_span_deg"] = fov.azimuth_max - fov.azimuth_min;
     f.info["elevation_min_deg"] = fov.elevation_min;
     f.info["elevation_max_deg"] = fov.elevation_max;
-    f.query = [grid](const double* pts, std::size_t n, double* prob, double* var) {
-      grid->probability(pts, n, prob);
-      if (var)
-        for (std::size_t i = 0; i < n; ++i) var[i] = std::numeric_limits<double>::quiet_NaN();
-    };
-    f.known = [grid](const double* pts, std::size_t n, std::uint8_t* known) {
-      grid->observed(pts, n, known);
-    };
+    detail::set_grid_queries(f, grid);
     return f;
   };
   return m;
