@@ -617,9 +617,10 @@ class JointBhm:
         """Seeds the prior of kernels no sample reached from another KernelMap (RePOT).
         Returns the number seeded."""
         ...
-    def map(self, arg0: Context) -> KernelMap:
+    def map(self, ctx: Context = None) -> KernelMap:
         """The KernelMap: posterior means, variances that reproduce the predictive variance
-        at each centre, and the bias."""
+        at each centre, and the bias. With ctx its polishing solve runs on the context's
+        host team (the same map)."""
         ...
     def predict_exact(self, points: numpy.typing.ArrayLike) -> tuple:
         """(mean, var) of the logit at points by a sparse Cholesky factorisation: small maps."""
