@@ -39,7 +39,7 @@ def test_map_drive_equals_the_command_and_beats_the_grid(ctx, cli, tmp_path):
     p = kmap.evaluate(test.positions, ctx).prob
     s = potmap.score(p, test.labels)
     assert s.n == out["scores"]["n"]
-    # The command evaluates a 32 m column at a time: the same kernels, summed in another order.
+    # The command evaluates a 64 m column at a time: the same kernels, summed in another order.
     assert abs(s.auc - out["scores"]["auc"]) < 1e-4
     assert abs(s.nll - out["scores"]["nll"]) < 1e-4
     assert s.auc > 0.975  # measured 0.982 (OctoMap 0.2 m on this drive: 0.96)
