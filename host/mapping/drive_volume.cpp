@@ -99,6 +99,14 @@ struct Batch {
 
 // What the worker makes of the batches.
 struct Sinks {
+  Sinks(const VoxelBlocks& b, const DriveVolumeOptions& opt, double bias,
+        const std::vector<double>& path)
+      : blocks(b),
+        o(opt),
+        bias_var(bias),
+        height{path, kHeightStep, {}},
+        band(make_band(b)),
+        codes(b.size()) {}
   const VoxelBlocks& blocks;
   const DriveVolumeOptions& o;
   double bias_var;
@@ -296,9 +304,7 @@ DriveVolume export_drive_volume(Context& ctx, const KernelMap& map, const std::v
                                 const DriveVolumeOptions& o) {
   check(map, path, o);
   const VoxelBlocks blocks = blocks_holding_kernels(map, o.voxel);
-  Sinks sinks{
-      blocks, o, map.has_bias ? map.bias_var : 0.0, {path, kHeightStep, {}}, make_band(blocks)};
-  sinks.codes.resize(blocks.size());
+  Sinks sinks(blocks, o, map.has_bias ? map.bias_var : 0.0, path);
   volume_pass(ctx, map, blocks, sinks, o.progress);
   DriveVolume out;
   out.voxel = o.voxel;
