@@ -267,6 +267,7 @@ DriveMappingArgs rank_args(DriveMappingArgs a, const MappingRanks& ranks) {
 
 int run_drive_mapping(const DriveMappingArgs& args, const std::string& device,
                       MappingRanks& ranks) {
+  const InterruptScope interrupts;  // Ctrl-C: stop at the next keyframe, files whole
   const DriveMappingArgs a = rank_args(args, ranks);
   DriveOptions dopt;
   dopt.poses = a.poses;

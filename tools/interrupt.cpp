@@ -16,9 +16,15 @@ extern "C" void on_signal(int sig) {
 
 }  // namespace
 
-void catch_interrupts() {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+InterruptScope::InterruptScope() {
+  g_signal = 0;
+  previous_[0] = std::signal(SIGINT, on_signal);
+  previous_[1] = std::signal(SIGTERM, on_signal);
+}
+
+InterruptScope::~InterruptScope() {
+  std::signal(SIGINT, previous_[0] == SIG_ERR ? SIG_DFL : previous_[0]);
+  std::signal(SIGTERM, previous_[1] == SIG_ERR ? SIG_DFL : previous_[1]);
 }
 
 void stop_if_interrupted() {

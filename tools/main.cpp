@@ -37,7 +37,6 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  potmap::cli::catch_interrupts();
   try {
     return runner.run();
   } catch (const potmap::cli::Interrupted&) {
