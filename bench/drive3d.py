@@ -51,6 +51,8 @@ import subprocess
 import sys
 import tempfile
 
+from marked_doc import replace_marked
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
 
@@ -87,19 +89,9 @@ def run_mapping(build, drive, cut, keyframes, source, method):
 
 
 def put_table(doc, table, device, name="table"):
-    """Replaces the marked table of `doc` (a temporary file renamed into place)."""
-    start = "<!-- bench/drive3d.py %s -->" % name
-    end = "<!-- end of bench/drive3d.py %s -->" % name
-    with open(doc) as f:
-        text = f.read()
-    if start not in text or end not in text:
-        sys.exit("bench/drive3d.py: %s has no lines %r and %r" % (doc, start, end))
-    head, rest = text.split(start, 1)
-    tail = rest.split(end, 1)[1]
+    """Replaces the marked table of `doc`."""
     body = "\n".join(["", "Device: %s, %d CPUs." % (device, os.cpu_count()), ""] + table + [""])
-    with open(doc + ".tmp", "w") as f:
-        f.write(head + start + body + end + tail)
-    os.replace(doc + ".tmp", doc)
+    replace_marked(doc, "bench/drive3d.py", name, body)
 
 
 def make_table(rows, memory):

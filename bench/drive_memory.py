@@ -30,6 +30,8 @@ import sys
 import tempfile
 import time
 
+from marked_doc import replace_marked
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
 
@@ -52,21 +54,6 @@ def run(build, drive, cut, cores):
     j["job_s"] = wall
     j["cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return j
-
-
-def put_table(doc, table):
-    """Replaces the marked table of `doc` (a temporary file renamed into place)."""
-    start = "<!-- bench/drive_memory.py table -->"
-    end = "<!-- end of bench/drive_memory.py table -->"
-    with open(doc) as f:
-        text = f.read()
-    if start not in text or end not in text:
-        sys.exit("bench/drive_memory.py: %s has no lines %r and %r" % (doc, start, end))
-    head, rest = text.split(start, 1)
-    tail = rest.split(end, 1)[1]
-    with open(doc + ".tmp", "w") as f:
-        f.write(head + start + "\n" + "\n".join(table) + "\n" + end + tail)
-    os.replace(doc + ".tmp", doc)
 
 
 def plot(rows, path):
@@ -147,7 +134,7 @@ def main():
     if a.plot:
         plot([r for r in rows if r["cores"] == rows[0]["cores"]], a.plot)
     if a.doc:
-        put_table(a.doc, table)
+        replace_marked(a.doc, "bench/drive_memory.py", "table", "\n" + "\n".join(table) + "\n")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,19 @@
+"""The benchmark scripts' tables in the docs: text between two marker lines replaced whole."""
+import os
+import sys
+
+
+def replace_marked(doc, script, name, body):
+    """Replaces what stands between "<!-- SCRIPT NAME -->" and "<!-- end of SCRIPT NAME -->" in
+    `doc` by `body` (a temporary file renamed into place); exits naming the lines if absent."""
+    start = "<!-- %s %s -->" % (script, name)
+    end = "<!-- end of %s %s -->" % (script, name)
+    with open(doc) as f:
+        text = f.read()
+    if start not in text or end not in text:
+        sys.exit("%s: %s has no lines %r and %r" % (script, doc, start, end))
+    head, rest = text.split(start, 1)
+    tail = rest.split(end, 1)[1]
+    with open(doc + ".tmp", "w") as f:
+        f.write(head + start + body + end + tail)
+    os.replace(doc + ".tmp", doc)
