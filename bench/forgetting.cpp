@@ -38,7 +38,7 @@
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/learn/bhm_joint.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/runtime/context.hpp"

@@ -13,7 +13,7 @@
 #include "potmap/error.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "test_support.hpp"
 

@@ -14,10 +14,10 @@
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
-#include "potmap/learn/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/metrics.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
+#include "potmap/mapping/map_files.hpp"
 #include "potmap/pot/averaged_map.hpp"
 #include "test_support.hpp"
 

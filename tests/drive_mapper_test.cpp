@@ -1,6 +1,6 @@
 // DriveMapper: a real drive's keyframes into the joint BHM at the drive defaults, memory that
 // follows the place (retired tiles), and a saved state that continues bit for bit.
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 
 #include <gtest/gtest.h>
 

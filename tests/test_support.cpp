@@ -17,7 +17,7 @@
 #include <memory>
 
 #include "potmap/data/drive.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 
 namespace fs = std::filesystem;
 

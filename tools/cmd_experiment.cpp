@@ -11,7 +11,7 @@
 #include "experiment_runner.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 
 namespace potmap::cli {
 

@@ -14,7 +14,7 @@
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/io/ros_map.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "potmap/pot/fingerprint.hpp"
 #include "progress.hpp"

@@ -9,7 +9,7 @@
 #include "commands.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 
 namespace potmap::cli {
 

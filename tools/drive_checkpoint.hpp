@@ -12,7 +12,7 @@
 
 #include "drive_mapping.hpp"
 #include "potmap/data/drive.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 
 namespace potmap::cli {
 

@@ -11,7 +11,7 @@
 #include "drive_checkpoint.hpp"
 #include "mapping_ranks.hpp"
 #include "potmap/learn/bhm_joint.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 
 namespace potmap::cli {
 

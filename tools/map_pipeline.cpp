@@ -7,7 +7,7 @@
 #include "map_checkpoint.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {

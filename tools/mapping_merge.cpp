@@ -4,7 +4,7 @@
 #include <cstdio>
 
 #include "potmap/error.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 #include "progress.hpp"
 #include "rank_bytes.hpp"
 #include "rank_maps.hpp"

@@ -7,7 +7,7 @@
 #include <iterator>
 
 #include "potmap/error.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 
 namespace fs = std::filesystem;
 

@@ -8,7 +8,7 @@
 
 #include "capi_guard.hpp"
 #include "potmap/data/scan.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/pot/atoms.hpp"

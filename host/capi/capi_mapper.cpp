@@ -7,7 +7,7 @@
 #include "capi_handles.hpp"
 #include "capi_structs.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 
 namespace potmap::capi {
 namespace {

@@ -1,6 +1,8 @@
 // The native binary map format (layout: include/potmap/io/map_io.hpp).
 #include "io/map_io_native.hpp"
 
+#include <cctype>
+#include <filesystem>
 #include <limits>
 
 #include "io/container.hpp"
@@ -139,6 +141,24 @@ void detail::write_map_native_with_section(const KernelMap& map, const std::stri
   section(out);
   out.patch_u64(length_at, out.size() - length_at - 8);
   out.finish(path);
+}
+
+bool detail::has_potmap_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".potmap";
+}
+
+void detail::check_potmap_name(const std::string& path, const char* what) {
+  if (!has_potmap_extension(path))
+    throw ArgumentError(path + ": " + what + " goes into a .potmap file, not '" +
+                        std::filesystem::path(path).extension().string() + "'");
+}
+
+std::size_t detail::map_section_of(const ContainerReader& r) {
+  std::size_t at = 0;
+  read_map_native_from(r, &at);
+  return at;
 }
 
 }  // namespace potmap

@@ -8,9 +8,7 @@
 //   the learner's state as a mapper checkpoint holds it (learn/bhm_joint_state.hpp), its
 //     retired tiles, and its data fingerprints (u64 count, u64 each)
 // Everything else of the file is the version 1 map (include/potmap/io/map_io.hpp).
-#include <cctype>
 #include <cmath>
-#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -18,31 +16,12 @@
 #include "io/map_io_native.hpp"
 #include "learn/bhm_joint_merge_detail.hpp"
 #include "learn/bhm_joint_state.hpp"
-#include "pot/averaged_map_state.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
 
 namespace potmap {
 
 namespace {
-
-// The section's first u32: what follows.
-constexpr std::uint32_t kSectionLayout = 1;   // a joint BHM's information form
-constexpr std::uint32_t kAveragedLayout = 2;  // POT's averaged map: its anchors' sums
-
-void check_potmap_name(const std::string& path, const char* what) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (ext != ".potmap")
-    throw ArgumentError(path + ": " + what + " goes into a .potmap file, not '" + ext + "'");
-}
-
-// The section of a version 2 .potmap, at its layout field (0: the file has none).
-std::size_t section_of(const detail::ContainerReader& r) {
-  std::size_t at = 0;
-  detail::read_map_native_from(r, &at);
-  return at;
-}
 
 void put_options(detail::ContainerWriter& w, const JointBhm& m) {
   const JointBhmOptions& o = m.options();
@@ -103,7 +82,7 @@ JointBhm make_learner(detail::ContainerCursor& c) {
 
 void write_joint_bhm_map(const JointBhm& learner, const std::string& path,
                          const KernelMap* exported) {
-  check_potmap_name(path, "a joint BHM's information form");
+  detail::check_potmap_name(path, "a joint BHM's information form");
   std::optional<KernelMap> own;
   if (!exported) exported = &own.emplace(learner.map());
   if (exported->dim != detail::JointBhmMerge::dim(learner))
@@ -111,7 +90,7 @@ void write_joint_bhm_map(const JointBhm& learner, const std::string& path,
                         "D, the learner " + std::to_string(detail::JointBhmMerge::dim(learner)) +
                         "D");
   detail::write_map_native_with_section(*exported, path, [&](detail::ContainerWriter& w) {
-    w.u32(kSectionLayout);
+    w.u32(detail::kJointBhmSection);
     put_options(w, learner);
     // The grid as the constructor took it (the state read back checks it too).
     detail::put_u8(w, learner.bounded() ? 1 : 0);
@@ -131,14 +110,14 @@ void write_joint_bhm_map(const JointBhm& learner, const std::string& path,
 
 std::optional<JointBhm> read_joint_bhm_information(const std::string& path) {
   const detail::ContainerReader r(path, detail::native_map_layout());
-  const std::size_t at = section_of(r);
+  const std::size_t at = detail::map_section_of(r);
   if (at == 0) return std::nullopt;
   detail::ContainerCursor c(r, at);
   const std::uint32_t layout = c.u32();
-  if (layout == kAveragedLayout) return std::nullopt;
-  if (layout != kSectionLayout)
+  if (layout == detail::kAveragedMapSection) return std::nullopt;
+  if (layout != detail::kJointBhmSection)
     r.fail(at, "unknown information form layout " + std::to_string(layout) +
-                   " (this build reads layout " + std::to_string(kSectionLayout) + ")");
+                   " (this build reads layout " + std::to_string(detail::kJointBhmSection) + ")");
   JointBhm m = make_learner(c);
   detail::JointBhmState::read(c, m);
   detail::JointBhmState::read_retired(c, m);
@@ -151,42 +130,6 @@ std::optional<JointBhm> read_joint_bhm_information(const std::string& path) {
     detail::JointBhmMerge::set_half_life(m, half_life);
   }
   detail::JointBhmState::read_clock(c, m);
-  c.finish();
-  return m;
-}
-
-void write_averaged_map(const AveragedMap& map, const std::string& path) {
-  check_potmap_name(path, "an averaged map's anchor sums");
-  detail::write_map_native_with_section(map.map(), path, [&](detail::ContainerWriter& w) {
-    w.u32(kAveragedLayout);
-    detail::AveragedMapState::write(w, map);
-  });
-}
-
-std::optional<AveragedMap> read_averaged_map_information(const std::string& path) {
-  const detail::ContainerReader r(path, detail::native_map_layout());
-  const std::size_t at = section_of(r);
-  if (at == 0) return std::nullopt;
-  detail::ContainerCursor c(r, at);
-  if (c.u32() != kAveragedLayout) return std::nullopt;
-  // The options the state was saved with come first; the map is built with them, then read.
-  detail::ContainerCursor peek = c;
-  const std::uint32_t dim = peek.u32();
-  AveragedMapOptions o;
-  o.spacing = peek.f64();
-  o.min_support = peek.f64();
-  o.ridge = peek.f64();
-  const double sweeps = peek.f64();
-  if (!(sweeps >= 0 && sweeps <= 1e6))
-    r.fail(c.at() + 28, "averaged map: sweeps " + std::to_string(sweeps));
-  o.sweeps = static_cast<int>(sweeps);
-  std::optional<AveragedMap> m;
-  try {
-    m.emplace(static_cast<int>(dim), o);
-  } catch (const ArgumentError& e) {
-    r.fail(c.at(), std::string("averaged map options: ") + e.what());
-  }
-  detail::AveragedMapState::read(c, *m);
   c.finish();
   return m;
 }

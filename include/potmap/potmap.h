@@ -655,7 +655,7 @@ POTMAP_EXPORT potmap_status potmap_mapper_load_state(potmap_mapper* mapper, cons
 
 /* ---- 3D drives --------------------------------------------------------------------------- */
 
-/** How a 3D drive is mapped (potmap/learn/drive_mapper.hpp, DriveMapperOptions; the defaults are
+/** How a 3D drive is mapped (potmap/mapping/drive_mapper.hpp, DriveMapperOptions; the defaults are
  *  `potmap mapping DRIVE`'s, chosen on real drives: docs/drives-3d.md). */
 typedef struct potmap_drive_mapper_options {
   size_t struct_size;      /**< the caller's sizeof (potmap_drive_mapper_options_init sets it) */

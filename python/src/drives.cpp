@@ -1,5 +1,5 @@
 // 3D drives: the drive index, a keyframe at a time, and the joint BHM's drive mapper
-// (include/potmap/data/drive.hpp, include/potmap/learn/drive_mapper.hpp).
+// (include/potmap/data/drive.hpp, include/potmap/mapping/drive_mapper.hpp).
 
 #include <pybind11/stl.h>
 
@@ -14,7 +14,7 @@
 #include "potmap/data/drive.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 #include "potmap/mapping/drive_volume.hpp"
 #include "potmap/runtime/context.hpp"
 

@@ -8,7 +8,7 @@
 #include "bindings.hpp"
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 
 namespace potmap::python {
 

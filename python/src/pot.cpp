@@ -12,7 +12,7 @@
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "potmap/pot/mapper.hpp"

@@ -1,5 +1,5 @@
 // The joint BHM over a 3D drive, a keyframe at a time.
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 
 #include <chrono>
 #include <cmath>

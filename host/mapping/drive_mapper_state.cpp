@@ -1,4 +1,4 @@
-// DriveMapper::save_state / load_state (include/potmap/learn/drive_mapper.hpp).
+// DriveMapper::save_state / load_state (include/potmap/mapping/drive_mapper.hpp).
 //
 // A container (io/container.hpp) "POTDRV\r\n", version 1: offset 12 u32 reserved (0), offset 16
 // u64 file size; then the caller's extra bytes, a fingerprint of the options that change the
@@ -11,7 +11,7 @@
 #include "io/file_util.hpp"
 #include "learn/bhm_joint_state.hpp"
 #include "potmap/error.hpp"
-#include "potmap/learn/drive_mapper.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 #include "potmap/pot/fingerprint.hpp"
 #include "runtime/hash.hpp"
 

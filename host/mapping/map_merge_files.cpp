@@ -1,24 +1,17 @@
 // Merging map files of either kind, and a mapper's overall map written with what merging needs
-// (include/potmap/learn/bhm_joint_merge.hpp).
-#include <cctype>
-#include <filesystem>
+// (include/potmap/mapping/map_files.hpp).
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "io/map_io_native.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
-#include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/mapping/map_files.hpp"
 
 namespace potmap {
 
 namespace {
-
-bool is_potmap(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".potmap";
-}
 
 [[noreturn]] void cannot_merge(const std::string& path) {
   throw InputError(path +
@@ -36,7 +29,7 @@ MapMergeSummary merge_map_files(const std::vector<std::string>& paths, const std
   std::vector<JointBhm> joint;
   std::vector<AveragedMap> averaged;
   for (const std::string& p : paths) {
-    if (!is_potmap(p)) cannot_merge(p);
+    if (!detail::has_potmap_extension(p)) cannot_merge(p);
     if (std::optional<JointBhm> j = read_joint_bhm_information(p))
       joint.push_back(std::move(*j));
     else if (std::optional<AveragedMap> a = read_averaged_map_information(p))
@@ -69,9 +62,9 @@ MapMergeSummary merge_map_files(const std::vector<std::string>& paths, const std
 
 void write_mapper_map(const Mapper& mapper, const std::string& path) {
   const RepotMap* repot = mapper.repot();
-  if (is_potmap(path) && repot)
+  if (detail::has_potmap_extension(path) && repot)
     write_joint_bhm_map(repot->learner(), path, &repot->map());
-  else if (is_potmap(path) && mapper.averaged())
+  else if (detail::has_potmap_extension(path) && mapper.averaged())
     write_averaged_map(*mapper.averaged(), path);
   else
     write_map(mapper.overall_map(), path);
