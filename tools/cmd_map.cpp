@@ -8,18 +8,23 @@
 #include "commands.hpp"
 #include "dataset_samples.hpp"
 #include "default_dictionary.hpp"
-#include "map_pictures.hpp"
-#include "map_pipeline.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/io/ros_map.hpp"
+#include "potmap/job/map_job.hpp"
+#include "potmap/job/map_pictures.hpp"
 #include "potmap/mapping/map_files.hpp"
 #include "potmap/pot/dictionary_io.hpp"
 #include "potmap/pot/fingerprint.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {
+
+using job::MapCheckpointing;
+using job::MapJob;
+using job::MapJobResult;
+using job::MapPictures;
 
 namespace {
 
@@ -167,7 +172,7 @@ MapJob map_job(const MapArgs& a) {
   job.overall.merge_radius = a.merge_radius;
   job.overall.max_kernels = a.max_kernels;
   job.instantaneous_dir = a.instantaneous;
-  job.verbose = !a.quiet;
+  print_scans(job, !a.quiet, "potmap map");
   return job;
 }
 
@@ -205,11 +210,11 @@ int run_map(const MapArgs& a, const std::string& device) {
   ck.resume = a.resume;
   if (ck.every == 0 && ck.every_seconds == 0 && !ck.resume) ck.path.clear();
   if (!ck.path.empty())
-    ck.run = run_record(a, dict_file, dict, scans, job, ctx ? ctx->info().summary() : "");
+    ck.run = run_record(a, dict_file, dict, scans, job, ctx ? ctx->info().summary() : "").dump();
   std::cerr << "potmap map: " << dict.size() << " atoms, " << scans.size() << " scans, "
             << (a.refine ? "RePOT" : "POT") << ", " << a.sectors << " sectors, " << a.rotations
             << " rotations" << (a.cpu ? ", CPU reference" : "") << "\n";
-  const MapJobResult r = run_map_job(ctx.get(), dict, scans, job);
+  const MapJobResult r = potmap::job::run_map_job(ctx.get(), dict, scans, job);
   const KernelMap& overall = r.overall_map();
   // With what `potmap merge` needs (RePOT's information form, POT's anchor sums).
   write_mapper_map(*r.mapper, a.out);
@@ -217,7 +222,7 @@ int run_map(const MapArgs& a, const std::string& device) {
   std::FILE* human = a.json == "-" ? stderr : stdout;
   print_summary(human, a, r);
 
-  nlohmann::json j = r.to_json();
+  nlohmann::json j = nlohmann::json::parse(r.to_json());
   j["dictionary"] = a.dict.empty() ? "default: " + dict_file : a.dict;
   j["scans_file"] = a.scans;
   j["method"] = a.refine ? "RePOT" : "POT";
@@ -225,8 +230,8 @@ int run_map(const MapArgs& a, const std::string& device) {
   j["map"] = a.out;
   if (!a.picture.empty() && !overall.empty()) {
     if (!ctx) throw ArgumentError("map: --picture needs the device (drop --cpu)");
-    const MapPictures mp = write_map_pictures(*ctx, overall, a.picture, a.res, 5,
-                                              dict.dim == 3 ? scans.front().origin()[2] : 0);
+    const MapPictures mp = potmap::job::write_map_pictures(
+        *ctx, overall, a.picture, a.res, 5, dict.dim == 3 ? scans.front().origin()[2] : 0);
     std::fprintf(human,
                  "pictures       %zu x %zu at %.2f m; kernels coloured by 1/sqrt(gamma) "
                  "from %.2f m (dark) to %.2f m (bright):\n",

@@ -11,14 +11,14 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "map_pictures.hpp"
-#include "map_pipeline.hpp"
 #include "potmap/data/labelling.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/experiments/figure_panels.hpp"
 #include "potmap/io/map_io.hpp"
+#include "potmap/job/map_job.hpp"
+#include "potmap/job/map_pictures.hpp"
 #include "potmap/learn/bhm.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "progress.hpp"
@@ -26,6 +26,10 @@
 namespace fs = std::filesystem;
 
 namespace potmap::cli {
+
+using job::MapJob;
+using job::MapJobResult;
+using job::MapPictures;
 
 namespace {
 
@@ -76,7 +80,7 @@ void build_programs(Context& ctx, const Dictionary& dict, const std::vector<Scan
   const auto tb = std::chrono::steady_clock::now();
   const std::vector<Scan> first(scans.begin(),
                                 scans.begin() + std::min<std::size_t>(2, scans.size()));
-  run_map_job(&ctx, dict, first, job);
+  potmap::job::run_map_job(&ctx, dict, first, job);
   std::fprintf(human, "device         %s; kernels built in %.1f s (counted in no scan)\n",
                ctx.info().summary().c_str(), seconds_since(tb));
 }
@@ -136,14 +140,14 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
     if (a.map_defaults) job.mapper.seed_displacement_variance = 0;
     job.mapper.pot.refine = refine;
     job.mapper.pot.rotations = evenly_spaced_rotations(a.rotations);
-    job.verbose = false;
+    print_scans(job, false, "potmap demo");
     return job;
   };
   build_programs(ctx, dict, target.scans, make_job(a.method != "pot"), human);
   for (const bool refine : {false, true}) {
     if ((refine && a.method == "pot") || (!refine && a.method == "repot")) continue;
     const std::string name = refine ? "RePOT" : "POT";
-    const MapJobResult r = run_map_job(&ctx, dict, target.scans, make_job(refine));
+    const MapJobResult r = potmap::job::run_map_job(&ctx, dict, target.scans, make_job(refine));
     std::fprintf(human,
                  "%-6s overall  ACC %.4f  AUC %.4f  NLL %.4f   instantaneous  ACC %.4f  AUC %.4f  "
                  "NLL %.4f\n",
@@ -154,15 +158,16 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
                  "%.1f, refine %.1f)\n",
                  r.overall_kernels(), r.mean_wall_ms, r.mean_timing.ranking_ms,
                  r.mean_timing.transport_ms, r.mean_timing.placement_ms, r.mean_timing.refine_ms);
-    j[refine ? "repot" : "pot"] = r.to_json();
+    j[refine ? "repot" : "pot"] = nlohmann::json::parse(r.to_json());
 
     // Pictures of the last method run (RePOT when both): probability, variance, kernels.
     if (refine || a.method == "pot") {
       const std::string p = prefix + (refine ? "_repot" : "_pot");
       write_map(r.overall_map(), p + ".potmap");
       // Readable whatever the town's size: 1200 pixels along the long side unless --res.
-      const double res = a.res > 0 ? a.res : picture_resolution(r.overall_map(), 5, 1200);
-      const MapPictures mp = write_map_pictures(ctx, r.overall_map(), p, res);
+      const double res =
+          a.res > 0 ? a.res : potmap::job::picture_resolution(r.overall_map(), 5, 1200);
+      const MapPictures mp = potmap::job::write_map_pictures(ctx, r.overall_map(), p, res);
       files.insert(files.end(), mp.files.begin(), mp.files.end());
       files.push_back(p + ".potmap");
       j["picture_pixels"] = {mp.width, mp.height};

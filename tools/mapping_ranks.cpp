@@ -64,18 +64,6 @@ MappingRanks::~MappingRanks() {
 #endif
 }
 
-RankPart MappingRanks::part(std::size_t first, std::size_t end, const std::string& what) const {
-  const std::size_t n = end > first ? end - first : 0;
-  if (n < std::size_t(size_))
-    throw ArgumentError("mapping: " + std::to_string(n) + " " + what + " cannot be split over " +
-                        std::to_string(size_) + " ranks (give at most " + std::to_string(n) +
-                        " ranks, or more " + what + ")");
-  RankPart p;
-  p.begin = first + n * std::size_t(rank_) / std::size_t(size_);
-  p.end = first + n * std::size_t(rank_ + 1) / std::size_t(size_);
-  return p;
-}
-
 std::vector<std::string> MappingRanks::gather(const std::string& bytes) {
   if (!mpi_) return {bytes};
 #ifdef POTMAP_WITH_MPI

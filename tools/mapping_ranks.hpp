@@ -10,15 +10,13 @@
 #include <string>
 #include <vector>
 
+#include "potmap/job/job_ranks.hpp"
+
 namespace potmap::cli {
 
-/// A contiguous part [begin, end) of a run's scans or keyframes.
-struct RankPart {
-  std::size_t begin = 0, end = 0;
-  std::size_t size() const { return end - begin; }
-};
-
-class MappingRanks {
+/// The ranks as the library's mapping job sees them (potmap/job/job_ranks.hpp), and the raster
+/// job's.
+class MappingRanks : public JobRanks {
  public:
   /// Starts MPI if this process was launched by mpirun (OMPI_COMM_WORLD_SIZE, PMI_SIZE or
   /// PMIX_RANK set) and the build has MPI; otherwise a single rank.
@@ -27,19 +25,14 @@ class MappingRanks {
   MappingRanks(const MappingRanks&) = delete;
   MappingRanks& operator=(const MappingRanks&) = delete;
 
-  int rank() const { return rank_; }
-  int size() const { return size_; }
+  int rank() const override { return rank_; }
+  int size() const override { return size_; }
   /// Rank among the processes on this node: picks this rank's OpenCL device.
   int local_rank() const { return local_rank_; }
 
-  /// This rank's part of [first, end): the ranks take equal contiguous parts in rank order
-  /// (rank 0 the first). Throws ArgumentError, naming `what` ("scans", "keyframes"), when
-  /// there are fewer than ranks.
-  RankPart part(std::size_t first, std::size_t end, const std::string& what) const;
-
   /// Every rank's `bytes`, in rank order, on rank 0; an empty list on the others. Waits for
   /// every rank.
-  std::vector<std::string> gather(const std::string& bytes);
+  std::vector<std::string> gather(const std::string& bytes) override;
 
   /// The device this rank opens: `requested` when named (or POTMAP_DEVICE set), else the
   /// node's devices shared round-robin by local rank.

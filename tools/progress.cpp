@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -10,6 +11,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "interrupt.hpp"
 #include "potmap/error.hpp"
 
 namespace potmap::cli {
@@ -71,16 +73,61 @@ void write_text_atomically(const std::string& path, const std::string& text) {
   if (std::rename(tmp.c_str(), path.c_str()) != 0) fail("rename");
 }
 
-void write_scores_and_list(const std::string& dir, nlohmann::json summary,
-                           std::vector<std::string> files, const std::string& json,
-                           std::FILE* human) {
-  const std::string scores = (std::filesystem::path(dir) / "scores.json").string();
-  files.push_back(scores);
-  summary["files"] = files;
-  write_text_atomically(scores, summary.dump(1) + "\n");
-  if (json == "-") std::printf("%s\n", summary.dump(1).c_str());
+void print_scans(job::MapJob& job, bool verbose, const std::string& label) {
+  std::function<void(double)> bar = verbose ? nullptr : terminal_progress(label);
+  job.after_scan = [verbose, label, bar](std::size_t, std::size_t done, std::size_t total,
+                                         const std::string& line) {
+    if (verbose)
+      std::fprintf(stderr, "%s: %s\n", label.c_str(), line.c_str());
+    else if (bar)
+      bar(double(done) / double(total));
+  };
+  job.note = [label](const std::string& line) {
+    std::fprintf(stderr, "%s: %s\n", label.c_str(), line.c_str());
+  };
+}
+
+namespace {
+
+// A mapping job's progress as `potmap mapping` prints it, stage by stage.
+struct PrintedProgress {
+  bool quiet = false;
+  std::string stage;
+  std::function<void(double)> bar;
+  std::size_t next_line = 0;
+  void operator()(const JobProgress& p) {
+    stop_if_interrupted();
+    if (p.stage == "export") return;  // the map so far, between keyframes: its note suffices
+    if (p.stage != stage) {
+      stage = p.stage;
+      bar = p.unit == "share" ? stage_progress(p.stage, quiet) : terminal_progress(p.stage);
+      next_line = 0;
+    }
+    if (bar) return bar(p.fraction());
+    if (quiet || p.detail.empty() || p.done < next_line) return;
+    // A keyframe's line every tenth of the drive; a scan's every scan (2D logs are short).
+    next_line = p.unit == "keyframe" ? p.done + std::max<std::size_t>(1, p.total / 10) : 0;
+    const double f = p.fraction(), el = p.elapsed_s;
+    std::fprintf(stderr, "potmap: %s (%zu of %zu, %.0f%%); elapsed %.0f s, ETA %.0f s\n",
+                 p.detail.c_str(), p.done, p.total, 100 * f, el, f > 0 ? el * (1 - f) / f : 0.0);
+  }
+};
+
+}  // namespace
+
+MappingJobHooks printing_hooks(std::FILE* human, bool quiet) {
+  MappingJobHooks h;
+  h.note = [human](const std::string& line) { std::fprintf(human, "%s\n", line.c_str()); };
+  auto printed = std::make_shared<PrintedProgress>();
+  printed->quiet = quiet;
+  h.progress = [printed](const JobProgress& p) { (*printed)(p); };
+  return h;
+}
+
+void list_job_files(const MappingJobResult& r, const std::string& json, std::FILE* human) {
+  if (json == "-") std::printf("%s\n", r.scores_json.c_str());
   std::fprintf(human, "files:\n");
-  for (const auto& f : files) std::fprintf(human, "               %s\n", f.c_str());
+  for (const auto& f : r.files) std::fprintf(human, "               %s\n", f.c_str());
 }
 
 }  // namespace potmap::cli

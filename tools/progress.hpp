@@ -8,6 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "potmap/job/map_job.hpp"
+#include "potmap/job/mapping_job.hpp"
+
 namespace potmap::cli {
 
 /// Seconds from t0 to now on the steady clock.
@@ -23,15 +26,22 @@ std::function<void(double fraction)> terminal_progress(const std::string& label)
 /// at every tenth, "potmap: <label> 40%; elapsed 3 s, ETA 4 s", as the keyframes' lines.
 std::function<void(double fraction)> stage_progress(const std::string& label, bool quiet);
 
+/// `job`'s reports as `potmap map` and the demo print them: with `verbose` a line per scan on
+/// stderr ("potmap map: scan 3/10: ..."), else a progress bar on a terminal; its notes on
+/// stderr after `label` ("potmap map").
+void print_scans(job::MapJob& job, bool verbose, const std::string& label);
+
+/// A mapping job's hooks printing as `potmap mapping` does: notes on `human`; scans a line each
+/// on stderr and keyframes a line every tenth (unless `quiet`), or a bar on a terminal; the
+/// outputs' progress as stage_progress("outputs"); an interrupt checked at every report.
+MappingJobHooks printing_hooks(std::FILE* human, bool quiet);
+
 /// Writes text to path through a temporary file in the same folder and a rename; throws
 /// potmap::Error naming the file on failure (and leaves nothing behind).
 void write_text_atomically(const std::string& path, const std::string& text);
 
-/// The end of a mapping command: `summary` gets the list of `files` (with DIR/scores.json, which
-/// it is written to, atomically), is printed on stdout when `json` is "-", and the files are
-/// listed on `human`.
-void write_scores_and_list(const std::string& dir, nlohmann::json summary,
-                           std::vector<std::string> files, const std::string& json,
-                           std::FILE* human);
+/// The end of a mapping job on the command line: scores.json on stdout when `json` is "-", and
+/// the files listed on `human`.
+void list_job_files(const MappingJobResult& r, const std::string& json, std::FILE* human);
 
 }  // namespace potmap::cli

@@ -6,7 +6,7 @@
 #include "potmap/error.hpp"
 #include "potmap/mapping/drive_volume.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
                                  const std::vector<double>& positions, const std::string& prefix,
@@ -49,4 +49,4 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
   return out;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -6,14 +6,16 @@
 // held-out samples, as one process scores its map (docs/mapping-ranks.md).
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <optional>
+#include <string>
 
 #include "drive_checkpoint.hpp"
-#include "mapping_ranks.hpp"
+#include "potmap/job/job_ranks.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/mapping/drive_mapper.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 /// The ranks' maps merged, with what one process would have of its run.
 struct DriveMerged {
@@ -26,8 +28,9 @@ struct DriveMerged {
 
 /// On rank 0: receives the other ranks' maps and runs and merges them with `mapper`'s and
 /// `run`'s. On the other ranks: sends this rank's and returns std::nullopt (nothing is left
-/// for them to do). `part` is this rank's keyframes.
-std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart& part,
-                                             const DriveMapper& mapper, const DriveRun& run);
+/// for them to do). `part` is this rank's keyframes; `note` gets the merge's account.
+std::optional<DriveMerged> merge_drive_ranks(JobRanks& ranks, const RankPart& part,
+                                             const DriveMapper& mapper, const DriveRun& run,
+                                             const std::function<void(const std::string&)>& note);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -1,13 +1,15 @@
 #pragma once
-// The pictures of a finished map (probability, variance, kernels), shared by `potmap map`,
-// `potmap mapping` and the demo.
+// The pictures of a finished map (probability, variance, kernels): the mapping job's for a 2D
+// log (job/mapping_job.hpp), and `potmap map`'s and the demo's.
 #include <string>
 #include <vector>
 
+#include "potmap/export.h"
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/runtime/context.hpp"
 
-namespace potmap::cli {
+POTMAP_CXX_API_BEGIN
+namespace potmap::job {
 
 struct MapPictures {
   std::vector<std::string> files;  ///< PREFIX_prob.png, PREFIX_var.png, PREFIX_kernels.png
@@ -28,4 +30,5 @@ double picture_resolution(const KernelMap& map, double margin, std::size_t long_
 MapPictures write_map_pictures(Context& ctx, const KernelMap& map, const std::string& prefix,
                                double resolution, double margin = 5, double z = 0);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job
+POTMAP_CXX_API_END

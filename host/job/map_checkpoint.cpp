@@ -9,7 +9,7 @@
 
 #include "potmap/error.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 namespace {
 
@@ -173,4 +173,4 @@ void check_same_run(const std::string& path, const nlohmann::json& saved,
                         diff);
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

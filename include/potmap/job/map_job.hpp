@@ -1,15 +1,16 @@
 #pragma once
-// The POT mapping job shared by `potmap map` and `potmap demo`: stream scans through
-// map_scans(), accumulate the overall map (POT's OverallMap, or RePOT's persistent RepotMap), score
-// instantaneous and overall maps on the scans' held-out samples, report per-scan timing; and,
-// for `potmap map`, write checkpoints of the run and continue one.
-#include <nlohmann/json.hpp>
-
+// Scans mapped by POT or RePOT, the part of the mapping job (job/mapping_job.hpp) that `potmap
+// map` and `potmap demo` also run on scans of their own: stream scans through map_scans(),
+// accumulate the overall map (POT's OverallMap, or RePOT's persistent RepotMap), score
+// instantaneous and overall maps on the scans' held-out samples, report per-scan timing; write
+// checkpoints of the run and continue one.
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "potmap/export.h"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/metrics.hpp"
 #include "potmap/pot/atoms.hpp"
@@ -19,7 +20,8 @@
 #include "potmap/pot/overall_map.hpp"
 #include "potmap/runtime/context.hpp"
 
-namespace potmap::cli {
+POTMAP_CXX_API_BEGIN
+namespace potmap::job {
 
 /// Checkpoints of a mapping run (`potmap map --checkpoint`): the mapper's state and the run's
 /// totals in one file, replaced atomically, so that a run killed at any moment can continue.
@@ -28,7 +30,9 @@ struct MapCheckpointing {
   std::size_t every = 0;     ///< after every this many scans (0: not by count)
   double every_seconds = 0;  ///< or when this long has passed since the last one (0: not)
   bool resume = false;       ///< continue from `path` when it exists
-  nlohmann::json run;        ///< the run's record: a resumed checkpoint must hold the same
+  /// The run's record, a JSON object (the inputs' fingerprints and every option that changes
+  /// the map): a resumed checkpoint must hold the same.
+  std::string run = "{}";
 };
 
 struct MapJob {
@@ -38,35 +42,27 @@ struct MapJob {
   std::size_t start_at = 0;
   OverallMapOptions overall;
   std::string instantaneous_dir;  ///< write each instantaneous map here (empty: don't)
-  bool verbose = true;            ///< a line per scan on stderr (else a progress bar on a tty)
   MapCheckpointing checkpoint;
+  /// After each scan: its index in `scans`, the scans done and in all of this run, and a line
+  /// on it (sectors, kernels, time). May throw to stop the run.
+  std::function<void(std::size_t index, std::size_t done, std::size_t total,
+                     const std::string& line)>
+      after_scan;
+  /// Lines of the run's account (a checkpoint resumed or replaced).
+  std::function<void(const std::string& line)> note;
 };
 
-/// The overall maps of a run's parts (MPI ranks) merged into one: RePOT's persistent maps in
-/// information form, or POT's averaged maps by their sums (learn/bhm_joint_merge.hpp).
-struct MergedOverall {
-  std::optional<JointBhm> joint;
-  std::optional<AveragedMap> averaged;
-  KernelMap map;          ///< the merged map's export
-  nlohmann::json record;  ///< the parts and the merge, for scores.json
-  std::size_t kernels() const { return joint ? joint->size() : averaged->size(); }
-  std::size_t memory_bytes() const {
-    return joint ? joint->memory_bytes() : averaged->memory_bytes();
-  }
-};
+/// The overall maps of a run's parts (MPI ranks) merged into one (job/mapping_merge.hpp).
+struct MergedOverall;
 
 struct MapJobResult {
   /// The overall map: POT's merged map, or RePOT's persistent map (persistent_refine()).
   std::unique_ptr<Mapper> mapper;
   /// Set on rank 0 of an MPI run once the ranks' maps are merged: then the overall map.
   std::shared_ptr<const MergedOverall> merged;
-  const KernelMap& overall_map() const { return merged ? merged->map : mapper->overall_map(); }
-  std::size_t overall_kernels() const {
-    return merged ? merged->kernels() : mapper->overall_kernels();
-  }
-  std::size_t overall_memory_bytes() const {
-    return merged ? merged->memory_bytes() : mapper->overall_memory_bytes();
-  }
+  const KernelMap& overall_map() const;
+  std::size_t overall_kernels() const;
+  std::size_t overall_memory_bytes() const;
   bool persistent() const { return mapper->repot() != nullptr; }
   /// Writes the overall map with what merging needs (write_mapper_map, or the merged form).
   void write_overall_map(const std::string& path) const;
@@ -82,7 +78,8 @@ struct MapJobResult {
   double total_seconds = 0;  ///< whole run, preparation included
   double max_wall_ms = 0;
   std::size_t kernels_per_scan = 0;
-  nlohmann::json to_json() const;
+  /// The run as a JSON object's text (scores.json's part on the mapping).
+  std::string to_json() const;
 };
 
 /// Fills `r`'s scans, timings and scores from `totals`, the overall map (r.overall_map()) scored
@@ -92,4 +89,5 @@ void summarise(MapJobResult& r, const MapRunTotals& totals, Context* ctx);
 MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
                          const MapJob& job);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job
+POTMAP_CXX_API_END

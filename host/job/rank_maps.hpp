@@ -10,7 +10,7 @@
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/pot/averaged_map.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 /// The bytes of the .potmap file `write` writes to the path it is given.
 std::string potmap_bytes(const std::function<void(const std::string& path)>& write);
@@ -25,4 +25,4 @@ struct ReceivedMap {
 /// bytes that are not a map with an information form or averaged sums.
 ReceivedMap read_potmap_bytes(const std::string& bytes, const std::string& from);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

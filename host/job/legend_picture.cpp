@@ -4,11 +4,10 @@
 #include <cmath>
 #include <cstdio>
 
-#include "plot_text.hpp"
 #include "potmap/experiments/figure_panels.hpp"
 #include "potmap/render/colormap.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 namespace {
 
@@ -39,8 +38,10 @@ Pixels downsample(const std::vector<float>& prob, const std::vector<float>& var,
   return p;
 }
 
+using experiment::draw_text;
 using experiment::fill_box;
 using experiment::round_scale;
+using experiment::text_advance;
 
 // The map above, then a strip: the colour bar (quantity and its ends), the grey of unknown
 // space, and a scale bar in metres.
@@ -106,4 +107,4 @@ LegendPictures write_legend_pictures(const std::vector<float>& prob, const std::
   return {px.w, px.h, mpp, vmax};
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -7,7 +7,7 @@
 #include "legend_picture.hpp"
 #include "potmap/io/ros_map.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 BandFiles write_band_files(const std::vector<float>& prob, const std::vector<float>& var,
                            std::size_t nx, std::size_t ny, const double origin[2], double res,
@@ -44,4 +44,4 @@ BandFiles write_band_files(const std::vector<float>& prob, const std::vector<flo
   return out;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

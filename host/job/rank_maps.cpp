@@ -11,7 +11,7 @@
 
 namespace fs = std::filesystem;
 
-namespace potmap::cli {
+namespace potmap::job {
 
 namespace {
 
@@ -60,4 +60,4 @@ ReceivedMap read_potmap_bytes(const std::string& bytes, const std::string& from)
   return m;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -12,7 +12,7 @@
 
 #include "potmap/pot/map_run.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 /// The per-scan totals of a mapping run (potmap/pot/map_run.hpp).
 using MapRunTotals = potmap::MapRunTotals;
@@ -35,4 +35,4 @@ std::size_t remove_stale_temporaries(const std::string& path);
 void check_same_run(const std::string& path, const nlohmann::json& saved,
                     const nlohmann::json& run);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace potmap::cli {
+namespace potmap::job {
 
 struct BandFiles {
   std::vector<std::string> files;
@@ -25,4 +25,4 @@ BandFiles write_band_files(const std::vector<float>& prob, const std::vector<flo
                            std::size_t nx, std::size_t ny, const double origin[2], double res,
                            const std::string& prefix, double picture_res, std::size_t pixels);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -2,14 +2,15 @@
 
 #include <chrono>
 #include <cstdio>
+#include <functional>
 
+#include "job_text.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
-#include "progress.hpp"
 #include "rank_bytes.hpp"
 #include "rank_maps.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 namespace {
 
@@ -74,8 +75,9 @@ std::string pack_drive_part(const RankPart& part, const DriveMapper& mapper, con
 
 }  // namespace
 
-std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart& part,
-                                             const DriveMapper& mapper, const DriveRun& run) {
+std::optional<DriveMerged> merge_drive_ranks(JobRanks& ranks, const RankPart& part,
+                                             const DriveMapper& mapper, const DriveRun& run,
+                                             const std::function<void(const std::string&)>& note) {
   const auto t0 = std::chrono::steady_clock::now();
   if (ranks.rank() != 0) {
     ranks.gather(pack_drive_part(part, mapper, run));
@@ -119,10 +121,11 @@ std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart
   const auto t_export = std::chrono::steady_clock::now();
   m.map = m.joint->map();
   const double export_s = seconds_since(t_export);
-  std::fprintf(stderr,
-               "potmap: merged the maps of %d ranks: %zu kernels in %.2f s (%zu CG iterations), "
-               "the merged map in %.2f s (waited %.2f s for the other ranks)\n",
-               ranks.size(), m.joint->size(), merge_s, solved.cg_iterations, export_s, waited);
+  if (note)
+    note(
+        format("merged the maps of %d ranks: %zu kernels in %.2f s (%zu CG iterations), the "
+               "merged map in %.2f s (waited %.2f s for the other ranks)",
+               ranks.size(), m.joint->size(), merge_s, solved.cg_iterations, export_s, waited));
   m.record = {{"ranks", ranks.size()},
               {"parts", parts},
               {"wait_seconds", waited},
@@ -132,4 +135,4 @@ std::optional<DriveMerged> merge_drive_ranks(MappingRanks& ranks, const RankPart
   return m;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -16,7 +16,7 @@
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/runtime/context.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 struct DriveOutputOptions {
   /// The band, metres about the sensor's height (defaults -1.0 to +0.5: from about 0.8 m above
@@ -48,4 +48,4 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
                                  const std::vector<double>& positions, const std::string& prefix,
                                  const DriveOutputOptions& options = {});
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

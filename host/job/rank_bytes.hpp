@@ -12,7 +12,7 @@
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/error.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 class RankBytesOut {
  public:
@@ -97,4 +97,4 @@ class RankBytesIn {
   std::size_t at_ = 0;
 };
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

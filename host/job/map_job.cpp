@@ -1,16 +1,19 @@
-#include "map_pipeline.hpp"
+#include "potmap/job/map_job.hpp"
+
+#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 
+#include "job_text.hpp"
 #include "map_checkpoint.hpp"
+#include "mapping_merge.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/mapping/map_files.hpp"
-#include "progress.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 namespace {
 
@@ -30,7 +33,7 @@ bool resume(const MapCheckpointing& c, Mapper& mapper, MapRunTotals& totals, std
   if (!c.resume || c.path.empty() || !std::filesystem::exists(c.path, ec)) return false;
   nlohmann::json saved;
   decode_checkpoint(Mapper::state_extra(c.path), c.path, saved, totals);
-  check_same_run(c.path, saved, c.run);
+  check_same_run(c.path, saved, nlohmann::json::parse(c.run));
   mapper.load_state(c.path);
   if (mapper.scans() != totals.scans || mapper.scans() > scans)
     throw InputError(c.path + ": the checkpoint holds " + std::to_string(mapper.scans()) +
@@ -40,22 +43,22 @@ bool resume(const MapCheckpointing& c, Mapper& mapper, MapRunTotals& totals, std
 }
 
 // Resumes from the checkpoint where there is one; says what it did, and what a stopped run's
-// checkpoint will come to, on stderr.
-void start_or_resume(const MapCheckpointing& ck, Mapper& mapper, MapRunTotals& t, std::size_t scans,
+// checkpoint will come to.
+void start_or_resume(const MapJob& job, Mapper& mapper, MapRunTotals& t, std::size_t scans,
                      MapJobResult& r) {
+  const MapCheckpointing& ck = job.checkpoint;
+  auto note = [&job](const std::string& line) {
+    if (job.note) job.note(line);
+  };
   if (!ck.path.empty()) remove_stale_temporaries(ck.path);
   if (resume(ck, mapper, t, scans)) {
     r.resumed_at = mapper.scans();
-    std::fprintf(stderr, "potmap map: resumed from %s at scan %zu/%zu (%zu scans mapped before)\n",
-                 ck.path.c_str(), r.resumed_at + 1, scans, r.resumed_at);
+    note(format("resumed from %s at scan %zu/%zu (%zu scans mapped before)", ck.path.c_str(),
+                r.resumed_at + 1, scans, r.resumed_at));
   } else if (ck.resume) {
-    std::fprintf(stderr, "potmap map: no checkpoint at %s; starting from scan 1\n",
-                 ck.path.c_str());
+    note("no checkpoint at " + ck.path + "; starting from scan 1");
   } else if (std::error_code ec; !ck.path.empty() && std::filesystem::exists(ck.path, ec)) {
-    std::fprintf(stderr,
-                 "potmap map: %s exists (a stopped run?) and will be replaced; --resume would "
-                 "continue it\n",
-                 ck.path.c_str());
+    note(ck.path + " exists (a stopped run?) and will be replaced; --resume would continue it");
   }
 }
 
@@ -72,6 +75,18 @@ void summarise(MapJobResult& r, const MapRunTotals& t, Context* ctx) {
   r.overall_scores = s.overall;
 }
 
+const KernelMap& MapJobResult::overall_map() const {
+  return merged ? merged->map : mapper->overall_map();
+}
+
+std::size_t MapJobResult::overall_kernels() const {
+  return merged ? merged->kernels() : mapper->overall_kernels();
+}
+
+std::size_t MapJobResult::overall_memory_bytes() const {
+  return merged ? merged->memory_bytes() : mapper->overall_memory_bytes();
+}
+
 void MapJobResult::write_overall_map(const std::string& path) const {
   if (!merged)
     write_mapper_map(*mapper, path);
@@ -81,7 +96,7 @@ void MapJobResult::write_overall_map(const std::string& path) const {
     write_averaged_map(*merged->averaged, path);
 }
 
-nlohmann::json MapJobResult::to_json() const {
+std::string MapJobResult::to_json() const {
   nlohmann::json j = {{"scans", scans},
                       {"overall_kernels", overall_kernels()},
                       {"overall_memory_bytes", overall_memory_bytes()},
@@ -101,7 +116,7 @@ nlohmann::json MapJobResult::to_json() const {
                         {"solve_wall_max", max_wall_ms}}},
                       {"total_seconds", total_seconds}};
   if (merged) j["ranks"] = merged->record;
-  return j;
+  return j.dump();
 }
 
 MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector<Scan>& scans,
@@ -113,13 +128,12 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   MapRunTotals t;
   t.test.dim = dict.dim;
   if (job.start_at > 0) mapper.start_at(job.start_at);
-  start_or_resume(ck, mapper, t, scans.size(), r);
+  start_or_resume(job, mapper, t, scans.size(), r);
   const auto t0 = std::chrono::steady_clock::now();
   auto last_checkpoint = t0;
   if (!job.instantaneous_dir.empty()) std::filesystem::create_directories(job.instantaneous_dir);
-  auto progress = job.verbose ? std::function<void(double)>() : terminal_progress("map");
   // After each scan's merge (on map_scored's worker, beside the next scan's transfer): its
-  // instantaneous map, its line or the progress bar, and the checkpoint.
+  // instantaneous map, its report and the checkpoint.
   auto after_scan = [&](const MappedScan& done) {
     const ScanTransfer& tr = done.transfer;
     if (!job.instantaneous_dir.empty()) {
@@ -127,17 +141,13 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
       std::snprintf(name, sizeof name, "scan_%06zu.potmap", done.index);
       write_map(tr.map, (std::filesystem::path(job.instantaneous_dir) / name).string());
     }
-    if (job.verbose) {
-      std::fprintf(stderr,
-                   "potmap map: scan %zu/%zu: %zu sectors, %zu kernels, %.1f ms (ranking "
-                   "%.1f, transport %.1f, placement %.1f, refine %.1f); overall %zu "
-                   "kernels\n",
-                   done.index + 1, scans.size(), tr.sectors.size(), tr.map.size(), done.wall_ms,
-                   tr.timing.ranking_ms, tr.timing.transport_ms, tr.timing.placement_ms,
-                   tr.timing.refine_ms, mapper.overall_kernels());
-    } else if (progress) {
-      progress(double(done.index + 1 - job.start_at) / double(scans.size() - job.start_at));
-    }
+    if (job.after_scan)
+      job.after_scan(done.index, done.index + 1 - job.start_at, scans.size() - job.start_at,
+                     format("scan %zu/%zu: %zu sectors, %zu kernels, %.1f ms (ranking %.1f, "
+                            "transport %.1f, placement %.1f, refine %.1f); overall %zu kernels",
+                            done.index + 1, scans.size(), tr.sectors.size(), tr.map.size(),
+                            done.wall_ms, tr.timing.ranking_ms, tr.timing.transport_ms,
+                            tr.timing.placement_ms, tr.timing.refine_ms, mapper.overall_kernels()));
     // A checkpoint after the last scan would only be removed again.
     if (ck.path.empty() || t.scans == scans.size()) return;
     const auto now = std::chrono::steady_clock::now();
@@ -147,7 +157,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
         std::chrono::duration<double>(now - last_checkpoint).count() >= ck.every_seconds;
     if (!by_count && !by_time) return;
     const double seconds = t.seconds + std::chrono::duration<double>(now - t0).count();
-    mapper.save_state(ck.path, encode_checkpoint(ck.run, t, seconds));
+    mapper.save_state(ck.path, encode_checkpoint(nlohmann::json::parse(ck.run), t, seconds));
     last_checkpoint = std::chrono::steady_clock::now();
     ++r.checkpoints;
     r.checkpoint_seconds += std::chrono::duration<double>(last_checkpoint - now).count();
@@ -159,4 +169,4 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
   return r;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

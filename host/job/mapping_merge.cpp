@@ -3,13 +3,13 @@
 #include <chrono>
 #include <cstdio>
 
+#include "job_text.hpp"
 #include "potmap/error.hpp"
 #include "potmap/mapping/map_files.hpp"
-#include "progress.hpp"
 #include "rank_bytes.hpp"
 #include "rank_maps.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 namespace {
 
@@ -88,7 +88,8 @@ void check_rank_mergeable(const MapperOptions& o) {
         "with them on one process, or use the default preset under mpirun");
 }
 
-bool merge_rank_maps(MappingRanks& ranks, Context* ctx, const RankPart& part, MapJobResult& r) {
+bool merge_rank_maps(JobRanks& ranks, Context* ctx, const RankPart& part, MapJobResult& r,
+                     const std::function<void(const std::string&)>& note) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::string> all = ranks.gather(pack_log_part(part, r, ranks.rank() != 0));
   if (ranks.rank() != 0) return false;
@@ -118,10 +119,11 @@ bool merge_rank_maps(MappingRanks& ranks, Context* ctx, const RankPart& part, Ma
   const auto t_merge = std::chrono::steady_clock::now();
   merge_maps(*r.mapper, others, *merged);
   const double merge_s = seconds_since(t_merge);
-  std::fprintf(stderr,
-               "potmap: merged the maps of %d ranks: %zu kernels in %.2f s (waited %.2f s for "
-               "the other ranks)\n",
-               ranks.size(), merged->kernels(), merge_s, waited);
+  if (note)
+    note(
+        format("merged the maps of %d ranks: %zu kernels in %.2f s (waited %.2f s for the "
+               "other ranks)",
+               ranks.size(), merged->kernels(), merge_s, waited));
   merged->record = {{"ranks", ranks.size()},
                     {"parts", parts},
                     {"wait_seconds", waited},
@@ -133,4 +135,4 @@ bool merge_rank_maps(MappingRanks& ranks, Context* ctx, const RankPart& part, Ma
   return true;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -1,4 +1,4 @@
-#include "map_pictures.hpp"
+#include "potmap/job/map_pictures.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include "potmap/map/raster.hpp"
 #include "potmap/render/kernel_picture.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 double picture_resolution(const KernelMap& map, double margin, std::size_t long_side) {
   double lo[3], hi[3];
@@ -92,4 +92,4 @@ MapPictures write_map_pictures(Context& ctx, const KernelMap& map, const std::st
   return p;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

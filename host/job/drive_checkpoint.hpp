@@ -10,11 +10,11 @@
 #include <string>
 #include <vector>
 
-#include "drive_mapping.hpp"
 #include "potmap/data/drive.hpp"
+#include "potmap/job/mapping_job.hpp"
 #include "potmap/mapping/drive_mapper.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 /// Sums over the keyframes mapped so far.
 struct DriveRun {
@@ -29,8 +29,8 @@ struct DriveRun {
 
 /// The record of a run: the drive (its poses file's size and its keyframe count) and every
 /// option that changes the map.
-nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
-                                const DriveMapperOptions& options);
+nlohmann::json drive_run_record(const std::string& recording, const MappingJobOptions& a,
+                                const Drive& drive, const DriveMapperOptions& options);
 
 /// Checkpoints written beside the mapping: the mapper's state and the run are copied into bytes
 /// at once (the mapper goes on), and the file is written, synced and renamed into place on a
@@ -58,4 +58,4 @@ class DriveCheckpoints {
 /// ArgumentError naming each option that differs) and returns the next keyframe.
 std::size_t read_drive_checkpoint(const std::string& path, DriveRun& run, DriveMapper& mapper);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

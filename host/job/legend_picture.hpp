@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace potmap::cli {
+namespace potmap::job {
 
 struct LegendPictures {
   std::size_t width = 0, height = 0;  ///< pixels of the map part
@@ -24,4 +24,4 @@ LegendPictures write_legend_pictures(const std::vector<float>& prob, const std::
                                      const std::string& prob_path, const std::string& var_path,
                                      const std::string& prob_title, const std::string& var_title);
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

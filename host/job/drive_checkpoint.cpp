@@ -1,6 +1,6 @@
 #include "drive_checkpoint.hpp"
 
-#include "progress.hpp"
+#include "job_text.hpp"
 
 #include <algorithm>
 #include <filesystem>
@@ -9,7 +9,7 @@
 #include "potmap/error.hpp"
 #include "potmap/pot/fingerprint.hpp"
 
-namespace potmap::cli {
+namespace potmap::job {
 
 void DriveRun::add(const KeyframeStats& st, const std::array<double, 12>& pose) {
   ++keyframes;
@@ -24,12 +24,12 @@ void DriveRun::add(const KeyframeStats& st, const std::array<double, 12>& pose) 
   keyframe_ms.push_back(ms);
 }
 
-nlohmann::json drive_run_record(const DriveMappingArgs& a, const Drive& drive,
-                                const DriveMapperOptions& options) {
+nlohmann::json drive_run_record(const std::string& recording, const MappingJobOptions& a,
+                                const Drive& drive, const DriveMapperOptions& options) {
   std::error_code ec;
   const auto poses_bytes = std::filesystem::file_size(drive.poses_file, ec);
   nlohmann::json r = {
-      {"drive", std::filesystem::absolute(a.drive).lexically_normal().string()},
+      {"drive", std::filesystem::absolute(recording).lexically_normal().string()},
       {"poses", drive.poses_file},
       {"poses_bytes", ec ? 0 : std::uint64_t(poses_bytes)},
       {"keyframes_in_drive", drive.size()},
@@ -96,4 +96,4 @@ std::size_t read_drive_checkpoint(const std::string& path, DriveRun& run, DriveM
   }
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::job

@@ -1,0 +1,32 @@
+#pragma once
+// What the mapping job's parts share: its account and progress through the caller's hooks,
+// the default dictionary's notes among them, and the end of every job, scores.json.
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "potmap/experiments/default_dictionary.hpp"
+#include "potmap/job/mapping_job.hpp"
+
+namespace potmap::job {
+
+/// The hooks, each a no-op where the caller gave none.
+struct Report {
+  const MappingJobHooks& hooks;
+  void note(const std::string& line) const {
+    if (hooks.note) hooks.note(line);
+  }
+  void progress(const JobProgress& p) const {
+    if (hooks.progress) hooks.progress(p);
+  }
+};
+
+/// The default dictionary's notes as the job's ("potmap: building the default dictionary"),
+/// its build as the stage "dictionary".
+experiment::DefaultDictionaryNotes dictionary_notes(const Report& report);
+
+/// The end of a job: `summary` gets the list of out.files with DIR/scores.json (which it is
+/// written to, whole, and which is added to out.files); out.scores_json its text.
+void write_scores(const std::string& dir, nlohmann::json summary, MappingJobResult& out);
+
+}  // namespace potmap::job
