@@ -23,7 +23,7 @@ that experiment's OctoMap 0.2 m. Their scores are on every 4th held-out sample (
 keeps a quarter), the experiment's on all of them.
 
 --doc FILE puts the table into FILE between the lines "<!-- bench/drive3d.py table -->" and
-"<!-- end of bench/drive3d.py table -->", so the page shows the last run's figures.
+"<!-- end of bench/drive3d.py table -->", so the page shows the figures of the JSON it writes.
 
 --wavemap adds a second peer, wavemap (github.com/ethz-asl/wavemap), beside OctoMap: the method
 "wavemap" of `potmap experiment`, at the cells of --wavemap-cells (default 0.1 and 0.2 m), on
