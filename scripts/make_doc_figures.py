@@ -94,7 +94,42 @@ def _pairs(d, method, field):
     return _span([r[field]["mean"] for r in d["table"] if r["method"] == method], "%.3f", "-")
 
 
+def _intra(d, method, field, fmt="%.3f"):
+    return _span([r[field]["mean"] for r in d["table"] if r["method"] == method], fmt, "-")
+
+
+QUALITY_LABELS = {"riverside-a": "riverside-a (3D, Ouster, car)", "hku-1": "hku-1 (3D, Livox, walk)"}
+
+
+def _quality_table(intra2d, intra3d):
+    """The README's intra-domain table: AUC / NLL of each method on each target, the cells
+    within 0.002 AUC of the row's best in bold."""
+    cols = ["OGM", "BHM", "ABHM", "POT", "RePOT"]
+    lines = ["", "| target | OctoMap | BHM (online, joint) | ABHM (1000 kernels) | POT | RePOT |",
+             "|---|---|---|---|---|---|"]
+    for d in (intra2d, intra3d):
+        targets = []
+        for r in d["table"]:
+            if r["target"] not in targets:
+                targets.append(r["target"])
+        for t in targets:
+            rows = {r["method"]: r for r in d["table"] if r["target"] == t}
+            best = max(r["auc"]["mean"] for r in rows.values())
+            cells = []
+            for c in cols:
+                r = rows.get(c)
+                if r is None:
+                    cells.append("")
+                    continue
+                cell = "%.3f / %.3f" % (r["auc"]["mean"], r["nll"]["mean"])
+                cells.append("**%s**" % cell if best - r["auc"]["mean"] <= 0.002 else cell)
+            lines.append(("| %s | %s |" % (QUALITY_LABELS.get(t, t), " | ".join(cells))).replace("|  |", "| |"))
+    return "\n".join(lines) + "\n"
+
+
 DRIVE_MEMORY = "docs/drive-memory.json"
+INTRA = "docs/results/intra.json"
+INTRA3D = "docs/results3d/intra-40m.json"
 POT_INTEL = "docs/pot-scale.json"
 POT_TOWN2 = "docs/pot-scale-town2.json"
 RASTER = "docs/raster-scale-e2e-epyc.json"
@@ -181,18 +216,36 @@ DERIVED = {
     "inter.pot.nll": (INTER, lambda d: _pairs(d, "POT", "nll")),
     "sim2real.pot.auc": (SIM2REAL, lambda d: _pairs(d, "POT", "auc")),
     "sim2real.pot.nll": (SIM2REAL, lambda d: _pairs(d, "POT", "nll")),
+    # Intra-domain scores of the real logs (scripts/run_experiments.sh, three seeds' means).
+    "intra.bhm.auc": (INTRA, lambda d: _intra(d, "BHM", "auc")),
+    "intra.bhm.nll": (INTRA, lambda d: _intra(d, "BHM", "nll")),
+    "intra.pot.auc": (INTRA, lambda d: _intra(d, "POT", "auc")),
+    "intra.pot.nll": (INTRA, lambda d: _intra(d, "POT", "nll")),
+    "intra.pot.auc2": (INTRA, lambda d: _intra(d, "POT", "auc", "%.2f")),
+    "intra.pot.nll2": (INTRA, lambda d: _intra(d, "POT", "nll", "%.2f")),
+    "intra.ogm.auc": (INTRA, lambda d: _intra(d, "OGM", "auc")),
+    "intra.ogm.nll": (INTRA, lambda d: _intra(d, "OGM", "nll")),
+    "quality.table": ((INTRA, INTRA3D), _quality_table),
 }
 
 
 def derive(root):
     """{name: text} of every derived figure, computed from its JSON now."""
     cache, out = {}, {}
-    for name, (path, rule) in DERIVED.items():
-        if path not in cache:
-            with open(os.path.join(root, path)) as f:
-                cache[path] = json.load(f)
-        out[name] = rule(cache[path])
+    for name, (paths, rule) in DERIVED.items():
+        paths = paths if isinstance(paths, tuple) else (paths,)
+        for path in paths:
+            if path not in cache:
+                with open(os.path.join(root, path)) as f:
+                    cache[path] = json.load(f)
+        out[name] = rule(*[cache[p] for p in paths])
     return out
+
+
+def source(name):
+    """The JSON file(s) a derived figure comes from, as docs/figures.json names them."""
+    paths = DERIVED[name][0]
+    return ", ".join(paths) if isinstance(paths, tuple) else paths
 
 
 # --- the one source ----------------------------------------------------------------------------
@@ -236,9 +289,9 @@ def check(root, derived, data):
         entry = figures.get(name)
         if entry is None:
             problems.append("%s: derived figure %s missing (run scripts/make_doc_figures.py)" % (FIGURES, name))
-        elif entry.get("text") != text or entry.get("from") != DERIVED[name][0]:
+        elif entry.get("text") != text or entry.get("from") != source(name):
             problems.append("%s: %s is %r, its source %s gives %r" % (
-                FIGURES, name, entry.get("text"), DERIVED[name][0], text))
+                FIGURES, name, entry.get("text"), source(name), text))
     for name, entry in figures.items():
         if name not in DERIVED and not (entry.get("command") and entry.get("machine")):
             problems.append("%s: measured figure %s names no command or machine" % (FIGURES, name))
@@ -304,7 +357,7 @@ def main(argv=None):
     derived, data = derive(a.root), read_figures(a.root)
     if not a.check:
         for name, text in derived.items():
-            data["figures"][name] = {"text": text, "from": DERIVED[name][0],
+            data["figures"][name] = {"text": text, "from": source(name),
                                      **{k: v for k, v in data["figures"].get(name, {}).items() if k in KEPT}}
         write_figures(a.root, data)
         for page in fill(a.root, data["figures"]):
