@@ -127,6 +127,18 @@ def _quality_table(intra2d, intra3d):
     return "\n".join(lines) + "\n"
 
 
+def _job(d, field, job):
+    jobs = [j for j in d["jobs"] if j["job"] == job]
+    if len(jobs) != 1:
+        raise ValueError("%d jobs named %r" % (len(jobs), job))
+    return jobs[0][field]
+
+
+RASTER_XEON = "docs/raster-scale-e2e.json"
+RASTER_COG = "docs/raster-cog.json"
+RASTER_BAND = "docs/raster-band.json"
+RASTER_BAND26 = "docs/raster-band-step01.json"
+RASTER_CITY = "docs/raster-city.json"
 DRIVE_MEMORY = "docs/drive-memory.json"
 INTRA = "docs/results/intra.json"
 INTRA3D = "docs/results3d/intra-40m.json"
@@ -197,6 +209,34 @@ DERIVED = {
     # The whole raster job of Town 1 at 0.25 m against its kernel alone (bench/raster_scale.py).
     "raster.town1.job": (RASTER, lambda d: "%.3f s" % _one(d, "seconds", res=0.25, job="PNG + .npy (bands)")),
     "raster.town1.kernel": (RASTER, lambda d: "%.3f s" % _one(d, "kernel_seconds", res=0.25, job="PNG + .npy (bands)")),
+    "raster.town1.ratio": (RASTER, lambda d: "%.2fx" % _one(d, "ratio", res=0.25, job="PNG + .npy (bands)")),
+    "raster.town1_005.job": (RASTER, lambda d: "%.3f s" % _one(d, "seconds", res=0.05, job="PNG + .npy (bands)")),
+    "raster.town1_005.kernel": (RASTER, lambda d: "%.3f s" % _one(d, "kernel_seconds", res=0.05, job="PNG + .npy (bands)")),
+    "raster.town1_005.ratio": (RASTER, lambda d: "%.2fx" % _one(d, "ratio", res=0.05, job="PNG + .npy (bands)")),
+    "raster.xeon.job": (RASTER_XEON, lambda d: "%.3f s" % _one(d, "seconds", res=0.25, job="PNG + .npy (bands)")),
+    "raster.xeon.kernel": (RASTER_XEON, lambda d: "%.3f s" % _one(d, "kernel_seconds", res=0.25, job="PNG + .npy (bands)")),
+    "raster.xeon.ratio": (RASTER_XEON, lambda d: "%.2fx" % _one(d, "ratio", res=0.25, job="PNG + .npy (bands)")),
+    "raster.xeon_005.job": (RASTER_XEON, lambda d: "%.3f s" % _one(d, "seconds", res=0.05, job="PNG + .npy (bands)")),
+    "raster.xeon_005.kernel": (RASTER_XEON, lambda d: "%.3f s" % _one(d, "kernel_seconds", res=0.05, job="PNG + .npy (bands)")),
+    "raster.xeon_005.ratio": (RASTER_XEON, lambda d: "%.2fx" % _one(d, "ratio", res=0.05, job="PNG + .npy (bands)")),
+    # A tiled GeoTIFF of Town 1 at 0.05 m against its kernel (bench/raster_cog.py).
+    "raster.cog.job": (RASTER_COG, lambda d: "%.2f s" % _job(d, "median", "GeoTIFF (ZSTD, 512 tiles)")),
+    "raster.cog.file": (RASTER_COG, lambda d: "%.0f MB" % (_job(d, "file_bytes", "GeoTIFF (ZSTD, 512 tiles)") / 1e6)),
+    "raster.cog.ratio": (RASTER_COG, lambda d: "%.2fx" % _job(d, "ratio", "GeoTIFF (ZSTD, 512 tiles)")),
+    "raster.cog.kernel": (RASTER_COG, lambda d: "%.2f s" % d["kernel_median"]),
+    # A 3D map's height band against the band kernel (bench/raster_band.py), 6 and 26 heights.
+    "raster.band.job": (RASTER_BAND, lambda d: "%.3f s" % _job(d, "median", "PNG + .npy")),
+    "raster.band.kernel": (RASTER_BAND, lambda d: "%.3f s" % d["kernel_median"]),
+    "raster.band.ratio": (RASTER_BAND, lambda d: "%.2fx" % _job(d, "ratio", "PNG + .npy")),
+    "raster.band26.job": (RASTER_BAND26, lambda d: "%.3f s" % _job(d, "median", "PNG + .npy")),
+    "raster.band26.kernel": (RASTER_BAND26, lambda d: "%.3f s" % d["kernel_median"]),
+    "raster.band26.ratio": (RASTER_BAND26, lambda d: "%.2fx" % _job(d, "ratio", "PNG + .npy")),
+    # A whole drive's height band as one COG over MPI ranks (bench/raster_city.py).
+    "raster.city1.wall": (RASTER_CITY, lambda d: "%.1f s" % _one(d, "median_wall_s", ranks=1)),
+    "raster.city1.rate": (RASTER_CITY, lambda d: "%.1f M" % (_one(d, "cells_per_s", ranks=1) / 1e6)),
+    "raster.city1.peak": (RASTER_CITY, lambda d: "%.0f MB" % max(_one(d, "peak_mb", ranks=1))),
+    "raster.city2.wall": (RASTER_CITY, lambda d: "%.1f s" % _one(d, "median_wall_s", ranks=2)),
+    "raster.city2.rate": (RASTER_CITY, lambda d: "%.1f M" % (_one(d, "cells_per_s", ranks=2) / 1e6)),
     # Forgetting (bench/forgetting_tables.py): places vehicles left, read occupied at the end.
     "forget.riverside.never": (FORGET_RIVERSIDE, lambda d: "%.1f %%" % (100 * _run(d, 0.0)["left_at_end_occupied_fraction"])),
     "forget.riverside.5s": (FORGET_RIVERSIDE, lambda d: "%.1f %%" % (100 * _run(d, 5.0)["left_at_end_occupied_fraction"])),
