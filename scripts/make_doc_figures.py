@@ -127,6 +127,31 @@ def _quality_table(intra2d, intra3d):
     return "\n".join(lines) + "\n"
 
 
+def _drives3d(method, field, fmt, sep="-"):
+    """The range of one method's AUC, NLL or time against OctoMap at 0.2 m over every 3D drive
+    case and cut: the summary scripts/make_results_3d.py puts atop docs/results-3d.md."""
+    def rule(*runners):
+        values = []
+        for d in runners:
+            cases = {}
+            for r in d["runs"]:
+                cases.setdefault((r["target"], r["source"]), {})[r["method"]] = r
+            for runs in cases.values():
+                base = runs.get("OGM 0.2 m", {}).get("ms_per_scan")
+                r = runs.get(method)
+                if base and r:
+                    values.append(r["ms_per_scan"] / base if field == "ratio" else r[field])
+        return _span(values, fmt, sep)
+    return rule
+
+
+def _frame(d, field, method, frame):
+    rows = [r for r in d["runs"] if r["method"] == method and r["frame"].startswith(frame)]
+    if len(rows) != 1:
+        raise ValueError("%d %s rows of frame %s" % (len(rows), method, frame))
+    return rows[0][field]
+
+
 def _job(d, field, job):
     jobs = [j for j in d["jobs"] if j["job"] == job]
     if len(jobs) != 1:
@@ -151,6 +176,11 @@ RANKS = "docs/mapping-ranks.json"
 INTER = "docs/results/inter.json"
 SIM2REAL = "docs/results/sim2real.json"
 DRIVE3D = "docs/drive3d-speed.json"
+PER_TIME = "docs/results/per-time.json"
+DYNAMIC = "docs/results/dynamic.json"
+FRAMES = "docs/results3d/frames.json"
+DRIVES3D = tuple("docs/results3d/%s-%dm.json" % (e, cut)
+                 for e in ("intra", "inter", "sim2real") for cut in (20, 40))
 DERIVED = {
     # Whole drives, `potmap mapping` end to end on 2 cores (bench/drive_memory.py).
     "drive.riverside.keyframes": (DRIVE_MEMORY, lambda d: "%d" % _one(d, "keyframes", **_drive("riverside-a"))),
@@ -256,6 +286,36 @@ DERIVED = {
     "inter.pot.nll": (INTER, lambda d: _pairs(d, "POT", "nll")),
     "sim2real.pot.auc": (SIM2REAL, lambda d: _pairs(d, "POT", "auc")),
     "sim2real.pot.nll": (SIM2REAL, lambda d: _pairs(d, "POT", "nll")),
+    "inter.repot.auc": (INTER, lambda d: _pairs(d, "RePOT", "auc")),
+    "inter.repot.nll": (INTER, lambda d: _pairs(d, "RePOT", "nll")),
+    "sim2real.repot.auc": (SIM2REAL, lambda d: _pairs(d, "RePOT", "auc")),
+    "sim2real.repot.nll": (SIM2REAL, lambda d: _pairs(d, "RePOT", "nll")),
+    # The simulated towns (per-time runner) and the dynamic scene's single scans, three seeds' means.
+    "sim.bhm.auc": (PER_TIME, lambda d: _intra(d, "BHM", "auc")),
+    "sim.bhm.nll": (PER_TIME, lambda d: _intra(d, "BHM", "nll")),
+    "sim.pot.auc": (PER_TIME, lambda d: _intra(d, "POT", "auc")),
+    "sim.pot.nll": (PER_TIME, lambda d: _intra(d, "POT", "nll")),
+    "sim.ogm.auc": (PER_TIME, lambda d: _intra(d, "OGM", "auc")),
+    "sim.ogm.nll": (PER_TIME, lambda d: _intra(d, "OGM", "nll", "%.2f")),
+    "dynamic.bhm.auc": (DYNAMIC, lambda d: _intra(d, "BHM", "auc")),
+    "dynamic.pot.auc": (DYNAMIC, lambda d: _intra(d, "POT", "auc")),
+    "dynamic.repot.auc": (DYNAMIC, lambda d: _intra(d, "RePOT", "auc")),
+    # Single 3D frames (potmap experiment frames): the nuScenes frame, POT over both frames.
+    "frames.nuscenes.repot.auc": (FRAMES, lambda d: "%.3f" % _frame(d, "auc", "RePOT", "nuscenes")),
+    "frames.nuscenes.repot.nll": (FRAMES, lambda d: "%.3f" % _frame(d, "nll", "RePOT", "nuscenes")),
+    "frames.nuscenes.bhm.fit": (FRAMES, lambda d: "%.1f s" % _frame(d, "fit_s", "BHM", "nuscenes")),
+    "frames.pot.auc": (FRAMES, lambda d: _span([r["auc"] for r in d["runs"] if r["method"] == "POT"], "%.3f", "-")),
+    # Every 3D drive case and cut (scripts/run_experiments_3d.sh), as docs/results-3d.md sums them up.
+    "drives3d.bhm.auc": (DRIVES3D, _drives3d("BHM", "auc", "%.3f")),
+    "drives3d.bhm.nll": (DRIVES3D, _drives3d("BHM", "nll", "%.3f")),
+    "drives3d.bhm.ratio": (DRIVES3D, _drives3d("BHM", "ratio", "%.2f", " to ")),
+    "drives3d.ogm02.auc": (DRIVES3D, _drives3d("OGM 0.2 m", "auc", "%.3f")),
+    "drives3d.ogm02.nll": (DRIVES3D, _drives3d("OGM 0.2 m", "nll", "%.3f")),
+    "drives3d.ogm01.auc": (DRIVES3D, _drives3d("OGM 0.1 m", "auc", "%.3f")),
+    "drives3d.ogm01.nll": (DRIVES3D, _drives3d("OGM 0.1 m", "nll", "%.3f")),
+    "drives3d.pot.auc": (DRIVES3D, _drives3d("POT", "auc", "%.3f")),
+    "drives3d.pot.nll": (DRIVES3D, _drives3d("POT", "nll", "%.3f")),
+    "drives3d.pot.ratio": (DRIVES3D, _drives3d("POT", "ratio", "%.2f", " to ")),
     # Intra-domain scores of the real logs (scripts/run_experiments.sh, three seeds' means).
     "intra.bhm.auc": (INTRA, lambda d: _intra(d, "BHM", "auc")),
     "intra.bhm.nll": (INTRA, lambda d: _intra(d, "BHM", "nll")),
