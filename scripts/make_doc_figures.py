@@ -236,6 +236,29 @@ DERIVED = {
     "pot.town2.bhm5000": (POT_TOWN2, lambda d: "%.1f" % _last(d, "bhm_ms_per_scan", atoms=5000, method="POT", ranking="indexed")),
     "pot.town2.bhm_range": (POT_TOWN2, lambda d: _span([_last(d, "bhm_ms_per_scan", atoms=a, method="POT", ranking="indexed")
                                                         for a in (200, 5000)], "%.1f", "-")),
+    # Their scores and their time against BHM, and the indexed ranking against the exhaustive one
+    # on the same scans (the exhaustive ranking's rows: the first 20 scans of town2).
+    "pot.intel.auc": (POT_INTEL, lambda d: "%.3f" % _last(d, "auc", atoms=200, method="POT", ranking="indexed")),
+    "pot.intel.nll": (POT_INTEL, lambda d: "%.3f" % _last(d, "nll", atoms=200, method="POT", ranking="indexed")),
+    "pot.intel.x_bhm200": (POT_INTEL, lambda d: "%.1f" % _last(d, "over_bhm", atoms=200, method="POT", ranking="indexed")),
+    "pot.intel.x_bhm5000": (POT_INTEL, lambda d: "%.1f" % _last(d, "over_bhm", atoms=5000, method="POT", ranking="indexed")),
+    "pot.intel.exhaustive_ratio": (POT_INTEL, lambda d: "%.0fx" % (
+        _last(d, "ms_per_scan", atoms=200, method="POT", ranking="exhaustive")
+        / _last(d, "ms_per_scan", atoms=200, method="POT", ranking="indexed"))),
+    "pot.intel.exhaustive.auc": (POT_INTEL, lambda d: "%.3f" % _last(d, "auc", atoms=200, method="POT", ranking="exhaustive")),
+    "pot.intel.exhaustive.nll": (POT_INTEL, lambda d: "%.3f" % _last(d, "nll", atoms=200, method="POT", ranking="exhaustive")),
+    "pot.town2.auc": (POT_TOWN2, lambda d: "%.3f" % _last(d, "auc", atoms=200, method="POT", ranking="indexed")),
+    "pot.town2.nll": (POT_TOWN2, lambda d: "%.3f" % _last(d, "nll", atoms=200, method="POT", ranking="indexed")),
+    "pot.town2.repot.auc": (POT_TOWN2, lambda d: "%.3f" % _last(d, "auc", atoms=200, method="RePOT", ranking="indexed")),
+    "pot.town2.repot.nll": (POT_TOWN2, lambda d: "%.3f" % _last(d, "nll", atoms=200, method="RePOT", ranking="indexed")),
+    "pot.town2.x_bhm200": (POT_TOWN2, lambda d: "%.2fx" % _last(d, "over_bhm", atoms=200, method="POT", ranking="indexed")),
+    "pot.town2.x_bhm5000": (POT_TOWN2, lambda d: "%.2fx" % _last(d, "over_bhm", atoms=5000, method="POT", ranking="indexed")),
+    "pot.town2.exhaustive.auc": (POT_TOWN2, lambda d: "%.3f" % _one(d, "auc", atoms=200, method="POT", ranking="exhaustive")),
+    "pot.town2.exhaustive.nll": (POT_TOWN2, lambda d: "%.3f" % _one(d, "nll", atoms=200, method="POT", ranking="exhaustive")),
+    "pot.town2.indexed20.auc": (POT_TOWN2, lambda d: "%.3f" % _one(d, "auc", atoms=200, method="POT", ranking="indexed", scans=20)),
+    "pot.town2.indexed20.nll": (POT_TOWN2, lambda d: "%.3f" % _one(d, "nll", atoms=200, method="POT", ranking="indexed", scans=20)),
+    "pot.town2.agreement": (POT_TOWN2, lambda d: "%.0f %%" % (100 * _one(
+        d, "agreement", atoms=200, method="POT", ranking="indexed", scans=20))),
     # The whole raster job of Town 1 at 0.25 m against its kernel alone (bench/raster_scale.py).
     "raster.town1.job": (RASTER, lambda d: "%.3f s" % _one(d, "seconds", res=0.25, job="PNG + .npy (bands)")),
     "raster.town1.kernel": (RASTER, lambda d: "%.3f s" % _one(d, "kernel_seconds", res=0.25, job="PNG + .npy (bands)")),
