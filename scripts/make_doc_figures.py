@@ -192,6 +192,7 @@ DERIVED = {
     "drive.riverside.job_ratio": (DRIVE_MEMORY, lambda d: "%.2f" % _one(d, "job_per_keyframes", **_drive("riverside-a"))),
     "drive.riverside.cpu": (DRIVE_MEMORY, lambda d: "%.0f %%" % _one(d, "cpu_percent", **_drive("riverside-a"))),
     "drive.riverside.rss": (DRIVE_MEMORY, lambda d: "%.2f GB" % (_one(d, "peak_rss_mb", **_drive("riverside-a")) / 1000)),
+    "drive.riverside.kernels": (DRIVE_MEMORY, lambda d: "%.2f M" % (_one(d, "kernels", **_drive("riverside-a")) / 1e6)),
     "drive.hku.keyframes": (DRIVE_MEMORY, lambda d: "%d" % _one(d, "keyframes", **_drive("hku-1"))),
     "drive.hku.auc": (DRIVE_MEMORY, lambda d: "%.3f" % _one(d, "auc", **_drive("hku-1"))),
     "drive.hku.nll": (DRIVE_MEMORY, lambda d: "%.3f" % _one(d, "nll", **_drive("hku-1"))),
@@ -288,6 +289,9 @@ DERIVED = {
     "raster.city1.wall": (RASTER_CITY, lambda d: "%.1f s" % _one(d, "median_wall_s", ranks=1)),
     "raster.city1.rate": (RASTER_CITY, lambda d: "%.1f M" % (_one(d, "cells_per_s", ranks=1) / 1e6)),
     "raster.city1.peak": (RASTER_CITY, lambda d: "%.0f MB" % max(_one(d, "peak_mb", ranks=1))),
+    "raster.city.cells": (RASTER_CITY, lambda d: "%.1f M" % (_one(d, "cells", ranks=1) / 1e6)),
+    "raster.city.tiles": (RASTER_CITY, lambda d: "%d" % _one(d, "tiles", ranks=1)),
+    "raster.city.tif": (RASTER_CITY, lambda d: "%.1f MB" % (_one(d, "tif_bytes", ranks=1) / 1e6)),
     "raster.city2.wall": (RASTER_CITY, lambda d: "%.1f s" % _one(d, "median_wall_s", ranks=2)),
     "raster.city2.rate": (RASTER_CITY, lambda d: "%.1f M" % (_one(d, "cells_per_s", ranks=2) / 1e6)),
     # Forgetting (bench/forgetting_tables.py): places vehicles left, read occupied at the end.
