@@ -98,6 +98,13 @@ def _intra(d, method, field, fmt="%.3f"):
     return _span([r[field]["mean"] for r in d["table"] if r["method"] == method], fmt, "-")
 
 
+def _cell(d, target, method, field):
+    rows = [r for r in d["table"] if r["target"] == target and r["method"] == method]
+    if len(rows) != 1:
+        raise ValueError("%d %s rows of %s" % (len(rows), method, target))
+    return rows[0][field]["mean"]
+
+
 QUALITY_LABELS = {"riverside-a": "riverside-a (3D, Ouster, car)", "hku-1": "hku-1 (3D, Livox, walk)"}
 
 
@@ -350,6 +357,8 @@ DERIVED = {
     "intra.pot.nll": (INTRA, lambda d: _intra(d, "POT", "nll")),
     "intra.pot.auc2": (INTRA, lambda d: _intra(d, "POT", "auc", "%.2f")),
     "intra.pot.nll2": (INTRA, lambda d: _intra(d, "POT", "nll", "%.2f")),
+    "intra.intel.repot.auc": (INTRA, lambda d: "%.3f" % _cell(d, "intel", "RePOT", "auc")),
+    "intra.intel.repot.nll": (INTRA, lambda d: "%.3f" % _cell(d, "intel", "RePOT", "nll")),
     "intra.ogm.auc": (INTRA, lambda d: _intra(d, "OGM", "auc")),
     "intra.ogm.nll": (INTRA, lambda d: _intra(d, "OGM", "nll")),
     "quality.table": ((INTRA, INTRA3D), _quality_table),
