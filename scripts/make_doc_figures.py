@@ -268,6 +268,8 @@ DERIVED = {
     "pot.town2.agreement": (POT_TOWN2, lambda d: "%.0f %%" % (100 * _one(
         d, "agreement", atoms=200, method="POT", ranking="indexed", scans=20))),
     # The whole raster job of Town 1 at 0.25 m against its kernel alone (bench/raster_scale.py).
+    "raster.town1.cells": (RASTER, lambda d: "%.2f M" % (_one(d, "cells", res=0.25, job="PNG + .npy (bands)") / 1e6)),
+    "raster.town1_005.cells": (RASTER, lambda d: "%.1f M" % (_one(d, "cells", res=0.05, job="PNG + .npy (bands)") / 1e6)),
     "raster.town1.job": (RASTER, lambda d: "%.3f s" % _one(d, "seconds", res=0.25, job="PNG + .npy (bands)")),
     "raster.town1.kernel": (RASTER, lambda d: "%.3f s" % _one(d, "kernel_seconds", res=0.25, job="PNG + .npy (bands)")),
     "raster.town1.ratio": (RASTER, lambda d: "%.2fx" % _one(d, "ratio", res=0.25, job="PNG + .npy (bands)")),
