@@ -183,6 +183,7 @@ RANKS = "docs/mapping-ranks.json"
 INTER = "docs/results/inter.json"
 SIM2REAL = "docs/results/sim2real.json"
 DRIVE3D = "docs/drive3d-speed.json"
+WAVEMAP = "docs/drive3d-wavemap.json"
 PER_TIME = "docs/results/per-time.json"
 DYNAMIC = "docs/results/dynamic.json"
 FRAMES = "docs/results3d/frames.json"
@@ -224,6 +225,12 @@ DERIVED = {
         d, "ms_per_keyframe", drive="hku-1", cut_m=40.0, method="mapping BHM")),
     "keyframes.hku40.ratio": (DRIVE3D, lambda d: "%.2fx" % _one(
         d, "ratio_to_octomap_0.2", drive="hku-1", cut_m=40.0, method="mapping BHM")),
+    # The same keyframes against wavemap 0.2 m (bench/drive3d.py --wavemap), every drive and cut.
+    "wavemap.auc": (WAVEMAP, lambda d: _keyframes(d, "wavemap 0.2 m", "auc", "%.2f")),
+    "wavemap.nll": (WAVEMAP, lambda d: _keyframes(d, "wavemap 0.2 m", "nll", "%.2f")),
+    "wavemap.ratio": (WAVEMAP, lambda d: _keyframes(d, "wavemap 0.2 m", "ratio_to_octomap_0.2", "%.2f")),
+    "wavemap.octomap02.auc": (WAVEMAP, lambda d: _keyframes(d, "OGM 0.2 m", "auc", "%.2f")),
+    "wavemap.octomap02.nll": (WAVEMAP, lambda d: _keyframes(d, "OGM 0.2 m", "nll", "%.2f")),
     # POT against the dictionary's size, indexed ranking: the last row of each kind is the
     # settings' current one (bench/pot_scale, docs/pot-scale.md).
     "pot.intel.pot200": (POT_INTEL, lambda d: "%.1f" % _last(d, "ms_per_scan", atoms=200, method="POT", ranking="indexed")),
