@@ -51,7 +51,7 @@ std::string default_dictionary_path(int dim = 2);
 
 /// What default_dictionary() tells its caller while it works (each may be empty: silence).
 struct DefaultDictionaryNotes {
-  /// A line for the user: the build starting (it takes a minute or more), an unreadable cache
+  /// A line for the user: the build starting (long enough to announce), an unreadable cache
   /// rebuilt, a cache that could not be written, the build done.
   std::function<void(const std::string&)> note;
   /// Called once when a build starts; what it returns receives the fraction done.
