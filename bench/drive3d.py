@@ -23,7 +23,9 @@ that experiment's OctoMap 0.2 m. Their scores are on every 4th held-out sample (
 keeps a quarter), the experiment's on all of them.
 
 --doc FILE puts the table into FILE between the lines "<!-- bench/drive3d.py table -->" and
-"<!-- end of bench/drive3d.py table -->", so the page shows the last run's figures.
+"<!-- end of bench/drive3d.py table -->", so the page shows the figures of the JSON it writes;
+then the figures other pages take from that JSON (docs/figures.json, scripts/make_doc_figures.py)
+are carried to every page.
 
 --wavemap adds a second peer, wavemap (github.com/ethz-asl/wavemap), beside OctoMap: the method
 "wavemap" of `potmap experiment`, at the cells of --wavemap-cells (default 0.1 and 0.2 m), on
@@ -51,7 +53,7 @@ import subprocess
 import sys
 import tempfile
 
-from marked_doc import replace_marked
+from marked_doc import refresh_figures, replace_marked
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
@@ -160,6 +162,8 @@ def main():
         json.dump(meta, f, indent=1)
     os.replace(a.out + ".tmp", a.out)
     print("bench/drive3d.py: wrote", a.out, file=sys.stderr)
+    if a.doc:
+        refresh_figures()  # the figures other pages take from docs/drive3d-speed.json
 
 
 if __name__ == "__main__":

@@ -17,7 +17,8 @@ of its keyframes' mapping time and the CPU use in per cent of one core. --cores 
 drive pinned to that many cores (taskset): the threads table. The table prints one row a drive
 and core count; the JSON keeps the curves; the plot puts memory against keyframes; --doc FILE
 puts the table between "<!-- bench/drive_memory.py table -->" and "<!-- end of
-bench/drive_memory.py table -->".
+bench/drive_memory.py table -->", then carries the figures other pages take from the JSON
+(docs/figures.json, scripts/make_doc_figures.py) to every page.
 """
 import argparse
 import json
@@ -30,7 +31,7 @@ import sys
 import tempfile
 import time
 
-from marked_doc import replace_marked
+from marked_doc import refresh_figures, replace_marked
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
@@ -135,6 +136,7 @@ def main():
         plot([r for r in rows if r["cores"] == rows[0]["cores"]], a.plot)
     if a.doc:
         replace_marked(a.doc, "bench/drive_memory.py", "table", "\n" + "\n".join(table) + "\n")
+        refresh_figures()
 
 
 if __name__ == "__main__":

@@ -17,3 +17,13 @@ def replace_marked(doc, script, name, body):
     with open(doc + ".tmp", "w") as f:
         f.write(head + start + body + end + tail)
     os.replace(doc + ".tmp", doc)
+
+
+def refresh_figures():
+    """Carries the figures derived from the docs' JSON into docs/figures.json and every page's
+    marked spans (scripts/make_doc_figures.py); for a script that has just written docs/ JSON."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    sys.path.insert(0, os.path.join(root, "scripts"))
+    import make_doc_figures
+    if make_doc_figures.main(["--root", root]) != 0:
+        sys.exit("scripts/make_doc_figures.py found disagreements (above)")

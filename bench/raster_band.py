@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A 3D map's height band rastered end to end against its kernel, in one sitting: `potmap raster
+"""A 3D map's height band rastered end to end against its kernel, in one run: `potmap raster
 --band ZLO,ZHI` (PNG + .npy, and the tiled GeoTIFF) beside the band kernel alone
 (MapEvaluator::evaluate_band_max, bench/raster_band_kernel.cpp) on the same cells and heights.
 Prints a table and writes JSON.

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A dense GeoTIFF job against its kernel, in one sitting: `potmap raster ... OUT.tif` (the tiled,
+"""A dense GeoTIFF job against its kernel, in one run: `potmap raster ... OUT.tif` (the tiled,
 resumable Cloud-Optimized GeoTIFF) end to end beside the grid kernel alone on the same cells,
 the whole Town 1 map at 0.05 m (8692 x 7384 = 64.2 M cells). Prints a table and writes JSON.
 

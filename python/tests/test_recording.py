@@ -31,7 +31,7 @@ def test_defaults_are_what_maps_real_logs_and_paper_is_a_preset():
 @pytest.fixture(scope="module")
 def default_dictionary():
     t0 = time.monotonic()
-    d = potmap.default_dictionary()  # built once (about a minute) when the cache lacks it
+    d = potmap.default_dictionary()  # built once when the cache lacks it
     return d, time.monotonic() - t0
 
 

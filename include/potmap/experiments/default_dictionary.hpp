@@ -29,7 +29,7 @@ std::string default_dictionary_recipe(int dim = 2);
 /// driven for `scans` scans 2 m apart (route seed 0), scans cut at 20 m, the experiments'
 /// atoms (build_atoms with PotSetup's defaults, seed 0): a joint BHM of each town, atoms from
 /// 10 scans of each. Deterministic: no device is used. `progress`, when set, is called with
-/// the fraction done (0 to 1) after each town (the build takes about a minute).
+/// the fraction done (0 to 1) after each town (its time: docs/figures.json, dict.default.build).
 Dictionary build_default_dictionary(std::size_t scans = 200,
                                     const std::function<void(double)>& progress = {});
 
@@ -37,7 +37,7 @@ Dictionary build_default_dictionary(std::size_t scans = 200,
 /// driven for `scans` scans 4 m apart with the 3D frames' sensor (sim_options_3d: 32 rings,
 /// 20 m), atoms from 10 scans of each by frame_setup_3d()'s settings (kernels at the atoms'
 /// samples thinned to 1 m, the drive BHM's spacing). Deterministic: no device is used.
-/// `progress` as above (the build takes a few minutes on 2 cores).
+/// `progress` as above (its time: docs/figures.json, dict.default3d.build).
 Dictionary build_default_dictionary_3d(std::size_t scans = 20,
                                        const std::function<void(double)>& progress = {});
 
@@ -51,7 +51,7 @@ std::string default_dictionary_path(int dim = 2);
 
 /// What default_dictionary() tells its caller while it works (each may be empty: silence).
 struct DefaultDictionaryNotes {
-  /// A line for the user: the build starting (it takes a minute or more), an unreadable cache
+  /// A line for the user: the build starting (long enough to announce), an unreadable cache
   /// rebuilt, a cache that could not be written, the build done.
   std::function<void(const std::string&)> note;
   /// Called once when a build starts; what it returns receives the fraction done.
