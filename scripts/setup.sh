@@ -21,6 +21,7 @@ packages=(
   python3-geometry-msgs
   python3 python3-numpy
   python3-dev pybind11-dev python3-pytest python3-matplotlib
+  python3-setuptools python3-wheel python3-venv python3-pip
   clang libclang-rt-14-dev
 )
 

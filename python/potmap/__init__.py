@@ -12,8 +12,30 @@ offset and value); ArgumentError and InputError are ValueErrors too.
     prob, mean, var = m.evaluate(points, ctx)
 """
 
+try:  # NumPy first: the bindings take and return its arrays, and would only fail at a first call.
+    import numpy as _numpy  # noqa: F401
+except ImportError as _e:
+    import sys as _sys
+
+    raise ImportError(
+        "potmap needs NumPy, which this Python (%s) cannot import (%s): install it with "
+        "`pip install numpy` (Debian: `apt install python3-numpy`)" % (_sys.executable, _e)) from _e
+
+try:
+    from ._potmap import __version__  # noqa: F401
+except ModuleNotFoundError as _e:
+    if _e.name != __name__ + "._potmap":
+        raise
+    import os as _os
+
+    _here = _os.path.dirname(__file__)
+    raise ImportError(
+        "potmap: the compiled module _potmap is missing from %s: build it (`cmake --build build "
+        "--target potmap_python`, then PYTHONPATH=build/python) or install the package "
+        "(`pip install .` in potmap's source folder)" % _here) from None
+
 from ._potmap import *  # noqa: F401,F403  (the compiled bindings)
-from ._potmap import __doc__ as _bindings_doc, __version__  # noqa: F401
+from ._potmap import __doc__ as _bindings_doc  # noqa: F401
 from . import _potmap
 
 try:

@@ -1,10 +1,16 @@
 # Installs the built potmap into a fresh prefix, checks the installed package files carry no
-# path of the build machine, then builds and runs a consumer twice: with find_package(potmap)
-# and with pkg-config; then the C embedding example (EXAMPLE_DIR) the same two ways, running it
-# on EXAMPLE_MAP (if that file exists) and on its own small map, and its mapper program on
-# EXAMPLE_LOG (a real log streamed through the C mapper). Run by CTest as `cmake -P` with:
+# path of the build machine, runs the installed command on the prefix's libpotmap (its help, and a
+# real job: EXAMPLE_MAP scored on EXAMPLE_TEST, the same scores as the build tree's command), then builds and runs a consumer twice: with
+# find_package(potmap) and with pkg-config; then the C embedding example (EXAMPLE_DIR) the same
+# two ways, running it on EXAMPLE_MAP (if that file exists) and on its own small map, and its
+# mapper program on EXAMPLE_LOG (a real log streamed through the C mapper); last, the installed
+# Python package is imported from the prefix (PYTHONPATH) and runs the command. Run by CTest as
+# `cmake -P` with:
 #   BUILD_DIR, SOURCE_DIR (potmap's), CONSUMER_DIR, WORK_DIR, CXX and CC (compilers), GENERATOR,
-#   EXAMPLE_DIR, EXAMPLE_MAP, EXAMPLE_LOG
+#   EXAMPLE_DIR, EXAMPLE_MAP, EXAMPLE_TEST, EXAMPLE_LOG, BUILD_COMMAND (the build tree's
+#   potmap command; empty when it is not built)
+#   and, when the Python package is built: PYTHON, PY_DIR (its folder, relative to the prefix),
+#   PY_CHECK (python/tests/check_installed.py), INSTALL_PREFIX (the configured prefix)
 cmake_minimum_required(VERSION 3.20)
 
 function(run)
@@ -33,6 +39,43 @@ foreach(f IN LISTS package_files)
     endif()
   endforeach()
 endforeach()
+
+# 0. The command, installed: it finds the prefix's libpotmap by its run path, from any prefix and
+#    without LD_LIBRARY_PATH.
+if(BUILD_COMMAND)
+  set(potmap "${prefix}/bin/potmap")
+  set(bare ${CMAKE_COMMAND} -E env --unset=LD_LIBRARY_PATH)
+  run(${bare} "${potmap}" --help)
+  if(NOT run_output MATCHES "mapping")
+    message(FATAL_ERROR "${potmap} --help does not list `mapping`:\n${run_output}")
+  endif()
+  run(${bare} ldd "${potmap}")
+  string(REGEX MATCH "libpotmap\\.so\\.[0-9]+ => [^ ]+" found "${run_output}")
+  string(FIND "${found}" "=> ${prefix}/" at)
+  if(NOT at GREATER 0)
+    message(FATAL_ERROR "${potmap} does not load the prefix's libpotmap:\n${run_output}")
+  endif()
+  # A real job (device, map and CSV readers): the town's map scored on its test points, as the
+  # build tree's command scores it.
+  foreach(which installed built)
+    if(which STREQUAL "installed")
+      run(${bare} "${potmap}" eval --map "${EXAMPLE_MAP}" --test "${EXAMPLE_TEST}" --json -)
+    else()
+      run("${BUILD_COMMAND}" eval --map "${EXAMPLE_MAP}" --test "${EXAMPLE_TEST}" --json -)
+    endif()
+    foreach(key auc nll n kernels)
+      string(JSON ${which}_${key} GET "${run_output}" ${key})
+    endforeach()
+  endforeach()
+  foreach(key auc nll n kernels)
+    if(NOT installed_${key} STREQUAL built_${key})
+      message(FATAL_ERROR "installed potmap eval: ${key} ${installed_${key}}, the build's "
+                          "command: ${built_${key}}")
+    endif()
+  endforeach()
+  message(STATUS "installed potmap eval: AUC ${installed_auc}, NLL ${installed_nll} on "
+                 "${installed_n} points, as the build's command")
+endif()
 
 # 1. CMake package.
 run(${CMAKE_COMMAND} -S "${CONSUMER_DIR}" -B "${WORK_DIR}/cmake-consumer" -G "${GENERATOR}"
@@ -100,3 +143,30 @@ run(${CC} -std=c99 -Wall -Werror "${EXAMPLE_DIR}/embed.c" ${flags} -lm -o "${WOR
 run(${CMAKE_COMMAND} -E env "LD_LIBRARY_PATH=${libpath}" "${WORK_DIR}/pc-embed" -
     "${WORK_DIR}/pc-results.csv")
 message(STATUS "embed_c (pkg-config): ${run_output}")
+
+# 5. The Python package, imported from the prefix by the interpreter it was built for: the
+#    module loads the prefix's libpotmap (its run path) and `python -m potmap` runs the prefix's
+#    command (check_installed.py).
+if(PY_DIR)
+  set(check_args "")
+  if(NOT BUILD_COMMAND)
+    set(check_args --no-command)
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env --unset=LD_LIBRARY_PATH
+                          "PYTHONPATH=${prefix}/${PY_DIR}" "${PYTHON}" "${PY_CHECK}" "${prefix}"
+                          ${check_args}
+                  WORKING_DIRECTORY "${WORK_DIR}"  # not the build tree, which holds a potmap/ too
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "importing the installed Python package failed:\n${out}\n${err}")
+  endif()
+  message(STATUS "installed Python package: ${out}")
+  # Without PYTHONPATH the interpreter must look where a real install puts the package.
+  # (No `;` in the code: run() passes its arguments on as a CMake list.)
+  run("${PYTHON}" -c "import site, sys\nprint(sys.argv[1] in site.getsitepackages())"
+      "${INSTALL_PREFIX}/${PY_DIR}")
+  string(STRIP "${run_output}" found)
+  if(NOT found STREQUAL "True")
+    message(FATAL_ERROR "${PYTHON} does not search ${INSTALL_PREFIX}/${PY_DIR}: set POTMAP_PYTHON_INSTALL_DIR")
+  endif()
+endif()
