@@ -55,48 +55,63 @@ _save.__doc__ = write_map.__doc__  # noqa: F405
 KernelMap.save = _save  # noqa: F405
 
 
-if hasattr(_potmap, "_map_recording"):  # built with the experiments library
+if hasattr(_potmap, "_run_mapping_job"):  # built with the experiments library
 
-    def map_recording(path, out_dir=None, ctx=None, method="repot", options=None,
-                      range_cut=20.0, first=0, max_scans=0, dictionary=None):
-        """Maps a 2D recording (any log potmap reads) in one call, as `potmap mapping LOG`.
+    class MappedRecording:
+        """What map_recording() wrote: `potmap mapping`'s files and scores.
 
-        path: the log. out_dir: when given, the folder (created) that receives map.potmap
-        (the overall map) and scores.json (the held-out scores and timings). ctx: a Context
-        (default: Context(), the default device). method: 'repot' (default: POT's transport
-        refined by a persistent joint BHM) or 'pot'. options: MapperOptions (default: the
-        library's, which map real logs best; MapperOptions.paper() for the authors' rules);
-        method sets options.pot.refine. range_cut: returns farther than this become
-        no-returns, metres (default 20, the towns' range the default dictionary's atoms are
-        cut at; 0: none). first, max_scans: skip this many scans, map at most this many (0:
-        all). dictionary: a .potdict path (default: default_dictionary(), built once and
-        cached). A 3D drive folder raises ArgumentError: map it with map_drive() or
-        DriveMapper. Returns a RecordingMap: map, overall and instantaneous Scores (every
-        scan's held-out beams, 20 % by default, never used for transport), timings.
+        out_dir: the folder. files: every file written, scores.json last. scores: Scores of
+        every scan's or keyframe's held-out beams (20 %, never mapped) on the final map (also
+        `overall`). summary: scores.json as a dict (timings, kernels, memory, the run's
+        options). drive: a 3D drive (else a 2D log). map: the map, read from map.potmap.
         """
-        if method not in ("repot", "pot"):
-            raise ArgumentError("map_recording: method must be 'repot' or 'pot', not %r"  # noqa: F405
-                                % (method,))
-        if ctx is None:
-            ctx = Context()  # noqa: F405
-        r = _potmap._map_recording(str(path), ctx, options, method == "repot", float(range_cut),
-                                   int(first), int(max_scans),
-                                   "" if dictionary is None else str(dictionary))
-        if out_dir is not None:
+
+        def __init__(self, result, out_dir):
             import json
+
+            self.out_dir = str(out_dir)
+            self.files = list(result.files)
+            self.scores = result.scores
+            self.drive = result.drive
+            self.summary = json.loads(result.scores_json)
+
+        @property
+        def overall(self):
+            return self.scores
+
+        @property
+        def map(self):
             import os
 
-            os.makedirs(out_dir, exist_ok=True)
-            write_map(r.map, os.path.join(out_dir, "map.potmap"))  # noqa: F405
+            return read_map(os.path.join(self.out_dir, "map.potmap"))  # noqa: F405
 
-            def scores(s):
-                return {"acc": s.acc, "auc": s.auc, "nll": s.nll, "points": s.n}
+        def __repr__(self):
+            return "<potmap.MappedRecording %s: AUC %.4f, NLL %.4f, %d files>" % (
+                self.out_dir, self.scores.auc, self.scores.nll, len(self.files))
 
-            record = {"log": str(path), "method": "RePOT" if method == "repot" else "POT",
-                      "scans": r.scans, "overall_kernels": r.overall_kernels,
-                      "instantaneous": scores(r.instantaneous), "overall": scores(r.overall),
-                      "ms_per_scan": r.ms_per_scan, "dictionary": r.dictionary,
-                      "range_cut": range_cut, "device": ctx.device.summary()}
-            with open(os.path.join(out_dir, "scores.json"), "w") as f:
-                json.dump(record, f, indent=1)
-        return r
+    def map_recording(path, out_dir=None, ctx=None, progress=None, quiet=True, **options):
+        """Maps a recording of any kind into a folder, as `potmap mapping PATH -o OUT_DIR`.
+
+        The library's mapping job (include/potmap/job/mapping_job.hpp), the one the command
+        runs: a 2D log gives OUT_DIR/map.potmap, map_{prob,var,kernels}.png, map.yaml + .pgm
+        and scores.json; a 3D drive folder map.potmap, map.bt (OctoMap), map_occupied.ply,
+        map_band_{prob,var}.png, map_band.yaml + .pgm and scores.json, with checkpoints
+        (resume=True continues a killed run). The same options give the same files and scores
+        as the command.
+
+        path: any recording potmap reads. out_dir: the folder, created (default
+        default_mapping_folder(path), as the command's). ctx: a Context (default: Context()).
+        progress: called with a JobProgress after every scan or keyframe and batch of output
+        blocks (an exception raised there stops the job, every file whole). quiet: when False,
+        the job's account (what is mapped, the device, the scores) is printed. options: fields
+        of MappingJobOptions (method, dictionary, range_cut, first, max_scans, seed, preset,
+        half_life, voxel, band_low, ...), as the command's options of the same names. Ctrl-C
+        stops the job at the next scan or keyframe. Returns a MappedRecording.
+        """
+        if ctx is None:
+            ctx = Context()  # noqa: F405
+        o = MappingJobOptions(**options)  # noqa: F405
+        o.out = str(out_dir) if out_dir is not None else default_mapping_folder(str(path))  # noqa: F405
+        note = None if quiet else print
+        r = _potmap._run_mapping_job(str(path), ctx, o, note, progress)
+        return MappedRecording(r, o.out)

@@ -585,6 +585,36 @@ class Evaluator:
         """kernel-query pairs visited by the last call (work done)"""
         ...
 
+class JobProgress:
+    """Where a mapping job stands."""
+    def __init__(self, *args: Any, **kwargs: Any) -> Any:
+        """Initialize self.  See help(type(self)) for accurate signature."""
+        ...
+    @property
+    def stage(self) -> str:
+        """mapping, outputs, export or dictionary"""
+        ...
+    @property
+    def unit(self) -> str:
+        """scan, keyframe or share"""
+        ...
+    @property
+    def done(self) -> int:
+        ...
+    @property
+    def total(self) -> int:
+        ...
+    @property
+    def elapsed_s(self) -> float:
+        ...
+    @property
+    def detail(self) -> str:
+        """the unit just done, one line"""
+        ...
+    @property
+    def fraction(self) -> float:
+        ...
+
 class JointBhm:
     """Online Bayesian Hilbert map with the joint posterior: overlapping grid
     kernels, updated scan by scan (each posterior the next prior). Host only."""
@@ -1148,6 +1178,196 @@ class MapperOptions:
     @refine_on_host_team.setter
     def refine_on_host_team(self, value: Any) -> None: ...
 
+class MappingJobOptions:
+    """How map_recording() maps (`potmap mapping`'s options; units and defaults in include/potmap/job/mapping_job.hpp)."""
+    def __init__(self, **kwargs: Any) -> None:
+        ...
+    @property
+    def out(self) -> str:
+        """output folder (created)"""
+        ...
+    @out.setter
+    def out(self, value: Any) -> None: ...
+    @property
+    def method(self) -> str:
+        """'' (by the recording: repot for 2D logs, bhm for 3D drives), repot, pot or bhm"""
+        ...
+    @method.setter
+    def method(self, value: Any) -> None: ...
+    @property
+    def dictionary(self) -> str:
+        """.potdict ('' the built-in one)"""
+        ...
+    @dictionary.setter
+    def dictionary(self, value: Any) -> None: ...
+    @property
+    def range_cut(self) -> float:
+        """metres (-1: 20 in 2D, 40 in 3D; 0: none)"""
+        ...
+    @range_cut.setter
+    def range_cut(self, value: Any) -> None: ...
+    @property
+    def first(self) -> int:
+        """scans or keyframes skipped"""
+        ...
+    @first.setter
+    def first(self, value: Any) -> None: ...
+    @property
+    def max_scans(self) -> int:
+        """at most this many mapped (0: all)"""
+        ...
+    @max_scans.setter
+    def max_scans(self, value: Any) -> None: ...
+    @property
+    def seed(self) -> int:
+        ...
+    @seed.setter
+    def seed(self, value: Any) -> None: ...
+    @property
+    def half_life(self) -> float:
+        """forgetting, seconds (0: never)"""
+        ...
+    @half_life.setter
+    def half_life(self, value: Any) -> None: ...
+    @property
+    def picture_pixels(self) -> int:
+        ...
+    @picture_pixels.setter
+    def picture_pixels(self, value: Any) -> None: ...
+    @property
+    def preset(self) -> str:
+        """2D: default or paper"""
+        ...
+    @preset.setter
+    def preset(self, value: Any) -> None: ...
+    @property
+    def ranking(self) -> str:
+        """2D: '' (the preset's), indexed or exhaustive"""
+        ...
+    @ranking.setter
+    def ranking(self, value: Any) -> None: ...
+    @property
+    def rotations(self) -> int:
+        """2D: rotations tried per atom"""
+        ...
+    @rotations.setter
+    def rotations(self, value: Any) -> None: ...
+    @property
+    def seeds_yield_fully(self) -> bool:
+        ...
+    @seeds_yield_fully.setter
+    def seeds_yield_fully(self, value: Any) -> None: ...
+    @property
+    def ros_resolution(self) -> float:
+        """2D: the ROS map's metres a pixel"""
+        ...
+    @ros_resolution.setter
+    def ros_resolution(self, value: Any) -> None: ...
+    @property
+    def poses(self) -> str:
+        """3D: odom, optimized or auto"""
+        ...
+    @poses.setter
+    def poses(self, value: Any) -> None: ...
+    @property
+    def band_low(self) -> float:
+        """3D: metres about the sensor's height"""
+        ...
+    @band_low.setter
+    def band_low(self, value: Any) -> None: ...
+    @property
+    def band_high(self) -> float:
+        """3D: metres about the sensor's height"""
+        ...
+    @band_high.setter
+    def band_high(self, value: Any) -> None: ...
+    @property
+    def voxel(self) -> float:
+        """3D: the exports' voxel edge, metres"""
+        ...
+    @voxel.setter
+    def voxel(self, value: Any) -> None: ...
+    @property
+    def picture_res(self) -> float:
+        """3D: band pictures' metres a pixel"""
+        ...
+    @picture_res.setter
+    def picture_res(self, value: Any) -> None: ...
+    @property
+    def checkpoint_every(self) -> int:
+        """3D: keyframes (0: not by count)"""
+        ...
+    @checkpoint_every.setter
+    def checkpoint_every(self, value: Any) -> None: ...
+    @property
+    def checkpoint_seconds(self) -> float:
+        """3D: seconds (0: not by time)"""
+        ...
+    @checkpoint_seconds.setter
+    def checkpoint_seconds(self, value: Any) -> None: ...
+    @property
+    def export_every(self) -> int:
+        """3D: keyframes between exports"""
+        ...
+    @export_every.setter
+    def export_every(self, value: Any) -> None: ...
+    @property
+    def transfer_every(self) -> int:
+        """3D RePOT: keyframes"""
+        ...
+    @transfer_every.setter
+    def transfer_every(self, value: Any) -> None: ...
+    @property
+    def sums(self) -> str:
+        """3D: auto, host or device"""
+        ...
+    @sums.setter
+    def sums(self, value: Any) -> None: ...
+    @property
+    def resume(self) -> bool:
+        """3D: continue from OUT/map.ckpt"""
+        ...
+    @resume.setter
+    def resume(self, value: Any) -> None: ...
+    @property
+    def keep_checkpoint(self) -> bool:
+        ...
+    @keep_checkpoint.setter
+    def keep_checkpoint(self, value: Any) -> None: ...
+    @property
+    def keep_tiles(self) -> bool:
+        ...
+    @keep_tiles.setter
+    def keep_tiles(self, value: Any) -> None: ...
+    @property
+    def bag(self) -> BagOptions:
+        """ROS bags: BagOptions"""
+        ...
+    @bag.setter
+    def bag(self, value: Any) -> None: ...
+
+class MappingJobResult:
+    """What a mapping job wrote."""
+    def __init__(self, *args: Any, **kwargs: Any) -> Any:
+        """Initialize self.  See help(type(self)) for accurate signature."""
+        ...
+    @property
+    def drive(self) -> bool:
+        """a 3D drive (else a 2D log)"""
+        ...
+    @property
+    def files(self) -> List[str]:
+        """every file written, scores.json last"""
+        ...
+    @property
+    def scores(self) -> Scores:
+        """held-out beams on the final map"""
+        ...
+    @property
+    def scores_json(self) -> str:
+        """scores.json's text"""
+        ...
+
 class OverallMap:
     """POT's overall map: instantaneous maps merged."""
     def __init__(self, dim: int = 2, **kwargs: Any) -> None:
@@ -1426,50 +1646,6 @@ class ReadStats:
     @property
     def points_dropped(self) -> int:
         """NaN or Inf points dropped"""
-        ...
-
-class RecordingMap:
-    """A recording mapped by map_recording()."""
-    def __init__(self, *args: Any, **kwargs: Any) -> Any:
-        """Initialize self.  See help(type(self)) for accurate signature."""
-        ...
-    @property
-    def map(self) -> KernelMap:
-        """the overall KernelMap (copy)"""
-        ...
-    @property
-    def overall(self) -> Scores:
-        """Scores of every scan's held-out samples on the overall map"""
-        ...
-    @property
-    def instantaneous(self) -> Scores:
-        """Scores of every scan's held-out samples on its own instantaneous map"""
-        ...
-    @property
-    def scans(self) -> int:
-        """scans mapped"""
-        ...
-    @property
-    def ms_per_scan(self) -> float:
-        """mean solve time of a scan, milliseconds"""
-        ...
-    @property
-    def timing(self) -> PotTiming:
-        """PotTiming: per-stage means, milliseconds"""
-        ...
-    @property
-    def overall_kernels(self) -> int:
-        ...
-    @property
-    def dictionary(self) -> str:
-        """the atoms' file"""
-        ...
-    @property
-    def atoms(self) -> int:
-        ...
-    @property
-    def seconds(self) -> float:
-        """wall-clock time of the mapping"""
         ...
 
 class Scan:
@@ -1970,6 +2146,10 @@ def default_dictionary(dim: int = 2) -> Dictionary:
 
 def default_dictionary_path(dim: int = 2) -> str:
     """Where the default dictionary of dimension dim is cached ('' without a cache folder)."""
+    ...
+
+def default_mapping_folder(recording: str) -> str:
+    """Where `potmap mapping` writes when given no folder: out/mapping/<recording's name>."""
     ...
 
 def devices() -> List[DeviceInfo]:

@@ -18,5 +18,6 @@ void bind_ot(pybind11::module_& m);
 void bind_pot(pybind11::module_& m);
 void bind_drives(pybind11::module_& m);
 void bind_experiments(pybind11::module_& m);
+void bind_job(pybind11::module_& m);
 
 }  // namespace potmap::python

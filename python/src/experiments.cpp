@@ -9,7 +9,6 @@
 #include "convert.hpp"
 #include "potmap/experiments/default_dictionary.hpp"
 #include "potmap/experiments/experiment.hpp"
-#include "potmap/experiments/recording.hpp"
 
 namespace potmap::python {
 
@@ -212,8 +211,8 @@ void bind_experiment_methods(py::module_& e) {
       "files.");
 }
 
-// The built-in dictionary and a recording mapped in one call, at the module's top level: what
-// `potmap dict default` and `potmap mapping LOG` give the command line.
+// The built-in dictionary, at the module's top level: what `potmap dict default` gives the
+// command line (the mapping job that uses it: job.cpp).
 void bind_recording(py::module_& m) {
   m.def(
       "default_dictionary",
@@ -230,54 +229,6 @@ void bind_recording(py::module_& m) {
       "the same file `potmap dict default`, `potmap map` and `potmap mapping` read.");
   m.def("default_dictionary_path", &ex::default_dictionary_path, "dim"_a = 2,
         "Where the default dictionary of dimension dim is cached ('' without a cache folder).");
-
-  py::class_<ex::RecordingMap>(m, "RecordingMap", "A recording mapped by map_recording().")
-      .def_property_readonly(
-          "map", [](const ex::RecordingMap& r) { return r.mapper->overall_map(); },
-          "the overall KernelMap (copy)")
-      .def_property_readonly(
-          "overall", [](const ex::RecordingMap& r) { return r.summary.overall; },
-          "Scores of every scan's held-out samples on the overall map")
-      .def_property_readonly(
-          "instantaneous", [](const ex::RecordingMap& r) { return r.summary.instantaneous; },
-          "Scores of every scan's held-out samples on its own instantaneous map")
-      .def_property_readonly(
-          "scans", [](const ex::RecordingMap& r) { return r.summary.scans; }, "scans mapped")
-      .def_property_readonly(
-          "ms_per_scan", [](const ex::RecordingMap& r) { return r.summary.mean_wall_ms; },
-          "mean solve time of a scan, milliseconds")
-      .def_property_readonly(
-          "timing", [](const ex::RecordingMap& r) { return r.summary.mean_timing; },
-          "PotTiming: per-stage means, milliseconds")
-      .def_property_readonly("overall_kernels",
-                             [](const ex::RecordingMap& r) { return r.mapper->overall_kernels(); })
-      .def_readonly("dictionary", &ex::RecordingMap::dictionary, "the atoms' file")
-      .def_readonly("atoms", &ex::RecordingMap::atoms)
-      .def_readonly("seconds", &ex::RecordingMap::seconds, "wall-clock time of the mapping")
-      .def("__repr__", [](const ex::RecordingMap& r) {
-        return "<potmap.RecordingMap " + std::to_string(r.summary.scans) + " scans, AUC " +
-               std::to_string(r.summary.overall.auc) + ">";
-      });
-
-  m.def(
-      "_map_recording",
-      [](const std::string& path, Context* ctx, py::object options, bool refine, double range_cut,
-         std::size_t first, std::size_t max_scans, const std::string& dictionary) {
-        ex::RecordingOptions o;
-        if (!options.is_none()) o.mapper = options.cast<MapperOptions>();
-        o.mapper.pot.refine = refine;
-        o.range_cut = range_cut;
-        o.first = first;
-        o.max_scans = max_scans;
-        o.dictionary = dictionary;
-        ex::DefaultDictionaryNotes notes;
-        notes.note = [](const std::string& line) { std::cerr << "potmap: " << line << "\n"; };
-        py::gil_scoped_release release;
-        return ex::map_recording(ctx, path, o, notes);
-      },
-      "path"_a, "ctx"_a, "options"_a, "refine"_a, "range_cut"_a, "first"_a, "max_scans"_a,
-      "dictionary"_a, py::keep_alive<0, 2>(),
-      "map_recording() without its defaults and files (see map_recording).");
 }
 
 }  // namespace

@@ -21,5 +21,6 @@ PYBIND11_MODULE(_potmap, m) {
   bind_drives(m);
 #ifdef POTMAP_PY_EXPERIMENTS
   bind_experiments(m);
+  bind_job(m);
 #endif
 }

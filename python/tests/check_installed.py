@@ -7,7 +7,7 @@ The package, and the libpotmap it loads, must come from under PREFIX; `python -m
 the potmap command (its help, its exit status; --no-command: built without it); --script: so
 does the `potmap` script beside the interpreter (pip's). With --log and --drive it maps the
 first scans of the 2D log with potmap.map_recording(), and the first keyframes of the 3D drive
-folder with potmap.map_drive(), each scored on its held-out beams, and both again with
+folder with potmap.map_recording(), each scored on its held-out beams, and both again with
 `python -m potmap mapping` (the same maps and scores). Prints what it measured as JSON.
 """
 
@@ -52,7 +52,8 @@ def check_command(script):
 
 def check_recording(potmap, ctx, log, out):
     r = potmap.map_recording(log, out_dir=os.path.join(out, "py"), ctx=ctx, max_scans=SCANS)
-    assert r.scans == SCANS and len(r.map) > 0 and r.overall.n > 0, (r.scans, r.overall.n)
+    scans = r.summary["scans"]
+    assert scans == SCANS and len(r.map) > 0 and r.overall.n > 0, (scans, r.overall.n)
     assert r.overall.auc > 0.5, r.overall.auc  # better than chance; the command's own: below
     with open(os.path.join(out, "py", "scores.json")) as f:
         assert json.load(f)["overall"]["auc"] == r.overall.auc
@@ -62,25 +63,23 @@ def check_recording(potmap, ctx, log, out):
     assert theirs["overall"]["points"] == r.overall.n, (theirs["overall"], r.overall.n)
     assert abs(theirs["overall"]["auc"] - r.overall.auc) < 1e-6, (theirs["overall"], r.overall.auc)
     assert os.path.exists(os.path.join(out, "cmd", "map.potmap"))
-    return {"scans": r.scans, "auc": r.overall.auc, "nll": r.overall.nll, "points": r.overall.n}
+    return {"scans": scans, "auc": r.overall.auc, "nll": r.overall.nll, "points": r.overall.n}
 
 
 def check_drive(potmap, ctx, drive, out):
-    m = potmap.map_drive(drive, count=KEYFRAMES, ctx=ctx)
-    kmap, test = m.map(), m.held_out
-    assert m.keyframes == KEYFRAMES and kmap.dim == 3 and len(kmap) > 0, (m.keyframes, len(kmap))
-    s = potmap.score(kmap.evaluate(test.positions, ctx).prob, test.labels)
+    r = potmap.map_recording(drive, out_dir=os.path.join(out, "py-drive"), ctx=ctx,
+                             max_scans=KEYFRAMES)
+    keyframes, kernels, s = r.summary["keyframes"], r.summary["kernels"], r.scores
+    assert r.drive and keyframes == KEYFRAMES and kernels > 0, (keyframes, kernels)
     assert s.n > 0 and s.auc > 0.5, (s.n, s.auc)  # better than chance; the command's own: below
-    # The command maps the same keyframes with the same joint BHM: the same map and scores (the
-    # NLL summed in another order).
+    assert len(r.map) == kernels and r.map.dim == 3, (len(r.map), kernels)
+    # The command runs the same job: the same map and scores.
     done = run([sys.executable, "-m", "potmap", "mapping", drive, "--max-scans", str(KEYFRAMES),
                 "-q", "--json", "-", "-o", os.path.join(out, "drive")])
     theirs = json.loads(done.stdout)
-    assert (theirs["keyframes"], theirs["kernels"], theirs["scores"]["n"]) == \
-        (m.keyframes, len(kmap), s.n), (theirs["keyframes"], theirs["kernels"], theirs["scores"])
-    assert abs(theirs["scores"]["auc"] - s.auc) < 1e-6, (theirs["scores"], s.auc)
-    assert abs(theirs["scores"]["nll"] - s.nll) < 1e-6, (theirs["scores"], s.nll)
-    return {"keyframes": m.keyframes, "kernels": len(kmap), "auc": s.auc, "nll": s.nll,
+    assert (theirs["keyframes"], theirs["kernels"], theirs["scores"]) == \
+        (keyframes, kernels, r.summary["scores"]), (theirs["scores"], r.summary["scores"])
+    return {"keyframes": keyframes, "kernels": kernels, "auc": s.auc, "nll": s.nll,
             "points": s.n}
 
 

@@ -1,6 +1,6 @@
 # `pip install` of the source tree into a fresh virtual environment, then the installed package
 # used from outside the source tree (check_installed.py): the first scans of a 2D log mapped by
-# map_recording() and the first keyframes of a 3D drive by map_drive(), each also by
+# map_recording() and the first keyframes of a 3D drive by map_recording(), each also by
 # `python -m potmap mapping` (the same maps and scores).
 # Run by CTest as `cmake -P` with SOURCE_DIR, BUILD_DIR, WORK_DIR, PYTHON, LOG and DRIVE.
 #

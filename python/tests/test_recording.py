@@ -52,47 +52,92 @@ def test_default_dictionary_is_the_commands(default_dictionary, cli, tmp_path):
         potmap.default_dictionary(dim=4)
 
 
+def same_files(mine, theirs):
+    """The two runs wrote files of the same names (each in its own folder)."""
+    assert [os.path.basename(f) for f in mine] == [os.path.basename(f) for f in theirs]
+
+
 def test_map_recording_scores_as_potmap_mapping(default_dictionary, data_dir, ctx, cli, tmp_path):
     log = f"{data_dir}/radish/intel-corrected.log.gz"
-    r = potmap.map_recording(log, out_dir=tmp_path / "py", ctx=ctx, max_scans=SCANS)
-    assert r.scans == SCANS and r.overall_kernels > 0 and len(r.map) > 0
+    seen = []
+    r = potmap.map_recording(log, out_dir=tmp_path / "py", ctx=ctx, max_scans=SCANS,
+                             progress=seen.append)
+    assert not r.drive and r.summary["scans"] == SCANS and len(r.map) > 0
+    assert [p.done for p in seen if p.stage == "mapping"] == list(range(1, SCANS + 1))
     # Measured on PoCL (CPU): overall AUC 0.981, NLL 0.131 on 6170 held-out samples;
     # instantaneous AUC 0.922.
     assert r.overall.auc > 0.97 and r.overall.nll < 0.16
-    assert r.instantaneous.auc > 0.9
-    assert r.instantaneous.n == r.overall.n > 6000
+    assert r.summary["instantaneous"]["auc"] > 0.9
     theirs = cli("mapping", log, "-o", tmp_path / "cli", "--max-scans", SCANS, "-q", "--json", "-",
                  json_out=True)
     assert theirs["scans"] == SCANS
-    assert theirs["overall"]["points"] == r.overall.n
-    assert theirs["overall"]["auc"] == pytest.approx(r.overall.auc, abs=1e-6)
-    assert theirs["overall"]["nll"] == pytest.approx(r.overall.nll, abs=1e-6)
-    assert theirs["instantaneous"]["auc"] == pytest.approx(r.instantaneous.auc, abs=1e-6)
-    mine = potmap.read_map(str(tmp_path / "py" / "map.potmap"))
+    assert theirs["overall"] == r.summary["overall"]
+    assert theirs["instantaneous"] == r.summary["instantaneous"]
+    same_files(r.files, theirs["files"])
+    assert all(os.path.exists(f) for f in r.files)
     cmd = potmap.read_map(str(tmp_path / "cli" / "map.potmap"))
-    assert len(mine) == len(cmd)
+    assert len(r.map) == len(cmd)
     with open(tmp_path / "py" / "scores.json") as f:
-        assert json.load(f)["overall"]["auc"] == pytest.approx(r.overall.auc)
+        assert json.load(f)["overall"]["auc"] == r.overall.auc
 
 
 def test_map_recording_paper_preset_is_the_commands(default_dictionary, data_dir, ctx, cli,
                                                      tmp_path):
     log = f"{data_dir}/radish/intel-corrected.log.gz"
     n = 10  # the exhaustive ranking is slow
-    r = potmap.map_recording(log, ctx=ctx, method="pot", options=potmap.MapperOptions.paper(),
-                             max_scans=n)
+    r = potmap.map_recording(log, out_dir=tmp_path / "py", ctx=ctx, method="pot",
+                             preset="paper", max_scans=n)
     theirs = cli("mapping", log, "-o", tmp_path / "cli", "--max-scans", n, "--method", "pot",
                  "--preset", "paper", "-q", "--json", "-", json_out=True)
     assert theirs["ranking"] == "exhaustive" and theirs["overall_kind"] == "merged kernels"
-    assert theirs["overall"]["auc"] == pytest.approx(r.overall.auc, abs=1e-6)
+    assert theirs["overall"] == r.summary["overall"]
     # Measured: overall AUC 0.903, NLL 1.65 (the summed barycentric kernels erase walls; the
     # defaults score 0.98 on these scans).
     assert 0.85 < r.overall.auc < 0.95
 
 
-def test_map_recording_refuses_what_it_cannot_map(data_dir, ctx):
-    with pytest.raises(potmap.ArgumentError, match="3D drive"):
-        potmap.map_recording(f"{data_dir}/drives3d/" + sorted(os.listdir(f"{data_dir}/drives3d"))[0],
-                             ctx=ctx)
+def first_drive(data_dir):
+    return f"{data_dir}/drives3d/" + sorted(os.listdir(f"{data_dir}/drives3d"))[0]
+
+
+def test_map_recording_maps_a_drive_as_potmap_mapping(data_dir, ctx, cli, tmp_path):
+    drive, n = first_drive(data_dir), 3
+    seen = []
+    r = potmap.map_recording(drive, out_dir=tmp_path / "py", ctx=ctx, max_scans=n,
+                             progress=seen.append)
+    assert r.drive and r.summary["keyframes"] == n
+    assert [p.done for p in seen if p.stage == "mapping"] == list(range(1, n + 1))
+    assert seen[-1].stage == "outputs" and seen[-1].fraction == 1
+    theirs = cli("mapping", drive, "-o", tmp_path / "cli", "--max-scans", n, "-q", "--json", "-",
+                 json_out=True)
+    assert theirs["scores"] == r.summary["scores"] and theirs["kernels"] == r.summary["kernels"]
+    assert r.overall.auc == theirs["scores"]["auc"] and r.overall.n == theirs["scores"]["n"]
+    same_files(r.files, theirs["files"])
+    assert {"map.bt", "map_occupied.ply", "map_band_prob.png"} <= {
+        os.path.basename(f) for f in r.files}
+
+
+def test_map_recording_stopped_by_progress_leaves_files_whole(data_dir, ctx, tmp_path):
+    class Stop(Exception):
+        pass
+
+    def stop_at_second(p):
+        if p.stage == "mapping" and p.done == 2:
+            raise Stop()
+
+    out = tmp_path / "stopped"
+    with pytest.raises(Stop):
+        potmap.map_recording(first_drive(data_dir), out_dir=out, ctx=ctx, max_scans=4,
+                             progress=stop_at_second)
+    assert not [f for f in os.listdir(out) if ".tmp" in f or ".body" in f]
+    assert not os.path.exists(out / "scores.json")
+
+
+def test_map_recording_refuses_what_it_cannot_map(data_dir, ctx, tmp_path):
+    log = f"{data_dir}/radish/intel-corrected.log.gz"
     with pytest.raises(potmap.ArgumentError, match="method"):
-        potmap.map_recording(f"{data_dir}/radish/intel-corrected.log.gz", method="bhm", ctx=ctx)
+        potmap.map_recording(log, out_dir=tmp_path / "a", method="bhm", ctx=ctx)
+    with pytest.raises(potmap.ArgumentError, match="pot"):
+        potmap.map_recording(first_drive(data_dir), out_dir=tmp_path / "b", method="pot", ctx=ctx)
+    with pytest.raises(TypeError, match="no_such_option"):
+        potmap.map_recording(log, out_dir=tmp_path / "c", no_such_option=1, ctx=ctx)
