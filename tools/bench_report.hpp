@@ -8,9 +8,13 @@
 #include <string>
 #include <vector>
 
-#include "bench_sweep.hpp"
+#include "potmap/experiments/bench_sweep.hpp"
 
 namespace potmap::cli {
+
+using experiment::RoutineSweep;
+using experiment::SweepOptions;
+using experiment::SweepPoint;
 
 /// Every point as a row (setting, median, spread, throughput), the default marked `*`, then the
 /// best setting per routine and its ratio to the default.

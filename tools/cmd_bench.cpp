@@ -3,13 +3,17 @@
 #include <iostream>
 
 #include "bench_report.hpp"
-#include "bench_sweep.hpp"
 #include "commands.hpp"
 #include "potmap/error.hpp"
+#include "potmap/experiments/bench_sweep.hpp"
 #include "potmap/runtime/tuning_file.hpp"
 #include "progress.hpp"
 
 namespace potmap::cli {
+
+using experiment::RoutineSweep;
+using experiment::SweepOptions;
+using experiment::SweepPoint;
 
 namespace {
 
@@ -52,7 +56,8 @@ Context bench_context(const BenchArgs& a) {
 
 std::vector<RoutineSweep> sweep(Context& ctx, BenchArgs& a) {
   a.sweep.routines = split_list(a.routines, ',');
-  return run_sweeps(ctx, a.sweep);
+  a.sweep.note = [](const std::string& line) { std::cerr << "potmap: " << line << "\n"; };
+  return experiment::run_sweeps(ctx, a.sweep);
 }
 
 void write_outputs(const Context& ctx, const BenchArgs& a, const std::vector<RoutineSweep>& s) {

@@ -1,4 +1,4 @@
-#include "bench_sweep.hpp"
+#include "potmap/experiments/bench_sweep.hpp"
 
 #include <algorithm>
 #include <array>
@@ -6,9 +6,9 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
-#include <iostream>
 #include <memory>
 #include <random>
+#include <sstream>
 
 #include <boost/compute/container/vector.hpp>
 
@@ -23,9 +23,8 @@
 #include "potmap/ot/sinkhorn.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/mapper.hpp"
-#include "progress.hpp"
 
-namespace potmap::cli {
+namespace potmap::experiment {
 
 namespace {
 
@@ -68,7 +67,8 @@ SweepPoint time_point(const std::function<void()>& run, int repeats, double work
   for (int r = 0; r < repeats; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
     run();
-    p.seconds.push_back(seconds_since(t0));
+    p.seconds.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   std::vector<double> s = p.seconds;
   std::sort(s.begin(), s.end());
@@ -86,9 +86,11 @@ void finish(RoutineSweep& r) {
   }
 }
 
-void progress(const RoutineSweep& r, const SweepPoint& p) {
-  std::cerr << "potmap: bench " << r.name << " " << p.setting << ": " << p.throughput << " "
-            << r.unit << "\n";
+void progress(const SweepOptions& o, const RoutineSweep& r, const SweepPoint& p) {
+  if (!o.note) return;
+  std::ostringstream line;
+  line << "bench " << r.name << " " << p.setting << ": " << p.throughput << " " << r.unit;
+  o.note(line.str());
 }
 
 std::vector<double> random_points(const KernelMap& map, std::size_t n) {
@@ -142,7 +144,7 @@ RoutineSweep sweep_map_eval(Context& ctx, const MapInput& in, const SweepOptions
       p.setting = "map_eval.vector_width=" + std::to_string(vw) +
                   ",map_eval.work_group=" + std::to_string(wg);
       p.is_default = vw == base.map_eval.vector_width && wg == base.map_eval.work_group;
-      progress(r, p);
+      progress(o, r, p);
       r.points.push_back(std::move(p));
     }
   finish(r);
@@ -201,7 +203,7 @@ RoutineSweep sweep_raster(Context& ctx, const MapInput& in, const SweepOptions& 
       p.series = rows;
       p.setting = "raster.rows_per_item=" + std::to_string(rows) + ",band=" + std::to_string(band);
       p.is_default = rows == base.raster.rows_per_item && band == default_band;
-      progress(r, p);
+      progress(o, r, p);
       r.points.push_back(std::move(p));
     }
   finish(r);
@@ -233,7 +235,7 @@ RoutineSweep sweep_raster_tile(Context& ctx, const MapInput& in, const SweepOpti
       p.setting =
           "raster.rows_per_item=" + std::to_string(rpi) + ",raster.tile=" + std::to_string(tile);
       p.is_default = rpi == base.raster.rows_per_item && tile == base.raster.tile;
-      progress(r, p);
+      progress(o, r, p);
       r.points.push_back(std::move(p));
     }
   finish(r);
@@ -298,7 +300,7 @@ RoutineSweep sweep_sinkhorn(Context& ctx, int side, const SweepOptions& o, int r
                   ",sinkhorn.chunk_slots=" + std::to_string(t.sinkhorn.chunk_slots);
       p.is_default =
           wg == base.sinkhorn.work_group && static_cast<std::size_t>(k) == default_per_launch;
-      progress(r, p);
+      progress(o, r, p);
       r.points.push_back(std::move(p));
     }
   finish(r);
@@ -388,7 +390,7 @@ RoutineSweep sweep_pot(Context& ctx, const SimSource& src, const SweepOptions& o
       p.setting =
           "sinkhorn.work_group=" + std::to_string(wg) + ",pipeline=" + (pipeline ? "on" : "off");
       p.is_default = wg == base.sinkhorn.work_group && pipeline == defaults.pipeline;
-      progress(r, p);
+      progress(o, r, p);
       r.points.push_back(std::move(p));
     }
   finish(r);
@@ -408,7 +410,7 @@ struct OneField {
   double work = 0;
 };
 
-RoutineSweep sweep_field(Context& ctx, const OneField& f, int reps,
+RoutineSweep sweep_field(Context& ctx, const OneField& f, const SweepOptions& o, int reps,
                          const std::function<std::function<void()>()>& make) {
   const Tuning base = ctx.tuning();
   RoutineSweep r;
@@ -430,7 +432,7 @@ RoutineSweep sweep_field(Context& ctx, const OneField& f, int reps,
     p.series = 0;  // one line: the field is on the axis
     p.setting = f.field + "=" + std::to_string(v);
     p.is_default = v == def;
-    progress(r, p);
+    progress(o, r, p);
     r.points.push_back(std::move(p));
   }
   finish(r);
@@ -454,7 +456,7 @@ RoutineSweep sweep_map_query(Context& ctx, const MapInput& in, const SweepOption
              [](Tuning& t) { return &t.map_eval.chunks_per_query; },
              double(n)};
   std::unique_ptr<MapEvaluator> ev;
-  return sweep_field(ctx, f, reps, [&]() -> std::function<void()> {
+  return sweep_field(ctx, f, o, reps, [&]() -> std::function<void()> {
     ev = std::make_unique<MapEvaluator>(ctx, in.map);
     return [&] { ev->evaluate(pts.data(), n, mean.data(), var.data(), prob.data()); };
   });
@@ -483,7 +485,7 @@ RoutineSweep sweep_map_device(Context& ctx, const MapInput& in, const SweepOptio
              [](Tuning& t) { return &t.map_eval.cells_work_group; },
              double(n)};
   std::unique_ptr<MapEvaluator> ev;
-  return sweep_field(ctx, f, reps, [&]() -> std::function<void()> {
+  return sweep_field(ctx, f, o, reps, [&]() -> std::function<void()> {
     ev = std::make_unique<MapEvaluator>(ctx, in.map);
     return [&] {
       ev->evaluate_device(d_pts.get_buffer(), n, origin, &d_mean, &d_var, &d_prob).wait();
@@ -505,7 +507,7 @@ RoutineSweep sweep_sinkhorn_groups(Context& ctx, const SweepOptions& o, int reps
              o.quick ? std::vector<int>{1, 4, 16} : std::vector<int>{1, 2, 4, 8, 16},
              [](Tuning& t) { return &t.sinkhorn.groups_per_compute_unit; },
              double(problems)};
-  return sweep_field(ctx, f, reps,
+  return sweep_field(ctx, f, o, reps,
                      [&]() -> std::function<void()> { return [&] { batch.run(ctx); }; });
 }
 
@@ -522,7 +524,7 @@ RoutineSweep sweep_bhm(Context& ctx, const SimSource& src, const SweepOptions& o
              o.quick ? std::vector<int>{16, 64, 256} : std::vector<int>{8, 16, 32, 64, 128, 256},
              [](Tuning& t) { return &t.learn.bhm_work_group; },
              double(src.train.size())};
-  return sweep_field(ctx, f, reps, [&]() -> std::function<void()> {
+  return sweep_field(ctx, f, o, reps, [&]() -> std::function<void()> {
     return [&] {
       KernelMap m = prior;
       bhm_update(ctx, m, src.train);
@@ -550,7 +552,7 @@ RoutineSweep sweep_abhm(Context& ctx, const SimSource& src, const SweepOptions& 
              [](Tuning& t) { return &t.learn.abhm_work_group; },
              double(src.train.size())};
   std::vector<double> grad;
-  return sweep_field(ctx, f, reps, [&]() -> std::function<void()> {
+  return sweep_field(ctx, f, o, reps, [&]() -> std::function<void()> {
     return [&] { abhm_loss_device(ctx, params, AbhmPrior{}, src.train, 1.0, noise, &grad); };
   });
 }
@@ -607,4 +609,4 @@ std::vector<RoutineSweep> run_sweeps(Context& ctx, const SweepOptions& o) {
   return out;
 }
 
-}  // namespace potmap::cli
+}  // namespace potmap::experiment
