@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "commands.hpp"
+#include "default_dictionary.hpp"
 #include "interrupt.hpp"
 #include "mapping_ranks.hpp"
 #include "potmap/job/mapping_job.hpp"
@@ -30,6 +31,10 @@ int run_mapping(const MappingArgs& args, const std::string& device) {
     std::FILE* human = args.json == "-" || ranks.rank() > 0 ? stderr : stdout;
     MappingJobHooks hooks = printing_hooks(human, args.quiet);
     hooks.ranks = &ranks;
+    // Built when missing, with its notes and a progress bar.
+    hooks.default_dictionary = [](int dim, std::string* where) {
+      return default_dictionary(where, dim);
+    };
     Context ctx = make_context(ranks.device(device));
     const MappingJobResult r = run_mapping_job(ctx, args.log, o, hooks);
     if (r.wrote) list_job_files(r, args.json, human);

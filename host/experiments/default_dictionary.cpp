@@ -45,11 +45,6 @@ class BuildLock {
   int fd_ = -1;
 };
 
-std::string env(const char* name) {
-  const char* v = std::getenv(name);
-  return v ? std::string(v) : std::string();
-}
-
 // Atoms of the three towns, each driven as `drive` says, cut at the towns' range. One town at a
 // time, so that progress can be shown between them; build_atoms appends the atoms of its places
 // in order, so the dictionary is the one a single call over all three towns gives, byte for
@@ -75,15 +70,6 @@ Dictionary atoms_of_towns(const PotSetup& setup, const SimOptions& drive,
 
 }  // namespace
 
-std::string default_dictionary_recipe(int dim) {
-  if (dim == 3)
-    return "potmap 3D default dictionary v" + std::to_string(kDefaultDictionary3dVersion) +
-           ": town1+town2+town3 (seed 0), 32-ring LIDAR drives 4 m apart, 20 m, joint BHM atoms "
-           "(frame_setup_3d)";
-  return "potmap default dictionary v" + std::to_string(kDefaultDictionaryVersion) +
-         ": town1+town2+town3 (seed 0), drives 2 m apart, 20 m, joint BHM atoms (PotSetup)";
-}
-
 Dictionary build_default_dictionary(std::size_t scans,
                                     const std::function<void(double)>& progress) {
   PotSetup setup;
@@ -100,25 +86,6 @@ Dictionary build_default_dictionary_3d(std::size_t scans,
   PotSetup setup = frame_setup_3d().pot;
   setup.dictionary.source = default_dictionary_recipe(3);
   return atoms_of_towns(setup, sim_options_3d(scans, 0), progress);
-}
-
-std::string user_cache_dir(const std::string& sub) {
-  std::filesystem::path root;
-  if (!env("XDG_CACHE_HOME").empty())
-    root = std::filesystem::path(env("XDG_CACHE_HOME")) / "potmap";
-  else if (!env("HOME").empty())
-    root = std::filesystem::path(env("HOME")) / ".cache" / "potmap";
-  else
-    return {};
-  return (root / sub).string();
-}
-
-std::string default_dictionary_path(int dim) {
-  const std::string dir = user_cache_dir("dictionaries");
-  if (dir.empty()) return {};
-  const std::string name = dim == 3 ? "default-3d-v" + std::to_string(kDefaultDictionary3dVersion)
-                                    : "default-v" + std::to_string(kDefaultDictionaryVersion);
-  return (std::filesystem::path(dir) / (name + ".potdict")).string();
 }
 
 Dictionary default_dictionary(int dim, std::string* where, const DefaultDictionaryNotes& notes) {

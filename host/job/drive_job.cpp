@@ -19,7 +19,6 @@
 #include "map_checkpoint.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
-#include "potmap/experiments/default_dictionary.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/map/evaluate.hpp"
@@ -69,11 +68,7 @@ DriveMapperOptions mapper_options(const MappingJobOptions& a, const Report& repo
                                     : JointBhmSums::automatic;
   if (a.method == "repot") {
     o.transfer_every = a.transfer_every;
-    *dict_file = a.dictionary;
-    o.dictionary = std::make_shared<const Dictionary>(
-        a.dictionary.empty()
-            ? experiment::default_dictionary(3, dict_file, dictionary_notes(report))
-            : read_dictionary(a.dictionary));
+    o.dictionary = std::make_shared<const Dictionary>(job_dictionary(a, report, 3, dict_file));
     if (o.dictionary->dim != 3)
       throw ArgumentError("mapping: " + *dict_file + " is a " + std::to_string(o.dictionary->dim) +
                           "D dictionary; a drive needs 3D atoms (potmap dict default --3d)");

@@ -1,22 +1,27 @@
 #include "job_report.hpp"
 
-#include <chrono>
 #include <filesystem>
 
 #include "job_text.hpp"
+#include "potmap/error.hpp"
+#include "potmap/pot/default_dictionary_file.hpp"
+#include "potmap/pot/dictionary_io.hpp"
 
 namespace potmap::job {
 
-experiment::DefaultDictionaryNotes dictionary_notes(const Report& report) {
-  experiment::DefaultDictionaryNotes notes;
-  notes.note = [report](const std::string& line) { report.note(line); };
-  notes.start_progress = [report] {
-    const auto t0 = std::chrono::steady_clock::now();
-    return std::function<void(double)>([report, t0](double f) {
-      report.progress({"dictionary", "share", std::size_t(f * 1000), 1000, seconds_since(t0), {}});
-    });
-  };
-  return notes;
+Dictionary job_dictionary(const MappingJobOptions& options, const Report& report, int dim,
+                          std::string* where) {
+  *where = options.dictionary;
+  if (!options.dictionary.empty()) return read_dictionary(options.dictionary);
+  if (report.hooks.default_dictionary) return report.hooks.default_dictionary(dim, where);
+  *where = default_dictionary_path(dim);
+  std::error_code ec;
+  if (where->empty() || !std::filesystem::exists(*where, ec))
+    throw ArgumentError("mapping: no dictionary given, and the built-in " + std::to_string(dim) +
+                        "D one is not built yet" + (where->empty() ? "" : " (" + *where + ")") +
+                        ": build it once with `potmap dict default" + (dim == 3 ? " --3d" : "") +
+                        "`, or give a .potdict file");
+  return read_dictionary(*where);
 }
 
 void write_scores(const std::string& dir, nlohmann::json summary, MappingJobResult& out) {

@@ -5,7 +5,6 @@
 
 #include <string>
 
-#include "potmap/experiments/default_dictionary.hpp"
 #include "potmap/job/mapping_job.hpp"
 
 namespace potmap::job {
@@ -21,9 +20,10 @@ struct Report {
   }
 };
 
-/// The default dictionary's notes as the job's ("potmap: building the default dictionary"),
-/// its build as the stage "dictionary".
-experiment::DefaultDictionaryNotes dictionary_notes(const Report& report);
+/// The dictionary of a job that transports: options.dictionary's file, else the built-in one of
+/// dimension `dim` (hooks.default_dictionary, else its cached file). `where` receives the file.
+Dictionary job_dictionary(const MappingJobOptions& options, const Report& report, int dim,
+                          std::string* where);
 
 /// The end of a job: `summary` gets the list of out.files with DIR/scores.json (which it is
 /// written to, whole, and which is added to out.files); out.scores_json its text.

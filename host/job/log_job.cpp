@@ -9,11 +9,10 @@
 #include "mapping_merge.hpp"
 #include "potmap/data/scan.hpp"
 #include "potmap/error.hpp"
-#include "potmap/experiments/experiment.hpp"
 #include "potmap/io/ros_map.hpp"
 #include "potmap/job/map_job.hpp"
 #include "potmap/job/map_pictures.hpp"
-#include "potmap/pot/dictionary_io.hpp"
+#include "potmap/pot/default_dictionary_file.hpp"
 
 namespace fs = std::filesystem;
 
@@ -112,11 +111,8 @@ MappingJobResult run_log_job(Context& ctx, const std::string& log, const Mapping
   const std::size_t selected = scans.size();
   const RankPart part = ranks.part(0, selected, "scans");  // all of them on one process
   scans.resize(part.end);
-  std::string dict_file = a.dictionary;
-  const Dictionary dict =
-      a.dictionary.empty()
-          ? experiment::default_dictionary(scans.front().dim, &dict_file, dictionary_notes(report))
-          : read_dictionary(a.dictionary);
+  std::string dict_file;
+  const Dictionary dict = job_dictionary(a, report, scans.front().dim, &dict_file);
   if (scans.front().dim != dict.dim)
     throw ArgumentError("mapping: " + log + " holds " + std::to_string(scans.front().dim) +
                         "D scans, the dictionary " + dict_file + " is " + std::to_string(dict.dim) +
@@ -162,8 +158,7 @@ MappingJobResult run_log_job(Context& ctx, const std::string& log, const Mapping
   j["ranking"] = job.mapper.pot.ranking == PotRanking::indexed ? "indexed" : "exhaustive";
   if (a.preset != "default") j["preset"] = a.preset;
   j["seed_rule"] = a.seeds_yield_fully ? "yield-fully" : "keep-start";
-  j["dictionary"] =
-      a.dictionary.empty() ? "default: " + experiment::default_dictionary_recipe() : a.dictionary;
+  j["dictionary"] = a.dictionary.empty() ? "default: " + default_dictionary_recipe() : a.dictionary;
   j["range_cut"] = a.range_cut;
   j["half_life_s"] = a.half_life;
   j["device"] = ctx.info().summary();

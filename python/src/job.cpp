@@ -5,6 +5,7 @@
 
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "potmap/experiments/default_dictionary.hpp"
 #include "potmap/job/mapping_job.hpp"
 #include "potmap/runtime/context.hpp"
 
@@ -89,6 +90,19 @@ void bind_job(py::module_& m) {
           py::gil_scoped_acquire gil;
           if (PyErr_CheckSignals() != 0) throw py::error_already_set();
           if (!progress.is_none()) progress(p);
+        };
+        // Built when missing (a few seconds, once), as potmap.default_dictionary().
+        // Runs without the GIL: `note` is used through a pointer (a copy would count
+        // references without it); it outlives the job.
+        const py::object* note_fn = note.is_none() ? nullptr : &note;
+        hooks.default_dictionary = [note_fn](int dim, std::string* where) {
+          experiment::DefaultDictionaryNotes notes;
+          if (note_fn)
+            notes.note = [note_fn](const std::string& line) {
+              py::gil_scoped_acquire gil;
+              (*note_fn)(line);
+            };
+          return experiment::default_dictionary(dim, where, notes);
         };
         py::gil_scoped_release release;
         return run_mapping_job(ctx, path, options, hooks);

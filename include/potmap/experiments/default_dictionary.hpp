@@ -10,20 +10,17 @@
 
 #include "potmap/export.h"
 #include "potmap/pot/atoms.hpp"
+#include "potmap/pot/default_dictionary_file.hpp"
 
 POTMAP_CXX_API_BEGIN
 namespace potmap::experiment {
 
-/// Version of the 2D recipe; the cached file is named after it, so a new recipe never reads an
-/// old file. Bumped whenever the towns, the drives or the atom settings change.
-constexpr int kDefaultDictionaryVersion = 2;  // 2: atoms take the source map's bias (PotSetup)
-
-/// Version of the 3D recipe (build_default_dictionary_3d), as kDefaultDictionaryVersion.
-constexpr int kDefaultDictionary3dVersion = 1;
-
-/// What the default dictionary of dimension `dim` (2 or 3) is made of, in words (stored as
-/// every atom's source).
-std::string default_dictionary_recipe(int dim = 2);
+// Its file, recipe and version (potmap/pot/default_dictionary_file.hpp).
+using potmap::default_dictionary_path;
+using potmap::default_dictionary_recipe;
+using potmap::kDefaultDictionary3dVersion;
+using potmap::kDefaultDictionaryVersion;
+using potmap::user_cache_dir;
 
 /// The default dictionary built from scratch: towns town1, town2 and town3 (seed 0), each
 /// driven for `scans` scans 2 m apart (route seed 0), scans cut at 20 m, the experiments'
@@ -40,14 +37,6 @@ Dictionary build_default_dictionary(std::size_t scans = 200,
 /// `progress` as above (its time: docs/figures.json, dict.default3d.build).
 Dictionary build_default_dictionary_3d(std::size_t scans = 20,
                                        const std::function<void(double)>& progress = {});
-
-/// `sub` under the user's cache root, $XDG_CACHE_HOME/potmap, else $HOME/.cache/potmap (the
-/// XDG base directory rule). Empty when neither variable is set (no cache). Nothing is created.
-std::string user_cache_dir(const std::string& sub);
-
-/// The cached file (user_cache_dir("dictionaries")/default-vN.potdict, 3D:
-/// default-3d-vN.potdict); empty without a cache folder.
-std::string default_dictionary_path(int dim = 2);
 
 /// What default_dictionary() tells its caller while it works (each may be empty: silence).
 struct DefaultDictionaryNotes {

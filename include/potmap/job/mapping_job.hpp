@@ -22,6 +22,7 @@
 #include "potmap/export.h"
 #include "potmap/job/job_ranks.hpp"
 #include "potmap/map/metrics.hpp"
+#include "potmap/pot/atoms.hpp"
 #include "potmap/runtime/context.hpp"
 
 POTMAP_CXX_API_BEGIN
@@ -106,6 +107,11 @@ struct MappingJobHooks {
   std::function<void(const JobProgress&)> progress;
   /// The ranks sharing the job (null: this process alone).
   JobRanks* ranks = nullptr;
+  /// The built-in dictionary of dimension `dim` (2 or 3) for a job that needs one and was
+  /// given none, `where` receiving its file. Default (empty): the cached file
+  /// (pot/default_dictionary_file.hpp), an ArgumentError when it is not built yet. `potmap
+  /// mapping` and Python build it when missing (experiments/default_dictionary.hpp).
+  std::function<Dictionary(int dim, std::string* where)> default_dictionary;
 };
 
 /// What a job made.
