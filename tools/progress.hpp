@@ -23,8 +23,9 @@ std::function<void(double fraction)> terminal_progress(const std::string& label)
 /// at every tenth, "potmap: <label> 40%; elapsed 3 s, ETA 4 s", as the keyframes' lines.
 std::function<void(double fraction)> stage_progress(const std::string& label, bool quiet);
 
-/// Writes text to path through a temporary file in the same folder and a rename; throws
-/// potmap::Error naming the file on failure (and leaves nothing behind).
+/// Writes text to path through a temporary file in the same folder and a rename, the folder
+/// made first when it does not exist yet; throws potmap::Error naming the file on failure (and
+/// leaves nothing behind).
 void write_text_atomically(const std::string& path, const std::string& text);
 
 /// The end of a mapping command: `summary` gets the list of `files` (with DIR/scores.json, which
