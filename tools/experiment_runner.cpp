@@ -16,6 +16,7 @@
 
 #include "commands.hpp"
 #include "experiment_breakdown.hpp"
+#include "legend_picture.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
@@ -288,7 +289,7 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
       spec.resolution =
           std::max(task.hi[0] - task.lo[0], task.hi[1] - task.lo[1]) / double(s_.figure_pixels);
       const std::string path = prefix + "_kernels.png";
-      write_kernel_picture(context(), *f.kernels, spec, path);
+      write_kernel_legend_picture(*context(), *f.kernels, spec, path);
       if (std::find(r.figures.begin(), r.figures.end(), path) == r.figures.end())
         r.figures.push_back(path);
     }

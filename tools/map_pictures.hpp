@@ -23,8 +23,9 @@ double picture_resolution(const KernelMap& map, double margin, std::size_t long_
 /// Writes the three pictures of `map` over its kernel bounds widened by `margin` metres, at
 /// `resolution` metres per pixel, slice at height z for 3D maps: PREFIX_prob.png (viridis) and
 /// PREFIX_var.png (magma logit variance), never-observed space grey (KnownRule's default, as
-/// the ROS map and OctoMap exports), each with its titled colour bar and a scale bar in
-/// metres, and PREFIX_kernels.png. The map must not be empty.
+/// the ROS map and OctoMap exports), each under its title and above its colour bar and a scale
+/// bar in metres, and PREFIX_kernels.png with its legend (legend_picture.hpp). The map must not
+/// be empty.
 MapPictures write_map_pictures(Context& ctx, const KernelMap& map, const std::string& prefix,
                                double resolution, double margin = 5, double z = 0);
 
