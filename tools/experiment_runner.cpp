@@ -277,7 +277,8 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
         experiment::probability_picture(f, task.dim, task.lo, task.hi, picture_view(task)));
     const std::string prefix =
         (fs::path(s_.figures) / slug(experiment_ + "_" + case_label + "_" + m.name)).string();
-    r.figures = experiment::write_figures(f, task.dim, task.lo, task.hi, prefix, s_.figure_pixels);
+    r.figures =
+        experiment::write_figures(f, task.dim, task.lo, task.hi, prefix, s_.figure_pixels, m.name);
     if (m.uses_source && f.kernels && !f.kernels->empty() && context()) {
       // Transported kernels coloured by width over the grey map (the paper's Fig. 3 and 9),
       // in place of the plain dots.

@@ -159,7 +159,8 @@ std::vector<std::string> write_frame_figures(const FrameEvaluation& e, const Sca
   for (const FrameResult& r : e.results) {
     const std::string p =
         prefix + "_" + slug(r.source.empty() ? r.method : r.source + "_" + r.method);
-    for (std::string& f : write_figures(r.map, 3, lo, hi, p, max_pixels)) files.push_back(f);
+    for (std::string& f : write_figures(r.map, 3, lo, hi, p, max_pixels, r.method))
+      files.push_back(f);
   }
   return files;
 }
