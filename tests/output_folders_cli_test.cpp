@@ -16,7 +16,7 @@ using namespace potmap;
 namespace {
 
 // A wall at (0, 0) and free space at (3, 0).
-KernelMap small_map() {
+KernelMap wall_and_floor_map() {
   KernelMap m;
   const double pts[2][2] = {{0, 0}, {3, 0}};
   m.push_back(pts[0], 4.0, 5.0, 0.1);
@@ -50,7 +50,7 @@ std::string joined(const std::vector<std::string>& lines) {
 TEST(OutputFolders, ExportsMakeTheirFolderAndPrintOnlyTheirOwnLines) {
   if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
   const std::string d = test::temp_dir("output-folders-export");
-  write_map(small_map(), d + "/m.potmap");
+  write_map(wall_and_floor_map(), d + "/m.potmap");
   const std::string map = test::quoted(d + "/m.potmap");
   for (const char* ext : {"bt", "ot"}) {
     const std::string out = d + "/octo-" + ext + "/deeper/m." + ext;

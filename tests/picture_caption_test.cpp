@@ -28,7 +28,7 @@ Picture plain(std::size_t w, std::size_t h, Rgb c) {
   return p;
 }
 
-Rgb at(const Picture& p, std::size_t x, std::size_t y) {
+Rgb pixel_at(const Picture& p, std::size_t x, std::size_t y) {
   const std::uint8_t* q = &p.rgb[(y * p.width + x) * 3];
   return {q[0], q[1], q[2]};
 }
@@ -41,7 +41,7 @@ bool same(Rgb a, Rgb b) {
 bool rows_hold(const Picture& p, std::size_t y0, std::size_t y1, Rgb c) {
   for (std::size_t y = y0; y < std::min(y1, p.height); ++y)
     for (std::size_t x = 0; x < p.width; ++x)
-      if (same(at(p, x, y), c)) return true;
+      if (same(pixel_at(p, x, y), c)) return true;
   return false;
 }
 
@@ -61,7 +61,7 @@ bool holds_text(const Picture& p, const std::string& text) {
       bool match = true;
       for (std::size_t sy = 0; sy < stamp.height && match; ++sy)
         for (std::size_t sx = 0; sx < stamp.width && match; ++sx)
-          match = same(at(stamp, sx, sy), ink) == same(at(p, x + sx, y + sy), ink);
+          match = same(pixel_at(stamp, sx, sy), ink) == same(pixel_at(p, x + sx, y + sy), ink);
       if (match) return true;
     }
   return false;
@@ -73,7 +73,7 @@ std::size_t longest_ink_run(const Picture& p, std::size_t y0, std::size_t y1) {
   for (std::size_t y = y0; y < std::min(y1, p.height); ++y) {
     std::size_t run = 0;
     for (std::size_t x = 0; x < p.width; ++x) {
-      run = same(at(p, x, y), Rgb{0, 0, 0}) ? run + 1 : 0;
+      run = same(pixel_at(p, x, y), Rgb{0, 0, 0}) ? run + 1 : 0;
       best = std::max(best, run);
     }
   }
@@ -106,7 +106,8 @@ TEST(PictureCaption, TitleAboveLegendBelowPictureUntouched) {
   EXPECT_TRUE(rows_hold(pic, 0, top, Rgb{0, 0, 0}));
   EXPECT_FALSE(rows_hold(pic, 0, top, body_colour));
   for (std::size_t y = 0; y < 300; y += 37)
-    for (std::size_t x = 0; x < 600; x += 41) EXPECT_TRUE(same(at(pic, x, top + y), body_colour));
+    for (std::size_t x = 0; x < 600; x += 41)
+      EXPECT_TRUE(same(pixel_at(pic, x, top + y), body_colour));
   // The legend: the colour bar's ends, the grey of never-observed space, ink of its words.
   const std::size_t y0 = top + 300;
   EXPECT_TRUE(rows_hold(pic, y0, pic.height, colormap(Colormap::Viridis, 0)));
