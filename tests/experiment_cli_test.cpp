@@ -297,3 +297,23 @@ TEST(ExperimentCli, DriveTakesTheDriveDefaultsUnlessSet) {
   EXPECT_EQ(j["settings"]["free_per_metre"], 0.25);
   EXPECT_EQ(j["runs"][0]["info"]["spacing_m"], 1.0);
 }
+
+// A 3D frame's pictures say what they show: the hits near the slice and each method's
+// probability are captioned (picture_caption.hpp), so at least as wide as the caption and
+// taller than the 400-pixel window they draw.
+TEST(ExperimentCli, FramePicturesAreCaptioned) {
+  if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = potmap::test::temp_dir("experiment_frames_figures");
+  const auto r = potmap::test::run_cli(
+      "experiment frames " +
+          potmap::test::quoted(potmap::test::shared_data("lidar3d/kitti_000008.bin")) +
+          " --sources sim3d:town1 --sim-scans 4 --atom-scans 2 --methods bhm --figures " +
+          potmap::test::quoted(dir),
+      "2>&1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  for (const char* f : {"/frames_kitti_000008_hits.png", "/frames_kitti_000008_BHM_prob.png"}) {
+    const auto [w, h] = png_size(dir + f);
+    EXPECT_GE(w, experiment::kCaptionMinWidth) << f;
+    EXPECT_GT(h, 400u) << f;
+  }
+}
