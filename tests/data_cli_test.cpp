@@ -1,10 +1,12 @@
 // `potmap data info` and `potmap data simulate`, run as a user would.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 
+#include "potmap/data/simulator.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -46,7 +48,11 @@ TEST(DataCli, SimulateWritesALogTheInfoCommandReads) {
   std::string out =
       run_data_cli("data simulate --town town3 --seed 4 --scans 25 --out " + dir, &rc);
   ASSERT_EQ(rc, 0) << out;
-  EXPECT_TRUE(std::filesystem::exists(dir + "/town.png"));
+  // The town under its title, above its legend: taller than the town's own 0.5 m pixels.
+  const auto [town_w, town_h] = potmap::test::png_size(dir + "/town.png");
+  const potmap::Town town = potmap::Town::builtin("town3", 4);
+  EXPECT_GE(town_w, std::size_t(std::ceil(town.width() / 0.5))) << dir;
+  EXPECT_GT(town_h, std::size_t(std::ceil(town.height() / 0.5)) + 60) << dir;
   out = run_data_cli("data info " + dir + "/scans.log", &rc);
   EXPECT_NE(out.find("\nscans: 25\n"), std::string::npos) << out;
   EXPECT_NE(out.find("beams per scan: 360\n"), std::string::npos) << out;

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <filesystem>
 
+#include "potmap/experiments/figure_panels.hpp"
+#include "potmap/experiments/picture_caption.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
@@ -80,20 +82,27 @@ TEST(DemoCli, PotDemoMapsAnotherTown) {
   // RePOT's persistent map is a regular grid of one width: its kernel picture is one colour
   // and compresses to little, but it is written.
   EXPECT_GT(fs::file_size(out + "_repot_kernels.png"), 100u);
-  // The true town beside the estimate: two panels of one window and scale, 1200 pixels along
-  // the long side, 4 white columns apart.
-  const std::string png = test::file_bytes(out + "_repot_compare.png");
-  ASSERT_GT(png.size(), 24u);
-  auto be32 = [&](std::size_t at) {
-    std::uint32_t v = 0;
-    for (int k = 0; k < 4; ++k) v = v << 8 | static_cast<unsigned char>(png[at + k]);
-    return v;
-  };
-  const std::uint32_t width = be32(16), height = be32(20);
-  ASSERT_GE(width, 6u);
-  EXPECT_EQ((width - 4) % 2, 0u) << width;
-  const std::uint32_t panel = (width - 4) / 2;
-  EXPECT_NEAR(std::max(panel, height), 1200, 1) << panel << " x " << height;
+  // The true town beside POT's and RePOT's estimates: three panels of one window and scale,
+  // 1200 pixels along the long side, 4 white columns apart, titled above, a legend below.
+  const auto [width, height] = test::png_size(out + "_repot_compare.png");
+  ASSERT_GE(width, 8u);
+  EXPECT_EQ((width - 8) % 3, 0u) << width;
+  const std::uint32_t panel = (width - 8) / 3;
+  ASSERT_GT(height, experiment::kComparisonTitleRows + experiment::kComparisonLegendRows);
+  const std::uint32_t panel_height =
+      height - experiment::kComparisonTitleRows - experiment::kComparisonLegendRows;
+  EXPECT_NEAR(std::max(panel, panel_height), 1200, 1) << panel << " x " << panel_height;
+  // Every picture of the map carries its caption: a title above and a legend below the map's
+  // own pixels, so it is taller than the map (and at least as wide).
+  const std::uint32_t map_w = j["picture_pixels"][0], map_h = j["picture_pixels"][1];
+  for (const char* f : {"_repot_prob.png", "_repot_var.png", "_repot_kernels.png"}) {
+    const auto [w, h] = test::png_size(out + f);
+    EXPECT_GE(w, map_w) << f;
+    EXPECT_GT(h, map_h + 60) << f;
+  }
+  const auto [town_w, town_h] = test::png_size(out + "_town.png");
+  EXPECT_GE(town_w, experiment::kCaptionMinWidth);
+  EXPECT_GT(town_h, 60u);
 }
 
 // The demo maps with `potmap map`'s settings, which must beat the paper's rules it would get

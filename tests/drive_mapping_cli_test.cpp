@@ -46,6 +46,15 @@ TEST(DriveMappingCli, LivoxDriveToMapOctomapCloudBandAndScores) {
   for (const char* f : {"map.potmap", "map.bt", "map_occupied.ply", "map_band_prob.png",
                         "map_band_var.png", "map_band.yaml", "map_band.pgm", "scores.json"})
     EXPECT_TRUE(fs::exists(fs::path(d) / f)) << f;
+  // The band's pictures carry their captions (the title with the band's heights, a colour bar,
+  // a scale): taller than the band's own pixels, at least as wide.
+  const nlohmann::json& band = j["outputs"]["band"];
+  ASSERT_EQ(band["picture_px"].size(), 2u) << band;
+  for (const char* f : {"/map_band_prob.png", "/map_band_var.png"}) {
+    const auto [w, h] = test::png_size(d + f);
+    EXPECT_GE(w, band["picture_px"][0].get<std::uint32_t>()) << f;
+    EXPECT_GT(h, band["picture_px"][1].get<std::uint32_t>() + 60) << f;
+  }
   const KernelMap map = read_map(d + "/map.potmap");
   EXPECT_EQ(map.dim, 3);
   EXPECT_EQ(map.size(), j["kernels"].get<std::size_t>());

@@ -15,10 +15,12 @@
 #include <set>
 
 #include "potmap/experiments/figure_panels.hpp"
+#include "potmap/experiments/picture_caption.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+namespace experiment = potmap::experiment;
 
 namespace {
 
@@ -135,24 +137,30 @@ void check_structure(const json& j, std::size_t cases) {
     ASSERT_EQ(c["panels"].size(), names.size() + 1) << c;
     EXPECT_NE(c["panels"][0].get<std::string>().find("reference"), std::string::npos) << c;
     for (std::size_t i = 0; i < names.size(); ++i) EXPECT_EQ(c["panels"][i + 1], names[i]) << c;
-    // Same window, same scale: a panel is as large as a method's own probability picture.
-    std::pair<std::uint32_t, std::uint32_t> panel{0, 0};
+    // Titles above, the legend below, n panels of one size between, 4 white columns apart.
+    const std::size_t n = c["panels"].size();
+    const auto got = png_size(file);
+    ASSERT_GT(got.second, experiment::kComparisonTitleRows + experiment::kComparisonLegendRows);
+    const std::size_t panel_h =
+        got.second - experiment::kComparisonTitleRows - experiment::kComparisonLegendRows;
+    // Panels narrower than the legend leave the figure at its least width.
+    const bool wide = got.first > experiment::kComparisonMinWidth;
+    if (wide) EXPECT_EQ((got.first - experiment::kComparisonGap * (n - 1)) % n, 0u) << file;
+    const std::size_t panel_w = (got.first - experiment::kComparisonGap * (n - 1)) / n;
+    // Same window, same scale: each method's own probability picture holds a panel-sized map
+    // under its title and above its legend (picture_caption.hpp).
+    std::size_t pictures = 0;
     for (const json& row : j["table"])
       if (row["source"] == c["source"] && row["target"] == c["target"])
         for (const json& f : row["figures"])
-          if (f.get<std::string>().find("_prob.png") != std::string::npos)
-            panel = png_size(f.get<std::string>());
-    ASSERT_GT(panel.first, 0u) << c;
-    const std::size_t n = c["panels"].size();
-    const auto got = png_size(file);
-    // Titles above, the legend below, the panels between.
-    EXPECT_EQ(got.first,
-              std::max<std::size_t>(experiment::kComparisonMinWidth,
-                                    n * panel.first + experiment::kComparisonGap * (n - 1)))
-        << file;
-    EXPECT_EQ(got.second,
-              experiment::kComparisonTitleRows + panel.second + experiment::kComparisonLegendRows)
-        << file;
+          if (f.get<std::string>().find("_prob.png") != std::string::npos) {
+            const auto own = png_size(f.get<std::string>());
+            if (wide) EXPECT_EQ(own.first, std::max(panel_w, experiment::kCaptionMinWidth)) << f;
+            EXPECT_GE(own.first, experiment::kCaptionMinWidth) << f;
+            EXPECT_GT(own.second, panel_h + 60) << f;
+            ++pictures;
+          }
+    EXPECT_GT(pictures, 0u) << c;
   }
 }
 
@@ -288,4 +296,24 @@ TEST(ExperimentCli, DriveTakesTheDriveDefaultsUnlessSet) {
   EXPECT_EQ(j["settings"]["bhm_em"], 2);
   EXPECT_EQ(j["settings"]["free_per_metre"], 0.25);
   EXPECT_EQ(j["runs"][0]["info"]["spacing_m"], 1.0);
+}
+
+// A 3D frame's pictures say what they show: the hits near the slice and each method's
+// probability are captioned (picture_caption.hpp), so at least as wide as the caption and
+// taller than the 400-pixel window they draw.
+TEST(ExperimentCli, FramePicturesAreCaptioned) {
+  if (!potmap::test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string dir = potmap::test::temp_dir("experiment_frames_figures");
+  const auto r = potmap::test::run_cli(
+      "experiment frames " +
+          potmap::test::quoted(potmap::test::shared_data("lidar3d/kitti_000008.bin")) +
+          " --sources sim3d:town1 --sim-scans 4 --atom-scans 2 --methods bhm --figures " +
+          potmap::test::quoted(dir),
+      "2>&1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  for (const char* f : {"/frames_kitti_000008_hits.png", "/frames_kitti_000008_BHM_prob.png"}) {
+    const auto [w, h] = png_size(dir + f);
+    EXPECT_GE(w, experiment::kCaptionMinWidth) << f;
+    EXPECT_GT(h, 400u) << f;
+  }
 }

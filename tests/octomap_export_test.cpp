@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <sstream>
 
 #include "potmap/io/known_cells.hpp"
 #include "potmap/io/map_io.hpp"
@@ -83,6 +84,10 @@ TEST(OctomapExport, BtMarksTheWallOccupiedAndTheFloorFree) {
   EXPECT_TRUE(tree.isNodeOccupied(wall));
   EXPECT_FALSE(tree.isNodeOccupied(floor));
   EXPECT_EQ(tree.search(0.05, 3.05, 0.05), nullptr);
+  // potmap's own encoder wrote it: the bytes must be those liboctomap writes for the same tree.
+  std::ostringstream again;
+  ASSERT_TRUE(tree.writeBinary(again));
+  EXPECT_EQ(again.str(), test::file_bytes(d + "/m.bt"));
   const test::CliResult bad = test::run_cli("export octomap " + test::quoted(d + "/m.potmap") +
                                             " -o " + test::quoted(d + "/m.oct"));
   EXPECT_NE(bad.status, 0);

@@ -85,6 +85,17 @@ std::string quoted(const std::string& s) {
   return "'" + s + "'";
 }
 
+std::pair<std::uint32_t, std::uint32_t> png_size(const std::string& path) {
+  const std::string png = file_bytes(path);
+  if (png.size() < 24 || png.compare(1, 3, "PNG") != 0) return {0, 0};
+  auto be32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (int k = 0; k < 4; ++k) v = v << 8 | static_cast<unsigned char>(png[at + k]);
+    return v;
+  };
+  return {be32(16), be32(20)};
+}
+
 std::string write_file(const std::string& dir, const std::string& name, const std::string& body) {
   const std::string p = dir + "/" + name;
   std::ofstream(p, std::ios::binary) << body;

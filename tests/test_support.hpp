@@ -7,6 +7,7 @@
 #include <initializer_list>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
@@ -65,6 +66,8 @@ bool cli_built();
 std::string quoted(const std::string& s);
 /// The whole file as bytes (empty when it cannot be read).
 std::string file_bytes(const std::string& path);
+/// Width and height of a PNG from its header ({0, 0} when it is not one).
+std::pair<std::uint32_t, std::uint32_t> png_size(const std::string& path);
 
 /// The sector with its hits and free samples turned by `angle` radians about its origin (the
 /// sector frame's centre), counter-clockwise (about the vertical axis in 3D).

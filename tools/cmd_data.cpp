@@ -15,6 +15,7 @@
 #include "potmap/data/scan.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
+#include "town_picture.hpp"
 
 namespace potmap::cli {
 
@@ -218,7 +219,7 @@ void register_data(CLI::App& app, Runner& runner) {
       const Simulation s = simulate(t, *opt);
       const std::string main_file = write_simulation(s, *opt, *out);
       const std::string png = (std::filesystem::path(*out) / "town.png").string();
-      write_town_png(t, s.route, png);
+      write_true_town(t, *town, s.route, png);
       // Labelled samples (SPEC section 1) beside the scans: train.csv for learning, test.csv
       // with the held-out 20 % of beams, in the `t,x,y[,z],occupied` format every reader takes.
       LabelOptions lo;

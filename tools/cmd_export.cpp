@@ -81,8 +81,9 @@ void register_export(CLI::App& app, Runner& runner) {
 
   CLI::App* oct = exp->add_subcommand(
       "octomap",
-      "OctoMap file through liboctomap: .bt (occupied and free voxels) or .ot (log-odds of every "
-      "known voxel); unknown voxels are left out (io/known_cells.hpp); a 2D map is one layer");
+      "OctoMap file: .bt (occupied and free voxels, as liboctomap writes them) or .ot (log-odds "
+      "of every known voxel, through liboctomap); unknown voxels are left out "
+      "(io/known_cells.hpp); a 2D map is one layer");
   struct OctArgs {
     std::string map, out;
     OctomapExportOptions o;

@@ -16,12 +16,14 @@
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/experiments/figure_panels.hpp"
+#include "potmap/experiments/picture_caption.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/job/map_job.hpp"
 #include "potmap/job/map_pictures.hpp"
 #include "potmap/learn/bhm.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "progress.hpp"
+#include "town_picture.hpp"
 
 namespace fs = std::filesystem;
 
@@ -50,28 +52,11 @@ KernelMap learn_source_map(Context& ctx, const std::vector<Scan>& scans) {
   return map;
 }
 
-// The true town over the window [lo, hi] (metres) at the scale probability_picture uses for
-// it (max(extent) / max_pixels metres a pixel): buildings and obstacles dark on white, the route
-// red, so that it stands beside the estimate pixel for pixel.
-experiment::Picture town_picture(const Town& town, const std::vector<double>& route,
-                                 const double lo[3], const double hi[3], std::size_t max_pixels) {
-  const double mpp = std::max(hi[0] - lo[0], hi[1] - lo[1]) / max_pixels;
-  experiment::Picture p;
-  p.width = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((hi[0] - lo[0]) / mpp)));
-  p.height = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((hi[1] - lo[1]) / mpp)));
-  p.rgb.assign(p.width * p.height * 3, 255);
-  for (std::size_t j = 0; j < p.height; ++j)
-    for (std::size_t i = 0; i < p.width; ++i)
-      if (town.occupied(lo[0] + (i + 0.5) * mpp, hi[1] - (j + 0.5) * mpp))
-        std::fill_n(&p.rgb[(j * p.width + i) * 3], 3, 40);
-  for (std::size_t k = 0; k + 1 < route.size(); k += 2) {
-    const double i = (route[k] - lo[0]) / mpp, j = (hi[1] - route[k + 1]) / mpp;
-    if (i < 0 || j < 0 || i >= p.width || j >= p.height) continue;
-    std::uint8_t* px = &p.rgb[(std::size_t(j) * p.width + std::size_t(i)) * 3];
-    px[0] = 220, px[1] = 20, px[2] = 20;
-  }
-  return p;
-}
+// A method's finished map, for the comparison figure.
+struct DemoMap {
+  std::string name;
+  KernelMap map;
+};
 
 // The device builds its programs at their first launch (a few hundred milliseconds on PoCL):
 // the first two scans mapped once and thrown away, so that no scan's time counts it.
@@ -83,6 +68,29 @@ void build_programs(Context& ctx, const Dictionary& dict, const std::vector<Scan
   potmap::job::run_map_job(&ctx, dict, first, job);
   std::fprintf(human, "device         %s; kernels built in %.1f s (counted in no scan)\n",
                ctx.info().summary().c_str(), seconds_since(tb));
+}
+
+// The true town beside each estimate's probability, one window and scale: the last map's
+// kernels and 5 m around them, within the town; each panel titled, one legend below.
+void write_compare(Context& ctx, const Town& town, const std::string& name,
+                   const std::vector<double>& route, const std::vector<DemoMap>& maps,
+                   const std::string& path) {
+  double lo[3], hi[3];
+  maps.back().map.bounds(lo, hi);
+  lo[0] = std::max(0.0, lo[0] - 5), lo[1] = std::max(0.0, lo[1] - 5), lo[2] = 0;
+  hi[0] = std::min(town.width(), hi[0] + 5), hi[1] = std::min(town.height(), hi[1] + 5), hi[2] = 0;
+  std::vector<experiment::Picture> panels = {town_picture(town, route, lo, hi, 1200)};
+  std::vector<std::string> titles = {"TRUE TOWN " + name};
+  for (const DemoMap& m : maps) {
+    const auto fitted =
+        experiment::kernel_fitted_map(&ctx, std::make_shared<const KernelMap>(m.map));
+    panels.push_back(experiment::probability_picture(fitted, 2, lo, hi, 1200));
+    titles.push_back(m.name + ": P(OCCUPIED)");
+  }
+  panels.front().metres_per_pixel = panels.back().metres_per_pixel;
+  std::vector<const experiment::Picture*> ptrs;
+  for (const auto& pic : panels) ptrs.push_back(&pic);
+  experiment::write_comparison(ptrs, titles, path, town_swatches());
 }
 
 }  // namespace
@@ -121,7 +129,7 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
   to.seed = 7;
   const Town tgt = Town::builtin(a.target);
   const Simulation target = simulate(tgt, to);
-  write_town_png(tgt, target.route, prefix + "_town.png");
+  write_true_town(tgt, a.target, target.route, prefix + "_town.png");
   std::fprintf(human, "target         %zu scans of %s, 20 %% of every scan's beams held out\n",
                target.scans.size(), a.target.c_str());
 
@@ -144,6 +152,7 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
     return job;
   };
   build_programs(ctx, dict, target.scans, make_job(a.method != "pot"), human);
+  std::vector<DemoMap> maps;
   for (const bool refine : {false, true}) {
     if ((refine && a.method == "pot") || (!refine && a.method == "repot")) continue;
     const std::string name = refine ? "RePOT" : "POT";
@@ -160,6 +169,7 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
                  r.mean_timing.transport_ms, r.mean_timing.placement_ms, r.mean_timing.refine_ms);
     j[refine ? "repot" : "pot"] = nlohmann::json::parse(r.to_json());
 
+    maps.push_back({name, r.overall_map()});
     // Pictures of the last method run (RePOT when both): probability, variance, kernels.
     if (refine || a.method == "pot") {
       const std::string p = prefix + (refine ? "_repot" : "_pot");
@@ -171,18 +181,7 @@ int run_pot_demo(const PotDemoArgs& a, const std::string& device) {
       files.insert(files.end(), mp.files.begin(), mp.files.end());
       files.push_back(p + ".potmap");
       j["picture_pixels"] = {mp.width, mp.height};
-      // The true town (left) beside the estimate's probability (right), one window and scale:
-      // the map's kernels and 5 m around them, as the other pictures, within the town.
-      double lo[3], hi[3];
-      r.overall_map().bounds(lo, hi);
-      lo[0] = std::max(0.0, lo[0] - 5), lo[1] = std::max(0.0, lo[1] - 5), lo[2] = 0;
-      hi[0] = std::min(tgt.width(), hi[0] + 5), hi[1] = std::min(tgt.height(), hi[1] + 5),
-      hi[2] = 0;
-      const auto fitted =
-          experiment::kernel_fitted_map(&ctx, std::make_shared<const KernelMap>(r.overall_map()));
-      const experiment::Picture truth = town_picture(tgt, target.route, lo, hi, 1200);
-      const experiment::Picture estimate = experiment::probability_picture(fitted, 2, lo, hi, 1200);
-      experiment::write_side_by_side({&truth, &estimate}, p + "_compare.png");
+      write_compare(ctx, tgt, a.target, target.route, maps, p + "_compare.png");
       files.push_back(p + "_compare.png");
       j["kernel_length_m"] = {mp.min_length, mp.max_length};
     }

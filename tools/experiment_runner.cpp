@@ -16,6 +16,7 @@
 
 #include "commands.hpp"
 #include "experiment_breakdown.hpp"
+#include "potmap/job/map_pictures.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
@@ -276,7 +277,8 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
         experiment::probability_picture(f, task.dim, task.lo, task.hi, picture_view(task)));
     const std::string prefix =
         (fs::path(s_.figures) / slug(experiment_ + "_" + case_label + "_" + m.name)).string();
-    r.figures = experiment::write_figures(f, task.dim, task.lo, task.hi, prefix, s_.figure_pixels);
+    r.figures =
+        experiment::write_figures(f, task.dim, task.lo, task.hi, prefix, s_.figure_pixels, m.name);
     if (m.uses_source && f.kernels && !f.kernels->empty() && context()) {
       // Transported kernels coloured by width over the grey map (the paper's Fig. 3 and 9),
       // in place of the plain dots.
@@ -288,7 +290,7 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
       spec.resolution =
           std::max(task.hi[0] - task.lo[0], task.hi[1] - task.lo[1]) / double(s_.figure_pixels);
       const std::string path = prefix + "_kernels.png";
-      write_kernel_picture(context(), *f.kernels, spec, path);
+      job::write_kernel_legend_picture(*context(), *f.kernels, spec, path);
       if (std::find(r.figures.begin(), r.figures.end(), path) == r.figures.end())
         r.figures.push_back(path);
     }

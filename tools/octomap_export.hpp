@@ -1,6 +1,7 @@
 #pragma once
-// Kernel maps as OctoMap files (liboctomap): `.bt` (occupied and free voxels, the maximum
-// likelihood) or `.ot` (every known voxel with its log-odds). Known voxels follow
+// Kernel maps as OctoMap files: `.bt` (occupied and free voxels, the maximum likelihood; the
+// library's encoder, io/octomap_binary.hpp) or `.ot` (every known voxel with its log-odds;
+// liboctomap). Known voxels follow
 // io/known_cells.hpp; unknown ones are left out of the tree, as OctoMap itself leaves space no
 // beam crossed.
 #include <cstddef>

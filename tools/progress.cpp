@@ -47,6 +47,10 @@ void write_text_atomically(const std::string& path, const std::string& text) {
   // The library's AtomicFile is private to it; this is the same sequence for the command's own
   // JSON: every write checked, fsync before the rename, the temporary file removed on failure.
   const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  // The folder too, when the file is the first written into it (as AtomicFile does).
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code made;
+  if (!parent.empty()) std::filesystem::create_directories(parent, made);
   const auto fail = [&](const char* what) {
     const std::string why = std::strerror(errno);
     std::error_code ec;

@@ -36,8 +36,9 @@ void print_scans(job::MapJob& job, bool verbose, const std::string& label);
 /// outputs' progress as stage_progress("outputs"); an interrupt checked at every report.
 MappingJobHooks printing_hooks(std::FILE* human, bool quiet);
 
-/// Writes text to path through a temporary file in the same folder and a rename; throws
-/// potmap::Error naming the file on failure (and leaves nothing behind).
+/// Writes text to path through a temporary file in the same folder and a rename, the folder
+/// made first when it does not exist yet; throws potmap::Error naming the file on failure (and
+/// leaves nothing behind).
 void write_text_atomically(const std::string& path, const std::string& text);
 
 /// The end of a mapping job on the command line: scores.json on stdout when `json` is "-", and

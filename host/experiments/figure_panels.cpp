@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "potmap/error.hpp"
+#include "potmap/experiments/picture_caption.hpp"
 #include "potmap/render/colormap.hpp"
 #include "render/png_writer.hpp"
 
@@ -118,12 +119,6 @@ void write_side_by_side(const std::vector<const Picture*>& panels, const std::st
   png.finish();
 }
 
-namespace {
-
-constexpr Rgb kInk{0, 0, 0};
-
-}  // namespace
-
 void fill_box(Picture& pic, std::size_t x0, std::size_t y0, std::size_t w, std::size_t h, Rgb c) {
   for (std::size_t y = y0; y < std::min(pic.height, y0 + h); ++y)
     for (std::size_t x = x0; x < std::min(pic.width, x0 + w); ++x) {
@@ -141,38 +136,18 @@ double round_scale(double metres) {
   return p;
 }
 
-namespace {
-
-// The legend strip at row y: the colour bar of P(occupied), the grey of unknown space, and a
-// scale bar of `metres_per_pixel` at the right end (none when 0).
-void draw_legend(Picture& pic, std::size_t y, double metres_per_pixel) {
-  const std::size_t bar = 160, x0 = 6;
-  draw_text(pic, long(x0), long(y), "P(OCCUPIED)", kInk, 2);
-  for (std::size_t i = 0; i < bar; ++i)
-    fill_box(pic, x0 + i, y + 16, 1, 12, colormap(Colormap::Viridis, double(i) / double(bar - 1)));
-  draw_text(pic, long(x0), long(y + 32), "0", kInk, 2);
-  draw_text(pic, long(x0 + bar - text_advance(2)), long(y + 32), "1", kInk, 2);
-  fill_box(pic, x0 + bar + 14, y + 16, 12, 12, kUnknownGrey);
-  draw_text(pic, long(x0 + bar + 30), long(y + 16), "UNKNOWN", kInk, 2);
-  if (!(metres_per_pixel > 0)) return;
-  const double len = round_scale(double(pic.width) * metres_per_pixel);
-  const auto len_px = std::size_t(std::lround(len / metres_per_pixel));
-  const std::size_t sx = pic.width > len_px + 10 ? pic.width - len_px - 10 : 0;
-  fill_box(pic, sx, y + 20, len_px, 4, kInk);
-  char lab[32];
-  std::snprintf(lab, sizeof lab, "%g M", len);
-  draw_text(pic, long(sx), long(y + 32), lab, kInk, 2);
-}
-
-}  // namespace
-
 void write_comparison(const std::vector<const Picture*>& panels,
                       const std::vector<std::string>& titles, const std::string& path) {
+  write_comparison(panels, titles, path, {});
+}
+
+void write_comparison(const std::vector<const Picture*>& panels,
+                      const std::vector<std::string>& titles, const std::string& path,
+                      const std::vector<Swatch>& swatches) {
   if (panels.size() != titles.size())
     throw ArgumentError("write_comparison: " + std::to_string(panels.size()) + " panels, " +
                         std::to_string(titles.size()) + " titles");
-  const std::size_t gap = kComparisonGap, title_h = kComparisonTitleRows,
-                    legend_h = kComparisonLegendRows;
+  const std::size_t gap = kComparisonGap, title_h = kComparisonTitleRows;
   std::size_t w = 0, h = 0;
   double mpp = 0;
   for (const Picture* p : panels) {
@@ -184,9 +159,14 @@ void write_comparison(const std::vector<const Picture*>& panels,
     if (mpp == 0) mpp = p->metres_per_pixel;
   }
   if (w == 0) throw ArgumentError("write_comparison: no panel to write");
+  Legend legend;
+  legend.bars = {colour_bar("P(OCCUPIED)", Colormap::Viridis, "0", "1")};
+  legend.swatches = {never_observed_swatch()};
+  legend.swatches.insert(legend.swatches.end(), swatches.begin(), swatches.end());
+  legend.metres_per_pixel = mpp;
   Picture fig;
   fig.width = std::max<std::size_t>(w, kComparisonMinWidth);
-  fig.height = title_h + h + legend_h;
+  fig.height = title_h + h + legend_height(legend, fig.width);
   fig.rgb.assign(fig.width * fig.height * 3, 255);
   std::size_t x = 0;
   for (std::size_t k = 0; k < panels.size(); ++k) {
@@ -195,13 +175,13 @@ void write_comparison(const std::vector<const Picture*>& panels,
     std::string t = titles[k];
     const auto fits = std::size_t(std::max<long>(1, long(p->width) / text_advance(2)));
     if (t.size() > fits) t.resize(fits);
-    draw_text(fig, long(x + 2), 4, t, kInk, 2);
+    draw_text(fig, long(x + 2), 4, t, Rgb{0, 0, 0}, 2);
     for (std::size_t r = 0; r < p->height; ++r)
       std::copy_n(&p->rgb[r * p->width * 3], p->width * 3,
                   &fig.rgb[((title_h + r) * fig.width + x) * 3]);
     x += p->width + gap;
   }
-  draw_legend(fig, title_h + h + 8, mpp);
+  draw_legend(fig, title_h + h, legend);
   write_side_by_side({&fig}, path, 0);
 }
 

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <utility>
 
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
-#include "render/png_writer.hpp"
+#include "potmap/experiments/picture_caption.hpp"
 
 namespace potmap::experiment {
 
@@ -151,15 +153,28 @@ std::vector<std::string> write_frame_figures(const FrameEvaluation& e, const Sca
   const auto o = t.train_scans.empty() ? std::array<double, 3>{0, 0, 0} : t.train_scans[0].origin();
   dot(o[0], o[1], 220, 0, 0, 2);
   {
-    detail::PngWriter png(prefix + "_hits.png", w, h);
-    for (std::size_t r = 0; r < h; ++r) png.write_row(&img[r * w * 3]);
-    png.finish();
+    Picture body;
+    body.width = w;
+    body.height = h;
+    body.metres_per_pixel = cell;
+    body.rgb = std::move(img);
+    Legend legend;
+    legend.swatches = {{Rgb{150, 150, 150}, "TRAINING HIT", 0},
+                       {Rgb{0, 0, 0}, "HELD-OUT HIT", 0},
+                       {Rgb{220, 0, 0}, "SENSOR", 0}};
+    legend.metres_per_pixel = cell;
+    char title[96];
+    std::snprintf(title, sizeof title, "LIDAR HITS WITHIN %.2f M OF Z %.2f M, SEEN FROM ABOVE",
+                  band, z);
+    const Picture pic = captioned(body, title, legend);
+    write_side_by_side({&pic}, prefix + "_hits.png", 0);
     files.push_back(prefix + "_hits.png");
   }
   for (const FrameResult& r : e.results) {
     const std::string p =
         prefix + "_" + slug(r.source.empty() ? r.method : r.source + "_" + r.method);
-    for (std::string& f : write_figures(r.map, 3, lo, hi, p, max_pixels)) files.push_back(f);
+    for (std::string& f : write_figures(r.map, 3, lo, hi, p, max_pixels, r.method))
+      files.push_back(f);
   }
   return files;
 }

@@ -60,6 +60,12 @@ std::uint16_t glyph(char c) {
     case '^':
       bits = "010101000000000";
       break;
+    case '+':
+      bits = "000010111010000";
+      break;
+    case '\'':
+      bits = "010010000000000";
+      break;
     default:
       break;
   }

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <random>
 #include <vector>
 
@@ -19,7 +20,19 @@ std::string errno_text() {
 }
 }  // namespace
 
+void make_parent_folders(const std::string& path) {
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (parent.empty()) return;
+  std::error_code ec;
+  if (std::filesystem::is_directory(parent, ec)) return;
+  std::filesystem::create_directories(parent, ec);
+  // Another process may have made it meanwhile: only a folder still missing is a failure.
+  if (ec && !std::filesystem::is_directory(parent))
+    throw Error("cannot create the folder " + parent.string() + ": " + ec.message());
+}
+
 AtomicFile::AtomicFile(const std::string& path) : path_(path) {
+  make_parent_folders(path);
   // open(O_EXCL) with a random name rather than mkstemp: mkstemp makes the file 0600, while the
   // result should get the usual permissions (0666 less the umask), as any other output file.
   std::random_device rd;

@@ -10,9 +10,16 @@
 
 namespace potmap::detail {
 
+/// Creates the folders above `path` that do not exist yet (an output file's folder), so that
+/// every writer of the library writes into a folder named for the first time. Here rather than
+/// in file_util because the experiments library carries its own copy of this file. Throws
+/// potmap::Error naming the folder when one cannot be created.
+void make_parent_folders(const std::string& path);
+
 class AtomicFile {
  public:
-  /// Creates the temporary file next to `path`. Throws potmap::Error naming `path` on failure.
+  /// Creates the temporary file next to `path`, and the folders above it that do not exist yet
+  /// (make_parent_folders). Throws potmap::Error naming `path` on failure.
   explicit AtomicFile(const std::string& path);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;

@@ -96,7 +96,12 @@ std::string crs_wkt(const std::string& crs, const std::string& path) {
   return out;
 }
 
+// Every file of a write lies next to `path`: its folder is made here when it does not exist yet
+// (as AtomicFile makes it for the library's other writers).
 std::string temp_name(const std::string& path, const char* what) {
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
   return path + "." + what + "-" + std::to_string(::getpid()) + ".tif";
 }
 

@@ -23,8 +23,9 @@ DriveOutputs write_drive_outputs(Context& ctx, const KernelMap& map,
   vo.progress = o.progress;
   const DriveVolume v = export_drive_volume(ctx, map, positions, vo);
   const HeightBandRaster& band = v.band;
-  const BandFiles bf = write_band_files(band.prob, band.var, band.nx, band.ny, band.origin,
-                                        band.res, prefix, o.picture_res, o.picture_pixels);
+  const BandFiles bf =
+      write_band_files(band.prob, band.var, band.nx, band.ny, band.origin, band.res, prefix,
+                       o.picture_res, o.picture_pixels, o.band_low, o.band_high);
   DriveOutputs out;
   out.files = {vo.octomap_path, vo.cloud_path};
   out.files.insert(out.files.end(), bf.files.begin(), bf.files.end());

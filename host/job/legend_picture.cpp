@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "potmap/experiments/figure_panels.hpp"
+#include "potmap/experiments/picture_caption.hpp"
 #include "potmap/render/colormap.hpp"
 
 namespace potmap::job {
@@ -12,7 +13,6 @@ namespace potmap::job {
 namespace {
 
 const Rgb kUnknown = experiment::kUnknownGrey;
-const Rgb kInk{0, 0, 0};
 
 struct Pixels {
   std::size_t w = 0, h = 0, k = 1;  // k x k cells a pixel
@@ -38,49 +38,33 @@ Pixels downsample(const std::vector<float>& prob, const std::vector<float>& var,
   return p;
 }
 
-using experiment::draw_text;
-using experiment::fill_box;
-using experiment::round_scale;
-using experiment::text_advance;
-
-// The map above, then a strip: the colour bar (quantity and its ends), the grey of unknown
-// space, and a scale bar in metres.
+// The map's pixels, top row the largest y, under its title and above its legend: the colour
+// bar of the quantity, the grey of never-observed space and a scale bar in metres.
 experiment::Picture picture(const Pixels& px, bool variance, double vmax, double metres_per_px,
                             const std::string& title) {
-  const std::size_t strip = 70, w = std::max<std::size_t>(px.w, 420);
-  experiment::Picture pic;
-  pic.width = w;
-  pic.height = px.h + strip;
-  pic.rgb.assign(pic.width * pic.height * 3, 255);
+  experiment::Picture body;
+  body.width = px.w;
+  body.height = px.h;
+  body.metres_per_pixel = metres_per_px;
+  body.rgb.resize(px.w * px.h * 3);
   for (std::size_t j = 0; j < px.h; ++j)
     for (std::size_t i = 0; i < px.w; ++i) {
-      const std::size_t q = i + px.w * (px.h - 1 - j);  // top row: the largest y
+      const std::size_t q = i + px.w * (px.h - 1 - j);
       Rgb c = kUnknown;
       if (px.prob[q] >= 0)
         c = variance ? colormap(Colormap::Magma, std::min(1.0, double(px.var[q]) / vmax))
                      : colormap(Colormap::Viridis, px.prob[q]);
-      fill_box(pic, i, j, 1, 1, c);
+      experiment::fill_box(body, i, j, 1, 1, c);
     }
-  const std::size_t y = px.h + 8, bar = 160;
-  draw_text(pic, 6, long(y), title, kInk, 2);
-  for (std::size_t i = 0; i < bar; ++i)
-    fill_box(pic, 6 + i, y + 16, 1, 12,
-             colormap(variance ? Colormap::Magma : Colormap::Viridis, double(i) / double(bar - 1)));
   char hi[32];
-  std::snprintf(hi, sizeof hi, variance ? "%.2g" : "1", vmax);
-  draw_text(pic, 6, long(y + 32), "0", kInk, 2);
-  draw_text(pic, long(6 + bar - text_advance(2) * std::string(hi).size()), long(y + 32), hi, kInk,
-            2);
-  fill_box(pic, 6 + bar + 14, y + 16, 12, 12, kUnknown);
-  draw_text(pic, long(6 + bar + 30), long(y + 16), "UNKNOWN", kInk, 2);
-  const double len = round_scale(double(px.w) * metres_per_px);
-  const auto len_px = std::size_t(std::lround(len / metres_per_px));
-  const std::size_t sx = w > len_px + 10 ? w - len_px - 10 : 0;
-  fill_box(pic, sx, y + 20, len_px, 4, kInk);
-  char lab[32];
-  std::snprintf(lab, sizeof lab, "%g M", len);
-  draw_text(pic, long(sx), long(y + 32), lab, kInk, 2);
-  return pic;
+  std::snprintf(hi, sizeof hi, "%.2g OR MORE", vmax);
+  experiment::Legend legend;
+  legend.bars = {variance ? experiment::colour_bar("LOGIT VARIANCE", Colormap::Magma, "0", hi)
+                          : experiment::colour_bar("P(OCCUPIED): 0 FREE, 1 OCCUPIED",
+                                                   Colormap::Viridis, "0", "1")};
+  legend.swatches = {experiment::never_observed_swatch()};
+  legend.metres_per_pixel = metres_per_px;
+  return experiment::captioned(body, title, legend);
 }
 
 }  // namespace
@@ -105,6 +89,41 @@ LegendPictures write_legend_pictures(const std::vector<float>& prob, const std::
   experiment::write_side_by_side({&a}, prob_path);
   experiment::write_side_by_side({&b}, var_path);
   return {px.w, px.h, mpp, vmax};
+}
+
+KernelPictureSummary write_kernel_legend_picture(Context& ctx, const KernelMap& map,
+                                                 const RasterSpec& spec, const std::string& path) {
+  KernelPictureOptions o;
+  experiment::Picture body;
+  const KernelPictureSummary s = render_kernel_picture(&ctx, map, spec, body.rgb, o);
+  body.width = s.width;
+  body.height = s.height;
+  body.metres_per_pixel = spec.resolution;
+  char lo[32], hi[32];
+  std::snprintf(lo, sizeof lo, "%.2g", s.min_length);
+  std::snprintf(hi, sizeof hi, "%.2g", s.max_length);
+  // A map of one width (RePOT's regular grid) draws every dot in the scale's low colour: say so
+  // rather than show a range from a length to itself.
+  const bool one_length = std::string(lo) == hi;
+  experiment::Legend legend;
+  legend.bars = {experiment::colour_bar("KERNEL LENGTH SCALE, M (LOG)", o.colormap,
+                                        one_length ? "ALL " + std::string(lo) : lo,
+                                        one_length ? "" : hi)};
+  experiment::ColourBar grey{"P(OCCUPIED) IN GREY", {}, "0", "1"};
+  for (int i = 0; i < 160; ++i) grey.colours.push_back(kernel_picture_grey(i / 159.0));
+  legend.bars.push_back(grey);
+  legend.swatches = {experiment::never_observed_swatch(),
+                     {colormap(o.colormap, one_length ? 0 : 0.5),
+                      "A KERNEL'S CENTRE (EVERY DOT ONE SIZE)", o.dot_radius}};
+  legend.metres_per_pixel = spec.resolution;
+  char title[160];
+  std::snprintf(title, sizeof title,
+                "KERNELS: %zu DOTS, EACH A KERNEL'S CENTRE COLOURED BY ITS LENGTH SCALE "
+                "1/SQRT(GAMMA), OVER THE MAP'S P(OCCUPIED)",
+                s.kernels_drawn);
+  const experiment::Picture pic = experiment::captioned(body, title, legend);
+  experiment::write_side_by_side({&pic}, path);
+  return s;
 }
 
 }  // namespace potmap::job

@@ -8,7 +8,6 @@
 #include "potmap/error.hpp"
 #include "potmap/io/known_cells.hpp"
 #include "potmap/map/raster.hpp"
-#include "potmap/render/kernel_picture.hpp"
 
 namespace potmap::job {
 
@@ -78,11 +77,11 @@ MapPictures write_map_pictures(Context& ctx, const KernelMap& map, const std::st
   }
   MapPictures p;
   p.files = {prefix + "_prob.png", prefix + "_var.png"};
-  const LegendPictures lp =
-      write_legend_pictures(prob, var, nx, ny, 1, resolution, p.files[0], p.files[1],
-                            "P(OCCUPIED)" + where, "LOGIT VARIANCE" + where);
+  const LegendPictures lp = write_legend_pictures(
+      prob, var, nx, ny, 1, resolution, p.files[0], p.files[1],
+      "OCCUPANCY PROBABILITY P(OCCUPIED)" + where, "LOGIT VARIANCE: HOW UNSURE THE MAP IS" + where);
   const std::string kp = prefix + "_kernels.png";
-  const KernelPictureSummary ks = write_kernel_picture(&ctx, map, spec, kp);
+  const KernelPictureSummary ks = write_kernel_legend_picture(ctx, map, spec, kp);
   p.files.push_back(kp);
   p.width = lp.width;
   p.height = lp.height;

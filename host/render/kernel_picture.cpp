@@ -5,50 +5,43 @@
 #include <vector>
 
 #include "potmap/error.hpp"
-#include "potmap/map/evaluate.hpp"
+#include "potmap/io/known_cells.hpp"
 #include "render/png_writer.hpp"
 
 namespace potmap {
 
-KernelPictureSummary write_kernel_picture(Context* ctx, const KernelMap& map,
-                                          const RasterSpec& spec, const std::string& path,
-                                          const KernelPictureOptions& o) {
-  spec.validate();
-  map.validate("write_kernel_picture");
-  if (o.background && !ctx)
-    throw ArgumentError("write_kernel_picture: a background needs a device context");
-  if (o.dot_radius < 0 || o.dot_radius > 64)
-    throw ArgumentError("write_kernel_picture: dot_radius must be in [0, 64]");
-  KernelPictureSummary s;
-  s.width = spec.width();
-  s.height = spec.height();
-  const std::size_t w = s.width, h = s.height;
-  std::vector<std::uint8_t> rgb(w * h * 3, 255);
+namespace {
 
-  if (o.background && !map.empty()) {
-    // Rows of the grid run upwards; image rows downwards (raster.hpp's orientation).
-    GridSpec g;
-    g.dim = map.dim;
-    g.origin[0] = spec.xmin;
-    g.origin[1] = spec.ymin;
-    g.origin[2] = spec.z - 0.5 * spec.resolution;
-    g.resolution = spec.resolution;
-    g.count[0] = w;
-    g.count[1] = h;
-    g.count[2] = 1;
-    MapEvaluator ev(*ctx, map);
-    std::vector<float> prob(w * h);
-    ev.evaluate_grid(g, nullptr, nullptr, prob.data());
-    for (std::size_t r = 0; r < h; ++r)
-      for (std::size_t c = 0; c < w; ++c) {
-        const float p = prob[(h - 1 - r) * w + c];
-        // Occupied dark, free light, unknown mid-grey; kept pale so the dots stand out.
-        const auto v = static_cast<std::uint8_t>(std::isfinite(p) ? 235 - 135 * p : 128);
-        std::fill_n(&rgb[(r * w + c) * 3], 3, v);
-      }
+// The map's probability in grey underneath the dots (kernel_picture_grey), and where nothing
+// was observed (io/known_cells.hpp's rule, as the probability pictures and exports decide it)
+// the darker kKernelPictureUnknown: a window's empty margin must not read as free space.
+void draw_background(Context& ctx, const KernelMap& map, const RasterSpec& spec, std::size_t w,
+                     std::size_t h, std::vector<std::uint8_t>& rgb) {
+  KnownEvaluator known(&ctx, map);
+  std::vector<double> pts;
+  pts.reserve(w * std::size_t(map.dim));
+  for (std::size_t r = 0; r < h; ++r) {
+    // Image rows run downwards from the window's top (raster.hpp's orientation).
+    const double y = spec.ymin + (double(h - 1 - r) + 0.5) * spec.resolution;
+    pts.clear();
+    for (std::size_t c = 0; c < w; ++c) {
+      pts.push_back(spec.xmin + (double(c) + 0.5) * spec.resolution);
+      pts.push_back(y);
+      if (map.dim == 3) pts.push_back(spec.z);
+    }
+    const KnownValues v = known.values(pts);
+    for (std::size_t c = 0; c < w; ++c) {
+      const Rgb g = v.known[c] && std::isfinite(v.prob[c]) ? kernel_picture_grey(v.prob[c])
+                                                           : kKernelPictureUnknown;
+      std::uint8_t* px = &rgb[(r * w + c) * 3];
+      px[0] = g.r, px[1] = g.g, px[2] = g.b;
+    }
   }
+}
 
-  double lmin = o.min_length, lmax = o.max_length;
+// The colour scale's ends, metres: the options', else the map's shortest and longest.
+void length_range(const KernelMap& map, const KernelPictureOptions& o, double& lmin, double& lmax) {
+  lmin = o.min_length, lmax = o.max_length;
   if (!(lmin > 0) || !(lmax > 0)) {
     double a = HUGE_VAL, b = 0;
     for (double g : map.gamma) {
@@ -60,6 +53,33 @@ KernelPictureSummary write_kernel_picture(Context* ctx, const KernelMap& map,
     if (!(lmax > 0)) lmax = map.empty() ? 1 : b;
   }
   if (lmax <= lmin) lmax = lmin * 1.0001;
+}
+
+}  // namespace
+
+Rgb kernel_picture_grey(double p) {
+  // Every known grey lighter than kKernelPictureUnknown, so that walls and unknown space differ.
+  const auto v = static_cast<std::uint8_t>(250 - 70 * std::min(1.0, std::max(0.0, p)));
+  return {v, v, v};
+}
+
+KernelPictureSummary render_kernel_picture(Context* ctx, const KernelMap& map,
+                                           const RasterSpec& spec, std::vector<std::uint8_t>& rgb,
+                                           const KernelPictureOptions& o) {
+  spec.validate();
+  map.validate("write_kernel_picture");
+  if (o.background && !ctx)
+    throw ArgumentError("write_kernel_picture: a background needs a device context");
+  if (o.dot_radius < 0 || o.dot_radius > 64)
+    throw ArgumentError("write_kernel_picture: dot_radius must be in [0, 64]");
+  KernelPictureSummary s;
+  s.width = spec.width();
+  s.height = spec.height();
+  const std::size_t w = s.width, h = s.height;
+  rgb.assign(w * h * 3, 255);
+  if (o.background && !map.empty()) draw_background(*ctx, map, spec, w, h, rgb);
+  double lmin = 0, lmax = 0;
+  length_range(map, o, lmin, lmax);
   s.min_length = lmin;
   s.max_length = lmax;
   const double span = std::log(lmax / lmin);
@@ -83,8 +103,16 @@ KernelPictureSummary write_kernel_picture(Context* ctx, const KernelMap& map,
         px[2] = col.b;
       }
   }
-  detail::PngWriter png(path, w, h);
-  for (std::size_t r = 0; r < h; ++r) png.write_row(&rgb[r * w * 3]);
+  return s;
+}
+
+KernelPictureSummary write_kernel_picture(Context* ctx, const KernelMap& map,
+                                          const RasterSpec& spec, const std::string& path,
+                                          const KernelPictureOptions& o) {
+  std::vector<std::uint8_t> rgb;
+  const KernelPictureSummary s = render_kernel_picture(ctx, map, spec, rgb, o);
+  detail::PngWriter png(path, s.width, s.height);
+  for (std::size_t r = 0; r < s.height; ++r) png.write_row(&rgb[r * s.width * 3]);
   png.finish();
   return s;
 }

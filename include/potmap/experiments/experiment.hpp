@@ -280,13 +280,16 @@ Scores score_map(const FittedMap& map, const LabelledPoints& test, double* query
 
 /// Figures of a fitted map of dimension `dim` over [lo, hi] (x, y; metres; a 3D map at the
 /// height halfway between lo[2] and hi[2]), at most max_pixels along the longer side:
-/// PREFIX_prob.png (viridis), PREFIX_var.png (variance as raster.hpp colours it; only when the
-/// model has one) and, for kernel maps, PREFIX_kernels.png (each kernel a dot at its position
-/// coloured by log10 gamma, viridis from the smallest to the largest width). Returns the files
-/// written.
+/// PREFIX_prob.png (viridis), PREFIX_var.png (the logit variance v coloured v / (1 + v), magma;
+/// only when the model has one) and, for kernel maps, PREFIX_kernels.png (each kernel a dot at
+/// its position coloured by log10 gamma, viridis from the smallest to the largest width). Places
+/// the model has not observed (FittedMap::known) are grey. Each picture is captioned
+/// (picture_caption.hpp): a title with `name` (the method, when given), the quantity and a 3D
+/// map's height above, the colour bar, the never-observed grey and a metres scale bar below.
+/// Returns the files written.
 std::vector<std::string> write_figures(const FittedMap& map, int dim, const double lo[3],
                                        const double hi[3], const std::string& prefix,
-                                       std::size_t max_pixels = 400);
+                                       std::size_t max_pixels = 400, const std::string& name = "");
 
 }  // namespace potmap::experiment
 POTMAP_CXX_API_END

@@ -90,7 +90,8 @@ FrameEvaluation evaluate_frame(Context* ctx, const Scan& frame,
                                std::shared_ptr<AtomCache> cache = nullptr);
 
 /// Pictures of a frame at height `z` (metres, world frame): PREFIX_hits.png, the frame's hits
-/// within +-`band` metres of z (training beams grey, held-out black), and for every result
+/// within +-`band` metres of z (training beams grey, held-out black, the sensor red; titled, with
+/// its legend and a scale bar, picture_caption.hpp), and for every result
 /// PREFIX_<source>_<method>_prob.png (write_figures of the horizontal slice at z). The window
 /// is the task's x, y area. Returns the files written.
 std::vector<std::string> write_frame_figures(const FrameEvaluation& e, const Scan& frame, double z,

@@ -50,14 +50,16 @@ Picture probability_picture(const FittedMap& map, int dim, const double lo[3], c
 Picture probability_picture(const FittedMap& map, int dim, const double lo[3], const double hi[3],
                             std::size_t max_pixels = 400);
 
-/// A comparison figure's layout: rows of titles above the panels, of the legend below them,
-/// 4 white columns between panels, and the least width (the legend's).
+/// A comparison figure's layout: rows of titles above the panels, of the legend below them (one
+/// row of picture_caption.hpp's legend; more where the swatches need a second row), 4 white
+/// columns between panels, and the least width (the legend's).
 constexpr std::size_t kComparisonTitleRows = 22, kComparisonLegendRows = 56, kComparisonGap = 4,
                       kComparisonMinWidth = 480;
 
 /// A comparison figure: `panels` left to right, each titled above (`titles`, one a panel), and
-/// below them a legend: the colour bar of P(occupied) from 0 to 1, the grey of unknown space,
-/// and a scale bar in metres (from the first panel's metres_per_pixel). Throws ArgumentError
+/// below them a legend (picture_caption.hpp): the colour bar of P(occupied) from 0 to 1, the
+/// grey of never-observed space, and a scale bar in metres (from the first panel's
+/// metres_per_pixel). picture_caption.hpp's overload adds swatches of its own. Throws ArgumentError
 /// when no panel has pixels or titles and panels differ in number, potmap::Error when the file
 /// cannot be written.
 void write_comparison(const std::vector<const Picture*>& panels,
