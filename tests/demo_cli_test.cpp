@@ -7,7 +7,6 @@
 #include <filesystem>
 
 #include "potmap/experiments/figure_panels.hpp"
-#include "potmap/experiments/picture_caption.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

@@ -15,7 +15,6 @@
 #include <set>
 
 #include "potmap/experiments/figure_panels.hpp"
-#include "potmap/experiments/picture_caption.hpp"
 #include "test_support.hpp"
 
 namespace fs = std::filesystem;

@@ -1,6 +1,6 @@
 // Captions on pictures: a title above that wraps over lines, a legend below with its colour
 // bars, swatches and scale bar, the picture itself untouched between them.
-#include "potmap/experiments/picture_caption.hpp"
+#include "potmap/experiments/figure_panels.hpp"
 
 #include <gtest/gtest.h>
 

@@ -16,7 +16,6 @@
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/experiments/figure_panels.hpp"
-#include "potmap/experiments/picture_caption.hpp"
 #include "potmap/io/map_io.hpp"
 #include "potmap/job/map_job.hpp"
 #include "potmap/job/map_pictures.hpp"

@@ -8,7 +8,6 @@
 
 #include "potmap/data/simulator.hpp"
 #include "potmap/experiments/figure_panels.hpp"
-#include "potmap/experiments/picture_caption.hpp"
 
 namespace potmap::cli {
 

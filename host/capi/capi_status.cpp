@@ -48,12 +48,13 @@ const char* potmap_status_string(potmap_status status) {
                                             "POTMAP_ERROR_IO",
                                             "POTMAP_ERROR_NO_DEVICE",
                                             "POTMAP_ERROR_OUT_OF_MEMORY",
-                                            "POTMAP_ERROR_INTERNAL"};
+                                            "POTMAP_ERROR_INTERNAL",
+                                            "POTMAP_ERROR_CANCELLED"};
   static_assert(
-      POTMAP_ERROR_INTERNAL - POTMAP_ERROR_NULL_ARGUMENT + 1 == sizeof kErrors / sizeof kErrors[0],
+      POTMAP_ERROR_CANCELLED - POTMAP_ERROR_NULL_ARGUMENT + 1 == sizeof kErrors / sizeof kErrors[0],
       "one name per potmap status");
   if (status == POTMAP_SUCCESS) return "POTMAP_SUCCESS";
-  if (status >= POTMAP_ERROR_NULL_ARGUMENT && status <= POTMAP_ERROR_INTERNAL)
+  if (status >= POTMAP_ERROR_NULL_ARGUMENT && status <= POTMAP_ERROR_CANCELLED)
     return kErrors[status - POTMAP_ERROR_NULL_ARGUMENT];
   if (status < 0)
     if (const char* name = potmap::detail::opencl_error_cname(status)) return name;

@@ -6,7 +6,7 @@
 
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
-#include "potmap/experiments/picture_caption.hpp"
+#include "potmap/experiments/figure_panels.hpp"
 #include "potmap/render/colormap.hpp"
 
 namespace potmap::experiment {

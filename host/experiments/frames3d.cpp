@@ -8,7 +8,7 @@
 
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
-#include "potmap/experiments/picture_caption.hpp"
+#include "potmap/experiments/figure_panels.hpp"
 
 namespace potmap::experiment {
 

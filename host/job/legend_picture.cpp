@@ -4,15 +4,15 @@
 #include <cmath>
 #include <cstdio>
 
-#include "potmap/experiments/figure_panels.hpp"
-#include "potmap/experiments/picture_caption.hpp"
 #include "potmap/render/colormap.hpp"
+#include "potmap/render/picture.hpp"
+#include "potmap/render/picture_caption.hpp"
 
 namespace potmap::job {
 
 namespace {
 
-const Rgb kUnknown = experiment::kUnknownGrey;
+const Rgb kUnknown = kUnknownGrey;
 
 struct Pixels {
   std::size_t w = 0, h = 0, k = 1;  // k x k cells a pixel
@@ -40,9 +40,9 @@ Pixels downsample(const std::vector<float>& prob, const std::vector<float>& var,
 
 // The map's pixels, top row the largest y, under its title and above its legend: the colour
 // bar of the quantity, the grey of never-observed space and a scale bar in metres.
-experiment::Picture picture(const Pixels& px, bool variance, double vmax, double metres_per_px,
-                            const std::string& title) {
-  experiment::Picture body;
+Picture picture(const Pixels& px, bool variance, double vmax, double metres_per_px,
+                const std::string& title) {
+  Picture body;
   body.width = px.w;
   body.height = px.h;
   body.metres_per_pixel = metres_per_px;
@@ -54,17 +54,17 @@ experiment::Picture picture(const Pixels& px, bool variance, double vmax, double
       if (px.prob[q] >= 0)
         c = variance ? colormap(Colormap::Magma, std::min(1.0, double(px.var[q]) / vmax))
                      : colormap(Colormap::Viridis, px.prob[q]);
-      experiment::fill_box(body, i, j, 1, 1, c);
+      fill_box(body, i, j, 1, 1, c);
     }
   char hi[32];
   std::snprintf(hi, sizeof hi, "%.2g OR MORE", vmax);
-  experiment::Legend legend;
-  legend.bars = {variance ? experiment::colour_bar("LOGIT VARIANCE", Colormap::Magma, "0", hi)
-                          : experiment::colour_bar("P(OCCUPIED): 0 FREE, 1 OCCUPIED",
-                                                   Colormap::Viridis, "0", "1")};
-  legend.swatches = {experiment::never_observed_swatch()};
+  Legend legend;
+  legend.bars = {variance
+                     ? colour_bar("LOGIT VARIANCE", Colormap::Magma, "0", hi)
+                     : colour_bar("P(OCCUPIED): 0 FREE, 1 OCCUPIED", Colormap::Viridis, "0", "1")};
+  legend.swatches = {never_observed_swatch()};
   legend.metres_per_pixel = metres_per_px;
-  return experiment::captioned(body, title, legend);
+  return captioned(body, title, legend);
 }
 
 }  // namespace
@@ -84,17 +84,17 @@ LegendPictures write_legend_pictures(const std::vector<float>& prob, const std::
     vmax = std::max(1e-6, double(vs[at]));
   }
   const double mpp = cell * double(px.k);
-  const experiment::Picture a = picture(px, false, 1, mpp, prob_title);
-  const experiment::Picture b = picture(px, true, vmax, mpp, var_title);
-  experiment::write_side_by_side({&a}, prob_path);
-  experiment::write_side_by_side({&b}, var_path);
+  const Picture a = picture(px, false, 1, mpp, prob_title);
+  const Picture b = picture(px, true, vmax, mpp, var_title);
+  write_side_by_side({&a}, prob_path);
+  write_side_by_side({&b}, var_path);
   return {px.w, px.h, mpp, vmax};
 }
 
 KernelPictureSummary write_kernel_legend_picture(Context& ctx, const KernelMap& map,
                                                  const RasterSpec& spec, const std::string& path) {
   KernelPictureOptions o;
-  experiment::Picture body;
+  Picture body;
   const KernelPictureSummary s = render_kernel_picture(&ctx, map, spec, body.rgb, o);
   body.width = s.width;
   body.height = s.height;
@@ -105,14 +105,13 @@ KernelPictureSummary write_kernel_legend_picture(Context& ctx, const KernelMap& 
   // A map of one width (RePOT's regular grid) draws every dot in the scale's low colour: say so
   // rather than show a range from a length to itself.
   const bool one_length = std::string(lo) == hi;
-  experiment::Legend legend;
-  legend.bars = {experiment::colour_bar("KERNEL LENGTH SCALE, M (LOG)", o.colormap,
-                                        one_length ? "ALL " + std::string(lo) : lo,
-                                        one_length ? "" : hi)};
-  experiment::ColourBar grey{"P(OCCUPIED) IN GREY", {}, "0", "1"};
+  Legend legend;
+  legend.bars = {colour_bar("KERNEL LENGTH SCALE, M (LOG)", o.colormap,
+                            one_length ? "ALL " + std::string(lo) : lo, one_length ? "" : hi)};
+  ColourBar grey{"P(OCCUPIED) IN GREY", {}, "0", "1"};
   for (int i = 0; i < 160; ++i) grey.colours.push_back(kernel_picture_grey(i / 159.0));
   legend.bars.push_back(grey);
-  legend.swatches = {experiment::never_observed_swatch(),
+  legend.swatches = {never_observed_swatch(),
                      {colormap(o.colormap, one_length ? 0 : 0.5),
                       "A KERNEL'S CENTRE (EVERY DOT ONE SIZE)", o.dot_radius}};
   legend.metres_per_pixel = spec.resolution;
@@ -121,8 +120,8 @@ KernelPictureSummary write_kernel_legend_picture(Context& ctx, const KernelMap& 
                 "KERNELS: %zu DOTS, EACH A KERNEL'S CENTRE COLOURED BY ITS LENGTH SCALE "
                 "1/SQRT(GAMMA), OVER THE MAP'S P(OCCUPIED)",
                 s.kernels_drawn);
-  const experiment::Picture pic = experiment::captioned(body, title, legend);
-  experiment::write_side_by_side({&pic}, path);
+  const Picture pic = captioned(body, title, legend);
+  write_side_by_side({&pic}, path);
   return s;
 }
 

@@ -2,7 +2,7 @@
 // Map pictures a person reads: the probability (viridis) and the logit variance (magma) of a
 // grid of cells, never-observed cells grey, each under its title and above its legend (the
 // colour bar of its quantity, the grey of never-observed space and a scale bar in metres;
-// experiments/picture_caption.hpp). The height band of a 3D drive and the
+// render/picture_caption.hpp). The height band of a 3D drive and the
 // pictures of `potmap map` / `potmap mapping` share them.
 #include <cstddef>
 #include <string>
@@ -26,6 +26,5 @@ LegendPictures write_legend_pictures(const std::vector<float>& prob, const std::
                                      std::size_t nx, std::size_t ny, std::size_t k, double cell,
                                      const std::string& prob_path, const std::string& var_path,
                                      const std::string& prob_title, const std::string& var_title);
-
 
 }  // namespace potmap::job

@@ -81,7 +81,9 @@ enum potmap_status_code {
   /** Host memory ran out. */
   POTMAP_ERROR_OUT_OF_MEMORY = 1010,
   /** Anything else (a bug: please report potmap_last_error()). */
-  POTMAP_ERROR_INTERNAL = 1011
+  POTMAP_ERROR_INTERNAL = 1011,
+  /** A long call stopped by its caller's progress callback. */
+  POTMAP_ERROR_CANCELLED = 1012
 };
 
 /** Symbolic name of a status ("POTMAP_ERROR_INPUT", "CL_INVALID_VALUE"; unknown codes give
@@ -804,6 +806,81 @@ POTMAP_EXPORT potmap_status potmap_export_drive_volume(potmap_context* context,
                                                        size_t positions,
                                                        const potmap_drive_volume_options* options,
                                                        potmap_drive_volume_summary* summary);
+
+/* ---- the mapping job (potmap/job/mapping_job.hpp): a recording into a folder ------------- */
+
+/** How potmap_map_recording maps: `potmap mapping`'s options (docs/commands.md). Strings may be
+ *  NULL (their default); they are read during the call only. */
+typedef struct potmap_mapping_job_options {
+  size_t struct_size; /**< the caller's sizeof (potmap_mapping_job_options_init sets it) */
+  const char* out;    /**< the output folder, created with its parents; required */
+  /** NULL or "" (default: by the recording, "repot" for a 2D log, "bhm" for a 3D drive),
+   *  "repot" or "pot" for 2D logs, "bhm" or "repot" for 3D drives. */
+  const char* method;
+  /** A .potdict file (NULL: the built-in dictionary's cached file, which `potmap dict default`
+   *  builds once; POTMAP_ERROR_INVALID_ARGUMENT when it is not built yet). */
+  const char* dictionary;
+  /** Returns farther than this become no-returns, metres (default -1: 20 for 2D logs, the
+   *  towns' range the built-in atoms are cut at; 40 for 3D drives; 0: none). */
+  double range_cut;
+  size_t first;     /**< scans or keyframes skipped (default 0) */
+  size_t max_scans; /**< at most this many mapped (default 0: all) */
+  uint64_t seed;    /**< labelling, hold-out and subsampling (default 0) */
+  double half_life; /**< forgetting, seconds of the scans' time (default 0: never) */
+  size_t picture_pixels; /**< along the pictures' longer side (default 1200) */
+  const char* preset;    /**< 2D: "default" (NULL) or "paper" (the authors' rules) */
+  double band_low;       /**< 3D: the band's bottom, metres about the sensor (default -1.0) */
+  double band_high;      /**< 3D: its top (default 0.5: a van's roof) */
+  double voxel;          /**< 3D: the exports' voxel edge, metres (default 0.4) */
+  /** 3D: a checkpoint OUT/map.ckpt after every N keyframes (default 0: not by count) and when
+   *  checkpoint_seconds have passed since the last (default 30; 0: not by time). */
+  size_t checkpoint_every;
+  double checkpoint_seconds;
+  size_t export_every; /**< 3D: keyframes between exports of the map so far (0: at the end) */
+  int resume;          /**< 3D: 1 continues from OUT/map.ckpt when it is there (default 0) */
+} potmap_mapping_job_options;
+
+/** Fills *options with the defaults above (out NULL); struct_size as for potmap_scan_init. */
+POTMAP_EXPORT potmap_status potmap_mapping_job_options_init(potmap_mapping_job_options* options,
+                                                            size_t struct_size);
+
+/** Where a mapping job stands; its strings are valid during the callback only. */
+typedef struct potmap_job_progress {
+  const char* stage;  /**< "mapping", "outputs" or "export" */
+  const char* unit;   /**< "scan", "keyframe" or "share" (thousandths of the outputs) */
+  size_t done, total; /**< units done and in all */
+  double elapsed_s;   /**< since the stage began */
+  const char* detail; /**< the unit just done, one line ("" for shares) */
+} potmap_job_progress;
+
+/** Called after every scan or keyframe and batch of output blocks; return nonzero to stop the
+ *  job there (potmap_map_recording then returns POTMAP_ERROR_CANCELLED, every file whole). */
+typedef int (*potmap_job_progress_fn)(const potmap_job_progress* progress, void* user);
+/** Called with each line of the job's account (what is mapped, the device, the scores). */
+typedef void (*potmap_job_note_fn)(const char* line, void* user);
+
+/** What potmap_map_recording made. */
+typedef struct potmap_mapping_job_result {
+  size_t struct_size; /**< set by the caller to sizeof(potmap_mapping_job_result) */
+  int drive;          /**< 1: a 3D drive; 0: a 2D log */
+  size_t files;       /**< files written into the folder, OUT/scores.json the last */
+  double acc, auc, nll; /**< every held-out beam (20 %, never mapped) on the final map */
+  size_t samples;       /**< held-out samples scored */
+} potmap_mapping_job_result;
+
+/** Maps the recording at `path` (a 2D log, a 3D drive folder or a ROS bag) on the context's
+ *  device into options->out, as `potmap mapping PATH -o OUT` does: the same files (map.potmap,
+ *  pictures, a ROS map; for a drive also map.bt, map_occupied.ply and the band's files) and the
+ *  same OUT/scores.json. `note`, `progress` and `result` may be NULL; `user` is passed to the
+ *  callbacks, which run on the calling thread or the job's workers, one at a time.
+ *  Errors: POTMAP_ERROR_INVALID_ARGUMENT (an option out of range: field and value named),
+ *  POTMAP_ERROR_INPUT (an unreadable recording: the file named), POTMAP_ERROR_IO (cannot
+ *  write), POTMAP_ERROR_CANCELLED (stopped by `progress`). */
+POTMAP_EXPORT potmap_status potmap_map_recording(potmap_context* context, const char* path,
+                                                 const potmap_mapping_job_options* options,
+                                                 potmap_job_note_fn note,
+                                                 potmap_job_progress_fn progress, void* user,
+                                                 potmap_mapping_job_result* result);
 
 #ifdef __cplusplus
 } /* extern "C" */

@@ -5,7 +5,9 @@
 
 #include "bindings.hpp"
 #include "convert.hpp"
+#ifdef POTMAP_PY_EXPERIMENTS
 #include "potmap/experiments/default_dictionary.hpp"
+#endif
 #include "potmap/job/mapping_job.hpp"
 #include "potmap/runtime/context.hpp"
 
@@ -91,6 +93,7 @@ void bind_job(py::module_& m) {
           if (PyErr_CheckSignals() != 0) throw py::error_already_set();
           if (!progress.is_none()) progress(p);
         };
+#ifdef POTMAP_PY_EXPERIMENTS
         // Built when missing (a few seconds, once), as potmap.default_dictionary().
         // Runs without the GIL: `note` is used through a pointer (a copy would count
         // references without it); it outlives the job.
@@ -104,6 +107,7 @@ void bind_job(py::module_& m) {
             };
           return experiment::default_dictionary(dim, where, notes);
         };
+#endif
         py::gil_scoped_release release;
         return run_mapping_job(ctx, path, options, hooks);
       },

@@ -19,8 +19,8 @@ PYBIND11_MODULE(_potmap, m) {
   bind_ot(m);
   bind_pot(m);
   bind_drives(m);
+  bind_job(m);
 #ifdef POTMAP_PY_EXPERIMENTS
   bind_experiments(m);
-  bind_job(m);
 #endif
 }

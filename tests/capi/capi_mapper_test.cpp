@@ -367,7 +367,8 @@ TEST(CApiMapper, DictionaryRoundTripsAndRefusesBadInput) {
   POTMAP_EXPECT_FAIL(potmap_dictionary_load((dir + "/flip.potdict").c_str(), &none),
                      POTMAP_ERROR_INPUT);
   EXPECT_EQ(none, nullptr);
-  POTMAP_EXPECT_FAIL(potmap_dictionary_save(src.dict, (dir + "/no/such/dir/d.potdict").c_str()),
+  write_text(dir + "/a-file", "x");  // no folder can be made under it
+  POTMAP_EXPECT_FAIL(potmap_dictionary_save(src.dict, (dir + "/a-file/dir/d.potdict").c_str()),
                      POTMAP_ERROR_IO);
   POTMAP_EXPECT_FAIL(potmap_dictionary_save(src.dict, nullptr), POTMAP_ERROR_NULL_ARGUMENT);
   POTMAP_EXPECT_FAIL(potmap_dictionary_save(nullptr, a.c_str()), POTMAP_ERROR_NULL_ARGUMENT);
@@ -957,7 +958,8 @@ TEST(CApiMapper, SavedStateContinuesBitForBit) {
     EXPECT_EQ(potmap_mapper_load_state(elsewise, path.c_str()), POTMAP_ERROR_INPUT);
     EXPECT_TRUE(contains(potmap_last_error(), "options")) << potmap_last_error();
     EXPECT_EQ(potmap_mapper_load_state(first, nullptr), POTMAP_ERROR_NULL_ARGUMENT);
-    EXPECT_EQ(potmap_mapper_save_state(first, (dir + "/no/such/dir/x.state").c_str()),
+    write_text(dir + "/a-file", "x");  // no folder can be made under it
+    EXPECT_EQ(potmap_mapper_save_state(first, (dir + "/a-file/dir/x.state").c_str()),
               POTMAP_ERROR_IO);
     const potmap_scan s = tgt[2].scan();
     potmap_scan_stats st;

@@ -40,7 +40,8 @@ TEST(CApi, StatusStringsAreDistinct) {
                                POTMAP_ERROR_IO,
                                POTMAP_ERROR_NO_DEVICE,
                                POTMAP_ERROR_OUT_OF_MEMORY,
-                               POTMAP_ERROR_INTERNAL};
+                               POTMAP_ERROR_INTERNAL,
+                               POTMAP_ERROR_CANCELLED};
   std::set<std::string> names;
   for (potmap_status s : own) {
     const std::string name = potmap_status_string(s);
@@ -58,7 +59,8 @@ TEST(CApi, StatusStringsAreDistinct) {
   EXPECT_STREQ(potmap_status_string(POTMAP_ERROR_NULL_ARGUMENT), "POTMAP_ERROR_NULL_ARGUMENT");
   EXPECT_STREQ(potmap_status_string(POTMAP_ERROR_IO), "POTMAP_ERROR_IO");
   EXPECT_STREQ(potmap_status_string(POTMAP_ERROR_INTERNAL), "POTMAP_ERROR_INTERNAL");
-  EXPECT_STREQ(potmap_status_string(static_cast<potmap_status>(1012)), "POTMAP_UNKNOWN_STATUS");
+  EXPECT_STREQ(potmap_status_string(POTMAP_ERROR_CANCELLED), "POTMAP_ERROR_CANCELLED");
+  EXPECT_STREQ(potmap_status_string(static_cast<potmap_status>(1013)), "POTMAP_UNKNOWN_STATUS");
   EXPECT_STREQ(potmap_status_string(77), "POTMAP_UNKNOWN_STATUS");
 }
 
@@ -318,7 +320,9 @@ TEST(CApi, BadFilesNameFileLineAndValue) {
   potmap_map* good = make_map(random_map(2, 3, 6));
   POTMAP_EXPECT_FAIL(potmap_map_save(good, (dir + "/map.txt").c_str()),
                      POTMAP_ERROR_INVALID_ARGUMENT);
-  POTMAP_EXPECT_FAIL(potmap_map_save(good, (dir + "/no/such/folder/map.csv").c_str()),
+  // A folder cannot be made under a file (a missing folder is made: not a failure).
+  write_text(dir + "/a-file", "x");
+  POTMAP_EXPECT_FAIL(potmap_map_save(good, (dir + "/a-file/folder/map.csv").c_str()),
                      POTMAP_ERROR_IO);
   POTMAP_ASSERT_OK(potmap_map_destroy(good));
 }

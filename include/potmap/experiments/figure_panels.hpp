@@ -11,21 +11,31 @@
 
 #include "potmap/experiments/experiment.hpp"
 #include "potmap/render/colormap.hpp"
+#include "potmap/render/picture.hpp"
+#include "potmap/render/picture_caption.hpp"
 
 POTMAP_CXX_API_BEGIN
 namespace potmap::experiment {
 
-/// An 8-bit RGB picture, rows top first.
-struct Picture {
-  std::size_t width = 0, height = 0;
-  std::vector<std::uint8_t> rgb;  ///< width * height * 3 bytes
-  /// Metres a pixel spans (0: not a map, no scale bar in a comparison figure).
-  double metres_per_pixel = 0;
-};
-
-/// The grey of places a map has never observed (FittedMap::known), apart from free space's
-/// dark blue and occupied space's yellow.
-constexpr Rgb kUnknownGrey{150, 150, 150};
+// Pictures, their text and captions (potmap/render/picture.hpp, picture_caption.hpp).
+using potmap::captioned;
+using potmap::colour_bar;
+using potmap::ColourBar;
+using potmap::draw_legend;
+using potmap::draw_text;
+using potmap::fill_box;
+using potmap::kCaptionMinWidth;
+using potmap::kLegendRowHeight;
+using potmap::kUnknownGrey;
+using potmap::Legend;
+using potmap::legend_height;
+using potmap::never_observed_swatch;
+using potmap::Picture;
+using potmap::round_scale;
+using potmap::Swatch;
+using potmap::text_advance;
+using potmap::title_height;
+using potmap::write_side_by_side;
 
 /// What a probability picture shows.
 struct PictureView {
@@ -65,28 +75,11 @@ constexpr std::size_t kComparisonTitleRows = 22, kComparisonLegendRows = 56, kCo
 void write_comparison(const std::vector<const Picture*>& panels,
                       const std::vector<std::string>& titles, const std::string& path);
 
-/// Paints the w x h box of `pic` at (x0, y0) (clipped to the picture) in colour c.
-void fill_box(Picture& pic, std::size_t x0, std::size_t y0, std::size_t w, std::size_t h, Rgb c);
-
-/// A round length for a scale bar: 1, 2 or 5 times a power of ten, near a fifth of `metres`.
-double round_scale(double metres);
-
-/// Pixels a character of draw_text advances at `scale` (glyph 3 x scale wide plus one scale of
-/// space).
-inline long text_advance(int scale) {
-  return 4L * scale;
-}
-
-/// Draws `text` with its top-left corner at (x, y), glyphs 3 x 5 pixels times `scale` (letters
-/// as capitals); pixels outside the picture are skipped, characters without a glyph left blank.
-void draw_text(Picture& pic, long x, long y, const std::string& text, Rgb colour, int scale = 2);
-
-/// Writes `panels` left to right into the PNG `path`, `gap` white columns between neighbours
-/// (default 4: enough to see the edge of a panel whose border is dark), tops aligned, a panel
-/// shorter than the tallest padded with white below. Null panels are skipped. Throws
-/// ArgumentError when no panel has pixels, potmap::Error when the file cannot be written.
-void write_side_by_side(const std::vector<const Picture*>& panels, const std::string& path,
-                        std::size_t gap = 4);
+/// The comparison figure above with `swatches` after its own in the legend (what a
+/// panel that is not a probability shows: a true town's buildings, a route).
+void write_comparison(const std::vector<const Picture*>& panels,
+                      const std::vector<std::string>& titles, const std::string& path,
+                      const std::vector<Swatch>& swatches);
 
 }  // namespace potmap::experiment
 POTMAP_CXX_API_END

@@ -33,7 +33,6 @@ double picture_resolution(const KernelMap& map, double margin, std::size_t long_
 MapPictures write_map_pictures(Context& ctx, const KernelMap& map, const std::string& prefix,
                                double resolution, double margin = 5, double z = 0);
 
-
 /// The kernels picture (render/kernel_picture.hpp: a dot at each kernel's centre, coloured by
 /// its length scale on a log axis, over the map's probability in grey) under its title and above
 /// its legend: the length-scale colour bar in metres, the grey bar of P(occupied), the dot of a

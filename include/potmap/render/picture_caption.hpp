@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "potmap/experiments/figure_panels.hpp"
 #include "potmap/export.h"
 #include "potmap/render/colormap.hpp"
+#include "potmap/render/picture.hpp"
 
 POTMAP_CXX_API_BEGIN
-namespace potmap::experiment {
+namespace potmap {
 
 /// A colour bar: `label` (the quantity) above, `colours` left to right (low to high), `low` and
 /// `high` written under its ends.
@@ -67,11 +67,5 @@ std::size_t title_height(const std::string& title, std::size_t width);
 /// not match its size.
 Picture captioned(const Picture& body, const std::string& title, const Legend& legend);
 
-/// figure_panels.hpp's comparison figure with `swatches` after its own in the legend (what a
-/// panel that is not a probability shows: a true town's buildings, a route).
-void write_comparison(const std::vector<const Picture*>& panels,
-                      const std::vector<std::string>& titles, const std::string& path,
-                      const std::vector<Swatch>& swatches);
-
-}  // namespace potmap::experiment
+}  // namespace potmap
 POTMAP_CXX_API_END

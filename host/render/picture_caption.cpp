@@ -1,5 +1,5 @@
 // Titles and legends drawn on pictures (picture_caption.hpp).
-#include "potmap/experiments/picture_caption.hpp"
+#include "potmap/render/picture_caption.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "potmap/error.hpp"
 
-namespace potmap::experiment {
+namespace potmap {
 
 namespace {
 
@@ -181,4 +181,4 @@ Picture captioned(const Picture& body, const std::string& title, const Legend& l
   return pic;
 }
 
-}  // namespace potmap::experiment
+}  // namespace potmap

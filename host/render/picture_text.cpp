@@ -1,11 +1,11 @@
 // A 3 x 5 pixel font (digits, letters drawn as capitals, a few signs) scaled up, so that a
 // figure names its panels and axes without a font library.
-#include "potmap/experiments/figure_panels.hpp"
+#include "potmap/render/picture.hpp"
 
 #include <cctype>
 #include <cstdint>
 
-namespace potmap::experiment {
+namespace potmap {
 
 namespace {
 
@@ -96,4 +96,4 @@ void draw_text(Picture& pic, long x, long y, const std::string& text, Rgb colour
   }
 }
 
-}  // namespace potmap::experiment
+}  // namespace potmap
