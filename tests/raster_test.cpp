@@ -322,11 +322,15 @@ TEST(Raster, SliceOfA3DMap) {
 }
 
 TEST(Raster, UnwritableFolderLeavesNothing) {
+  // A missing folder is made; one cannot be made under a regular file.
   const std::string dir = test::temp_dir("raster-fail");
+  { std::ofstream(dir + "/a-file") << "x"; }
   EXPECT_THROW(
-      rasterize(test::context(), one_kernel_2d(), small_window(), dir + "/no/such/folder/out"),
+      rasterize(test::context(), one_kernel_2d(), small_window(), dir + "/a-file/folder/out"),
       Error);
-  EXPECT_TRUE(fs::is_empty(dir));
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(dir)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{"a-file"});
 }
 
 TEST(Raster, FailureMidRunRemovesTemporaryFiles) {

@@ -43,19 +43,4 @@ void register_devices(CLI::App& app, Runner& runner) {
   });
 }
 
-std::vector<std::string> split_list(const std::string& s, char sep) {
-  std::vector<std::string> out;
-  std::string item;
-  for (char c : s) {
-    if (c != sep) {
-      item += c;
-    } else if (!item.empty()) {
-      out.push_back(item);
-      item.clear();
-    }
-  }
-  if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 }  // namespace potmap::cli

@@ -8,15 +8,16 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "experiment_runner.hpp"
 #include "potmap/data/drive.hpp"
 #include "potmap/error.hpp"
+#include "potmap/experiments/experiment_runner.hpp"
 #include "potmap/mapping/drive_mapper.hpp"
 
 namespace potmap::cli {
 
 namespace {
 
+namespace exp = experiment::runner;
 using exp::Harness;
 using exp::Settings;
 
@@ -243,6 +244,10 @@ void add_data_and_output_options(CLI::App* cmd, Settings& s) {
 
 // In the order --help lists them.
 void add_common(CLI::App* cmd, Settings& s) {
+  // The harness writes where the command prints, on the device it opens.
+  s.out = &std::cout;
+  s.err = &std::cerr;
+  s.open_device = [](const std::string& device) { return make_context(device); };
   add_run_options(cmd, s);
   add_learner_options(cmd, s);
   add_pot_transfer_options(cmd, s);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "potmap/experiments/experiment_runner.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/runtime/context.hpp"
@@ -36,8 +37,7 @@ Context make_context(const std::string& device, bool quiet = false);
 /// Writes `map` to `path`: with the joint BHM's information form (for `potmap merge`) when
 /// `learner` is given and the file is a .potmap, else the map alone (write_map()).
 void write_learned_map(const JointBhm* learner, const KernelMap& map, const std::string& path);
-/// The non-empty pieces of `s` between `sep` characters ("a,,b" gives a and b).
-std::vector<std::string> split_list(const std::string& s, char sep);
+using experiment::runner::split_list;  // "a,b,c" -> a, b, c
 
 void register_devices(CLI::App& app, Runner& runner);
 void register_eval(CLI::App& app, Runner& runner);

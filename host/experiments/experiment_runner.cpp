@@ -1,10 +1,11 @@
-#include "experiment_runner.hpp"
+#include "potmap/experiments/experiment_runner.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -14,17 +15,16 @@
 #include <sstream>
 #include <thread>
 
-#include "commands.hpp"
 #include "experiment_breakdown.hpp"
-#include "potmap/job/map_pictures.hpp"
+#include "io/atomic_file.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
+#include "potmap/job/map_pictures.hpp"
 #include "potmap/map/raster.hpp"
 #include "potmap/render/kernel_picture.hpp"
-#include "progress.hpp"
 
-namespace potmap::cli::exp {
+namespace potmap::experiment::runner {
 
 namespace fs = std::filesystem;
 using experiment::FittedMap;
@@ -48,6 +48,27 @@ std::string cpu_model() {
       return p == std::string::npos ? line : line.substr(p + 2);
     }
   return "unknown";
+}
+
+// printf's formatting into a string, for the notes' column layout.
+std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+std::string format(const char* fmt, ...) {
+  va_list args;
+  va_start(args, fmt);
+  va_list again;
+  va_copy(again, args);
+  const int n = std::vsnprintf(nullptr, 0, fmt, args);
+  va_end(args);
+  std::string out(n > 0 ? std::size_t(n) : 0, '\0');
+  if (n > 0) std::vsnprintf(out.data(), out.size() + 1, fmt, again);
+  va_end(again);
+  return out;
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  detail::AtomicFile f(path);
+  f.write(text.data(), text.size());
+  f.commit();
 }
 
 std::string command_line() {
@@ -100,6 +121,14 @@ nlohmann::json finite_or_null(double v) {
 
 }  // namespace
 
+std::ostream& Harness::out() {
+  return s_.out ? *s_.out : nowhere_;
+}
+
+std::ostream& Harness::err() {
+  return s_.err ? *s_.err : nowhere_;
+}
+
 Harness::Harness(std::string experiment, Settings settings)
     : experiment_(std::move(experiment)), s_(std::move(settings)) {
   if (s_.seeds.empty()) throw ArgumentError("--seeds: at least one seed");
@@ -111,7 +140,12 @@ Harness::~Harness() = default;
 Context* Harness::context() {
   if (!ctx_made_) {
     ctx_made_ = true;
-    if (!s_.cpu) ctx_ = std::make_unique<Context>(make_context(s_.device));
+    if (!s_.cpu)
+      ctx_ = std::make_unique<Context>(s_.open_device ? s_.open_device(s_.device) : [&] {
+        ContextOptions o;
+        o.device = s_.device;
+        return Context(o);
+      }());
   }
   return ctx_.get();
 }
@@ -230,7 +264,7 @@ std::shared_ptr<const StructureReference> Harness::make_reference(const MapTask&
   if (picture && !s_.figures.empty())
     ref->picture = std::make_shared<experiment::Picture>(
         experiment::probability_picture(ogm, task.dim, task.lo, task.hi, picture_view(task)));
-  ref->seconds = seconds_since(t0);
+  ref->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return ref;
 }
 
@@ -270,7 +304,7 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
     r.structure = experiment::score_structure(f, task.dim, reference->grid, reference->occupied);
     r.structure_cell_m = reference->grid.cell_m;
     r.structure_tolerance_m = reference->grid.tolerance_m;
-    r.structure_s = seconds_since(t0);
+    r.structure_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   if (figures && !s_.figures.empty()) {
     r.picture = std::make_shared<experiment::Picture>(
@@ -313,10 +347,9 @@ void Harness::run_case(const std::string& source_label,
   task.source = source;
   task.source_key = source_label + "\n" + std::to_string(seed);
   const bool figs = seed == s_.seeds.front();
-  std::cerr << "potmap: " << experiment_ << " "
-            << (source_label.empty() ? "" : source_label + " -> ") << target_label << " seed "
-            << seed << ": " << target.size() << " scans, " << task.train.size() << " training and "
-            << test.size() << " held-out samples\n";
+  err() << "potmap: " << experiment_ << " " << (source_label.empty() ? "" : source_label + " -> ")
+        << target_label << " seed " << seed << ": " << target.size() << " scans, "
+        << task.train.size() << " training and " << test.size() << " held-out samples\n";
   // One structural reference per (target, seed, first scan), for every method and source.
   const std::string ref_key =
       target_label + "\n" + std::to_string(seed) + "\n" + std::to_string(first_index);
@@ -327,9 +360,8 @@ void Harness::run_case(const std::string& source_label,
     if (const auto& nr = ref_it->second) {
       std::size_t occupied = 0;
       for (std::uint8_t o : nr->occupied) occupied += o;
-      std::fprintf(stderr,
-                   "potmap:   structure reference %s: %zu x %zu cells, %zu occupied, %.2f s\n",
-                   nr->name.c_str(), nr->grid.width, nr->grid.height, occupied, nr->seconds);
+      err() << format("potmap:   structure reference %s: %zu x %zu cells, %zu occupied, %.2f s\n",
+                      nr->name.c_str(), nr->grid.width, nr->grid.height, occupied, nr->seconds);
     }
   }
   const std::shared_ptr<const StructureReference> ref = ref_it->second;
@@ -350,11 +382,11 @@ void Harness::run_case(const std::string& source_label,
                         m.uses_source ? source_label + "-" + target_label : target_label, ref.get(),
                         places.get());
       if (!m.uses_source) cache_[key] = {r};
-      std::fprintf(stderr,
-                   "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f F1 %.3f chamfer %.2f m  %.1f "
-                   "ms/scan\n",
-                   m.name.c_str(), r.scores.acc, r.scores.auc, r.scores.nll, r.structure.f1,
-                   r.structure.chamfer_m, r.per_scan_ms);
+      err() << format(
+          "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f F1 %.3f chamfer %.2f m  %.1f "
+          "ms/scan\n",
+          m.name.c_str(), r.scores.acc, r.scores.auc, r.scores.nll, r.structure.f1,
+          r.structure.chamfer_m, r.per_scan_ms);
     }
     r.source = source_label;
     r.target = target_label;
@@ -370,8 +402,8 @@ void Harness::run_instantaneous(const std::string& source_label,
   lo.seed = seed;
   lo.free_per_metre = s_.free_per_metre;
   lo.holdout_fraction = s_.holdout;
-  std::cerr << "potmap: " << experiment_ << " " << source_label << " -> " << target_label
-            << " seed " << seed << ": " << target.size() << " instantaneous maps\n";
+  err() << "potmap: " << experiment_ << " " << source_label << " -> " << target_label << " seed "
+        << seed << ": " << target.size() << " instantaneous maps\n";
   std::vector<MapTask> tasks(target.size());
   std::vector<LabelledPoints> tests(target.size());
   for (std::size_t i = 0; i < target.size(); ++i) {
@@ -416,8 +448,8 @@ void Harness::run_instantaneous(const std::string& source_label,
         auc.push_back(r.scores.auc);
         f1.push_back(r.structure.f1);
       }
-      std::fprintf(stderr, "potmap:   %-12s mean AUC %.3f F1 %.3f over %zu scans\n", m.name.c_str(),
-                   stat(auc).mean, stat(f1).mean, recs.size());
+      err() << format("potmap:   %-12s mean AUC %.3f F1 %.3f over %zu scans\n", m.name.c_str(),
+                      stat(auc).mean, stat(f1).mean, recs.size());
     }
     for (Record& r : recs) {
       r.source = source_label;
@@ -776,7 +808,7 @@ void Harness::finish(const std::string& spread) {
   const std::string text = table_text(experiment_, spread, sum, s_);
   const std::string bins = breakdown_text(records_);
   // With the JSON on stdout the tables go to stderr, so that stdout parses.
-  (s_.json == "-" ? std::cerr : std::cout) << text << bins << std::flush;
+  (s_.json == "-" ? err() : out()) << text << bins << std::flush;
 
   if (s_.json.empty()) return;
   nlohmann::json j;
@@ -794,9 +826,24 @@ void Harness::finish(const std::string& spread) {
   j["table_text"] = text;
   j["breakdown_text"] = bins;
   if (s_.json == "-")
-    std::cout << j.dump(1) << "\n";
+    out() << j.dump(1) << "\n";
   else
-    write_text_atomically(s_.json, j.dump(1) + "\n");
+    write_text(s_.json, j.dump(1) + "\n");
 }
 
-}  // namespace potmap::cli::exp
+std::vector<std::string> split_list(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::string item;
+  for (char c : s) {
+    if (c != sep) {
+      item += c;
+    } else if (!item.empty()) {
+      out.push_back(item);
+      item.clear();
+    }
+  }
+  if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+}  // namespace potmap::experiment::runner

@@ -1,12 +1,15 @@
 #pragma once
-// The machinery shared by the `potmap experiment` runners: datasets by name, the methods chosen on
-// the command line, one evaluation path for every (source, target, method, seed), aggregation,
-// the paper-style table and the JSON record.
+// The experiments' harness, which `potmap experiment` runs: the machinery shared by its runners:
+// datasets by name, the methods chosen on the command line, one evaluation path for every (source,
+// target, method, seed), aggregation, the paper-style table and the JSON record.
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
+#include <ostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -18,9 +21,11 @@
 #include "potmap/experiments/structure_score.hpp"
 #include "potmap/experiments/wavemap_method.hpp"
 
+#include "potmap/export.h"
 #include "potmap/runtime/context.hpp"
 
-namespace potmap::cli::exp {
+POTMAP_CXX_API_BEGIN
+namespace potmap::experiment::runner {
 
 struct Settings {
   std::vector<std::uint64_t> seeds{0, 1, 2};
@@ -56,6 +61,12 @@ struct Settings {
   /// first seed).
   double budget_ms = 0;
   std::string source;  ///< per-time-unit: POT's source (empty: the other targets)
+  /// Where the harness writes: a note per case and method to `err`; the tables to `out` (to
+  /// `err` with json "-", whose JSON then goes to `out`). Null: nowhere.
+  std::ostream* out = nullptr;
+  std::ostream* err = nullptr;
+  /// Opens the device named `device` (empty: a Context of that name, ContextOptions::device).
+  std::function<Context(const std::string& device)> open_device;
 };
 
 /// One score of one method on one case (one seed; one scan for instantaneous maps).
@@ -153,6 +164,9 @@ class Harness {
   void finish(const std::string& spread);
 
  private:
+  std::ostream& out();
+  std::ostream& err();
+  std::ostream nowhere_{nullptr};  // a stream without a buffer: what it is given is dropped
   /// Writes the side-by-side figure of each case (the reference, then each group's chosen
   /// member, chosen[case * groups + group], empty where none) and returns their JSON records.
   nlohmann::json write_compare_figures(
@@ -174,4 +188,8 @@ class Harness {
   std::shared_ptr<experiment::AtomCache> atoms_ = std::make_shared<experiment::AtomCache>();
 };
 
-}  // namespace potmap::cli::exp
+/// Splits `s` at `sep`, empty items dropped ("ogm,,bhm" -> ogm, bhm).
+std::vector<std::string> split_list(const std::string& s, char sep);
+
+}  // namespace potmap::experiment::runner
+POTMAP_CXX_API_END

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <tuple>
 
-namespace potmap::cli::exp {
+namespace potmap::experiment::runner {
 
 namespace {
 
@@ -81,4 +81,4 @@ nlohmann::json breakdown_json(const std::vector<experiment::BinScores>& breakdow
   return out;
 }
 
-}  // namespace potmap::cli::exp
+}  // namespace potmap::experiment::runner

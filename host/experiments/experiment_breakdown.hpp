@@ -5,9 +5,9 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
-#include "experiment_runner.hpp"
+#include "potmap/experiments/experiment_runner.hpp"
 
-namespace potmap::cli::exp {
+namespace potmap::experiment::runner {
 
 /// One table per (source, target, seed) whose records carry a breakdown: a row per bin (axis,
 /// bin, samples), each method's AUC and NLL in columns ("-" where a bin holds one class).
@@ -17,4 +17,4 @@ std::string breakdown_text(const std::vector<Record>& records);
 /// A record's breakdown as a JSON array of {axis, bin, n, acc, auc, nll} (null where NaN).
 nlohmann::json breakdown_json(const std::vector<experiment::BinScores>& breakdown);
 
-}  // namespace potmap::cli::exp
+}  // namespace potmap::experiment::runner
