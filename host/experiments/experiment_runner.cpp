@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -16,7 +15,7 @@
 #include <thread>
 
 #include "experiment_breakdown.hpp"
-#include "io/atomic_file.hpp"
+#include "job/job_text.hpp"
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment_frames.hpp"
@@ -48,27 +47,6 @@ std::string cpu_model() {
       return p == std::string::npos ? line : line.substr(p + 2);
     }
   return "unknown";
-}
-
-// printf's formatting into a string, for the notes' column layout.
-std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
-std::string format(const char* fmt, ...) {
-  va_list args;
-  va_start(args, fmt);
-  va_list again;
-  va_copy(again, args);
-  const int n = std::vsnprintf(nullptr, 0, fmt, args);
-  va_end(args);
-  std::string out(n > 0 ? std::size_t(n) : 0, '\0');
-  if (n > 0) std::vsnprintf(out.data(), out.size() + 1, fmt, again);
-  va_end(again);
-  return out;
-}
-
-void write_text(const std::string& path, const std::string& text) {
-  detail::AtomicFile f(path);
-  f.write(text.data(), text.size());
-  f.commit();
 }
 
 std::string command_line() {
@@ -360,8 +338,9 @@ void Harness::run_case(const std::string& source_label,
     if (const auto& nr = ref_it->second) {
       std::size_t occupied = 0;
       for (std::uint8_t o : nr->occupied) occupied += o;
-      err() << format("potmap:   structure reference %s: %zu x %zu cells, %zu occupied, %.2f s\n",
-                      nr->name.c_str(), nr->grid.width, nr->grid.height, occupied, nr->seconds);
+      err() << job::format(
+          "potmap:   structure reference %s: %zu x %zu cells, %zu occupied, %.2f s\n",
+          nr->name.c_str(), nr->grid.width, nr->grid.height, occupied, nr->seconds);
     }
   }
   const std::shared_ptr<const StructureReference> ref = ref_it->second;
@@ -382,7 +361,7 @@ void Harness::run_case(const std::string& source_label,
                         m.uses_source ? source_label + "-" + target_label : target_label, ref.get(),
                         places.get());
       if (!m.uses_source) cache_[key] = {r};
-      err() << format(
+      err() << job::format(
           "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f F1 %.3f chamfer %.2f m  %.1f "
           "ms/scan\n",
           m.name.c_str(), r.scores.acc, r.scores.auc, r.scores.nll, r.structure.f1,
@@ -448,8 +427,8 @@ void Harness::run_instantaneous(const std::string& source_label,
         auc.push_back(r.scores.auc);
         f1.push_back(r.structure.f1);
       }
-      err() << format("potmap:   %-12s mean AUC %.3f F1 %.3f over %zu scans\n", m.name.c_str(),
-                      stat(auc).mean, stat(f1).mean, recs.size());
+      err() << job::format("potmap:   %-12s mean AUC %.3f F1 %.3f over %zu scans\n", m.name.c_str(),
+                           stat(auc).mean, stat(f1).mean, recs.size());
     }
     for (Record& r : recs) {
       r.source = source_label;
@@ -828,7 +807,7 @@ void Harness::finish(const std::string& spread) {
   if (s_.json == "-")
     out() << j.dump(1) << "\n";
   else
-    write_text(s_.json, j.dump(1) + "\n");
+    job::write_text_atomically(s_.json, j.dump(1) + "\n");
 }
 
 std::vector<std::string> split_list(const std::string& s, char sep) {
