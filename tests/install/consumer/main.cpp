@@ -1,8 +1,11 @@
 // Evaluates a one-kernel map through an installed potmap and checks the probability against
-// the model's formula. Exit status 0 only if they agree.
+// the model's formula, then reaches the mapping job through its installed header (a job with no
+// output folder is refused). Exit status 0 only if both hold.
 #include <cmath>
 #include <cstdio>
 
+#include "potmap/error.hpp"
+#include "potmap/job/mapping_job.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/map/kernel_map.hpp"
 #include "potmap/runtime/context.hpp"
@@ -27,6 +30,13 @@ int main() {
     if (!(std::fabs(prob - want) < 1e-5)) {
       std::fprintf(stderr, "wrong probability\n");
       return 1;
+    }
+    try {
+      potmap::run_mapping_job(ctx, "any", potmap::MappingJobOptions{});
+      std::fprintf(stderr, "the mapping job ran without an output folder\n");
+      return 1;
+    } catch (const potmap::ArgumentError& e) {
+      std::printf("mapping job: %s\n", e.what());
     }
     return 0;
   } catch (const std::exception& e) {
