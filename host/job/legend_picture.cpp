@@ -108,9 +108,9 @@ KernelPictureSummary write_kernel_legend_picture(Context& ctx, const KernelMap& 
   Legend legend;
   legend.bars = {colour_bar("KERNEL LENGTH SCALE, M (LOG)", o.colormap,
                             one_length ? "ALL " + std::string(lo) : lo, one_length ? "" : hi)};
-  ColourBar grey{"P(OCCUPIED) IN GREY", {}, "0", "1"};
-  for (int i = 0; i < 160; ++i) grey.colours.push_back(kernel_picture_grey(i / 159.0));
-  legend.bars.push_back(grey);
+  ColourBar ground{"P(OCCUPIED), WHITE TO BROWN", {}, "0", "1"};
+  for (int i = 0; i < 160; ++i) ground.colours.push_back(kernel_picture_grey(i / 159.0));
+  legend.bars.push_back(ground);
   legend.swatches = {never_observed_swatch(),
                      {colormap(o.colormap, one_length ? 0 : 0.5),
                       "A KERNEL'S CENTRE (EVERY DOT ONE SIZE)", o.dot_radius}};

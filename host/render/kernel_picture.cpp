@@ -58,9 +58,13 @@ void length_range(const KernelMap& map, const KernelPictureOptions& o, double& l
 }  // namespace
 
 Rgb kernel_picture_grey(double p) {
-  // Every known grey lighter than kKernelPictureUnknown, so that walls and unknown space differ.
-  const auto v = static_cast<std::uint8_t>(250 - 70 * std::min(1.0, std::max(0.0, p)));
-  return {v, v, v};
+  // White to a dark brown: walls stand out darkest, and no shade is the neutral grey of
+  // never-observed space (kKernelPictureUnknown).
+  const double t = std::min(1.0, std::max(0.0, p));
+  auto mix = [t](double free, double occupied) {
+    return static_cast<std::uint8_t>(std::lround(free + (occupied - free) * t));
+  };
+  return {mix(250, 110), mix(250, 70), mix(250, 40)};
 }
 
 KernelPictureSummary render_kernel_picture(Context* ctx, const KernelMap& map,

@@ -40,9 +40,9 @@ KernelPictureSummary render_kernel_picture(Context* ctx, const KernelMap& map,
                                            const RasterSpec& spec, std::vector<std::uint8_t>& rgb,
                                            const KernelPictureOptions& options = {});
 
-/// The grey of the background at probability p (0 to 1) where the map is known
-/// (io/known_cells.hpp's default rule): free white, occupied light grey, all lighter than
-/// kKernelPictureUnknown.
+/// The background's colour at probability p (0 to 1) where the map is known
+/// (io/known_cells.hpp's default rule): free white to occupied dark brown, never the neutral
+/// grey of kKernelPictureUnknown.
 Rgb kernel_picture_grey(double p);
 
 /// The background where nothing was observed: the grey of the probability pictures' unknown
