@@ -160,14 +160,6 @@ void export_so_far(const MappingJobOptions& a, DriveMapper& mapper, Context& ctx
                      seconds_since(t0)));
 }
 
-// A single process, as the ranks' job sees it.
-class OneProcess : public JobRanks {
- public:
-  int rank() const override { return 0; }
-  int size() const override { return 1; }
-  std::vector<std::string> gather(const std::string& bytes) override { return {bytes}; }
-};
-
 // The map, what robotics stacks load from it, the scores and scores.json.
 MappingJobResult write_drive_results(const std::string& recording, const MappingJobOptions& a,
                                      const Drive& drive, const DriveMapper& mapper, Context& ctx,
@@ -318,10 +310,9 @@ void map_keyframes(const MappingJobOptions& a, const Drive& drive, std::size_t a
 }  // namespace
 
 MappingJobResult run_drive_job(Context& ctx, const std::string& recording,
-                               const MappingJobOptions& options, const MappingJobHooks& hooks) {
+                               const MappingJobOptions& options, const MappingJobHooks& hooks,
+                               JobRanks& ranks) {
   const Report report{hooks};
-  OneProcess one;
-  JobRanks& ranks = hooks.ranks ? *hooks.ranks : one;
   const MappingJobOptions a = rank_options(options, ranks);
   DriveOptions dopt;
   dopt.poses = a.poses;

@@ -9,10 +9,12 @@
 
 namespace potmap::job {
 
-/// run_mapping_job() for the drive at `drive`; `options` has its range cut and method set. On
-/// several ranks each maps its part of the keyframes and rank 0 merges their maps
-/// (drive_ranks.hpp) and writes the outputs.
+/// run_mapping_job() for the drive at `drive`; `options` has its range cut and method set,
+/// `ranks` the processes sharing the job (hooks.ranks, or this one alone). On several ranks each
+/// maps its part of the keyframes and rank 0 merges their maps (drive_ranks.hpp) and writes the
+/// outputs.
 MappingJobResult run_drive_job(Context& ctx, const std::string& drive,
-                               const MappingJobOptions& options, const MappingJobHooks& hooks);
+                               const MappingJobOptions& options, const MappingJobHooks& hooks,
+                               JobRanks& ranks);
 
 }  // namespace potmap::job

@@ -20,14 +20,6 @@ namespace potmap::job {
 
 namespace {
 
-// A single process, as the ranks' job sees it.
-class OneProcess : public JobRanks {
- public:
-  int rank() const override { return 0; }
-  int size() const override { return 1; }
-  std::vector<std::string> gather(const std::string& bytes) override { return {bytes}; }
-};
-
 // The scans of `log` from options.first, at most max_scans of them, cut at range_cut.
 std::vector<Scan> read_scans(const std::string& log, const MappingJobOptions& a) {
   Dataset ds = read_dataset(log, a.bag);
@@ -94,10 +86,8 @@ void write_pictures_and_ros_map(Context& ctx, const KernelMap& map, const Mappin
 }  // namespace
 
 MappingJobResult run_log_job(Context& ctx, const std::string& log, const MappingJobOptions& a,
-                             const MappingJobHooks& hooks) {
+                             const MappingJobHooks& hooks, JobRanks& ranks) {
   const Report report{hooks};
-  OneProcess one;
-  JobRanks& ranks = hooks.ranks ? *hooks.ranks : one;
   if (a.method != "pot" && a.method != "repot")
     throw ArgumentError("mapping: a 2D log is mapped with --method pot or repot, not '" + a.method +
                         "'");

@@ -7,8 +7,9 @@
 
 namespace potmap::job {
 
-/// run_mapping_job() for the 2D log at `log`; `options` has its range cut and method set.
+/// run_mapping_job() for the 2D log at `log`; `options` has its range cut and method set,
+/// `ranks` the processes sharing the job (hooks.ranks, or this one alone).
 MappingJobResult run_log_job(Context& ctx, const std::string& log, const MappingJobOptions& options,
-                             const MappingJobHooks& hooks);
+                             const MappingJobHooks& hooks, JobRanks& ranks);
 
 }  // namespace potmap::job

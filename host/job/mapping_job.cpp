@@ -12,6 +12,18 @@ namespace fs = std::filesystem;
 
 namespace potmap {
 
+namespace {
+
+// A single process, as the ranks' job sees it.
+class OneProcess : public JobRanks {
+ public:
+  int rank() const override { return 0; }
+  int size() const override { return 1; }
+  std::vector<std::string> gather(const std::string& bytes) override { return {bytes}; }
+};
+
+}  // namespace
+
 RankPart rank_part(std::size_t first, std::size_t end, int rank, int size,
                    const std::string& what) {
   const std::size_t n = end > first ? end - first : 0;
@@ -51,17 +63,19 @@ MappingJobResult run_mapping_job(Context& ctx, const std::string& recording,
   if (options.picture_pixels == 0)
     throw ArgumentError("mapping: --picture-pixels must be positive");
   MappingJobOptions o = options;
+  OneProcess one;
+  JobRanks& ranks = hooks.ranks ? *hooks.ranks : one;
   DriveOptions probe;
   probe.bag = options.bag;
   if (is_drive(recording, probe)) {
     if (o.preset != "default") throw ArgumentError("mapping: --preset is for 2D logs");
     if (o.range_cut < 0) o.range_cut = 40;
     if (o.method.empty()) o.method = "bhm";
-    return job::run_drive_job(ctx, recording, o, hooks);
+    return job::run_drive_job(ctx, recording, o, hooks, ranks);
   }
   if (o.range_cut < 0) o.range_cut = 20;
   if (o.method.empty()) o.method = "repot";
-  return job::run_log_job(ctx, recording, o, hooks);
+  return job::run_log_job(ctx, recording, o, hooks, ranks);
 }
 
 }  // namespace potmap
