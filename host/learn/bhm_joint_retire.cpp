@@ -10,19 +10,23 @@ namespace potmap {
 
 namespace {
 
-// Keeps the elements of v whose block (of `per` elements) stays, in order, in a vector of
-// exactly that size (so the memory of the blocks that go is returned).
+// Keeps the elements of v whose block (of `per` elements) stays, in order, moved down in place:
+// a drive retires tiles at most keyframes, and a new vector each time cost a copy of the whole
+// precision into fresh pages (the page faults as much as the copy). The memory of the blocks
+// that go is returned only when the vector would stay less than half full; otherwise the next
+// tiles made reuse it.
 template <class T>
 void keep_blocks(std::vector<T>& v, const std::vector<std::uint8_t>& going, std::size_t per) {
-  std::size_t kept = 0;
-  for (std::uint8_t g : going) kept += g ? 0 : 1;
-  std::vector<T> out;
-  out.reserve(kept * per);
-  for (std::size_t t = 0; t < going.size(); ++t)
-    if (!going[t])
-      out.insert(out.end(), v.begin() + std::ptrdiff_t(t * per),
-                 v.begin() + std::ptrdiff_t((t + 1) * per));
-  v.swap(out);
+  std::size_t to = 0;
+  for (std::size_t t = 0; t < going.size(); ++t) {
+    if (going[t]) continue;
+    if (to != t)
+      std::copy(v.begin() + std::ptrdiff_t(t * per), v.begin() + std::ptrdiff_t((t + 1) * per),
+                v.begin() + std::ptrdiff_t(to * per));
+    ++to;
+  }
+  v.resize(to * per);
+  if (v.capacity() > 2 * v.size()) v.shrink_to_fit();
 }
 
 }  // namespace
@@ -108,7 +112,9 @@ void JointBhm::compact(const std::vector<std::uint8_t>& going) {
         }
   std::fill(std::begin(recent_key_), std::end(recent_key_), ~0ull);
   std::fill(std::begin(recent_id_), std::end(recent_id_), -1);
-  scratch_ = Scratch();  // its lists hold storage indices of the tiles before
+  // The scratch keeps its storage: its lists of storage indices are made anew by every update,
+  // and its vectors over all kernels (the solves' r, z, p, q) are zero or rewritten before
+  // they are read.
 }
 
 std::size_t JointBhm::retire_far(const double centre[3], double radius) {
