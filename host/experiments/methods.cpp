@@ -133,10 +133,13 @@ KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double l
                                     : "; take fewer scans (--scans) or a wider spacing"));
     }
     JointBhm& learner = *bounded;
-    learner.update_by_scan(setup.voxel > 0 ? aggregate_voxels(samples, setup.voxel) : samples);
+    // With the context, as `potmap mapping` runs it: the solves' parts on the host team (the
+    // same posterior bit for bit as on this thread alone), the final map's variances on every
+    // core.
+    learner.update_by_scan(setup.voxel > 0 ? aggregate_voxels(samples, setup.voxel) : samples, ctx);
     if (gamma_out) *gamma_out = learner.gamma();
     if (learner_bytes_out) *learner_bytes_out = learner.memory_bytes();
-    return learner.map();
+    return learner.map(ctx);
   }
   const double gamma = setup.gamma > 0 ? setup.gamma : 8.0 / (spacing * spacing);
   if (gamma_out) *gamma_out = gamma;

@@ -628,8 +628,8 @@ class JointBhm:
         Context whose host helper thread shares the work (default None: this thread
         alone; the result is the same bit for bit)."""
         ...
-    def update_by_scan(self, samples: LabelledPoints) -> None:
-        """One update() per scan index, in increasing order."""
+    def update_by_scan(self, samples: LabelledPoints, ctx: Context = None) -> None:
+        """One update() per scan index, in increasing order, each with ctx (see update())."""
         ...
     def set_time(self, seconds: float) -> None:
         """The sensor time of the data update() adds next (a scan's stamp). With

@@ -191,8 +191,9 @@ class JointBhm {
   /// 2^-a 2^-b for 2^-(a+b)).
   void catch_up();
 
-  /// Adds the samples of every scan index in increasing order, one update() per scan.
-  void update_by_scan(const LabelledPoints& samples);
+  /// Adds the samples of every scan index in increasing order, one update() per scan, each
+  /// with `ctx` (default null: this thread alone; see update()).
+  void update_by_scan(const LabelledPoints& samples, Context* ctx = nullptr);
 
   /// Seeds the prior of the kernels no sample has reached yet from another map over the same
   /// place (RePOT: the scan's transported kernels). Where `field`'s kernels weigh at least
