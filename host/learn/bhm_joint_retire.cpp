@@ -5,6 +5,7 @@
 
 #include "bhm_joint_grid.hpp"
 #include "potmap/learn/bhm_joint.hpp"
+#include "runtime/host_team.hpp"
 
 namespace potmap {
 
@@ -117,7 +118,7 @@ void JointBhm::compact(const std::vector<std::uint8_t>& going) {
   // they are read.
 }
 
-std::size_t JointBhm::retire_far(const double centre[3], double radius) {
+std::size_t JointBhm::retire_far(const double centre[3], double radius, Context* ctx) {
   if (bounded_ || !(radius > 0) || tiles_.empty()) return 0;
   const auto cells = static_cast<std::size_t>(tile_cells_);
   const double edge = double(tile_) * o_.spacing;
@@ -144,18 +145,25 @@ std::size_t JointBhm::retire_far(const double centre[3], double radius) {
       if (near) catch_up_tile(t);
     }
   // What a query needs of them, while their neighbours are all still there: the exported
-  // variances of map().
-  std::vector<double> scratch;
+  // variances of map(), a dense solve a kernel, in chunks over this thread and the helper
+  // (each kernel's value does not depend on who computes it).
+  std::vector<std::uint32_t> stale;
   for (std::size_t t = 0; t < tiles_.size(); ++t) {
     if (!going[t] || !tile_dirty_[t]) continue;
-    for (std::size_t l = 0; l < cells; ++l) {
-      const auto s = static_cast<std::uint32_t>(t * cells + l);
-      std::int64_t g[3];
-      cell_of(s, g);
-      var_[s] = exported_var(g, s, scratch);
-    }
+    for (std::size_t l = 0; l < cells; ++l)
+      stale.push_back(static_cast<std::uint32_t>(t * cells + l));
     tile_dirty_[t] = 0;
   }
+  constexpr std::size_t kChunk = 256;
+  const detail::HelperHold hold(ctx);
+  detail::for_each_item(ctx, (stale.size() + kChunk - 1) / kChunk, [&](std::size_t c) {
+    thread_local std::vector<double> scratch;
+    for (std::size_t u = c * kChunk; u < std::min(stale.size(), (c + 1) * kChunk); ++u) {
+      std::int64_t g[3];
+      cell_of(stale[u], g);
+      var_[stale[u]] = exported_var(g, stale[u], scratch);
+    }
+  });
   fold_retiring(going);
   for (std::size_t t = 0; t < tiles_.size(); ++t) {
     if (!going[t]) continue;

@@ -104,7 +104,7 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
   st.sums_on_device = learner_.last_stats().sums_on_device;
   const double radius = o_.retire_radius < 0 ? o_.range_cut + 16 : o_.retire_radius;
   const auto at = keyframe.origin();
-  st.retired = learner_.retire_far(at.data(), radius);
+  st.retired = learner_.retire_far(at.data(), radius, ctx);
   st.update_ms = ms_since(t1);
   ++keyframes_;
   st.memory_bytes = memory_bytes();

@@ -237,8 +237,10 @@ class JointBhm {
   /// a retired tile revives it with a diagonal prior holding each kernel's mean and variance:
   /// learning goes on there, without the couplings the tile had (its variances come out a
   /// little larger than a map that never retired it). Returns the tiles retired. Bounded maps
-  /// and radius <= 0 retire nothing.
-  std::size_t retire_far(const double centre[3], double radius);
+  /// and radius <= 0 retire nothing. `ctx` (default null: this thread alone): the retiring
+  /// kernels' variances (a small dense solve each) run on this thread and the context's host
+  /// helper; the same values either way.
+  std::size_t retire_far(const double centre[3], double radius, Context* ctx = nullptr);
   /// Tiles retired and not revived.
   std::size_t retired_tiles() const { return retired_.size(); }
 
