@@ -12,6 +12,7 @@
 #include "map/evaluator_impl.hpp"
 #include "map/split_float.hpp"
 #include "potmap/error.hpp"
+#include "runtime/host_team.hpp"
 
 namespace bc = boost::compute;
 
@@ -136,8 +137,9 @@ struct PackedQueries {
 };
 
 // Stage 3: chunks of consecutive sorted points, padded with the chunk's last point.
-PackedQueries pack_chunks(const double* pts, int dim, const double* anchor, const FinitePoints& f,
-                          const std::vector<std::uint32_t>& perm, std::size_t chunk) {
+PackedQueries pack_chunks(Context* ctx, const double* pts, int dim, const double* anchor,
+                          const FinitePoints& f, const std::vector<std::uint32_t>& perm,
+                          std::size_t chunk) {
   const std::size_t nf = f.index.size();
   PackedQueries q;
   q.padded = (nf + chunk - 1) / chunk * chunk;
@@ -146,26 +148,30 @@ PackedQueries pack_chunks(const double* pts, int dim, const double* anchor, cons
   q.lo.resize(padded * dim);
   q.order.assign(padded, -1);
   const long long npad = static_cast<long long>(padded);
-#pragma omp parallel for schedule(static)
-  for (long long s = 0; s < npad; ++s) {
-    const std::size_t j = perm[std::min<std::size_t>(s, nf - 1)];
-    const double* p = pts + std::size_t(f.index[j]) * dim;
-    for (int d = 0; d < dim; ++d)
-      detail::split(p[d] - anchor[d], q.hi[d * padded + s], q.lo[d * padded + s]);
-    if (static_cast<std::size_t>(s) < nf) q.order[s] = static_cast<int>(f.index[j]);
-  }
+  // On the context's host team, in ranges of slots: OpenMP's idle workers spin for
+  // milliseconds after a region, on the cores the device's workers need next.
+  constexpr long long kRange = 4096;
+  detail::for_each_item(ctx, std::size_t((npad + kRange - 1) / kRange), [&](std::size_t r) {
+    const long long s1 = std::min(npad, (long long)(r + 1) * kRange);
+    for (long long s = (long long)r * kRange; s < s1; ++s) {
+      const std::size_t j = perm[std::min<std::size_t>(s, nf - 1)];
+      const double* p = pts + std::size_t(f.index[j]) * dim;
+      for (int d = 0; d < dim; ++d)
+        detail::split(p[d] - anchor[d], q.hi[d * padded + s], q.lo[d * padded + s]);
+      if (static_cast<std::size_t>(s) < nf) q.order[s] = static_cast<int>(f.index[j]);
+    }
+  });
   return q;
 }
 
 // Stage 4a: the bounding box of each chunk's points (lo[3], hi[3]; unused axes 0).
-std::vector<std::array<double, 6>> chunk_boxes(const double* pts, int dim, const FinitePoints& f,
+std::vector<std::array<double, 6>> chunk_boxes(Context* ctx, const double* pts, int dim,
+                                               const FinitePoints& f,
                                                const std::vector<std::uint32_t>& perm,
                                                std::size_t chunk, std::size_t nchunks) {
   const std::size_t nf = f.index.size();
   std::vector<std::array<double, 6>> box(nchunks);
-  const long long nc = static_cast<long long>(nchunks);
-#pragma omp parallel for schedule(static)
-  for (long long c = 0; c < nc; ++c) {
+  detail::for_each_item(ctx, nchunks, [&](std::size_t c) {
     std::array<double, 6>& bx = box[c];
     for (int d = 0; d < 3; ++d) {
       bx[d] = d < dim ? std::numeric_limits<double>::infinity() : 0.0;
@@ -179,7 +185,7 @@ std::vector<std::array<double, 6>> chunk_boxes(const double* pts, int dim, const
         bx[3 + d] = std::max(bx[3 + d], p[d]);
       }
     }
-  }
+  });
   return box;
 }
 
@@ -188,7 +194,7 @@ std::vector<std::array<double, 6>> chunk_boxes(const double* pts, int dim, const
 // chunk then filters the group's candidates, which costs far less than one index walk per
 // chunk.
 std::vector<std::vector<std::uint32_t>> chunk_kernel_lists(
-    const KernelMap& map, const detail::KernelIndex& index, double tau,
+    Context* ctx, const KernelMap& map, const detail::KernelIndex& index, double tau,
     const std::vector<std::array<double, 6>>& box, std::size_t group) {
   const int dim = map.dim;
   const std::size_t nchunks = box.size();
@@ -196,8 +202,7 @@ std::vector<std::vector<std::uint32_t>> chunk_kernel_lists(
   std::vector<std::vector<std::uint32_t>> lists(nchunks);
   const double* kp = map.position.data();
   const double* kg = map.gamma.data();
-#pragma omp parallel for schedule(dynamic, 1)
-  for (long long gi = 0; gi < ngroups; ++gi) {
+  detail::for_each_item(ctx, std::size_t(ngroups), [&](std::size_t gi) {
     const std::size_t c0 = gi * group, c1 = std::min(nchunks, c0 + group);
     double glo[3] = {0, 0, 0}, ghi[3] = {0, 0, 0};
     for (int d = 0; d < dim; ++d) {
@@ -223,7 +228,7 @@ std::vector<std::vector<std::uint32_t>> chunk_kernel_lists(
         if (kg[k] * d2 <= tau) out.push_back(k);
       }
     }
-  }
+  });
   return lists;
 }
 
@@ -275,11 +280,11 @@ void MapEvaluator::Impl::run_batch(const double* pts, std::size_t n, float* out_
   const FinitePoints finite = keep_finite(pts, n, dim, out_m, out_v, out_p);
   if (finite.index.empty()) return;
   const std::vector<std::uint32_t> perm = morton_order(pts, dim, finite, chunk);
-  const PackedQueries packed = pack_chunks(pts, dim, anchor, finite, perm, chunk);
+  const PackedQueries packed = pack_chunks(ctx, pts, dim, anchor, finite, perm, chunk);
   const std::size_t nchunks = packed.padded / chunk;
-  const detail::KernelLists lists = detail::flatten(
-      chunk_kernel_lists(map, index, opt.tau, chunk_boxes(pts, dim, finite, perm, chunk, nchunks),
-                         static_cast<std::size_t>(tuning.chunks_per_query)));
+  const detail::KernelLists lists = detail::flatten(chunk_kernel_lists(
+      ctx, map, index, opt.tau, chunk_boxes(ctx, pts, dim, finite, perm, chunk, nchunks),
+      static_cast<std::size_t>(tuning.chunks_per_query)));
   last_pairs += static_cast<std::size_t>(lists.start[nchunks]) * chunk;
 
   // Stage 5: upload, run, read back.
