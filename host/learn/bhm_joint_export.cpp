@@ -138,16 +138,19 @@ std::size_t JointBhm::seed_unreached(const KernelMap& field, double min_var, dou
   return seeded;
 }
 
-KernelMap JointBhm::map(Context* ctx) const {
-  if (!behind()) return map_current(ctx);
+KernelMap JointBhm::map(Context* ctx, double polish_tolerance) const {
+  if (!(polish_tolerance > 0) || !std::isfinite(polish_tolerance))
+    throw ArgumentError("joint BHM: the polish tolerance must be positive, got " +
+                        std::to_string(polish_tolerance));
+  if (!behind()) return map_current(ctx, polish_tolerance);
   // Forgetting: the tiles no scan has faded to now, faded on a copy (the learner's state is
   // left as it is, as the polish below leaves it).
   JointBhm now = *this;
   now.catch_up();
-  return now.map_current(ctx);
+  return now.map_current(ctx, polish_tolerance);
 }
 
-KernelMap JointBhm::map_current(Context* ctx) const {
+KernelMap JointBhm::map_current(Context* ctx, double polish_tolerance) const {
   // Polish the means over every kernel a sample or a seed reached, on a copy.
   std::vector<std::uint32_t> rows;
   for (std::size_t a = 0; a < touched_.size(); ++a)
@@ -157,7 +160,7 @@ KernelMap JointBhm::map_current(Context* ctx) const {
   if (!rows.empty()) {
     Scratch sc;
     const detail::HelperHold hold(ctx);
-    solve(rows, mean, meanb, 1e-8, 4 * o_.cg_max_iterations, nullptr, sc, false, ctx);
+    solve(rows, mean, meanb, polish_tolerance, 4 * o_.cg_max_iterations, nullptr, sc, false, ctx);
   }
   // Variances of the tiles whose precision changed since the last export: a small dense solve
   // a kernel, each tile's on its own, so on every core (the same values on any number).

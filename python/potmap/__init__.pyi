@@ -647,10 +647,10 @@ class JointBhm:
         """Seeds the prior of kernels no sample reached from another KernelMap (RePOT).
         Returns the number seeded."""
         ...
-    def map(self, ctx: Context = None) -> KernelMap:
+    def map(self, ctx: Context = None, polish_tolerance: float = 1e-08) -> KernelMap:
         """The KernelMap: posterior means, variances that reproduce the predictive variance
         at each centre, and the bias. With ctx its polishing solve runs on the context's
-        host team (the same map)."""
+        host team (the same map). polish_tolerance: that solve's relative residual."""
         ...
     def predict_exact(self, points: numpy.typing.ArrayLike) -> tuple:
         """(mean, var) of the logit at points by a sparse Cholesky factorisation: small maps."""

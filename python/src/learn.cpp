@@ -219,10 +219,10 @@ void bind_learn_joint_bhm(py::module_& m) {
           "field"_a, "min_var"_a = 1.0, "min_support"_a = 0.3,
           "Seeds the prior of kernels no sample reached from another KernelMap (RePOT).\n"
           "Returns the number seeded.")
-      .def("map", unlocked(&JointBhm::map), "ctx"_a = nullptr,
+      .def("map", unlocked(&JointBhm::map), "ctx"_a = nullptr, "polish_tolerance"_a = 1e-8,
            "The KernelMap: posterior means, variances that reproduce the predictive variance\n"
            "at each centre, and the bias. With ctx its polishing solve runs on the context's\n"
-           "host team (the same map).")
+           "host team (the same map). polish_tolerance: that solve's relative residual.")
       .def(
           "predict_exact",
           [](PyJointBhm& b, py::handle points) {

@@ -219,7 +219,10 @@ class JointBhm {
   /// faded to it are faded on a copy of the learner (catch_up() first avoids the copy).
   /// `ctx`: the polishing solve's products run on its host team and the variances on every
   /// core (the same map as without, bit for bit); null: the solve on the calling thread.
-  KernelMap map(Context* ctx = nullptr) const;
+  /// `polish_tolerance`: the polishing solve's relative residual (default 1e-8, a thousandth
+  /// of the updates' default cg_tolerance: in 2D it costs little, and maps learned by other
+  /// routes agree to about that). A drive's mapper asks for 1e-6 (DriveMapper::map()).
+  KernelMap map(Context* ctx = nullptr, double polish_tolerance = 1e-8) const;
 
   /// Posterior mean and variance of the logit at n points (n * dim coordinates), exactly:
   /// phi^T P^-1 eta and phi^T P^-1 phi, by a sparse Cholesky factorisation of the whole
@@ -472,7 +475,7 @@ class JointBhm {
   // Whether some tile or retired tile has fading not applied.
   bool behind() const;
   // map() on a learner whose fading is applied.
-  KernelMap map_current(Context* ctx) const;
+  KernelMap map_current(Context* ctx, double polish_tolerance) const;
   void fold_retiring(const std::vector<std::uint8_t>& going);
   void compact(const std::vector<std::uint8_t>& going);
   void revive(std::uint32_t id, std::uint64_t key);

@@ -123,8 +123,11 @@ class DriveMapper {
   /// host's) and the learner's update runs on its host team. Throws ArgumentError for a 2D scan.
   KeyframeStats add(const Scan& keyframe, std::int64_t index, Context* ctx = nullptr);
 
-  /// The map (JointBhm::map(): with `ctx`, polished on its host team, the same bits).
-  KernelMap map(Context* ctx = nullptr) const { return learner_.map(ctx); }
+  /// The map (JointBhm::map(): with `ctx`, polished on its host team, the same bits), its means
+  /// polished to a relative residual of 1e-6: a hundredth of the keyframes' own cg_tolerance
+  /// (1e-4). To 1e-8 a Livox walk's final polish took 271 iterations against 168, 0.3 s more
+  /// for held-out scores equal in four decimals.
+  KernelMap map(Context* ctx = nullptr) const { return learner_.map(ctx, 1e-6); }
   /// The held-out samples kept (every test_stride-th of every keyframe's).
   const LabelledPoints& held_out() const { return test_; }
   const JointBhm& learner() const { return learner_; }
