@@ -2374,6 +2374,42 @@ def write_map(map: KernelMap, path: str) -> None:
     and a rename. ArgumentError for an unknown extension or an invalid map."""
     ...
 
+class MappedRecording:
+    """What map_recording() wrote: `potmap mapping`'s files and scores.
+    
+    out_dir: the folder. files: every file written, scores.json last. scores: Scores of
+    every scan's or keyframe's held-out beams (20 %, never mapped) on the final map (also
+    `overall`). summary: scores.json as a dict (timings, kernels, memory, the run's
+    options). drive: a 3D drive (else a 2D log). map: the map, read from map.potmap."""
+    def __init__(self, result, out_dir):
+        ...
+    @property
+    def overall(self) -> Any:
+        ...
+    @property
+    def map(self) -> Any:
+        ...
+
+def map_recording(path, out_dir=None, ctx=None, progress=None, quiet=True, **options):
+    """Maps a recording of any kind into a folder, as `potmap mapping PATH -o OUT_DIR`.
+    
+    The library's mapping job (include/potmap/job/mapping_job.hpp), the one the command
+    runs: a 2D log gives OUT_DIR/map.potmap, map_{prob,var,kernels}.png, map.yaml + .pgm
+    and scores.json; a 3D drive folder map.potmap, map.bt (OctoMap), map_occupied.ply,
+    map_band_{prob,var}.png, map_band.yaml + .pgm and scores.json, with checkpoints
+    (resume=True continues a killed run). The same options give the same files and scores
+    as the command.
+    
+    path: any recording potmap reads. out_dir: the folder, created (default
+    default_mapping_folder(path), as the command's). ctx: a Context (default: Context()).
+    progress: called with a JobProgress after every scan or keyframe and batch of output
+    blocks (an exception raised there stops the job, every file whole). quiet: when False,
+    the job's account (what is mapped, the device, the scores) is printed. options: fields
+    of MappingJobOptions (method, dictionary, range_cut, first, max_scans, seed, preset,
+    half_life, voxel, band_low, ...), as the command's options of the same names. Ctrl-C
+    stops the job at the next scan or keyframe. Returns a MappedRecording."""
+    ...
+
 class experiment:
     """The paper's comparisons (Sec. IV): tasks and methods."""
     class AbhmSetup:

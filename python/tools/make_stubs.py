@@ -90,7 +90,7 @@ def docstring(text, indent):
 def function(name, obj, indent="", method=False):
     if inspect.isfunction(obj):  # written in Python (python/potmap/__init__.py)
         sig = str(inspect.signature(obj)).replace("(self, path)", "(self, path: str) -> None")
-        text = split_doc(obj.__doc__, name)[1]
+        text = split_doc(inspect.cleandoc(obj.__doc__ or ""), name)[1]
         return f"{indent}def {name}{sig}:\n" + docstring(text, indent + "    ") + f"{indent}    ...\n"
     sigs, text = split_doc(obj.__doc__, name)
     if not sigs:
@@ -129,7 +129,7 @@ def prop(name, p, indent):
 def klass(name, cls, indent=""):
     bases = [b.__name__ for b in cls.__bases__ if b.__module__.startswith("potmap")]
     out = f"{indent}class {name}{'(' + ', '.join(bases) + ')' if bases else ''}:\n"
-    out += docstring((cls.__doc__ or "").strip(), indent + "    ")
+    out += docstring(inspect.cleandoc(cls.__doc__ or ""), indent + "    ")
     for key, value in cls.__dict__.items():
         if key.startswith("_") and key not in ("__init__", "__len__", "__iter__", "__getitem__"):
             continue
@@ -168,9 +168,24 @@ def module_body(mod, skip=()):
     return out
 
 
+def python_level():
+    """Classes and functions written in Python (python/potmap/__init__.py), not bound."""
+    out = ""
+    for n in sorted(dir(potmap)):
+        obj = getattr(potmap, n)
+        if n.startswith("_") or hasattr(_potmap, n) or getattr(obj, "__module__", None) != "potmap":
+            continue
+        if inspect.isclass(obj):
+            out += klass(n, obj)
+        elif inspect.isfunction(obj):
+            out += function(n, obj) + "\n"
+    return out
+
+
 def stubs():
     out = HEADER + "__version__: str\n\n"
     out += module_body(_potmap, skip=("experiment",))
+    out += python_level()
     if hasattr(_potmap, "experiment"):
         body = module_body(_potmap.experiment)
         out += "class experiment:\n"
