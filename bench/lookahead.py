@@ -3,7 +3,8 @@
 
 Usage: PYTHONPATH=build/python bench/lookahead.py [--drives riverside-a,hku-1] [--keyframes 16]
                                                  [--cut 40] [--stride 5] [--voxel 2]
-                                                 [--out lookahead.json]
+                                                 [--out docs/lookahead.json]
+                                                 [--doc docs/transfer.md]
 
 Transfer's promise is a calibrated prior where no sample has been yet. For each drive, BHM
 (the joint BHM at the drive defaults) and RePOT (the same seeded from the built-in 3D
@@ -11,7 +12,9 @@ dictionary) map keyframes 0..K-1; before keyframe k is added, each map so far is
 of keyframe k's beams (labelled as the mapper labels them: cut at --cut metres, 0.5 free samples
 a metre, none held out; every --stride-th sample) and, apart, on the part of them beyond every
 earlier sample's reach (samples whose --voxel metre cell, or an x-y neighbour of it, held no
-earlier training sample). Prints a table a drive and method, writes the JSON with --out.
+earlier training sample). Prints a table a drive and method, writes the JSON with --out; --doc
+FILE puts the table between "<!-- bench/lookahead.py table -->" and "<!-- end of
+bench/lookahead.py table -->".
 """
 import argparse
 import json
@@ -21,6 +24,7 @@ import sys
 import numpy as np
 
 import potmap
+from marked_doc import replace_marked
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
@@ -87,20 +91,29 @@ def main():
     ap.add_argument("--stride", type=int, default=5, help="every N-th labelled sample")
     ap.add_argument("--voxel", type=float, default=2.0, help="reach cells, metres")
     ap.add_argument("--out", default="", help="JSON file to write")
+    ap.add_argument("--doc", default="", help="Markdown page whose marked table to replace")
     a = ap.parse_args()
     ctx = potmap.Context()
     dictionary = potmap.default_dictionary(dim=3)
     result = {"keyframes": a.keyframes, "cut_m": a.cut, "stride": a.stride, "voxel_m": a.voxel,
               "device": ctx.device.summary(), "drives": {}}
-    print("| drive | method | look-ahead AUC / NLL, all beams | beyond earlier reach |")
-    print("|---|---|---|---|")
+    table = ["| drive | method | look-ahead AUC / NLL, all beams | beyond earlier reach |",
+             "|---|---|---|---|"]
+    print("\n".join(table), flush=True)
     for name in a.drives.split(","):
         rows = look_ahead(ctx, os.path.join(DRIVES, name), a.keyframes, a.cut, a.stride,
                           a.voxel, dictionary)
         result["drives"][name] = rows
         for r in rows:
-            print("| %s | %s | %s | %s |" % (name, r["method"], cell(r["all"]),
-                                             cell(r["beyond_reach"])))
+            table.append("| %s | %s | %s | %s |" % (name, r["method"], cell(r["all"]),
+                                                   cell(r["beyond_reach"])))
+            print(table[-1], flush=True)
+    if a.doc:
+        body = "\n".join(["", "Device: %s, %d CPUs; keyframes 0-%d, %g m cut, every %d-th "
+                          "sample, reach cells of %g m." % (ctx.device.summary(), os.cpu_count(),
+                                                             a.keyframes - 1, a.cut, a.stride,
+                                                             a.voxel), ""] + table + [""])
+        replace_marked(a.doc, "bench/lookahead.py", "table", body)
     if a.out:
         tmp = a.out + ".tmp"
         with open(tmp, "w") as f:
