@@ -96,6 +96,34 @@ void JointBhm::init(int dim, const JointBhmOptions& o) {
       }
   sum_phi2_ = grid_sum2_;
   if (o.bias) pbb_ = 1.0 / o.prior_var;
+  // The variance block's cells and the places of their couplings, once: every exported
+  // variance reads the same pairs (a retiring tile's 512 kernels, a drive's final map's
+  // hundreds of thousands), and finding each pair's slot per kernel cost as much as the
+  // dense solve.
+  vb_off_.clear();
+  vb_phi_.clear();
+  for (std::int64_t dk = -hz; dk <= hz; ++dk)
+    for (std::int64_t dj = -hb_; dj <= hb_; ++dj)
+      for (std::int64_t di = -hb_; di <= hb_; ++di) {
+        const double d2 =
+            (double(di * di) + double(dj * dj) + double(dk * dk)) * o.spacing * o.spacing;
+        if (gamma_ * d2 > o.tau) continue;
+        vb_off_.insert(vb_off_.end(), {di, dj, dk});
+        vb_phi_.push_back(std::exp(-gamma_ * d2));
+      }
+  const std::size_t nb = vb_phi_.size();
+  vb_at_.assign(nb * nb, -1);
+  vb_u_first_.assign(nb * nb, 0);
+  for (std::size_t u = 0; u < nb; ++u)
+    for (std::size_t v = 0; v < nb; ++v) {
+      std::int64_t slot = 0;
+      for (int d = dim - 1; d >= 0; --d)
+        slot = slot * box_ + (vb_off_[3 * v + d] - vb_off_[3 * u + d]);
+      vb_u_first_[u * nb + v] = slot >= 0;
+      vb_at_[u * nb + v] =
+          slot == 0 ? 0
+                    : half_at_[static_cast<std::size_t>(centre_lin_ + (slot > 0 ? slot : -slot))];
+    }
 }
 
 JointBhm::JointBhm(int dim, const JointBhmOptions& o) {

@@ -35,7 +35,42 @@ double JointBhm::predictive_var_at(const std::int64_t g[3], std::int64_t hint,
                                    std::vector<double>& scratch) const {
   // phi(h_k)^T (P_BB)^-1 phi(h_k) on the block B of kernels that reach h_k: the variance with
   // the kernels outside the block held at their means (a slight underestimate). Kernels of the
-  // block that are not stored hold their prior.
+  // block that are not stored hold their prior. Where the whole block lies in the grid, its
+  // pairs' places come from init()'s tables; at a bounded grid's border, as coupling() finds
+  // them (the same matrix either way).
+  const std::size_t nb = vb_phi_.size();
+  thread_local std::vector<std::int64_t> at_cell;
+  at_cell.resize(nb);
+  bool whole = true;
+  for (std::size_t u = 0; u < nb && whole; ++u) {
+    const std::int64_t c[3] = {g[0] + vb_off_[3 * u], g[1] + vb_off_[3 * u + 1],
+                               g[2] + vb_off_[3 * u + 2]};
+    whole = in_grid(c);
+    if (whole) at_cell[u] = find_cell(c, hint);
+  }
+  if (whole) {
+    const auto hs = static_cast<std::size_t>(half_slots_);
+    scratch.assign(nb * nb, 0.0);
+    Eigen::Map<Eigen::MatrixXd> A(scratch.data(), Eigen::Index(nb), Eigen::Index(nb));
+    for (std::size_t u = 0; u < nb; ++u) {
+      if (at_cell[u] < 0) {
+        A(Eigen::Index(u), Eigen::Index(u)) = 1.0 / o_.prior_var;
+        continue;
+      }
+      const double* row_u = &prec_[std::size_t(at_cell[u]) * hs];
+      for (std::size_t v = 0; v < nb; ++v) {
+        const std::int32_t at = vb_at_[u * nb + v];
+        if (at < 0 || at_cell[v] < 0) continue;
+        A(Eigen::Index(u), Eigen::Index(v)) =
+            vb_u_first_[u * nb + v] ? row_u[at]
+                                    : prec_[std::size_t(at_cell[v]) * hs + std::size_t(at)];
+      }
+    }
+    Eigen::Map<const Eigen::VectorXd> ph(vb_phi_.data(), Eigen::Index(nb));
+    const Eigen::LLT<Eigen::MatrixXd> llt(A);
+    if (llt.info() != Eigen::Success) return o_.prior_var * ph.squaredNorm();
+    return ph.dot(llt.solve(ph));
+  }
   std::vector<std::int64_t> block;
   std::vector<std::int64_t> cells;
   std::vector<double> phi;

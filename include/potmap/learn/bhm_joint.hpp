@@ -448,6 +448,13 @@ class JointBhm {
   mutable std::vector<std::uint8_t> tile_dirty_;  // per tile: var_ out of date
   double grid_sum_ = 1, grid_sum2_ = 1;  // sum of phi, phi^2 of the grid at an interior kernel
   double sum_phi2_ = 1;                  // sum of phi^2 over the variance block
+  // The variance block (predictive_var_at()): its cells' offsets from the centre (3 each) and
+  // features in the order the block lists them, and per pair (u, v) of them the index in the
+  // half stencil that holds their coupling (-1: none) and whether u's row holds it (else v's).
+  std::vector<std::int64_t> vb_off_;
+  std::vector<double> vb_phi_;
+  std::vector<std::int32_t> vb_at_;
+  std::vector<std::uint8_t> vb_u_first_;
   double pbb_ = 0, etab_ = 0, meanb_ = 0;
   Scratch scratch_;
   JointBhmStats stats_;
