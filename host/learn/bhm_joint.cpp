@@ -83,7 +83,14 @@ void JointBhm::init(int dim, const JointBhmOptions& o) {
     }
   centre_lin_ = 0;
   for (int d = 0; d < dim; ++d) centre_lin_ = centre_lin_ * box_ + pad_;
+  // The variance block (the kernels within the cut-off of a kernel's centre): the grid's sums
+  // of phi and phi^2 at an interior kernel, and its cells and the places of their couplings,
+  // tabled once: every exported variance reads the same pairs (a retiring tile's 512 kernels,
+  // a drive's final map's hundreds of thousands), and finding each pair's slot per kernel cost
+  // as much as the dense solve.
   grid_sum_ = grid_sum2_ = sum_phi2_ = 0;
+  vb_off_.clear();
+  vb_phi_.clear();
   const std::int64_t hz = dim == 3 ? hb_ : 0;
   for (std::int64_t dk = -hz; dk <= hz; ++dk)
     for (std::int64_t dj = -hb_; dj <= hb_; ++dj)
@@ -93,24 +100,11 @@ void JointBhm::init(int dim, const JointBhmOptions& o) {
         if (gamma_ * d2 > o.tau) continue;
         grid_sum_ += std::exp(-gamma_ * d2);
         grid_sum2_ += std::exp(-2 * gamma_ * d2);
-      }
-  sum_phi2_ = grid_sum2_;
-  if (o.bias) pbb_ = 1.0 / o.prior_var;
-  // The variance block's cells and the places of their couplings, once: every exported
-  // variance reads the same pairs (a retiring tile's 512 kernels, a drive's final map's
-  // hundreds of thousands), and finding each pair's slot per kernel cost as much as the
-  // dense solve.
-  vb_off_.clear();
-  vb_phi_.clear();
-  for (std::int64_t dk = -hz; dk <= hz; ++dk)
-    for (std::int64_t dj = -hb_; dj <= hb_; ++dj)
-      for (std::int64_t di = -hb_; di <= hb_; ++di) {
-        const double d2 =
-            (double(di * di) + double(dj * dj) + double(dk * dk)) * o.spacing * o.spacing;
-        if (gamma_ * d2 > o.tau) continue;
         vb_off_.insert(vb_off_.end(), {di, dj, dk});
         vb_phi_.push_back(std::exp(-gamma_ * d2));
       }
+  sum_phi2_ = grid_sum2_;
+  if (o.bias) pbb_ = 1.0 / o.prior_var;
   const std::size_t nb = vb_phi_.size();
   vb_at_.assign(nb * nb, -1);
   vb_u_first_.assign(nb * nb, 0);

@@ -31,6 +31,19 @@ bool JointBhm::near_data(const std::int64_t g[3], std::int64_t hint) const {
   return false;
 }
 
+namespace {
+
+// phi^T A^-1 phi for the block's precision A (its prior's where A is not positive definite).
+double block_variance(const Eigen::Map<Eigen::MatrixXd>& A, const double* phi, std::size_t n,
+                      double prior_var) {
+  Eigen::Map<const Eigen::VectorXd> ph(phi, Eigen::Index(n));
+  const Eigen::LLT<Eigen::MatrixXd> llt(A);
+  if (llt.info() != Eigen::Success) return prior_var * ph.squaredNorm();
+  return ph.dot(llt.solve(ph));
+}
+
+}  // namespace
+
 double JointBhm::predictive_var_at(const std::int64_t g[3], std::int64_t hint,
                                    std::vector<double>& scratch) const {
   // phi(h_k)^T (P_BB)^-1 phi(h_k) on the block B of kernels that reach h_k: the variance with
@@ -66,10 +79,7 @@ double JointBhm::predictive_var_at(const std::int64_t g[3], std::int64_t hint,
                                     : prec_[std::size_t(at_cell[v]) * hs + std::size_t(at)];
       }
     }
-    Eigen::Map<const Eigen::VectorXd> ph(vb_phi_.data(), Eigen::Index(nb));
-    const Eigen::LLT<Eigen::MatrixXd> llt(A);
-    if (llt.info() != Eigen::Success) return o_.prior_var * ph.squaredNorm();
-    return ph.dot(llt.solve(ph));
+    return block_variance(A, vb_phi_.data(), nb, o_.prior_var);
   }
   std::vector<std::int64_t> block;
   std::vector<std::int64_t> cells;
@@ -101,10 +111,7 @@ double JointBhm::predictive_var_at(const std::int64_t g[3], std::int64_t hint,
       A(Eigen::Index(u), Eigen::Index(v)) = coupling(block[u], block[v], o);
     }
   }
-  Eigen::Map<const Eigen::VectorXd> ph(phi.data(), Eigen::Index(b));
-  const Eigen::LLT<Eigen::MatrixXd> llt(A);
-  if (llt.info() != Eigen::Success) return o_.prior_var * ph.squaredNorm();
-  return ph.dot(llt.solve(ph));
+  return block_variance(A, phi.data(), b, o_.prior_var);
 }
 
 double JointBhm::exported_var(const std::int64_t g[3], std::int64_t s,
