@@ -172,17 +172,10 @@ std::map<Column, std::vector<std::uint32_t>> group_kernels(
     const KernelMap& map, const std::map<Column, std::vector<std::size_t>>& groups, double reach) {
   std::map<Column, std::vector<std::uint32_t>> g;
   for (const auto& [c, members] : groups) g[c];
-  Column last{0, 0};
-  std::vector<std::uint32_t>* last_list = nullptr;
-  bool last_valid = false;
-  auto list_of = [&](const Column& c) {
-    if (!last_valid || c != last) {
-      const auto it = g.find(c);
-      last = c;
-      last_list = it == g.end() ? nullptr : &it->second;
-      last_valid = true;
-    }
-    return last_list;
+  auto at = g.end();  // the column looked up last
+  auto list_of = [&](const Column& c) -> std::vector<std::uint32_t>* {
+    if (at == g.end() || at->first != c) at = g.find(c);
+    return at == g.end() ? nullptr : &at->second;
   };
   for (std::size_t k = 0; k < map.size(); ++k) {
     const double x = map.position[3 * k], y = map.position[3 * k + 1];
