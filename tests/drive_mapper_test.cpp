@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 
 #include "potmap/data/drive.hpp"
@@ -19,13 +20,16 @@ using namespace potmap;
 
 namespace {
 
-Scores held_out_scores(const DriveMapper& m) {
-  const KernelMap map = m.map();
+Scores held_out_scores(const DriveMapper& m, const KernelMap& map) {
   const LabelledPoints& t = m.held_out();
   MapEvaluator ev(test::context(), map);
   std::vector<float> prob(t.size());
   ev.evaluate(t.position.data(), t.size(), nullptr, nullptr, prob.data());
   return score(prob, t.label);
+}
+
+Scores held_out_scores(const DriveMapper& m) {
+  return held_out_scores(m, m.map());
 }
 
 }  // namespace
@@ -55,6 +59,14 @@ TEST(DriveMapper, RiversideKeyframesBeatTheGridWithBoundedMemory) {
   EXPECT_GT(s.auc, 0.97);
   EXPECT_LT(s.nll, 0.13);
   EXPECT_LT(peak, std::size_t(80) << 20);
+  // The map carries its learner's feature cut-off, and is scored at it: the evaluators' own 18
+  // gives the same scores.
+  KernelMap full = m.map();
+  EXPECT_EQ(full.cutoff_tau, m.learner().options().tau);
+  full.cutoff_tau = std::numeric_limits<double>::infinity();
+  const Scores s18 = held_out_scores(m, full);
+  EXPECT_NEAR(s.auc, s18.auc, 1e-3);
+  EXPECT_NEAR(s.nll, s18.nll, 2e-3);
   EXPECT_THROW(m.add(Scan{}, 10), ArgumentError);  // a 2D scan
 }
 

@@ -253,3 +253,23 @@ TEST(MapEval, CutoffTauIsHonoured) {
   }
   EXPECT_GT(differs, 1e-2);  // the cut really dropped something
 }
+
+TEST(MapEval, AMapLearnedWithACutoffIsEvaluatedAtIt) {
+  // KernelMap::cutoff_tau below the evaluator's own tau: the same values as asking for it.
+  KernelMap map = random_map(2, 400, 30, 17);
+  EvalOptions o;
+  o.tau = 0.5;
+  const auto pts = random_points(2, 3000, 0, 30, 18);
+  const MapValues want = MapEvaluator(test::context(), map, o).evaluate(pts);
+  const MapValues full = MapEvaluator(test::context(), map).evaluate(pts);
+  map.cutoff_tau = 0.5;
+  const MapValues got = MapEvaluator(test::context(), map).evaluate(pts);
+  EXPECT_EQ(got.mean, want.mean);
+  EXPECT_EQ(got.var, want.var);
+  EXPECT_NE(got.mean, full.mean);
+  // Above the evaluator's tau it changes nothing.
+  map.cutoff_tau = 40;
+  EXPECT_EQ(MapEvaluator(test::context(), map).evaluate(pts).mean, full.mean);
+  map.cutoff_tau = 0;
+  EXPECT_THROW(MapEvaluator(test::context(), map), ArgumentError);
+}

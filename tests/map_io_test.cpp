@@ -106,7 +106,8 @@ class MapRoundTrip : public ::testing::TestWithParam<std::tuple<std::string, int
 TEST_P(MapRoundTrip, IsExact) {
   const auto& [ext, dim, bias] = GetParam();
   const std::string dir = test::temp_dir("map_round_trip");
-  const KernelMap map = random_map(dim, bias, 257, 7 + dim);
+  KernelMap map = random_map(dim, bias, 257, 7 + dim);
+  if (bias) map.cutoff_tau = 13.0 / 3.0;  // the maps with a bias carry a cut-off of their own
   const std::string path = dir + "/map" + ext;
   write_map(map, path);
   test::expect_same_map(map, read_map(path));
@@ -244,6 +245,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadCsv{"truncated", "x,y,gamma,w_mean,w_var\n1,2,0.5,1,1\n3,4,0.", "line 3", "'3,4,0.'"},
         BadCsv{"bias", "# bias 1\nx,y,gamma,w_mean,w_var\n", "line 1", "'# bias 1'"},
         BadCsv{"bias_var", "# bias 1 -1\nx,y,gamma,w_mean,w_var\n", "line 1", "'-1'"},
+        BadCsv{"cutoff_zero", "# cutoff 0\nx,y,gamma,w_mean,w_var\n", "line 1", "'0'"},
+        BadCsv{"cutoff_count", "x,y,gamma,w_mean,w_var\n# cutoff 4 5\n", "line 2",
+               "'# cutoff 4 5'"},
+        BadCsv{"cutoff_twice", "# cutoff 4\n# cutoff 4\nx,y,gamma,w_mean,w_var\n", "line 2",
+               "second cut-off"},
         BadCsv{"duplicate", "x,y,x,gamma,w_mean,w_var\n", "line 1", "'x'"},
         BadCsv{"trailing_junk", "x,y,gamma,w_mean,w_var\n1,2,0.5,1,1x\n", "line 2", "'1x'"}),
     [](const auto& info) { return std::string(info.param.name); });
@@ -335,6 +341,27 @@ TEST(MapIo, NativeBadInput) {
   put_u64(b, 48, bits);
   reseal(b);
   check(b, "byte offset 48", "nan");
+
+  // A map with its own cut-off: version 2, flag bit 2, the exponent right after w_var.
+  KernelMap cut = random_map(2, false, 5, 3);
+  cut.cutoff_tau = 4.5;
+  write_map(cut, good_path);
+  const std::string with_cut = read_bytes(good_path);
+  ASSERT_EQ(with_cut.size(), 48u + 5 * 8 * 5 + 8 + 4);
+  EXPECT_EQ(with_cut[8], 2);
+  EXPECT_EQ(with_cut[24], 4);
+  const std::size_t cut_at = 48 + 5 * 8 * 5;
+  b = with_cut;
+  const double zero = 0.0;
+  std::memcpy(&bits, &zero, 8);
+  put_u64(b, cut_at, bits);
+  reseal(b);
+  check(b, "byte offset " + std::to_string(cut_at), "cut-off exponent");
+  // Version 1 has no such flag.
+  b = good;
+  put_u32(b, 24, 5);
+  reseal(b);
+  check(b, "byte offset 24", "unknown flags 5 in a version 1 map");
 }
 
 // --- bad NPZ input ---------------------------------------------------------------------------

@@ -191,6 +191,7 @@ void expect_same_map(const KernelMap& a, const KernelMap& b) {
   EXPECT_EQ(a.has_bias, b.has_bias);
   EXPECT_EQ(a.bias_mean, b.bias_mean);
   EXPECT_EQ(a.bias_var, b.bias_var);
+  EXPECT_EQ(a.cutoff_tau, b.cutoff_tau);
 }
 
 }  // namespace potmap::test

@@ -148,4 +148,20 @@ potmap_status potmap_map_bias(const potmap_map* map, int* has_bias, double* mean
   });
 }
 
+potmap_status potmap_map_set_cutoff(potmap_map* map, double tau) {
+  return guard("potmap_map_set_cutoff", POTMAP_ERROR_INTERNAL, [&] {
+    if (!(tau > 0))
+      fail(POTMAP_ERROR_INVALID_ARGUMENT,
+           "the cut-off exponent must be positive (INFINITY for none), got " + std::to_string(tau));
+    checked(map).map.cutoff_tau = tau;
+  });
+}
+
+potmap_status potmap_map_cutoff(const potmap_map* map, double* tau) {
+  return guard("potmap_map_cutoff", POTMAP_ERROR_INTERNAL, [&] {
+    const potmap::KernelMap& m = checked(map).map;
+    if (tau) *tau = m.cutoff_tau;
+  });
+}
+
 }  // extern "C"

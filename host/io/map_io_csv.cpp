@@ -1,4 +1,5 @@
 // Kernel maps as CSV text (format: include/potmap/io/map_io.hpp).
+#include <cmath>
 #include <map>
 #include <sstream>
 
@@ -25,37 +26,55 @@ std::string lower(std::string_view s) {
   throw InputError(path + ": line " + std::to_string(line) + ": " + what);
 }
 
-// "# bias <mean> <var>": the only comment with a meaning; other comments are ignored.
-bool parse_bias_comment(std::string_view comment, const std::string& path, std::size_t line,
-                        KernelMap& map) {
+// The words after a keyword comment ("# bias 0.1 2" gives {"0.1", "2"}), or false when the
+// comment does not start with the keyword.
+bool keyword_comment(std::string_view comment, std::string_view keyword,
+                     std::vector<std::string_view>& parts) {
   std::string_view rest = detail::trim(comment.substr(1));
-  if (rest.substr(0, 4) != "bias" || (rest.size() > 4 && rest[4] != ' ' && rest[4] != '\t'))
+  const std::size_t k = keyword.size();
+  if (rest.substr(0, k) != keyword || (rest.size() > k && rest[k] != ' ' && rest[k] != '\t'))
     return false;
-  rest = detail::trim(rest.substr(4));
-  std::vector<std::string_view> parts;
+  rest = detail::trim(rest.substr(k));
+  parts.clear();
   while (!rest.empty()) {
     const std::size_t sp = rest.find_first_of(" \t");
     parts.push_back(rest.substr(0, sp));
     rest = sp == std::string_view::npos ? std::string_view() : detail::trim(rest.substr(sp));
   }
-  if (parts.size() != 2)
-    fail_at(path, line,
-            "bias comment " + detail::quote_value(comment) + " must be '# bias <mean> <var>'");
-  if (map.has_bias) fail_at(path, line, "second bias comment");
-  double v[2];
-  const MapField fields[2] = {MapField::bias_mean, MapField::bias_var};
-  const char* names[2] = {"bias mean", "bias variance"};
-  for (int i = 0; i < 2; ++i) {
-    if (!detail::parse_double(parts[i], v[i]))
-      fail_at(path, line,
-              std::string(names[i]) + " " + detail::quote_value(parts[i]) + " is not a number");
-    if (const char* why = detail::map_value_problem(fields[i], v[i]))
-      fail_at(path, line, std::string(names[i]) + " " + detail::quote_value(parts[i]) + ": " + why);
-  }
-  map.has_bias = true;
-  map.bias_mean = v[0];
-  map.bias_var = v[1];
   return true;
+}
+
+double comment_number(std::string_view part, const char* name, MapField field,
+                      const std::string& path, std::size_t line) {
+  double v = 0;
+  if (!detail::parse_double(part, v))
+    fail_at(path, line, std::string(name) + " " + detail::quote_value(part) + " is not a number");
+  if (const char* why = detail::map_value_problem(field, v))
+    fail_at(path, line, std::string(name) + " " + detail::quote_value(part) + ": " + why);
+  return v;
+}
+
+// "# bias <mean> <var>" and "# cutoff <tau>": the only comments with a meaning; other comments
+// are ignored.
+void parse_comment(std::string_view comment, const std::string& path, std::size_t line,
+                   bool& seen_cutoff, KernelMap& map) {
+  std::vector<std::string_view> parts;
+  if (keyword_comment(comment, "bias", parts)) {
+    if (parts.size() != 2)
+      fail_at(path, line,
+              "bias comment " + detail::quote_value(comment) + " must be '# bias <mean> <var>'");
+    if (map.has_bias) fail_at(path, line, "second bias comment");
+    map.bias_mean = comment_number(parts[0], "bias mean", MapField::bias_mean, path, line);
+    map.bias_var = comment_number(parts[1], "bias variance", MapField::bias_var, path, line);
+    map.has_bias = true;
+  } else if (keyword_comment(comment, "cutoff", parts)) {
+    if (parts.size() != 1)
+      fail_at(path, line,
+              "cut-off comment " + detail::quote_value(comment) + " must be '# cutoff <tau>'");
+    if (seen_cutoff) fail_at(path, line, "second cut-off comment");
+    map.cutoff_tau = comment_number(parts[0], "cut-off", MapField::cutoff_tau, path, line);
+    seen_cutoff = true;
+  }
 }
 
 }  // namespace
@@ -73,7 +92,7 @@ KernelMap read_map_csv(const std::string& path) {
                              MapField::gamma,    MapField::w_mean,   MapField::w_var};
   int col[6] = {-1, -1, -1, -1, -1, -1};
   std::size_t ncols = 0;
-  bool have_header = false;
+  bool have_header = false, seen_cutoff = false;
   std::size_t header_line = 0;
 
   while (lines.next(line)) {
@@ -81,7 +100,7 @@ KernelMap read_map_csv(const std::string& path) {
     const std::string_view t = detail::trim(line);
     if (t.empty()) continue;
     if (t.front() == '#') {
-      parse_bias_comment(t, path, ln, map);
+      parse_comment(t, path, ln, seen_cutoff, map);
       continue;
     }
     detail::split_commas(line, fields);
@@ -144,6 +163,11 @@ void write_map_csv(const KernelMap& map, const std::string& path) {
     detail::append_double(out, map.bias_mean);
     out += ' ';
     detail::append_double(out, map.bias_var);
+    out += '\n';
+  }
+  if (std::isfinite(map.cutoff_tau)) {
+    out += "# cutoff ";
+    detail::append_double(out, map.cutoff_tau);
     out += '\n';
   }
   out += map.dim == 3 ? "x,y,z,gamma,w_mean,w_var\n" : "x,y,gamma,w_mean,w_var\n";

@@ -2,6 +2,7 @@
 #include "io/map_io_native.hpp"
 
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 
@@ -25,12 +26,20 @@ constexpr std::size_t kCrcBytes = 4;
 constexpr detail::ContainerLayout kLayout{"POTMAP\r\n", "a potmap map", 1, kHeaderBytes};
 constexpr detail::ContainerLayout kLayoutV2{
     "POTMAP\r\n", "a potmap map", 2, kHeaderBytes, detail::ContainerLayout::kNoSizeField, 1};
-constexpr std::uint32_t kHasBias = 1, kHasSection = 2;
+constexpr std::uint32_t kHasBias = 1, kHasSection = 2, kHasCutoff = 4;
+
+bool has_cutoff(const KernelMap& map) {
+  return std::isfinite(map.cutoff_tau);
+}
+
+std::size_t map_bytes(const KernelMap& map) {
+  return kHeaderBytes + map.size() * 8 * (map.dim + 3) + (has_cutoff(map) ? 8 : 0) + kCrcBytes;
+}
 
 void put_map(detail::ContainerWriter& out, const KernelMap& map, std::uint32_t flags) {
   out.u32(static_cast<std::uint32_t>(map.dim));
   out.u64(map.size());
-  out.u32((map.has_bias ? kHasBias : 0u) | flags);
+  out.u32((map.has_bias ? kHasBias : 0u) | (has_cutoff(map) ? kHasCutoff : 0u) | flags);
   out.u32(0);
   out.f64(map.has_bias ? map.bias_mean : 0.0);
   out.f64(map.has_bias ? map.bias_var : 0.0);
@@ -38,6 +47,7 @@ void put_map(detail::ContainerWriter& out, const KernelMap& map, std::uint32_t f
   out.f64s(map.gamma);
   out.f64s(map.w_mean);
   out.f64s(map.w_var);
+  if (has_cutoff(map)) out.f64(map.cutoff_tau);
 }
 
 }  // namespace
@@ -59,12 +69,15 @@ KernelMap detail::read_map_native_from(const ContainerReader& r, std::size_t* se
   // The count decides how much is read: check it against the file size before trusting it.
   const std::uint64_t per_kernel = 8ull * (dim + 3);
   const std::uint64_t max_count = (std::numeric_limits<std::uint64_t>::max() - 64) / per_kernel;
-  const std::uint64_t kernels_end = count <= max_count ? kHeaderBytes + count * per_kernel : 0;
   const std::uint32_t flags = r.u32(24);
-  const std::uint32_t known = version >= 2 ? kHasBias | kHasSection : kHasBias;
+  const std::uint32_t known = version >= 2 ? kHasBias | kHasSection | kHasCutoff : kHasBias;
   if (flags & ~known)
     r.fail(24, "unknown flags " + std::to_string(flags) + " in a version " +
                    std::to_string(version) + " map");
+  // The kernels, and the cut-off after them where there is one.
+  const std::uint64_t cutoff_bytes = flags & kHasCutoff ? 8 : 0;
+  const std::uint64_t kernels_end =
+      count <= max_count ? kHeaderBytes + count * per_kernel + cutoff_bytes : 0;
   std::uint64_t section = 0;
   if ((flags & kHasSection) && kernels_end && kernels_end + 8 + kCrcBytes <= r.size()) {
     section = r.u64(kernels_end);
@@ -93,6 +106,11 @@ KernelMap detail::read_map_native_from(const ContainerReader& r, std::size_t* se
     if (const char* why = detail::map_value_problem(f, v))
       r.fail(at, name + " = " + detail::format_double(v) + ": " + why);
   };
+  if (flags & kHasCutoff) {
+    const std::size_t at = kernels_end - 8;
+    map.cutoff_tau = r.f64(at);
+    check(MapField::cutoff_tau, map.cutoff_tau, at, "cut-off exponent");
+  }
   if (map.has_bias) {
     check(MapField::bias_mean, map.bias_mean, 32, "bias mean");
     check(MapField::bias_var, map.bias_var, 40, "bias variance");
@@ -126,7 +144,8 @@ KernelMap detail::read_map_native_from(const ContainerReader& r, std::size_t* se
 
 void write_map_native(const KernelMap& map, const std::string& path) {
   map.validate(path);
-  detail::ContainerWriter out(kLayout, kHeaderBytes + map.size() * 8 * (map.dim + 3) + kCrcBytes);
+  // Version 1 where it says all; a cut-off needs version 2's flag.
+  detail::ContainerWriter out(has_cutoff(map) ? kLayoutV2 : kLayout, map_bytes(map));
   put_map(out, map, 0);
   out.finish(path);
 }
@@ -134,7 +153,7 @@ void write_map_native(const KernelMap& map, const std::string& path) {
 void detail::write_map_native_with_section(const KernelMap& map, const std::string& path,
                                            const std::function<void(ContainerWriter&)>& section) {
   map.validate(path);
-  detail::ContainerWriter out(kLayoutV2, kHeaderBytes + map.size() * 8 * (map.dim + 3) + kCrcBytes);
+  detail::ContainerWriter out(kLayoutV2, map_bytes(map));
   put_map(out, map, kHasSection);
   const std::size_t length_at = out.size();
   out.u64(0);

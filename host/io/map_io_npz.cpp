@@ -1,4 +1,5 @@
 // Kernel maps as NumPy archives, in the layout of the paper's authors (see map_io.hpp).
+#include <cmath>
 #include <sstream>
 
 #include "io/npz.hpp"
@@ -90,6 +91,9 @@ KernelMap read_map_npz(const std::string& path) {
     map.bias_mean = scalar(bm->second, "bias_mean", MapField::bias_mean, path);
     map.bias_var = scalar(bv->second, "bias_var", MapField::bias_var, path);
   }
+  const auto cut = arrays.find("cutoff_tau");
+  if (cut != arrays.end())
+    map.cutoff_tau = scalar(cut->second, "cutoff_tau", MapField::cutoff_tau, path);
   return map;
 }
 
@@ -107,6 +111,8 @@ void write_map_npz(const KernelMap& map, const std::string& path) {
     arrays.emplace_back("bias_mean", npy::Array::from_doubles({map.bias_mean}, {}));
     arrays.emplace_back("bias_var", npy::Array::from_doubles({map.bias_var}, {}));
   }
+  if (std::isfinite(map.cutoff_tau))
+    arrays.emplace_back("cutoff_tau", npy::Array::from_doubles({map.cutoff_tau}, {}));
   npz::write(path, arrays);
 }
 

@@ -244,6 +244,7 @@ MapEvaluator::Impl::Impl(Context& c, const KernelMap& m, const EvalOptions& o)
   map.validate();
   if (!(opt.tau > 0) || !std::isfinite(opt.tau))
     throw ArgumentError("EvalOptions::tau must be positive, got " + std::to_string(opt.tau));
+  opt.tau = std::min(opt.tau, map.cutoff_tau);  // terms past the map's own cut-off are not in it
   index = detail::KernelIndex(map, opt.tau);
   double lo[3], hi[3];
   map.bounds(lo, hi);

@@ -27,6 +27,8 @@ void KernelMap::validate(const std::string& source) const {
   const std::string where = source.empty() ? "kernel map" : source;
   auto fail = [&](const std::string& what) { throw ArgumentError(where + ": " + what); };
   if (dim != 2 && dim != 3) fail("dimension must be 2 or 3, got " + std::to_string(dim));
+  if (!(cutoff_tau > 0))
+    fail("cut-off exponent must be positive, got " + std::to_string(cutoff_tau));
   const std::size_t m = gamma.size();
   if (w_mean.size() != m || w_var.size() != m || position.size() != m * dim) {
     std::ostringstream s;

@@ -62,6 +62,12 @@ DriveMapper::DriveMapper(const DriveMapperOptions& options)
   test_.dim = 3;
 }
 
+KernelMap DriveMapper::map(Context* ctx) const {
+  KernelMap m = learner_.map(ctx, 1e-6);
+  m.cutoff_tau = learner_.options().tau;
+  return m;
+}
+
 KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context* ctx) {
   if (keyframe.dim != 3)
     throw ArgumentError("drive mapper: keyframe " + std::to_string(index) + " is " +

@@ -206,6 +206,7 @@ KernelMap subset(const KernelMap& map, const std::vector<std::uint32_t>& idx) {
   m.has_bias = map.has_bias;
   m.bias_mean = map.bias_mean;
   m.bias_var = map.bias_var;
+  m.cutoff_tau = map.cutoff_tau;
   return m;
 }
 
@@ -251,7 +252,7 @@ void volume_pass(Context& ctx, const KernelMap& map, const VoxelBlocks& blocks, 
   }
   double gmin = HUGE_VAL;
   for (double g : map.gamma) gmin = std::min(gmin, g);
-  const double reach = std::sqrt(kDefaultCutoffTau / gmin) + edge;
+  const double reach = std::sqrt(std::min(kDefaultCutoffTau, map.cutoff_tau) / gmin) + edge;
   auto kernels = group_kernels(map, groups, reach);
   Batch batch[2];
   detail::SerialWorker worker;
@@ -296,7 +297,8 @@ std::vector<float> probability_by_columns(Context& ctx, const KernelMap& map,
         .push_back(i);
   double gmin = HUGE_VAL;
   for (double g : map.gamma) gmin = std::min(gmin, g);
-  auto kernels = group_kernels(map, groups, std::sqrt(kDefaultCutoffTau / gmin) + 0.1);
+  auto kernels = group_kernels(map, groups,
+                               std::sqrt(std::min(kDefaultCutoffTau, map.cutoff_tau) / gmin) + 0.1);
   std::vector<double> pts;
   std::vector<float> p;
   for (const auto& [column, members] : groups) {

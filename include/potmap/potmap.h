@@ -238,12 +238,23 @@ POTMAP_EXPORT potmap_status potmap_map_set_bias(potmap_map* map, int has_bias, d
 POTMAP_EXPORT potmap_status potmap_map_bias(const potmap_map* map, int* has_bias, double* mean,
                                             double* var);
 
+/** Sets the cut-off exponent the map was learned with (potmap::KernelMap::cutoff_tau): its
+ *  learner never used terms with gamma * d^2 beyond it, and evaluators cut there when it is
+ *  below their own tau. tau > 0; INFINITY (a new map's value) leaves the evaluators' own. A
+ *  drive's map (potmap_mapping_run) carries its learner's feature cut-off, 4.5. Evaluators
+ *  already made keep the cut-off they were made with. */
+POTMAP_EXPORT potmap_status potmap_map_set_cutoff(potmap_map* map, double tau);
+
+/** *tau receives the cut-off exponent the map was learned with (INFINITY when none). */
+POTMAP_EXPORT potmap_status potmap_map_cutoff(const potmap_map* map, double* tau);
+
 /* ---- evaluation ------------------------------------------------------------------------ */
 
 /** Validates the map and uploads a copy of it to the context's device. `tau`: kernels with
  *  gamma * d^2 > tau are skipped; 0 means the default 18 (each dropped term below 1.6e-8 of its
- *  weight). *out receives a new handle; free it with potmap_evaluator_destroy. The evaluator
- *  keeps the context alive. Errors: POTMAP_ERROR_INVALID_ARGUMENT (bad map, tau < 0 or NaN). */
+ *  weight); a map learned with a smaller cut-off is evaluated at that. *out receives a new handle;
+ * free it with potmap_evaluator_destroy. The evaluator keeps the context alive. Errors:
+ * POTMAP_ERROR_INVALID_ARGUMENT (bad map, tau < 0 or NaN). */
 POTMAP_EXPORT potmap_status potmap_evaluator_create(potmap_context* context, const potmap_map* map,
                                                     double tau, potmap_evaluator** out);
 
@@ -823,10 +834,10 @@ typedef struct potmap_mapping_job_options {
   /** Returns farther than this become no-returns, metres (default -1: 20 for 2D logs, the
    *  towns' range the built-in atoms are cut at; 40 for 3D drives; 0: none). */
   double range_cut;
-  size_t first;     /**< scans or keyframes skipped (default 0) */
-  size_t max_scans; /**< at most this many mapped (default 0: all) */
-  uint64_t seed;    /**< labelling, hold-out and subsampling (default 0) */
-  double half_life; /**< forgetting, seconds of the scans' time (default 0: never) */
+  size_t first;          /**< scans or keyframes skipped (default 0) */
+  size_t max_scans;      /**< at most this many mapped (default 0: all) */
+  uint64_t seed;         /**< labelling, hold-out and subsampling (default 0) */
+  double half_life;      /**< forgetting, seconds of the scans' time (default 0: never) */
   size_t picture_pixels; /**< along the pictures' longer side (default 1200) */
   const char* preset;    /**< 2D: "default" (NULL) or "paper" (the authors' rules) */
   double band_low;       /**< 3D: the band's bottom, metres about the sensor (default -1.0) */
@@ -861,9 +872,9 @@ typedef void (*potmap_job_note_fn)(const char* line, void* user);
 
 /** What potmap_map_recording made. */
 typedef struct potmap_mapping_job_result {
-  size_t struct_size; /**< set by the caller to sizeof(potmap_mapping_job_result) */
-  int drive;          /**< 1: a 3D drive; 0: a 2D log */
-  size_t files;       /**< files written into the folder, OUT/scores.json the last */
+  size_t struct_size;   /**< set by the caller to sizeof(potmap_mapping_job_result) */
+  int drive;            /**< 1: a 3D drive; 0: a 2D log */
+  size_t files;         /**< files written into the folder, OUT/scores.json the last */
   double acc, auc, nll; /**< every held-out beam (20 %, never mapped) on the final map */
   size_t samples;       /**< held-out samples scored */
 } potmap_mapping_job_result;

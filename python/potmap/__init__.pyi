@@ -566,7 +566,8 @@ class Evaluator:
     Keeps its Context alive. Threads sharing one take turns."""
     def __init__(self, ctx: Context, map: KernelMap, tau: float = 18.0) -> None:
         """ctx: the device; map: a KernelMap (validated, copied to the device);
-        tau: cut-off exponent (default 18)."""
+        tau: cut-off exponent (default 18; a map learned with a smaller cutoff_tau
+        is evaluated at that)."""
         ...
     @property
     def dim(self) -> int:
@@ -842,6 +843,16 @@ class KernelMap:
         ...
     @bias.setter
     def bias(self, value: Any) -> None: ...
+    @property
+    def cutoff_tau(self) -> float:
+        """The cut-off exponent the map was learned with (> 0): its learner never
+        used terms with gamma d^2 beyond it, and the evaluators cut there when it
+        is below their own tau. inf (the default): the evaluators' own tau (18).
+        A drive's map carries its learner's feature cut-off (4.5); evaluate_exact
+        sums every term either way."""
+        ...
+    @cutoff_tau.setter
+    def cutoff_tau(self, value: Any) -> None: ...
     def validate(self, source: str = '') -> None:
         """Raises ArgumentError naming the first kernel and value that breaks the model."""
         ...

@@ -255,6 +255,12 @@ void bind_kernel_map(py::module_& m) {
             k.bias_var = v.second;
           },
           "(mean, variance) of the bias weight, or None")
+      .def_readwrite("cutoff_tau", &KernelMap::cutoff_tau,
+                     "The cut-off exponent the map was learned with (> 0): its learner never\n"
+                     "used terms with gamma d^2 beyond it, and the evaluators cut there when it\n"
+                     "is below their own tau. inf (the default): the evaluators' own tau (18).\n"
+                     "A drive's map carries its learner's feature cut-off (4.5); evaluate_exact\n"
+                     "sums every term either way.")
       .def("validate", &KernelMap::validate, "source"_a = "",
            "Raises ArgumentError naming the first kernel and value that breaks the model.")
       .def(
@@ -284,7 +290,8 @@ void bind_map_evaluator(py::module_& m) {
            }),
            "ctx"_a, "map"_a, "tau"_a = kDefaultCutoffTau, py::keep_alive<1, 2>(),
            "ctx: the device; map: a KernelMap (validated, copied to the device);\n"
-           "tau: cut-off exponent (default 18).")
+           "tau: cut-off exponent (default 18; a map learned with a smaller cutoff_tau\n"
+           "is evaluated at that).")
       .def_property_readonly("dim", [](const Evaluator& e) { return e.ev.dim(); })
       .def("evaluate", &evaluate_points, "points"_a,
            "Probability, mean and variance (float32 arrays of n) at points, (n, dim) float64 or\n"

@@ -29,6 +29,18 @@ def test_construct_from_arrays_round_trips(rng):
     m32 = potmap.KernelMap(pos.astype(np.float32), g.astype(np.float32), wm, wv)
     np.testing.assert_array_equal(m32.positions, pos.astype(np.float32).astype(np.float64))
     assert m32.bias is None
+    assert m.cutoff_tau == float("inf")
+
+
+def test_a_cutoff_travels_with_the_map_and_is_evaluated_at(scene, ctx, rng, tmp_path):
+    m = potmap.KernelMap(scene.map.positions, scene.map.gamma, scene.map.w_mean, scene.map.w_var)
+    pts = rng.uniform(scene.bounds[0], scene.bounds[1], (2000, 2))
+    want = potmap.Evaluator(ctx, m, tau=0.5).evaluate(pts).mean
+    m.cutoff_tau = 0.5
+    np.testing.assert_array_equal(potmap.Evaluator(ctx, m).evaluate(pts).mean, want)
+    path = tmp_path / "cut.potmap"
+    m.save(str(path))
+    assert potmap.read_map(str(path)).cutoff_tau == 0.5
 
 
 def test_evaluate_matches_the_exact_sum(scene, ctx, rng):

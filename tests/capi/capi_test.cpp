@@ -141,6 +141,8 @@ TEST(CApi, NullHandlesAndOutPointers) {
   POTMAP_EXPECT_FAIL(potmap_map_set_bias(nullptr, 1, 0, 0), POTMAP_ERROR_NULL_ARGUMENT);
   POTMAP_EXPECT_FAIL(potmap_map_bias(nullptr, nullptr, nullptr, nullptr),
                      POTMAP_ERROR_NULL_ARGUMENT);
+  POTMAP_EXPECT_FAIL(potmap_map_set_cutoff(nullptr, 4.5), POTMAP_ERROR_NULL_ARGUMENT);
+  POTMAP_EXPECT_FAIL(potmap_map_cutoff(nullptr, nullptr), POTMAP_ERROR_NULL_ARGUMENT);
   POTMAP_EXPECT_FAIL(potmap_evaluator_create(nullptr, map, 0, &ev), POTMAP_ERROR_NULL_ARGUMENT);
   POTMAP_EXPECT_FAIL(potmap_evaluator_create(ctx, nullptr, 0, &ev), POTMAP_ERROR_NULL_ARGUMENT);
   POTMAP_EXPECT_FAIL(potmap_evaluate(nullptr, pt, 1, 2, out, nullptr, nullptr, 1),
@@ -249,6 +251,12 @@ TEST(CApi, MapRoundTripsThroughEveryFormat) {
   a.bias_mean = -0.75;
   a.bias_var = 0.125;
   potmap_map* map = make_map(a);
+  double tau = 0;
+  POTMAP_ASSERT_OK(potmap_map_cutoff(map, &tau));
+  EXPECT_TRUE(std::isinf(tau));  // a new map has none
+  POTMAP_EXPECT_FAIL(potmap_map_set_cutoff(map, 0.0), POTMAP_ERROR_INVALID_ARGUMENT);
+  POTMAP_EXPECT_FAIL(potmap_map_set_cutoff(map, NAN), POTMAP_ERROR_INVALID_ARGUMENT);
+  POTMAP_ASSERT_OK(potmap_map_set_cutoff(map, 4.5));
   const std::string dir = temp_dir("roundtrip");
   for (const char* ext : {".csv", ".npz", ".potmap"}) {
     const std::string path = dir + "/map" + ext;
@@ -273,6 +281,8 @@ TEST(CApi, MapRoundTripsThroughEveryFormat) {
     EXPECT_EQ(has_bias, 1) << ext;
     EXPECT_EQ(bm, a.bias_mean) << ext;
     EXPECT_EQ(bv, a.bias_var) << ext;
+    POTMAP_ASSERT_OK(potmap_map_cutoff(back, &tau));
+    EXPECT_EQ(tau, 4.5) << ext;
     // Too small: an error, and nothing written.
     std::vector<double> small(n - 1, 42.0);
     POTMAP_EXPECT_FAIL(potmap_map_read(back, nullptr, 0, small.data(), nullptr, nullptr, n - 1),

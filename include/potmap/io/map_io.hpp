@@ -5,14 +5,16 @@
 //   .csv     header `x,y,gamma,w_mean,w_var` (2D) or `x,y,z,gamma,w_mean,w_var` (3D); columns
 //            found by name (case-insensitive) in any order, extra columns ignored, the dimension
 //            follows from the presence of `z`. Lines starting with `#` are comments; the bias
-//            weight, if any, is the comment `# bias <w_mean> <w_var>` (anywhere, at most once).
+//            weight, if any, is the comment `# bias <w_mean> <w_var>` and the map's own cut-off
+//            (KernelMap::cutoff_tau), if any, `# cutoff <tau>` (anywhere, each at most once).
 //            Blank lines are skipped. Numbers are written as the shortest text that reads back
 //            to the same double (exact round trip) and parsed independently of the C locale.
 //   .npz     NumPy archive as the paper's authors saved maps: `qhinge_mean` (M,D) positions,
 //            `qgamma_mean_forward` (1,M), (M,) or (M,1) widths, `qw_mean` and `qw_var` (M,1),
 //            (M,) or (1,M) weight means and variances; optional `bias_mean` and `bias_var`
-//            single values (both or neither). Any of float32/float64 (also int) is read;
-//            float64 is written, uncompressed, in the same layout (qgamma as (1,M)).
+//            single values (both or neither), optional `cutoff_tau` single value. Any of
+//            float32/float64 (also int) is read; float64 is written, uncompressed, in the same
+//            layout (qgamma as (1,M)).
 //   .potmap  native binary, all integers and doubles little-endian:
 //              offset  0: magic "POTMAP\r\n" (8 bytes)
 //                      8: uint32 format version (1)
@@ -27,7 +29,9 @@
 //            potmap/learn/bhm_joint_merge.hpp) is version 1 with flags bit 1 set and, between
 //            w_var and the CRC, a uint64 byte count S and S bytes of the learner's information
 //            form. read_map() reads both versions (the map alone); write_map() writes version
-//            1, which readers before version 2 still read.
+//            1, which readers before version 2 still read. A map with its own cut-off
+//            (KernelMap::cutoff_tau finite) is written as version 2 with flags bit 2 set and a
+//            float64 cut-off exponent right after w_var (before the section, if any).
 //
 // Every reader checks the values as KernelMap::validate does (finite, gamma > 0, w_var >= 0),
 // the dimension, field counts and array shapes, and every length read from a file against the

@@ -56,7 +56,9 @@ struct GridSpec {
 
 /// Options of the device evaluator.
 struct EvalOptions {
-  double tau = kDefaultCutoffTau;  ///< cut-off exponent, gamma * d^2 > tau is dropped; default 18
+  /// Cut-off exponent, gamma * d^2 > tau is dropped; default 18. A map learned with a smaller
+  /// cut-off (KernelMap::cutoff_tau) is evaluated at that.
+  double tau = kDefaultCutoffTau;
   /// Query points per device launch (bounds device memory: about 40 bytes a point plus the
   /// kernel lists). Default 2^21.
   std::size_t points_per_launch = std::size_t(1) << 21;
