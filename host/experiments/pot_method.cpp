@@ -181,12 +181,20 @@ PotRun map_task_scans(Context* ctx, const MapTask& task, const PotSetup& setup,
                       const Dictionary& dict, const PotOptions& po, JointBhm* learner,
                       double range) {
   const auto off = scan_offsets(task);
+  // A scan's samples gathered per voxel of the BHM's edge (BhmSetup::voxel; 3D drives: 0.5 m),
+  // as the BHM learns them, for the transport and the persistent map alike: their cost follows
+  // the space a scan covers, not the sensor's point count.
+  const double voxel = setup.target_bhm.voxel;
+  auto scan_samples = [&](std::size_t i, const std::array<double, 3>& sensor, double r) {
+    LabelledPoints s = samples_of(task, off[i], off[i + 1], sensor, r);
+    return voxel > 0 ? aggregate_voxels(s, voxel) : s;
+  };
   // warm: the atoms of the last scan finished (PotOptions::warm_candidates).
   auto prepare = [&](std::size_t i, std::vector<long> warm) {
     const Scan& s = task.train_scans[i];
     const auto sensor = s.origin();
-    return prepare_transfer(dict, samples_of(task, off[i], off[i + 1], sensor, range), sensor,
-                            scan_heading(s), task.first_index + std::int64_t(i), po, warm, ctx);
+    return prepare_transfer(dict, scan_samples(i, sensor, range), sensor, scan_heading(s),
+                            task.first_index + std::int64_t(i), po, warm, ctx);
   };
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -207,7 +215,7 @@ PotRun map_task_scans(Context* ctx, const MapTask& task, const PotSetup& setup,
     const auto c0 = std::chrono::steady_clock::now();
     if (learner) {
       learner->seed_unreached(transported, setup.seed_min_variance);
-      learner->update(samples_of(task, off[i], off[i + 1], {0, 0, 0}, 0));
+      learner->update(scan_samples(i, {0, 0, 0}, 0), ctx);
       refine_ms += 1e3 * seconds_since(c0);
       return;
     }
@@ -254,7 +262,7 @@ PotRun map_task_scans(Context* ctx, const MapTask& task, const PotSetup& setup,
   if (merging.valid()) merging.get();
   run.timing.refine_ms += refine_ms;
   run.seconds = seconds_since(t0);
-  run.map = std::make_shared<KernelMap>(learner   ? learner->map()
+  run.map = std::make_shared<KernelMap>(learner   ? learner->map(ctx)
                                         : average ? averaged.map()
                                                   : overall.map());
   return run;
