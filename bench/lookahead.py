@@ -1,118 +1,87 @@
 #!/usr/bin/env python3
 """Look-ahead on 3D drives: the map scored where the sensor goes next, before it gets there.
 
-Usage: PYTHONPATH=build/python bench/lookahead.py [--drives riverside-a,hku-1] [--keyframes 16]
-                                                 [--cut 40] [--stride 5] [--voxel 2]
-                                                 [--out docs/lookahead.json]
-                                                 [--doc docs/transfer.md]
+Usage: bench/lookahead.py [--build build] [--drives riverside-a,hku-1] [--keyframes 60]
+                          [--cut 40] [--methods bhm,repot] [--out docs/lookahead.json]
+                          [--doc docs/transfer.md]
 
-Transfer's promise is a calibrated prior where no sample has been yet. For each drive, BHM
-(the joint BHM at the drive defaults) and RePOT (the same seeded from the built-in 3D
-dictionary) map keyframes 0..K-1; before keyframe k is added, each map so far is scored on all
-of keyframe k's beams (labelled as the mapper labels them: cut at --cut metres, 0.5 free samples
-a metre, none held out; every --stride-th sample) and, apart, on the part of them beyond every
-earlier sample's reach (samples whose --voxel metre cell, or an x-y neighbour of it, held no
-earlier training sample). Prints a table a drive and method, writes the JSON with --out; --doc
-FILE puts the table between "<!-- bench/lookahead.py table -->" and "<!-- end of
+Transfer's promise is a calibrated prior where no sample has been yet. For each drive of
+../shared/data/drives3d and each method, `potmap mapping DRIVE --method M --lookahead` maps
+keyframes 0..K-1 as a user runs it: before keyframe k is added (and before RePOT transfers from
+it), the map as it stands is scored on the held-out samples kept of keyframe k (20 % of its
+beams, every 4th sample), all of them and, apart, those beyond every earlier sample's reach (no
+kernel whose cut-off holds them had been reached by a sample: JointBhm::reached). BHM is the
+joint BHM at the drive defaults; RePOT the same seeded from the built-in 3D dictionary, a
+transfer every 4th keyframe. Prints a table a drive and method, writes the JSON with --out;
+--doc FILE puts the table between "<!-- bench/lookahead.py table -->" and "<!-- end of
 bench/lookahead.py table -->".
 """
 import argparse
 import json
 import os
+import platform
+import subprocess
 import sys
+import tempfile
 
-import numpy as np
-
-import potmap
 from marked_doc import replace_marked
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
 
 
-def cells(points, voxel):
-    return [tuple(k) for k in np.floor(points / voxel).astype(np.int64)]
-
-
-def look_ahead(ctx, path, keyframes, cut, stride, voxel, dictionary):
-    drive = potmap.open_drive(path)
-    mappers = {"BHM": potmap.DriveMapper(range_cut=cut),
-               "RePOT": potmap.DriveMapper(range_cut=cut, dictionary=dictionary)}
-    got = {k: {"p": [], "y": [], "beyond": []} for k in mappers}
-    reached = set()
-    for i in range(min(keyframes, len(drive))):
-        kf = drive.keyframe(i)
-        lab = potmap.label_scan(potmap.experiment.limit_range(kf, cut), index=i,
-                                free_per_metre=0.5, holdout=0.0, seed=7)
-        every = np.asarray(lab.train.positions)
-        pts, y = every[::stride], np.asarray(lab.train.labels)[::stride]
-        beyond = np.array([c not in reached for c in cells(pts, voxel)], bool)
-        if i > 0:
-            for name, m in mappers.items():
-                prob = np.asarray(m.map(ctx).evaluate(pts, ctx).prob)
-                got[name]["p"].append(prob)
-                got[name]["y"].append(y)
-                got[name]["beyond"].append(beyond)
-        for m in mappers.values():
-            m.add(kf, i, ctx)
-        for (x, yy, z) in cells(every, voxel):
-            for dx in (-1, 0, 1):
-                for dy in (-1, 0, 1):
-                    reached.add((x + dx, yy + dy, z))
-        print("potmap: %s keyframe %d: %d beams' samples, %d beyond earlier reach"
-              % (os.path.basename(path), i, len(y), int(beyond.sum())), file=sys.stderr)
-    rows = []
-    for name in mappers:
-        p = np.concatenate(got[name]["p"]).astype(np.float32)
-        y = np.concatenate(got[name]["y"])
-        b = np.concatenate(got[name]["beyond"])
-        row = {"method": name, "all": scores(p, y), "beyond_reach": scores(p[b], y[b])}
-        rows.append(row)
-    return rows
-
-
-def scores(p, y):
-    if len(y) < 2 or y.min() == y.max():
-        return {"auc": None, "nll": None, "n": int(len(y))}
-    s = potmap.score(p, y)
-    return {"auc": s.auc, "nll": s.nll, "n": s.n}
+def run(build, drive, method, keyframes, cut):
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [os.path.join(build, "tools", "potmap"), "mapping", os.path.join(DRIVES, drive),
+               "--method", method, "--lookahead", "--max-scans", str(keyframes),
+               "--range-cut", str(cut), "--checkpoint-seconds", "0", "-q", "-o", out,
+               "--json", "-"]
+        print("bench/lookahead.py: " + " ".join(cmd[1:]), file=sys.stderr, flush=True)
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode != 0:
+            sys.exit("bench/lookahead.py: potmap failed:\n" + done.stderr)
+        return json.loads(done.stdout)
 
 
 def cell(s):
-    return "n/a (n %d)" % s["n"] if s["auc"] is None else "%.4f / %.4f (n %d)" % (
-        s["auc"], s["nll"], s["n"])
+    if s["auc"] is None or s["n"] == 0:
+        return "n/a (n %d)" % s["n"]
+    return "%.4f / %.4f (n %d)" % (s["auc"], s["nll"], s["n"])
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--build", default=os.path.join(HERE, "..", "build"))
     ap.add_argument("--drives", default="riverside-a,hku-1")
-    ap.add_argument("--keyframes", type=int, default=16)
+    ap.add_argument("--keyframes", type=int, default=60)
     ap.add_argument("--cut", type=float, default=40.0, help="range cut, metres")
-    ap.add_argument("--stride", type=int, default=5, help="every N-th labelled sample")
-    ap.add_argument("--voxel", type=float, default=2.0, help="reach cells, metres")
+    ap.add_argument("--methods", default="bhm,repot")
     ap.add_argument("--out", default="", help="JSON file to write")
     ap.add_argument("--doc", default="", help="Markdown page whose marked table to replace")
     a = ap.parse_args()
-    ctx = potmap.Context()
-    dictionary = potmap.default_dictionary(dim=3)
-    result = {"keyframes": a.keyframes, "cut_m": a.cut, "stride": a.stride, "voxel_m": a.voxel,
-              "device": ctx.device.summary(), "drives": {}}
-    table = ["| drive | method | look-ahead AUC / NLL, all beams | beyond earlier reach |",
-             "|---|---|---|---|"]
+    names = {"bhm": "BHM", "repot": "RePOT"}
+    result = {"command": "bench/lookahead.py " + " ".join(sys.argv[1:]), "keyframes": a.keyframes,
+              "cut_m": a.cut, "cpus": os.cpu_count(), "machine": platform.machine(), "rows": []}
+    table = ["| drive | method | look-ahead AUC / NLL, all | beyond earlier reach | "
+             "held-out after (AUC / NLL) |", "|---|---|---|---|---|"]
     print("\n".join(table), flush=True)
-    for name in a.drives.split(","):
-        rows = look_ahead(ctx, os.path.join(DRIVES, name), a.keyframes, a.cut, a.stride,
-                          a.voxel, dictionary)
-        result["drives"][name] = rows
-        for r in rows:
-            table.append("| %s | %s | %s | %s |" % (name, r["method"], cell(r["all"]),
-                                                   cell(r["beyond_reach"])))
+    device = ""
+    for drive in a.drives.split(","):
+        for method in a.methods.split(","):
+            j = run(a.build, drive, method, a.keyframes, a.cut)
+            device = j.get("device", device)
+            row = {"drive": drive, "method": names.get(method, method),
+                   "all": j["lookahead"]["all"], "beyond_reach": j["lookahead"]["beyond_reach"],
+                   "held_out": j["scores"], "keyframes": j["keyframes"]}
+            result["rows"].append(row)
+            table.append("| %s | %s | %s | %s | %.4f / %.4f |" % (
+                drive, row["method"], cell(row["all"]), cell(row["beyond_reach"]),
+                j["scores"]["auc"], j["scores"]["nll"]))
             print(table[-1], flush=True)
+    result["device"] = device
     if a.doc:
-        body = "\n".join(["", "Device: %s, %d CPUs; keyframes 0-%d, %g m cut, every %d-th "
-                          "sample, reach cells of %g m." % (ctx.device.summary(), os.cpu_count(),
-                                                             a.keyframes - 1, a.cut, a.stride,
-                                                             a.voxel), ""] + table + [""])
+        body = "\n".join(["", "Device: %s, %d CPUs; keyframes 0-%d, %g m cut." % (
+            device, os.cpu_count(), a.keyframes - 1, a.cut), ""] + table + [""])
         replace_marked(a.doc, "bench/lookahead.py", "table", body)
     if a.out:
         tmp = a.out + ".tmp"

@@ -786,4 +786,75 @@ TEST(JointBhm, RetiredTilesKeepTheMapAndComeBackWhenReached) {
   EXPECT_EQ(bounded.retire_far(at, 1), 0u);
 }
 
+// predict(): the map as the last update left it, read at points. After one scan the exported
+// map's polish has nothing left to do, so predict() equals the map summed with the learner's
+// own cut-off (strictly: the terms with gamma d^2 <= tau), growable and bounded, and once its
+// tiles retired; reached() tells the places a sample has been from the rest.
+TEST(JointBhm, PredictReadsTheMapAsItStands) {
+  JointBhmOptions o;
+  o.cg_tolerance = 1e-13;
+  o.cg_max_iterations = 20000;
+  auto corridor_scan = [](double x0, std::int64_t t) {
+    LabelledPoints s = wall_scan(std::uint32_t(t), t);
+    for (std::size_t i = 0; i < s.size(); ++i) s.position[2 * i] += x0;
+    return s;
+  };
+  const double lo[3] = {-6, -6, 0}, hi[3] = {60, 6, 0};
+  JointBhm grow(2, o), bounded(2, lo, hi, o);
+  std::vector<double> pts;
+  for (double x = -3; x <= 70; x += 0.37)
+    for (double y : {-2.1, -0.4, 0.3, 1.9}) pts.insert(pts.end(), {x, y});
+  const std::size_t n = pts.size() / 2;
+  auto expect_predicts_its_map = [&](const JointBhm& m, const char* what) {
+    SCOPED_TRACE(what);
+    const KernelMap map = m.map(nullptr, 1e-13);
+    std::vector<double> mean(n), var(n);
+    m.predict(pts.data(), n, mean.data(), var.data());
+    double worst = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      double mu = map.has_bias ? map.bias_mean : 0, s2 = map.has_bias ? map.bias_var : 0;
+      for (std::size_t k = 0; k < map.size(); ++k) {
+        const double dx = pts[2 * i] - map.position[2 * k],
+                     dy = pts[2 * i + 1] - map.position[2 * k + 1];
+        const double a = map.gamma[k] * (dx * dx + dy * dy);
+        if (a > m.options().tau) continue;
+        mu += std::exp(-a) * map.w_mean[k];
+        s2 += std::exp(-2 * a) * map.w_var[k];
+      }
+      worst = std::max(
+          {worst, std::abs(mean[i] - mu) / (1 + std::abs(mu)), std::abs(var[i] - s2) / (1 + s2)});
+    }
+    EXPECT_LT(worst, 1e-6);
+  };
+  const LabelledPoints first = corridor_scan(0, 0);
+  grow.update(first);
+  bounded.update(first);
+  expect_predicts_its_map(grow, "growable");
+  expect_predicts_its_map(bounded, "bounded");
+  const double away[3] = {1000, 0, 0};
+  ASSERT_GT(grow.retire_far(away, 10), 0u);
+  EXPECT_EQ(grow.tiles(), 0u);
+  expect_predicts_its_map(grow, "growable, every tile retired");
+  // Where a scan's samples reached, and farther down the corridor, where none did yet.
+  JointBhm walk(2, o);
+  std::int64_t t = 0;
+  for (int k = 0; k <= 6; ++k) walk.update(corridor_scan(3.0 * k, t++));
+  const double probe[6] = {1.0, 0.3, 40.0, 0.3, 70.0, 0.3};
+  std::uint8_t seen[3];
+  walk.reached(probe, 3, seen);
+  EXPECT_EQ(seen[0], 1);
+  EXPECT_EQ(seen[1], 0);
+  EXPECT_EQ(seen[2], 0);
+  for (int k = 7; k <= 20; ++k) {
+    walk.update(corridor_scan(3.0 * k, t++));
+    const double at[3] = {3.0 * k + 1, 0, 0};
+    walk.retire_far(at, 30);
+  }
+  ASSERT_GT(walk.retired_tiles(), 0u);
+  walk.reached(probe, 3, seen);
+  EXPECT_EQ(seen[0], 1);  // in a retired tile
+  EXPECT_EQ(seen[1], 1);  // reached since
+  EXPECT_EQ(seen[2], 0);
+}
+
 }  // namespace potmap

@@ -70,12 +70,48 @@ TEST(DriveMapper, RiversideKeyframesBeatTheGridWithBoundedMemory) {
   EXPECT_THROW(m.add(Scan{}, 10), ArgumentError);  // a 2D scan
 }
 
+TEST(DriveMapper, TheLookAheadScoresEachKeyframeBeforeItIsLearned) {
+  const Drive d = open_drive(test::shared_data("drives3d/riverside-a"));
+  DriveMapperOptions o;
+  o.range_cut = 20;
+  o.test_stride = 8;
+  DriveMapper plain(o);
+  o.lookahead = true;
+  DriveMapper ahead(o);
+  // Every 4th keyframe: the car moves about 30 m between them, so each sees new space too.
+  std::size_t later = 0;  // held-out samples of the keyframes after the first
+  for (std::size_t i = 0; i < 20; i += 4) {
+    const Scan k = read_keyframe(d, i);
+    plain.add(k, std::int64_t(i));
+    const KeyframeStats st = ahead.add(k, std::int64_t(i));
+    if (i > 0) later += st.held_out;
+  }
+  test::expect_same_map(plain.map(), ahead.map());  // scoring changes nothing
+  EXPECT_EQ(plain.lookahead().size(), 0u);
+  const LookAhead& la = ahead.lookahead();
+  ASSERT_EQ(la.size(), later);
+  Scores all, beyond;
+  lookahead_scores(la, all, beyond);
+  std::printf(
+      "riverside-a keyframes 4-16 ahead, 20 m: AUC %.4f NLL %.4f (%zu), beyond reach "
+      "AUC %.4f NLL %.4f (%zu)\n",
+      all.auc, all.nll, all.n, beyond.auc, beyond.nll, beyond.n);
+  // Much of what the car sees it saw from the keyframe before: the map predicts it.
+  EXPECT_GT(all.auc, 0.8);
+  EXPECT_LT(all.nll, 0.4);
+  // Some of each keyframe is new: beyond every earlier sample's reach, where the map has only
+  // its prior to say (and RePOT its seeds).
+  EXPECT_GT(beyond.n, 100u);
+  EXPECT_LT(beyond.n, all.n / 2);
+}
+
 TEST(DriveMapper, ASavedStateContinuesBitForBit) {
   const Drive d = open_drive(test::shared_data("drives3d/riverside-a"));
   DriveMapperOptions o;
   o.range_cut = 15;
   o.test_stride = 32;
   o.retire_radius = 20;  // tiles retire within these keyframes: the state carries them
+  o.lookahead = true;    // and the look-ahead so far
   DriveMapper a(o), b(o);
   for (std::size_t i = 0; i < 4; ++i) {
     const Scan k = read_keyframe(d, i);
@@ -99,6 +135,8 @@ TEST(DriveMapper, ASavedStateContinuesBitForBit) {
   // The map polished on a context's host team and every core is the same, bit for bit.
   test::expect_same_map(a.map(), a.map(&test::context()));
   EXPECT_EQ(a.held_out().position, c.held_out().position);
+  EXPECT_EQ(a.lookahead().prob, c.lookahead().prob);
+  EXPECT_EQ(a.lookahead().beyond, c.lookahead().beyond);
   // Other options: refused, naming the file.
   DriveMapperOptions other = o;
   other.range_cut = 16;

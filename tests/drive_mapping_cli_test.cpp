@@ -228,3 +228,23 @@ TEST(DriveMappingCli, RepotWithADictionaryFileReportsItsTransfer) {
   EXPECT_GT(j["scores"]["auc"].get<double>(), 0.97) << r.out;
   EXPECT_LT(j["scores"]["nll"].get<double>(), 0.15) << r.out;
 }
+
+TEST(DriveMappingCli, LookAheadScoresEveryKeyframeBeforeItIsLearned) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("drive-mapping-lookahead");
+  const test::CliResult r =
+      test::run_cli("mapping " + test::quoted(test::shared_data("drives3d/hku-1")) +
+                        " --max-scans 5 --lookahead -q -o " + test::quoted(d) + " --json -",
+                    "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(j.contains("lookahead")) << r.out;
+  const nlohmann::json& all = j["lookahead"]["all"];
+  const nlohmann::json& beyond = j["lookahead"]["beyond_reach"];
+  // Keyframes 1-4's kept held-out samples, each scored on the map of the keyframes before it.
+  EXPECT_GT(all["n"].get<std::size_t>(), 1000u);
+  EXPECT_LT(all["n"].get<std::size_t>(), j["scores"]["n"].get<std::size_t>());
+  EXPECT_GT(all["auc"].get<double>(), 0.8) << all;
+  EXPECT_LT(beyond["n"].get<std::size_t>(), all["n"].get<std::size_t>());
+  EXPECT_EQ(scores_of(d), j);
+}

@@ -29,6 +29,7 @@ potmap_drive_mapper_options default_options() {
   o.transfer_every = d.transfer_every;
   o.sums = int(d.bhm.sums);
   o.half_life = d.bhm.half_life;
+  o.lookahead = d.lookahead;
   return o;
 }
 
@@ -60,6 +61,7 @@ potmap::DriveMapperOptions to_options(const potmap_drive_mapper_options* in) {
   r.transfer_every = o.transfer_every;
   r.bhm.sums = static_cast<potmap::JointBhmSums>(o.sums);
   r.bhm.half_life = o.half_life;
+  r.lookahead = o.lookahead != 0;
   return r;
 }
 
@@ -105,6 +107,22 @@ potmap_status potmap_drive_mapper_create_repot(potmap_context* context,
     if (context) h->ctx = checked(context).ctx;
     h->mapper = std::make_unique<potmap::DriveMapper>(o);
     *out = h.release();
+  });
+}
+
+potmap_status potmap_drive_mapper_lookahead(const potmap_drive_mapper* mapper, double* auc,
+                                            double* nll, size_t* n, double* beyond_auc,
+                                            double* beyond_nll, size_t* beyond_n) {
+  return guard("potmap_drive_mapper_lookahead", POTMAP_ERROR_INTERNAL, [&] {
+    const potmap_drive_mapper& h = checked(mapper);
+    potmap::Scores all, beyond;
+    potmap::lookahead_scores(h.mapper->lookahead(), all, beyond);
+    if (auc) *auc = all.auc;
+    if (nll) *nll = all.nll;
+    if (n) *n = all.n;
+    if (beyond_auc) *beyond_auc = beyond.auc;
+    if (beyond_nll) *beyond_nll = beyond.nll;
+    if (beyond_n) *beyond_n = beyond.n;
   });
 }
 

@@ -1,5 +1,6 @@
 // C API: the mapping job, a recording into a folder (job/mapping_job.hpp).
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "capi_handles.hpp"
@@ -9,8 +10,8 @@
 namespace potmap::capi {
 namespace {
 
-constexpr std::size_t kMappingJobOptionsV1 = sizeof(potmap_mapping_job_options);
-constexpr std::size_t kMappingJobResultV1 = sizeof(potmap_mapping_job_result);
+constexpr std::size_t kMappingJobOptionsV1 = offsetof(potmap_mapping_job_options, lookahead);
+constexpr std::size_t kMappingJobResultV1 = offsetof(potmap_mapping_job_result, lookahead_auc);
 
 potmap_mapping_job_options default_job_options() {
   const MappingJobOptions d;
@@ -29,6 +30,7 @@ potmap_mapping_job_options default_job_options() {
   o.checkpoint_seconds = d.checkpoint_seconds;
   o.export_every = d.export_every;
   o.resume = d.resume;
+  o.lookahead = d.lookahead;
   return o;
 }
 
@@ -78,6 +80,7 @@ MappingJobOptions to_job_options(const potmap_mapping_job_options* in) {
   r.checkpoint_seconds = o.checkpoint_seconds;
   r.export_every = o.export_every;
   r.resume = o.resume != 0;
+  r.lookahead = o.lookahead != 0;
   return r;
 }
 
@@ -133,6 +136,13 @@ potmap_status potmap_map_recording(potmap_context* context, const char* path,
     s.auc = r.scores.auc;
     s.nll = r.scores.nll;
     s.samples = r.scores.n;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    s.lookahead_auc = r.lookahead.n ? r.lookahead.auc : nan;
+    s.lookahead_nll = r.lookahead.n ? r.lookahead.nll : nan;
+    s.lookahead_samples = r.lookahead.n;
+    s.beyond_auc = r.lookahead_beyond.n ? r.lookahead_beyond.auc : nan;
+    s.beyond_nll = r.lookahead_beyond.n ? r.lookahead_beyond.nll : nan;
+    s.beyond_samples = r.lookahead_beyond.n;
     write_struct(result, s, kMappingJobResultV1, "result", POTMAP_ERROR_INVALID_ARGUMENT);
   });
 }

@@ -42,6 +42,7 @@ nlohmann::json drive_run_record(const std::string& recording, const MappingJobOp
        options.dictionary ? std::to_string(fingerprint(*options.dictionary)) : std::string()}};
   // Only when set: checkpoints of runs that never forget keep their record.
   if (a.half_life > 0) r["--half-life"] = a.half_life;
+  if (a.lookahead) r["--lookahead"] = true;
   return r;
 }
 

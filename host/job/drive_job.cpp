@@ -62,6 +62,7 @@ DriveMapperOptions mapper_options(const MappingJobOptions& a, const Report& repo
   o.range_cut = a.range_cut;
   o.labels.seed = a.seed;
   if (a.keep_tiles) o.retire_radius = 0;
+  o.lookahead = a.lookahead;
   o.bhm.half_life = a.half_life;
   o.bhm.sums = a.sums == "host"     ? JointBhmSums::host
                : a.sums == "device" ? JointBhmSums::device
@@ -114,6 +115,23 @@ nlohmann::json summary_json(const std::string& recording, const MappingJobOption
   j["keyframe_memory_mb"] = run.memory_mb;
   j["keyframe_ms"] = run.keyframe_ms;
   return j;
+}
+
+// --lookahead: the map before each keyframe on its held-out samples, all and beyond reach.
+void report_lookahead(const DriveMapper& mapper, const Report& report, nlohmann::json& j,
+                      MappingJobResult& out) {
+  Scores& all = out.lookahead;
+  Scores& beyond = out.lookahead_beyond;
+  lookahead_scores(mapper.lookahead(), all, beyond);
+  auto json = [](const Scores& s) {
+    return nlohmann::json{{"auc", s.auc}, {"nll", s.nll}, {"n", s.n}};
+  };
+  j["lookahead"] = {{"all", json(all)}, {"beyond_reach", json(beyond)}};
+  report.note(
+      format("look-ahead     AUC %.4f  NLL %.4f  (%zu held-out samples scored before "
+             "their keyframe); beyond every earlier sample's reach AUC %.4f  NLL %.4f  "
+             "(%zu)",
+             all.auc, all.nll, all.n, beyond.auc, beyond.nll, beyond.n));
 }
 
 // How the drive's keyframes and poses were found, for the first line of the run.
@@ -231,6 +249,7 @@ MappingJobResult write_drive_results(const std::string& recording, const Mapping
     j["ranks"] = *res.ranks;
     j["memory_mb"] = res.learner.memory_bytes() / 1e6;  // the merged map's learner
   }
+  if (mapper.options().lookahead && !res.ranks) report_lookahead(mapper, report, j, out);
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
   j["outputs_phases_s"] = {

@@ -3,9 +3,11 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "potmap/data/keyframe_samples.hpp"
 #include "potmap/error.hpp"
+#include "potmap/map/evaluate.hpp"
 
 namespace potmap {
 
@@ -96,6 +98,7 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
     ++st.held_out;
   }
   st.label_ms = ms_since(t0);
+  if (o_.lookahead && keyframes_ > 0) look_ahead(test_.size() - st.held_out);
   // The keyframe's time is the learner's clock (forgetting: bhm.half_life).
   learner_.set_time(keyframe.timestamp);
   if (o_.dictionary && !train.empty() && keyframes_ % o_.transfer_every == 0) {
@@ -117,9 +120,40 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
   return st;
 }
 
+void DriveMapper::look_ahead(std::size_t first) {
+  const std::size_t n = test_.size() - first;
+  const double* at = &test_.position[3 * first];
+  std::vector<double> mean(n), var(n);
+  learner_.predict(at, n, mean.data(), var.data());
+  const std::size_t old = ahead_.size();
+  ahead_.beyond.resize(old + n);
+  learner_.reached(at, n, &ahead_.beyond[old]);
+  for (std::size_t i = 0; i < n; ++i) {
+    ahead_.beyond[old + i] ^= 1;
+    ahead_.prob.push_back(static_cast<float>(probit_probability(mean[i], var[i])));
+    ahead_.label.push_back(test_.label[first + i]);
+  }
+}
+
+void lookahead_scores(const LookAhead& ahead, Scores& all, Scores& beyond) {
+  std::vector<float> p;
+  std::vector<std::uint8_t> y;
+  for (std::size_t i = 0; i < ahead.size(); ++i)
+    if (ahead.beyond[i]) {
+      p.push_back(ahead.prob[i]);
+      y.push_back(ahead.label[i]);
+    }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Scores none{nan, nan, nan, 0};
+  all = ahead.size() ? score(ahead.prob, ahead.label) : none;
+  beyond = p.empty() ? none : score(p, y);
+}
+
 std::size_t DriveMapper::memory_bytes() const {
   return learner_.memory_bytes() + test_.position.capacity() * sizeof(double) +
-         test_.label.capacity() + test_.scan.capacity() * sizeof(std::int64_t);
+         test_.label.capacity() + test_.scan.capacity() * sizeof(std::int64_t) +
+         ahead_.prob.capacity() * sizeof(float) + ahead_.label.capacity() +
+         ahead_.beyond.capacity();
 }
 
 }  // namespace potmap

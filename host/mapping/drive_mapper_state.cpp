@@ -4,7 +4,8 @@
 // u64 file size; then the caller's extra bytes, a fingerprint of the options that change the
 // map (u64), the keyframe count, the held-out samples (positions, labels, keyframe indices) and
 // the learner (learn/bhm_joint_state.hpp) with its retired tiles and, last, its data
-// fingerprints (states saved before them end without them and read as before).
+// fingerprints and its clock, and the look-ahead (probabilities, labels, reach flags; states
+// saved before any of these end without them and read as before).
 #include <cstring>
 
 #include "io/container_cursor.hpp"
@@ -81,6 +82,12 @@ std::string DriveMapper::state_bytes(const std::string& extra) const {
   detail::JointBhmState::write_retired(w, learner_);
   detail::JointBhmState::write_data_ids(w, learner_);
   detail::JointBhmState::write_clock(w, learner_);
+  // The look-ahead last (states saved before it end without it and read as none).
+  std::vector<double> prob(ahead_.prob.begin(), ahead_.prob.end());
+  w.u64(prob.size());
+  w.f64s(prob);
+  detail::put_uints(w, ahead_.label);
+  detail::put_uints(w, ahead_.beyond);
   return w.finish_bytes();
 }
 
@@ -117,9 +124,22 @@ std::string DriveMapper::load_state(const std::string& path) {
   detail::JointBhmState::read_retired(c, learner);
   detail::JointBhmState::read_data_ids(c, learner);
   detail::JointBhmState::read_clock(c, learner);
+  LookAhead ahead;
+  if (c.at() != r.payload_end()) {
+    const std::size_t ahead_at = c.at();
+    const std::vector<double> prob = c.f64s("look-ahead probabilities");
+    ahead.label = c.uints<std::uint8_t>("look-ahead labels");
+    ahead.beyond = c.uints<std::uint8_t>("look-ahead reach");
+    if (ahead.label.size() != prob.size() || ahead.beyond.size() != prob.size())
+      r.fail(ahead_at, "look-ahead: " + std::to_string(prob.size()) + " probabilities, " +
+                           std::to_string(ahead.label.size()) + " labels, " +
+                           std::to_string(ahead.beyond.size()) + " reach flags");
+    ahead.prob.assign(prob.begin(), prob.end());
+  }
   c.finish();
   learner_ = std::move(learner);
   test_ = std::move(test);
+  ahead_ = std::move(ahead);
   keyframes_ = std::size_t(keyframes);
   return extra;
 }

@@ -692,6 +692,10 @@ typedef struct potmap_drive_mapper_options {
   /** Forgetting: the joint BHM's evidence halves every half_life seconds of the keyframes' time
    *  (potmap_scan::timestamp); >= 0 (default 0: never; docs/forgetting.md). */
   double half_life;
+  /* ---- appended in version 3 ---- */
+  /** 1: score each keyframe's kept held-out samples on the map before the keyframe is added
+   *  (potmap_drive_mapper_lookahead). Default 0. */
+  int lookahead;
 } potmap_drive_mapper_options;
 
 /** potmap_drive_mapper_options::sums. */
@@ -751,6 +755,15 @@ POTMAP_EXPORT potmap_status potmap_drive_mapper_add_keyframe(potmap_drive_mapper
  *  when the map is needed, not after every keyframe. */
 POTMAP_EXPORT potmap_status potmap_drive_mapper_map(const potmap_drive_mapper* mapper,
                                                     potmap_map** out);
+
+/** The look-ahead so far (options lookahead): the kept held-out samples of every keyframe
+ *  after the first, scored on the map before their keyframe was added: *auc, *nll over all n
+ *  of them, and *beyond_auc, *beyond_nll over the *beyond_n that no earlier sample had reached
+ *  (NaN where there are none, or only one class). Any out-pointer may be NULL. */
+POTMAP_EXPORT potmap_status potmap_drive_mapper_lookahead(const potmap_drive_mapper* mapper,
+                                                          double* auc, double* nll, size_t* n,
+                                                          double* beyond_auc, double* beyond_nll,
+                                                          size_t* beyond_n);
 
 /** Writes the map to `path`, format from the extension (potmap_map_save). Into a .potmap, the
  *  joint BHM's information form (for potmap_merge_maps) goes with it when no tile was retired
@@ -849,6 +862,10 @@ typedef struct potmap_mapping_job_options {
   double checkpoint_seconds;
   size_t export_every; /**< 3D: keyframes between exports of the map so far (0: at the end) */
   int resume;          /**< 3D: 1 continues from OUT/map.ckpt when it is there (default 0) */
+  /* ---- appended in version 2 ---- */
+  /** 3D: 1 scores each keyframe's held-out samples on the map before the keyframe is added
+   *  (`potmap mapping --lookahead`; result's lookahead fields). Default 0. */
+  int lookahead;
 } potmap_mapping_job_options;
 
 /** Fills *options with the defaults above (out NULL); struct_size as for potmap_scan_init. */
@@ -877,6 +894,13 @@ typedef struct potmap_mapping_job_result {
   size_t files;         /**< files written into the folder, OUT/scores.json the last */
   double acc, auc, nll; /**< every held-out beam (20 %, never mapped) on the final map */
   size_t samples;       /**< held-out samples scored */
+  /* ---- appended in version 2 ---- */
+  /** options lookahead: the held-out samples scored on the map before their keyframe was
+   *  added, all of them and those beyond every earlier sample's reach (NaN without). */
+  double lookahead_auc, lookahead_nll;
+  size_t lookahead_samples;
+  double beyond_auc, beyond_nll;
+  size_t beyond_samples;
 } potmap_mapping_job_result;
 
 /** Maps the recording at `path` (a 2D log, a 3D drive folder or a ROS bag) on the context's

@@ -478,6 +478,12 @@ class DriveMapper:
         """the held-out samples kept (LabelledPoints)"""
         ...
     @property
+    def lookahead(self) -> tuple:
+        """(prob, label, beyond) arrays of the look-ahead (options lookahead): per kept
+        held-out sample of every keyframe after the first, the map's probability before
+        the keyframe was added, its label, and 1 where no earlier sample had reached it"""
+        ...
+    @property
     def keyframes(self) -> int:
         ...
     @property
@@ -542,6 +548,12 @@ class DriveMapperOptions:
         ...
     @test_stride.setter
     def test_stride(self, value: Any) -> None: ...
+    @property
+    def lookahead(self) -> bool:
+        """score each keyframe's kept held-out samples on the map before it is added (default False; DriveMapper.lookahead)"""
+        ...
+    @lookahead.setter
+    def lookahead(self, value: Any) -> None: ...
     @property
     def dictionary(self) -> Dictionary:
         """RePOT: a 3D Dictionary whose transport seeds the joint BHM where no sample reaches (default None: the joint BHM alone)"""
@@ -1350,6 +1362,12 @@ class MappingJobOptions:
         ...
     @keep_tiles.setter
     def keep_tiles(self, value: Any) -> None: ...
+    @property
+    def lookahead(self) -> bool:
+        """3D: scores.json's look-ahead"""
+        ...
+    @lookahead.setter
+    def lookahead(self, value: Any) -> None: ...
     @property
     def bag(self) -> BagOptions:
         """ROS bags: BagOptions"""

@@ -104,6 +104,9 @@ void bind_drive_options(py::module_& m) {
                      "range_cut + 16; 0: never)")
       .def_readwrite("test_stride", &DriveMapperOptions::test_stride,
                      "every this many held-out samples one is kept (default 4)")
+      .def_readwrite("lookahead", &DriveMapperOptions::lookahead,
+                     "score each keyframe's kept held-out samples on the map before it is "
+                     "added (default False; DriveMapper.lookahead)")
       .def_property(
           "dictionary",
           [](const DriveMapperOptions& o) {
@@ -235,6 +238,21 @@ void bind_drives(py::module_& m) {
             return d.m.held_out();
           },
           "the held-out samples kept (LabelledPoints)")
+      .def_property_readonly(
+          "lookahead",
+          [](PyDriveMapper& d) {
+            std::lock_guard<std::mutex> lock(*d.mu);
+            const LookAhead& la = d.m.lookahead();
+            py::array_t<float> prob(py::ssize_t(la.size()));
+            py::array_t<std::uint8_t> label(py::ssize_t(la.size())), beyond(py::ssize_t(la.size()));
+            std::copy(la.prob.begin(), la.prob.end(), prob.mutable_data());
+            std::copy(la.label.begin(), la.label.end(), label.mutable_data());
+            std::copy(la.beyond.begin(), la.beyond.end(), beyond.mutable_data());
+            return py::make_tuple(prob, label, beyond);
+          },
+          "(prob, label, beyond) arrays of the look-ahead (options lookahead): per kept\n"
+          "held-out sample of every keyframe after the first, the map's probability before\n"
+          "the keyframe was added, its label, and 1 where no earlier sample had reached it")
       .def_property_readonly("keyframes", [](PyDriveMapper& d) { return d.m.keyframes(); })
       .def_property_readonly("memory_bytes", [](PyDriveMapper& d) { return d.m.memory_bytes(); })
       .def(

@@ -53,6 +53,7 @@ void bind_job_options(py::module_& m) {
       .def_readwrite("resume", &O::resume, "3D: continue from OUT/map.ckpt")
       .def_readwrite("keep_checkpoint", &O::keep_checkpoint)
       .def_readwrite("keep_tiles", &O::keep_tiles)
+      .def_readwrite("lookahead", &O::lookahead, "3D: scores.json's look-ahead")
       .def_readwrite("bag", &O::bag, "ROS bags: BagOptions");
   add_fields_repr(o);
 

@@ -90,6 +90,22 @@ def test_drive_mapper_keyframe_by_keyframe_with_a_saved_state(tmp_path):
         potmap.DriveMapper(range_cut=30).load_state(str(tmp_path / "s.state"))
 
 
+def test_the_look_ahead_equals_the_command(ctx, cli, tmp_path):
+    d = potmap.open_drive(HKU)
+    m = potmap.DriveMapper(lookahead=True)
+    for i in range(4):
+        m.add(d.keyframe(i), i, ctx)
+    prob, label, beyond = m.lookahead
+    assert prob.dtype == np.float32 and len(prob) == len(label) == len(beyond) > 1000
+    out = cli("mapping", HKU, "--max-scans", 4, "--lookahead", "-q", "-o", tmp_path / "cmd",
+              "--json", "-", json_out=True)
+    s = potmap.score(prob, label)
+    assert s.n == out["lookahead"]["all"]["n"]
+    assert abs(s.nll - out["lookahead"]["all"]["nll"]) < 1e-12
+    b = potmap.score(prob[beyond == 1], label[beyond == 1])
+    assert b.n == out["lookahead"]["beyond_reach"]["n"]
+
+
 def test_repot_drive_mapper_seeds_from_a_dictionary_of_the_drive(ctx):
     d = potmap.open_drive(HKU)
     src = potmap.DriveMapper(range_cut=20)

@@ -38,6 +38,7 @@ TEST(CApiDriveMapper, OptionsInitToTheDriveDefaults) {
   EXPECT_EQ(o.retire_radius, -1.0);
   EXPECT_EQ(o.sums, POTMAP_SUMS_AUTOMATIC);
   EXPECT_EQ(o.half_life, 0.0);
+  EXPECT_EQ(o.lookahead, 0);
   potmap_drive_mapper* m = nullptr;
   o.half_life = -2;
   POTMAP_EXPECT_FAIL(potmap_drive_mapper_create(nullptr, &o, &m), POTMAP_ERROR_INVALID_ARGUMENT);
@@ -61,7 +62,10 @@ TEST(CApiDriveMapper, MapsADriveReadAsADataset) {
   POTMAP_ASSERT_OK(potmap_dataset_size(data, &n));
   ASSERT_EQ(n, 314u);
   potmap_drive_mapper* m = nullptr;
-  POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), nullptr, &m));
+  potmap_drive_mapper_options mo;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_options_init(&mo, sizeof mo));
+  mo.lookahead = 1;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_create(shared_context(), &mo, &m));
   potmap_scan s;
   POTMAP_ASSERT_OK(potmap_scan_init(&s, sizeof s));
   potmap_keyframe_stats st;
@@ -73,6 +77,18 @@ TEST(CApiDriveMapper, MapsADriveReadAsADataset) {
     EXPECT_GT(st.held_out, 0u);
     EXPECT_GT(st.memory_bytes, 0u);
   }
+  // Keyframes 1-5 scored before each was learned: the walk sees mostly what it saw before.
+  double la_auc = 0, la_nll = 0, b_auc = 0, b_nll = 0;
+  size_t la_n = 0, b_n = 0;
+  POTMAP_ASSERT_OK(potmap_drive_mapper_lookahead(m, &la_auc, &la_nll, &la_n, &b_auc, &b_nll, &b_n));
+  EXPECT_GT(la_n, 1000u);
+  EXPECT_GT(la_auc, 0.8);
+  EXPECT_LT(b_n, la_n);
+  POTMAP_ASSERT_OK(
+      potmap_drive_mapper_lookahead(m, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr));
+  POTMAP_EXPECT_FAIL(
+      potmap_drive_mapper_lookahead(nullptr, &la_auc, nullptr, nullptr, nullptr, nullptr, nullptr),
+      POTMAP_ERROR_NULL_ARGUMENT);
   // A state saved and loaded into another mapper gives the same map.
   const std::string path = temp_dir("capi-drive") + "/m.state";
   POTMAP_ASSERT_OK(potmap_drive_mapper_save_state(m, path.c_str()));

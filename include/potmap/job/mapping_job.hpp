@@ -84,6 +84,10 @@ struct MappingJobOptions {
   bool keep_checkpoint = false;    ///< keep OUT/map.ckpt after the run
   /// Never retire far tiles, so that map.potmap carries the information form (`potmap merge`).
   bool keep_tiles = false;
+  /// Score each keyframe's kept held-out samples on the map before the keyframe is added
+  /// (DriveMapperOptions::lookahead): scores.json's "lookahead", on all of them and on those
+  /// beyond every earlier sample's reach. Default false.
+  bool lookahead = false;
   BagOptions bag;  ///< ROS bags: topic, fixed frame, poses, keyframe spacing
 };
 
@@ -121,7 +125,10 @@ struct MappingJobResult {
   bool drive = false;              ///< a 3D drive (else a 2D log)
   std::vector<std::string> files;  ///< every file written, OUT/scores.json last
   Scores scores;                   ///< every held-out beam on the final map
-  std::string scores_json;         ///< OUT/scores.json's text
+  /// options.lookahead: the kept held-out samples on the map before their keyframe, all and
+  /// those beyond every earlier sample's reach (n 0 without).
+  Scores lookahead, lookahead_beyond;
+  std::string scores_json;  ///< OUT/scores.json's text
 };
 
 /// Maps `recording` (any dataset potmap reads) on `ctx`'s device into options.out. Throws

@@ -224,6 +224,18 @@ class JointBhm {
   /// routes agree to about that). A drive's mapper asks for 1e-6 (DriveMapper::map()).
   KernelMap map(Context* ctx = nullptr, double polish_tolerance = 1e-8) const;
 
+  /// Mean and variance of the logit at n points (n * dim coordinates) as the last update left
+  /// the map: the kernels' means as its solve left them (map() polishes them further), their
+  /// exported variances (map()'s), the learner's own cut-off (tau), retired tiles as they
+  /// retired. What a planner reads between keyframes, and a drive's look-ahead: it reads only
+  /// the kernels the points reach (a few milliseconds for thousands of points), where map()
+  /// polishes and exports the whole map. Either output may be null.
+  void predict(const double* points, std::size_t n, double* mean, double* var) const;
+  /// Per point (n * dim coordinates), 1 if a sample has reached a kernel whose cut-off holds
+  /// it (a kernel a sample touched, or one of a retired tile), else 0: space the sensor has
+  /// not been yet, where only the prior and RePOT's seeds speak. `out` receives n bytes.
+  void reached(const double* points, std::size_t n, std::uint8_t* out) const;
+
   /// Posterior mean and variance of the logit at n points (n * dim coordinates), exactly:
   /// phi^T P^-1 eta and phi^T P^-1 phi, by a sparse Cholesky factorisation of the whole
   /// stored precision and one solve per point (no conjugate gradients): for tests and small
@@ -410,6 +422,9 @@ class JointBhm {
   double predictive_var_at(const std::int64_t g[3], std::int64_t hint,
                            std::vector<double>& block_scratch) const;
   double exported_var(const std::int64_t g[3], std::int64_t s, std::vector<double>& scratch) const;
+  // The mean and variance a retired tile keeps for the kernel at `cell` (faded to time() as
+  // map() gives them); false where no retired tile holds it.
+  bool retired_kernel(const std::int32_t cell[3], double& mean, double& var) const;
 
   JointBhmOptions o_;
   int dim_ = 2;

@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "potmap/data/labelled_points.hpp"
 #include "potmap/data/labelling.hpp"
@@ -31,6 +32,7 @@
 #include "potmap/export.h"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/kernel_map.hpp"
+#include "potmap/map/metrics.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/transfer.hpp"
 
@@ -94,7 +96,26 @@ struct DriveMapperOptions {
   /// samples would otherwise hold 200 MB over 281 keyframes; a quarter of them scores to the
   /// third decimal).
   std::size_t test_stride = 4;
+  /// Look-ahead (default false): before each keyframe after the first is learned, or
+  /// transferred from, the map as it stands (JointBhm::predict) is scored on the held-out
+  /// samples kept of it, and each is marked beyond reach where no earlier sample had reached
+  /// a kernel there (JointBhm::reached): what transfer is for, a prior where the sensor has
+  /// not been yet (lookahead()). Costs a few milliseconds a keyframe; the map is the same.
+  bool lookahead = false;
 };
+
+/// The look-ahead samples (DriveMapperOptions::lookahead): per kept held-out sample of every
+/// keyframe after the first, the map's probability before that keyframe was added.
+struct LookAhead {
+  std::vector<float> prob;           ///< p(occupied) the map gave before the keyframe
+  std::vector<std::uint8_t> label;   ///< 1 = occupied (hit), 0 = free
+  std::vector<std::uint8_t> beyond;  ///< 1: no earlier sample had reached a kernel there
+  std::size_t size() const { return label.size(); }
+};
+
+/// Scores of a look-ahead: over every sample into `all`, over those beyond reach into `beyond`
+/// (metrics.hpp: AUC NaN with one class; n 0 and NaN scores where there are none).
+void lookahead_scores(const LookAhead& ahead, Scores& all, Scores& beyond);
 
 /// What one add() did.
 struct KeyframeStats {
@@ -136,6 +157,8 @@ class DriveMapper {
   const LabelledPoints& held_out() const { return test_; }
   const JointBhm& learner() const { return learner_; }
   const DriveMapperOptions& options() const { return o_; }
+  /// The look-ahead so far (empty unless DriveMapperOptions::lookahead).
+  const LookAhead& lookahead() const { return ahead_; }
   /// Keyframes added.
   std::size_t keyframes() const { return keyframes_; }
   /// Bytes held: the learner's and the held-out samples'.
@@ -160,7 +183,10 @@ class DriveMapper {
   DriveMapperOptions o_;
   JointBhm learner_;
   LabelledPoints test_;
+  LookAhead ahead_;
   std::size_t keyframes_ = 0;
+  // Scores the map as it stands on the held-out samples from test_[first] on (lookahead).
+  void look_ahead(std::size_t first);
 };
 
 }  // namespace potmap

@@ -1,0 +1,88 @@
+// The joint BHM read between updates: the map at points as the last update left it, and
+// whether a sample has reached a point yet (a drive's look-ahead, a planner's query).
+#include <cmath>
+#include <unordered_map>
+
+#include "bhm_joint_grid.hpp"
+#include "potmap/learn/bhm_joint.hpp"
+
+namespace potmap {
+
+bool JointBhm::retired_kernel(const std::int32_t cell[3], double& mean, double& var) const {
+  if (retired_.empty()) return false;
+  std::int64_t t[3] = {0, 0, 0}, l = 0;
+  for (int d = 0; d < dim_; ++d) t[d] = joint_grid::floor_div(cell[d], tile_);
+  const auto it = retired_index_.find(tile_key(t));
+  if (it == retired_index_.end()) return false;
+  for (int d = dim_ - 1; d >= 0; --d) l = l * tile_ + (cell[d] - t[d] * tile_);
+  const RetiredTile& r = retired_[it->second];
+  mean = r.mean[std::size_t(l)];
+  var = r.var[std::size_t(l)];
+  const double a = fade_since(r.clock);
+  if (a != 1.0) {  // faded since it retired, as map() gives it
+    const double p0 = 1.0 / o_.prior_var;
+    const double v = std::min(o_.prior_var, std::max(var, 1e-9));
+    const double prec = p0 + a * (1.0 / v - p0);
+    mean = a * mean / v / prec;
+    var = 1.0 / prec;
+  }
+  return true;
+}
+
+void JointBhm::predict(const double* points, std::size_t n, double* mean, double* var) const {
+  if (behind()) {  // forgetting: the posterior at time(), faded on a copy
+    JointBhm now = *this;
+    now.catch_up();
+    now.predict(points, n, mean, var);
+    return;
+  }
+  // Each kernel's exported variance once a call: the cache where its tile is up to date.
+  std::unordered_map<std::uint32_t, double> fresh;
+  std::vector<double> scratch;
+  std::vector<Feature> f;
+  auto variance = [&](const Feature& k) {
+    const std::int64_t g[3] = {k.cell[0], k.cell[1], k.cell[2]};
+    if (k.kernel == kNone) return exported_var(g, -1, scratch);
+    if (!tile_dirty_[k.kernel / tile_cells_]) return var_[k.kernel];
+    const auto it = fresh.find(k.kernel);
+    if (it != fresh.end()) return it->second;
+    const double v = exported_var(g, std::int64_t(k.kernel), scratch);
+    fresh.emplace(k.kernel, v);
+    return v;
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    double m = o_.bias ? meanb_ : 0.0, s2 = o_.bias ? 1.0 / pbb_ : 0.0;
+    features(points + i * dim_, f);
+    for (const Feature& k : f) {
+      double wm = 0, wv = 0;
+      if (k.kernel != kNone) {
+        wm = mean_[k.kernel];
+        wv = variance(k);
+      } else if (bounded_) {  // a kernel no sample or seed made: its prior
+        wv = variance(k);
+      } else if (!retired_kernel(k.cell, wm, wv)) {
+        continue;  // a growable map holds no kernel there
+      }
+      m += k.phi * wm;
+      s2 += k.phi * k.phi * wv;
+    }
+    if (mean) mean[i] = m;
+    if (var) var[i] = s2;
+  }
+}
+
+void JointBhm::reached(const double* points, std::size_t n, std::uint8_t* out) const {
+  std::vector<Feature> f;
+  double wm = 0, wv = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    features(points + i * dim_, f);
+    out[i] = 0;
+    for (const Feature& k : f)
+      if (k.kernel != kNone ? touched_[k.kernel] != 0 : retired_kernel(k.cell, wm, wv)) {
+        out[i] = 1;
+        break;
+      }
+  }
+}
+
+}  // namespace potmap
