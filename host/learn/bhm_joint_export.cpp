@@ -254,7 +254,6 @@ KernelMap JointBhm::map_current(Context* ctx, double polish_tolerance) const {
       m.push_back(p, gamma_, mean[s], var_[s]);
     }
     // Retired tiles, as they were left (retire_far()), faded since (as revive() would).
-    const double p0 = 1.0 / o_.prior_var;
     for (const RetiredTile& r : retired_) {
       const double a = fade_since(r.clock);
       for (std::int64_t l = 0; l < tile_cells_; ++l) {
@@ -265,14 +264,9 @@ KernelMap JointBhm::map_current(Context* ctx, double polish_tolerance) const {
         }
         double p[3];
         position(g, p);
-        const double mean = r.mean[std::size_t(l)], var = r.var[std::size_t(l)];
-        if (a == 1.0) {
-          m.push_back(p, gamma_, mean, var);
-        } else {
-          const double v = std::min(o_.prior_var, std::max(var, 1e-9));
-          const double prec = p0 + a * (1.0 / v - p0);
-          m.push_back(p, gamma_, a * mean / v / prec, 1.0 / prec);
-        }
+        double mean = r.mean[std::size_t(l)], var = r.var[std::size_t(l)];
+        fade_retired(a, mean, var);
+        m.push_back(p, gamma_, mean, var);
       }
     }
   }

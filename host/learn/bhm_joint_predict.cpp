@@ -1,5 +1,6 @@
 // The joint BHM read between updates: the map at points as the last update left it, and
 // whether a sample has reached a point yet (a drive's look-ahead, a planner's query).
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -18,15 +19,18 @@ bool JointBhm::retired_kernel(const std::int32_t cell[3], double& mean, double& 
   const RetiredTile& r = retired_[it->second];
   mean = r.mean[std::size_t(l)];
   var = r.var[std::size_t(l)];
-  const double a = fade_since(r.clock);
-  if (a != 1.0) {  // faded since it retired, as map() gives it
-    const double p0 = 1.0 / o_.prior_var;
-    const double v = std::min(o_.prior_var, std::max(var, 1e-9));
-    const double prec = p0 + a * (1.0 / v - p0);
-    mean = a * mean / v / prec;
-    var = 1.0 / prec;
-  }
+  fade_retired(fade_since(r.clock), mean, var);
   return true;
+}
+
+void JointBhm::fade_retired(double a, double& mean, double& var) const {
+  if (a == 1.0) return;
+  // The retired kernel's evidence (its precision above the prior's) faded by a.
+  const double p0 = 1.0 / o_.prior_var;
+  const double v = std::min(o_.prior_var, std::max(var, 1e-9));
+  const double prec = p0 + a * (1.0 / v - p0);
+  mean = a * mean / v / prec;
+  var = 1.0 / prec;
 }
 
 void JointBhm::predict(const double* points, std::size_t n, double* mean, double* var) const {

@@ -425,6 +425,8 @@ class JointBhm {
   // The mean and variance a retired tile keeps for the kernel at `cell` (faded to time() as
   // map() gives them); false where no retired tile holds it.
   bool retired_kernel(const std::int32_t cell[3], double& mean, double& var) const;
+  // A retired kernel's mean and variance with its evidence faded by `a` (fade_since()).
+  void fade_retired(double a, double& mean, double& var) const;
 
   JointBhmOptions o_;
   int dim_ = 2;
