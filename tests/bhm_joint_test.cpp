@@ -810,6 +810,10 @@ TEST(JointBhm, PredictReadsTheMapAsItStands) {
     const KernelMap map = m.map(nullptr, 1e-13);
     std::vector<double> mean(n), var(n);
     m.predict(pts.data(), n, mean.data(), var.data());
+    std::vector<double> mean_team(n), var_team(n);  // the variances on a host team: the same
+    m.predict(pts.data(), n, mean_team.data(), var_team.data(), &test::context());
+    EXPECT_EQ(mean_team, mean);
+    EXPECT_EQ(var_team, var);
     double worst = 0;
     for (std::size_t i = 0; i < n; ++i) {
       double mu = map.has_bias ? map.bias_mean : 0, s2 = map.has_bias ? map.bias_var : 0;

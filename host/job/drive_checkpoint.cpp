@@ -15,6 +15,7 @@ void DriveRun::add(const KeyframeStats& st, const std::array<double, 12>& pose) 
   ++keyframes;
   label_ms += st.label_ms;
   transfer_ms += st.transfer_ms;
+  lookahead_ms += st.lookahead_ms;
   update_ms += st.update_ms;
   const double ms = st.label_ms + st.transfer_ms + st.update_ms;
   max_ms = std::max(max_ms, ms);
@@ -57,11 +58,17 @@ void DriveCheckpoints::wait() {
 void DriveCheckpoints::write(const std::string& path, const DriveRun& run,
                              const DriveMapper& mapper, std::size_t next) {
   wait();
-  const nlohmann::json extra = {{"record", run.record},          {"next", next},
-                                {"keyframes", run.keyframes},    {"label_ms", run.label_ms},
-                                {"update_ms", run.update_ms},    {"transfer_ms", run.transfer_ms},
-                                {"max_ms", run.max_ms},          {"peak_bytes", run.peak_bytes},
-                                {"positions", run.positions},    {"memory_mb", run.memory_mb},
+  const nlohmann::json extra = {{"record", run.record},
+                                {"next", next},
+                                {"keyframes", run.keyframes},
+                                {"label_ms", run.label_ms},
+                                {"update_ms", run.update_ms},
+                                {"transfer_ms", run.transfer_ms},
+                                {"lookahead_ms", run.lookahead_ms},
+                                {"max_ms", run.max_ms},
+                                {"peak_bytes", run.peak_bytes},
+                                {"positions", run.positions},
+                                {"memory_mb", run.memory_mb},
                                 {"keyframe_ms", run.keyframe_ms}};
   remove_stale_temporaries(path);
   pending_ = std::async(std::launch::async, [path, bytes = mapper.state_bytes(extra.dump())] {
@@ -83,6 +90,7 @@ std::size_t read_drive_checkpoint(const std::string& path, DriveRun& run, DriveM
     r.label_ms = extra.at("label_ms");
     r.update_ms = extra.at("update_ms");
     r.transfer_ms = extra.value("transfer_ms", 0.0);
+    r.lookahead_ms = extra.value("lookahead_ms", 0.0);
     r.max_ms = extra.at("max_ms");
     r.peak_bytes = extra.at("peak_bytes");
     r.positions = extra.at("positions").get<std::vector<double>>();

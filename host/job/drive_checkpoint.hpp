@@ -21,6 +21,7 @@ struct DriveRun {
   nlohmann::json record;  ///< what a resumed run must match (the drive and every option)
   std::size_t keyframes = 0;
   double label_ms = 0, transfer_ms = 0, update_ms = 0, max_ms = 0;
+  double lookahead_ms = 0;  ///< --lookahead's scoring, outside the keyframes' times
   std::size_t peak_bytes = 0;
   std::vector<double> positions;  ///< sensor positions, x y z a keyframe (the band's heights)
   std::vector<double> memory_mb, keyframe_ms;  ///< the mapper's memory and time, a keyframe

@@ -6,6 +6,7 @@
 
 #include "bhm_joint_grid.hpp"
 #include "potmap/learn/bhm_joint.hpp"
+#include "runtime/host_team.hpp"
 
 namespace potmap {
 
@@ -33,37 +34,51 @@ void JointBhm::fade_retired(double a, double& mean, double& var) const {
   var = 1.0 / prec;
 }
 
-void JointBhm::predict(const double* points, std::size_t n, double* mean, double* var) const {
+void JointBhm::predict(const double* points, std::size_t n, double* mean, double* var,
+                       Context* ctx) const {
   if (behind()) {  // forgetting: the posterior at time(), faded on a copy
     JointBhm now = *this;
     now.catch_up();
-    now.predict(points, n, mean, var);
+    now.predict(points, n, mean, var, ctx);
     return;
   }
-  // Each kernel's exported variance once a call: the cache where its tile is up to date.
-  std::unordered_map<std::uint32_t, double> fresh;
-  std::vector<double> scratch;
+  // The points' features first (features() keeps a cache: one thread), then the exported
+  // variance of every kernel they reach whose tile changed since the last export, each once,
+  // on ctx's host team (they are most of the work: the last update changed the tiles around
+  // the sensor), then the sums.
+  std::vector<Feature> all;
+  std::vector<std::size_t> start(n + 1, 0);
   std::vector<Feature> f;
-  auto variance = [&](const Feature& k) {
+  for (std::size_t i = 0; i < n; ++i) {
+    features(points + i * dim_, f);
+    all.insert(all.end(), f.begin(), f.end());
+    start[i + 1] = all.size();
+  }
+  std::unordered_map<std::uint32_t, std::uint32_t> slot;  // kernel -> index into fresh
+  std::vector<const Feature*> todo;
+  for (const Feature& k : all)
+    if (k.kernel != kNone && tile_dirty_[k.kernel / tile_cells_] &&
+        slot.emplace(k.kernel, std::uint32_t(todo.size())).second)
+      todo.push_back(&k);
+  std::vector<double> fresh(todo.size());
+  detail::for_each_item(ctx, todo.size(), [&](std::size_t u) {
+    thread_local std::vector<double> scratch;
+    const Feature& k = *todo[u];
     const std::int64_t g[3] = {k.cell[0], k.cell[1], k.cell[2]};
-    if (k.kernel == kNone) return exported_var(g, -1, scratch);
-    if (!tile_dirty_[k.kernel / tile_cells_]) return var_[k.kernel];
-    const auto it = fresh.find(k.kernel);
-    if (it != fresh.end()) return it->second;
-    const double v = exported_var(g, std::int64_t(k.kernel), scratch);
-    fresh.emplace(k.kernel, v);
-    return v;
-  };
+    fresh[u] = exported_var(g, std::int64_t(k.kernel), scratch);
+  });
+  std::vector<double> scratch;
   for (std::size_t i = 0; i < n; ++i) {
     double m = o_.bias ? meanb_ : 0.0, s2 = o_.bias ? 1.0 / pbb_ : 0.0;
-    features(points + i * dim_, f);
-    for (const Feature& k : f) {
+    for (std::size_t q = start[i]; q < start[i + 1]; ++q) {
+      const Feature& k = all[q];
       double wm = 0, wv = 0;
       if (k.kernel != kNone) {
         wm = mean_[k.kernel];
-        wv = variance(k);
-      } else if (bounded_) {  // a kernel no sample or seed made: its prior
-        wv = variance(k);
+        wv = tile_dirty_[k.kernel / tile_cells_] ? fresh[slot.at(k.kernel)] : var_[k.kernel];
+      } else if (bounded_) {  // a kernel no sample or seed made: its prior's variance
+        const std::int64_t g[3] = {k.cell[0], k.cell[1], k.cell[2]};
+        wv = exported_var(g, -1, scratch);
       } else if (!retired_kernel(k.cell, wm, wv)) {
         continue;  // a growable map holds no kernel there
       }

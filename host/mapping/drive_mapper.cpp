@@ -98,7 +98,11 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
     ++st.held_out;
   }
   st.label_ms = ms_since(t0);
-  if (o_.lookahead && keyframes_ > 0) look_ahead(test_.size() - st.held_out);
+  if (o_.lookahead && keyframes_ > 0) {
+    const auto ta = std::chrono::steady_clock::now();
+    look_ahead(test_.size() - st.held_out, ctx);
+    st.lookahead_ms = ms_since(ta);
+  }
   // The keyframe's time is the learner's clock (forgetting: bhm.half_life).
   learner_.set_time(keyframe.timestamp);
   if (o_.dictionary && !train.empty() && keyframes_ % o_.transfer_every == 0) {
@@ -120,11 +124,11 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
   return st;
 }
 
-void DriveMapper::look_ahead(std::size_t first) {
+void DriveMapper::look_ahead(std::size_t first, Context* ctx) {
   const std::size_t n = test_.size() - first;
   const double* at = &test_.position[3 * first];
   std::vector<double> mean(n), var(n);
-  learner_.predict(at, n, mean.data(), var.data());
+  learner_.predict(at, n, mean.data(), var.data(), ctx);
   const std::size_t old = ahead_.size();
   ahead_.beyond.resize(old + n);
   learner_.reached(at, n, &ahead_.beyond[old]);

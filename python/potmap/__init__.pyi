@@ -940,6 +940,10 @@ class KeyframeStats:
         """held-out samples kept"""
         ...
     @property
+    def lookahead_ms(self) -> float:
+        """the look-ahead's scoring"""
+        ...
+    @property
     def retired(self) -> int:
         """tiles retired"""
         ...

@@ -125,6 +125,7 @@ void bind_drive_options(py::module_& m) {
       .def_readonly("samples", &KeyframeStats::samples, "training samples before gathering")
       .def_readonly("gathered", &KeyframeStats::gathered, "weighted samples learned")
       .def_readonly("held_out", &KeyframeStats::held_out, "held-out samples kept")
+      .def_readonly("lookahead_ms", &KeyframeStats::lookahead_ms, "the look-ahead's scoring")
       .def_readonly("retired", &KeyframeStats::retired, "tiles retired")
       .def_readonly("label_ms", &KeyframeStats::label_ms, "cut, labelling, gathering")
       .def_readonly("update_ms", &KeyframeStats::update_ms, "update and retiring")
