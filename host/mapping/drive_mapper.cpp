@@ -126,6 +126,7 @@ KeyframeStats DriveMapper::add(const Scan& keyframe, std::int64_t index, Context
 
 void DriveMapper::look_ahead(std::size_t first, Context* ctx) {
   const std::size_t n = test_.size() - first;
+  if (n == 0) return;
   const double* at = &test_.position[3 * first];
   std::vector<double> mean(n), var(n);
   learner_.predict(at, n, mean.data(), var.data(), ctx);
