@@ -80,14 +80,15 @@ TEST(DriveMappingCli, LivoxDriveToMapOctomapCloudBandAndScores) {
   EXPECT_NE(ply.find("property float probability\nproperty float variance\n"), std::string::npos);
   const std::size_t body = ply.find("end_header\n") + 11;
   EXPECT_EQ(ply.size() - body, n * 5 * sizeof(float));
-  // The band's ROS map: free road, occupied sides, unknown beyond.
+  // The band's ROS map: free road, occupied sides, unknown beyond (measured 500 / 2,042 / 8,018
+  // cells on 4 keyframes, 512 / 2,820 / 9,208 on 12: a walk's band is mostly unknown).
   const std::string pgm = test::file_bytes(d + "/map_band.pgm");
   std::size_t counts[256] = {0};
   for (std::size_t i = pgm.find("\n255\n") + 5; i < pgm.size(); ++i)
     ++counts[static_cast<unsigned char>(pgm[i])];
-  EXPECT_GT(counts[0], 500u);
-  EXPECT_GT(counts[254], 500u);
-  EXPECT_GT(counts[205], 500u);
+  EXPECT_GT(counts[0], 400u);
+  EXPECT_GT(counts[254], 1500u);
+  EXPECT_GT(counts[205], 5000u);
 }
 
 TEST(DriveMappingCli, ResumedRunEndsAsAnUninterruptedOne) {
