@@ -209,6 +209,10 @@ def main():
                 place = ("kernels on the target's samples thinned to "
                          f"{st['pot_anchor_spacing']:g} m, each carrying the atom's logit pulled "
                          "back through the plan"
+                         + (f" times {st['pot_logit_gain']:g}, weights solved together "
+                            f"({st['pot_anchor_sweeps']} sweeps), free anchors "
+                            f"{st['pot_anchor_clearance']:g} m clear of hits"
+                            if st.get("pot_anchor_sweeps") else "")
                          if st["pot_placement"] == "target_samples" else
                          "kernels at the barycentric images of the atoms' kernels")
                 overall = (f"overall map the support-weighted average of the scans' maps on a "

@@ -336,6 +336,14 @@ TEST(Pot, RejectsEmptyDictionaryAndWrongDimension) {
   PotOptions o;
   o.rotations.clear();
   EXPECT_THROW(transfer_scan(nullptr, dict, lp, {0, 0, 0}, 0, 0, o), ArgumentError);
+  PotOptions sweeps;
+  sweeps.anchor_sweeps = -1;
+  EXPECT_THROW(transfer_scan(nullptr, dict, lp, {0, 0, 0}, 0, 0, sweeps), ArgumentError);
+  for (double gain : {0.0, -1.0, std::nan("")}) {
+    PotOptions g;
+    g.logit_gain = gain;
+    EXPECT_THROW(transfer_scan(nullptr, dict, lp, {0, 0, 0}, 0, 0, g), ArgumentError) << gain;
+  }
 }
 
 TEST(Pot, EmptyScanGivesAnEmptyMap) {

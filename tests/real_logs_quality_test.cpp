@@ -63,16 +63,19 @@ std::string logs(std::initializer_list<const char*> names) {
   return s;
 }
 
-// Measured (40 scans, seed 0), BHM / POT / RePOT / OGM AUC: intel 0.980/0.944/0.981/0.939,
-// aces 0.980/0.946/0.980/0.938, csail 0.971/0.928/0.971/0.943, freiburg 0.991/0.970/0.991/0.978;
-// NLL BHM 0.11-0.18, POT 0.236-0.299, OGM 0.20-0.30; F1 BHM 0.59-0.83, POT 0.49-0.65 (POT with
-// kernels on the target's samples and the averaged overall map; before them POT AUC was
-// 0.868-0.948 and NLL 0.25-0.37). RePOT against BHM: equal to 1e-8 (seeds yield fully; with the
-// seeded start kept, AUC was at least BHM's here and NLL 0.001-0.004 below).
-// Small inputs (12 scans, the sanitizer run), measured: BHM AUC 0.971-0.990, NLL 0.115-0.189,
-// F1 0.67-0.77; POT AUC 0.923-0.966, NLL 0.233-0.307, F1 0.41-0.50; RePOT AUC = BHM's, NLL
-// 0.004-0.010 below, F1 above BHM's. Freiburg is left out there: its first 12 scans see one
-// corridor, and the BHM's bias (positive on those scans) puts the unobserved four fifths of the
+// Measured (40 scans, seed 0), BHM / OGM AUC: intel 0.980/0.939, aces 0.980/0.938, csail
+// 0.971/0.943, freiburg 0.991/0.978; NLL BHM 0.11-0.18, OGM 0.20-0.30; F1 BHM 0.59-0.83.
+// POT (kernels on the target's samples, solved together, logits times 1.5, averaged overall
+// map): AUC intel 0.956, aces 0.961, csail 0.944, freiburg 0.981; NLL 0.189, 0.206, 0.246,
+// 0.163; F1 0.466, 0.425, 0.700, 0.551. Each class's partition with gain 1 and free anchors
+// 0.5 m clear of hits scored AUC 0.942-0.966, NLL 0.239-0.305 and F1 0.494-0.711: the solve
+// buys NLL with thicker walls behind the hits (its larger wall weights reach farther into space
+// no beam crossed), which the F1 against a 0.1 m grid counts as lower precision. RePOT against BHM:
+// equal to 1e-8 (seeds yield fully; with the seeded start kept, AUC was at least BHM's here and NLL
+// 0.001-0.004 below). Small inputs (12 scans, the sanitizer run), measured: BHM AUC 0.971-0.990,
+// NLL 0.115-0.189, F1 0.67-0.77; POT AUC 0.946-0.985, NLL 0.152-0.239, F1 0.419-0.510; RePOT AUC =
+// BHM's, NLL 0.004-0.010 below, F1 above BHM's. Freiburg is left out there: its first 12 scans see
+// one corridor, and the BHM's bias (positive on those scans) puts the unobserved four fifths of the
 // window at p 0.6, F1 0.12 (0.09 at 20 scans; the 40-scan figures above are past that).
 TEST(RealLogs, IntraDomainMapsDepictThePlace) {
   const std::vector<const char*> targets =
@@ -99,9 +102,9 @@ TEST(RealLogs, IntraDomainMapsDepictThePlace) {
     EXPECT_LT(bhm.nll, ogm.nll) << t;
     EXPECT_GT(bhm.f1, 0.5) << t;
     // POT: never confidently wrong; walls where the place has them.
-    EXPECT_GT(pot.auc, test::sized(0.915, 0.905)) << t;
-    EXPECT_LT(pot.nll, test::sized(0.33, 0.34)) << t;
-    EXPECT_GT(pot.f1, test::sized(0.45, 0.38)) << t;
+    EXPECT_GT(pot.auc, test::sized(0.935, 0.935)) << t;
+    EXPECT_LT(pot.nll, test::sized(0.27, 0.26)) << t;
+    EXPECT_GT(pot.f1, test::sized(0.40, 0.38)) << t;
     // RePOT: at least the BHM it refines (seeds yield fully: equal up to the solver's
     // rounding, about 1e-8 here).
     EXPECT_GE(repot.auc, bhm.auc - kRounding) << t;

@@ -158,8 +158,8 @@ void add_pot_transfer_options(CLI::App* cmd, Settings& s) {
 // POT and RePOT: where transported kernels go and how the scans' maps combine.
 void add_pot_map_options(CLI::App* cmd, Settings& s) {
   cmd->add_option("--pot-wall-clearance", s.pot.pot.wall_clearance,
-                  "POT/RePOT: drop free-space kernels landing this close to the target's hits "
-                  "and wall kernels landing farther, metres (0: off)")
+                  "POT/RePOT, barycentric kernels: drop free-space kernels landing this close to "
+                  "the target's hits and wall kernels landing farther, metres (0: off)")
       ->capture_default_str();
   cmd->add_option_function<std::string>(
          "--pot-placement",
@@ -175,6 +175,21 @@ void add_pot_map_options(CLI::App* cmd, Settings& s) {
                   "POT with --pot-placement target_samples: one kernel per cell of this edge of "
                   "the target's hits and free samples, metres")
       ->capture_default_str();
+  cmd->add_option("--pot-anchor-clearance", s.pot.pot.anchor_clearance,
+                  "POT with --pot-placement target_samples: drop free-sample anchors this close "
+                  "to the target's hits, metres (0: off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--pot-anchor-sweeps", s.pot.pot.anchor_sweeps,
+                  "POT with --pot-placement target_samples: sweeps solving the anchors' weights "
+                  "together, walls and free space (0: each class's partition alone)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--pot-logit-gain", s.pot.pot.logit_gain,
+                  "POT with --pot-placement target_samples: the transported logits are "
+                  "multiplied by this (1: the atoms' own)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option_function<std::string>(
          "--pot-combine",
          [&s](const std::string& v) {
@@ -509,7 +524,9 @@ int run_dynamic(const Settings& settings, std::vector<std::string> data,
 // same scores. POT's averaged map takes 0.5 m anchors (0.25 m, the 2D grid, is 8 times the
 // cells in 3D): on riverside-a at 20 m, with 500 hits a side in the transport, POT took 79 ms
 // a keyframe for AUC / NLL 0.977 / 0.132, against 439 ms for 0.978 / 0.124 with the 2D
-// settings (OctoMap at 0.2 m: 224-249 ms).
+// settings (OctoMap at 0.2 m: 224-249 ms). The anchors' clearance is half the BHM's spacing, as
+// the 2D default is half the 2D spacing: on riverside-a at 40 m (keyframes 10-29), 0.5 m scored
+// POT 0.963 / 0.166 against 0.955 / 0.186 at 0.25 m (gain 1).
 void use_drive_defaults(const CLI::App& app, Settings& s, const std::vector<std::string>& data) {
   if (std::none_of(data.begin(), data.end(), [](const std::string& d) { return is_drive(d); }))
     return;
@@ -524,6 +541,7 @@ void use_drive_defaults(const CLI::App& app, Settings& s, const std::vector<std:
   if (unset("--bhm-cg-tol")) s.bhm.cg_tolerance = d.bhm.cg_tolerance;
   if (unset("--transport-points")) s.pot.pot.transport_points = d.pot.transport_points;
   if (unset("--pot-average-spacing")) s.pot.averaged.spacing = 0.5;
+  if (unset("--pot-anchor-clearance")) s.pot.pot.anchor_clearance = 0.5 * s.bhm.spacing;
 }
 
 // A runner's subcommand, with the settings and datasets its options fill and its action reads.

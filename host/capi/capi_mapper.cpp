@@ -55,6 +55,9 @@ potmap_mapper_options c_options(const potmap::MapperOptions& m) {
   o.refine_em_iterations = m.refine_map.em_iterations;
   o.seed_displacement_variance = m.seed_displacement_variance;
   o.half_life = m.refine_map.half_life;
+  o.anchor_clearance = m.pot.anchor_clearance;
+  o.anchor_sweeps = m.pot.anchor_sweeps;
+  o.logit_gain = m.pot.logit_gain;
   return o;
 }
 
@@ -115,6 +118,10 @@ Options to_options(const potmap_mapper_options* in) {
   if (!(o.seed_displacement_variance >= 0) || !std::isfinite(o.seed_displacement_variance))
     bad("seed_displacement_variance", o.seed_displacement_variance);
   if (!(o.half_life >= 0) || !std::isfinite(o.half_life)) bad("half_life", o.half_life);
+  if (!(o.anchor_clearance >= 0) || !std::isfinite(o.anchor_clearance))
+    bad("anchor_clearance", o.anchor_clearance);
+  if (o.anchor_sweeps < 0) bad("anchor_sweeps", o.anchor_sweeps);
+  if (!(o.logit_gain > 0) || !std::isfinite(o.logit_gain)) bad("logit_gain", o.logit_gain);
   Options r;
   potmap::PotOptions& p = r.mapper.pot;
   p.sectors = o.sectors;
@@ -132,6 +139,9 @@ Options to_options(const potmap_mapper_options* in) {
   r.mapper.seed_displacement_variance = o.seed_displacement_variance;
   p.anchor_spacing = o.anchor_spacing;
   p.wall_clearance = o.wall_clearance;
+  p.anchor_clearance = o.anchor_clearance;
+  p.anchor_sweeps = o.anchor_sweeps;
+  p.logit_gain = o.logit_gain;
   r.mapper.average_overall = o.average_overall == 1;
   r.mapper.async_merge = o.async_merge == 1;
   r.mapper.refine_map.seeds_yield_fully = o.seeds_yield_fully == 1;

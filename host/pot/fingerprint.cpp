@@ -123,6 +123,9 @@ std::uint64_t fingerprint(const MapperOptions& o, const OverallMapOptions& overa
   if (p.placement != PotPlacement::barycentric) {  // earlier fingerprints stay valid
     f.i64(static_cast<int>(p.placement));
     f.f64(p.anchor_spacing);
+    f.f64(p.anchor_clearance);
+    f.i64(p.anchor_sweeps);
+    f.f64(p.logit_gain);
   }
   f.i64(static_cast<int>(p.ranking));
   f.values(p.candidates, p.index_neighbours, p.index_rotations, p.index_anchors, p.snap_rotations,

@@ -23,8 +23,8 @@ AnchorSites anchor_sites(const Sector& sec, const std::array<const Eigen::Matrix
   const double s = sec.scale;
   AnchorSites sites;
   std::unique_ptr<PointProximity> on_wall;
-  if (o.wall_clearance > 0 && sec.num_hits() > 0 && targets[1])
-    on_wall = std::make_unique<PointProximity>(sec.hits, dim, o.wall_clearance * s);
+  if (o.anchor_clearance > 0 && sec.num_hits() > 0 && targets[1])
+    on_wall = std::make_unique<PointProximity>(sec.hits, dim, o.anchor_clearance * s);
   for (int q = 0; q < 2; ++q) {
     if (!targets[q] || targets[q]->rows() == 0) continue;
     const Eigen::MatrixXd& Y = *targets[q];
@@ -144,7 +144,72 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
   return dropped;
 }
 
-void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map) {
+namespace {
+
+// The anchors' neighbours within a kernel's cut (gamma d^2 <= 16), both classes together, as
+// rows: row i holds each anchor j != i with phi_j(x_i), the term j adds to the map at anchor i.
+struct AnchorRows {
+  std::vector<std::size_t> start, column;
+  std::vector<double> phi;
+};
+
+AnchorRows anchor_rows(const std::vector<Anchor>& anchors, int dim, double reach) {
+  const std::size_t n = anchors.size();
+  std::vector<double> pts;
+  pts.reserve(n * std::size_t(dim));
+  for (const Anchor& a : anchors)
+    pts.insert(pts.end(), a.position.begin(), a.position.begin() + dim);
+  struct Pair {
+    std::size_t i, j;
+    double phi_j, phi_i;  // j's kernel at i, i's at j
+  };
+  std::vector<Pair> pairs;
+  const PointGrid grid(pts, dim, reach);
+  grid.for_each_pair_within(reach, [&](std::size_t i, std::size_t j, double d2) {
+    const double gj = anchors[j].gamma * d2, gi = anchors[i].gamma * d2;
+    if (gj > 16 && gi > 16) return;
+    pairs.push_back({i, j, gj <= 16 ? std::exp(-gj) : 0.0, gi <= 16 ? std::exp(-gi) : 0.0});
+  });
+  AnchorRows rows;
+  rows.start.assign(n + 1, 0);
+  for (const Pair& p : pairs) {
+    ++rows.start[p.i + 1];
+    ++rows.start[p.j + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) rows.start[i + 1] += rows.start[i];
+  rows.column.resize(rows.start[n]);
+  rows.phi.resize(rows.start[n]);
+  std::vector<std::size_t> at(rows.start.begin(), rows.start.end() - 1);
+  for (const Pair& p : pairs) {
+    rows.column[at[p.i]] = p.j;
+    rows.phi[at[p.i]++] = p.phi_j;
+    rows.column[at[p.j]] = p.i;
+    rows.phi[at[p.j]++] = p.phi_i;
+  }
+  return rows;
+}
+
+}  // namespace
+
+void solve_anchor_weights(const std::vector<Anchor>& anchors, int dim, double reach, int sweeps,
+                          double gain, double* w) {
+  if (sweeps <= 0 || anchors.empty()) return;
+  const AnchorRows rows = anchor_rows(anchors, dim, reach);
+  for (int t = 0; t < sweeps; ++t)
+    for (std::size_t i = 0; i < anchors.size(); ++i) {
+      const double v = gain * anchors[i].value;
+      double r = v;
+      for (std::size_t e = rows.start[i]; e < rows.start[i + 1]; ++e)
+        r -= rows.phi[e] * w[rows.column[e]];
+      // Kept to the value's sign, as the averaged map keeps its weights: a weight of the other
+      // sign would only cancel a neighbour's tail, and past the last anchor it rings into space
+      // the scan did not see.
+      w[i] = v >= 0 ? std::max(r, 0.0) : std::min(r, 0.0);
+    }
+}
+
+void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map, int sweeps,
+                    double gain) {
   const std::size_t n = anchors.size();
   if (n == 0) return;
   double gmin = HUGE_VAL;
@@ -177,8 +242,12 @@ void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map)
       sum2[j] += phi_i * phi_i;
     });
   }
+  // The partition's weights, and with sweeps the solve started from them.
+  std::vector<double> w(n);
+  for (std::size_t i = 0; i < n; ++i) w[i] = gain * anchors[i].value / sum[i];
+  solve_anchor_weights(anchors, dim, reach, sweeps, gain, w.data());
   for (std::size_t i = 0; i < n; ++i)
-    map.push_back(anchors[i].position.data(), anchors[i].gamma, anchors[i].value / sum[i],
+    map.push_back(anchors[i].position.data(), anchors[i].gamma, w[i],
                   anchors[i].variance / sum2[i]);
 }
 

@@ -56,6 +56,12 @@ void check(const Dictionary& dict, const LabelledPoints& train, const PotOptions
   if (!(o.rank_tolerance > 0) || !(o.transport_tolerance > 0) || !(o.coarse_tolerance > 0) ||
       !(o.transport_free_tolerance > 0))
     bad("tolerances must be positive");
+  if (!(o.anchor_clearance >= 0) || !std::isfinite(o.anchor_clearance))
+    bad("anchor_clearance must be a finite number >= 0, got " + std::to_string(o.anchor_clearance));
+  if (o.anchor_sweeps < 0)
+    bad("anchor_sweeps must be >= 0, got " + std::to_string(o.anchor_sweeps));
+  if (!(o.logit_gain > 0) || !std::isfinite(o.logit_gain))
+    bad("logit_gain must be a positive number, got " + std::to_string(o.logit_gain));
   if (o.ranking == PotRanking::indexed &&
       (o.index_neighbours < 1 || o.index_rotations < 1 || o.coarse_hits < 1 || o.coarse_free < 1))
     bad("index_neighbours, index_rotations, coarse_hits and coarse_free must be >= 1");
@@ -360,7 +366,7 @@ ScanTransfer place_transfer(Context* ctx, const Dictionary& dict, SolvedTransfer
     });
     std::vector<detail::Anchor> all;
     for (const auto& a : anchors) all.insert(all.end(), a.begin(), a.end());
-    detail::anchors_to_map(all, dict.dim, out.map);
+    detail::anchors_to_map(all, dict.dim, out.map, o.anchor_sweeps, o.logit_gain);
   }
   out.timing.placement_ms = ms_since(t0);
 

@@ -552,6 +552,21 @@ typedef struct potmap_mapper_options {
    *  free within a few scans and a place no longer seen drifts back to its prior; >= 0
    *  (default 0: never forget, the exact posterior of every scan; docs/forgetting.md). */
   double half_life;
+  /* ---- appended in version 9 ---- */
+  /** With target-sample placement: free-sample kernels within this distance of one of the
+   *  sector's hits are dropped, metres, >= 0 (default 0.25, half the atoms' kernel spacing;
+   *  wall_clearance applies to barycentric kernels). */
+  double anchor_clearance;
+  /** With target-sample placement: projected Gauss-Seidel sweeps that solve a scan's kernel
+   *  weights together, walls and free space, so that its map reads each kernel's transported
+   *  value where the kernel stands, >= 0 (default 10; 0: each class's own partition, which
+   *  blurs a wall into the free space beside it). */
+  int anchor_sweeps;
+  /** With target-sample placement: factor on the transported logits, > 0 (default 1.5, fitted
+   *  on the Intel log and checked on three other Radish logs: the averaged map read from atoms
+   *  learned on few scans is right about which side of 0.5 a place is, but too near it;
+   *  docs/pot-measurements.md). */
+  double logit_gain;
 } potmap_mapper_options;
 
 /** Values of potmap_mapper_options::ranking. */

@@ -140,8 +140,7 @@ void bind_experiment_setups(py::module_& e) {
   potset
       .def(
           py::init([](const py::kwargs& kw) { return options_from<ex::PotSetup>(kw, "PotSetup"); }))
-      .def_readwrite("pot", &ex::PotSetup::pot,
-                     "PotOptions (wall_clearance 0.5, displacement_variance 0.25)")
+      .def_readwrite("pot", &ex::PotSetup::pot, "PotOptions (the library's defaults)")
       .def_readwrite("atom_map", &ex::PotSetup::atom_map, "'bhm' (default) or 'abhm'")
       .def_readwrite("atom_bhm", &ex::PotSetup::atom_bhm)
       .def_readwrite("atom_abhm", &ex::PotSetup::atom_abhm)

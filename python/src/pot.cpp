@@ -193,8 +193,10 @@ void bind_pot_options(py::module_& m) {
                      "the free samples' plan's tolerance (1e-2)")
       .def_readwrite("transport_free", &PotOptions::transport_free,
                      "transport free samples too (True)")
-      .def_readwrite("wall_clearance", &PotOptions::wall_clearance,
-                     "metres (0.5, about the atoms' kernel spacing; 0: off, the paper's)")
+      .def_readwrite(
+          "wall_clearance", &PotOptions::wall_clearance,
+          "barycentric kernels, metres (0.5, about the atoms' kernel spacing; 0: off, the "
+          "paper's)")
       .def_readwrite("displacement_variance", &PotOptions::displacement_variance,
                      "weight variance per m^2 moved (0)")
       .def_property(
@@ -226,6 +228,15 @@ void bind_pot_options(py::module_& m) {
           "(every atom at every rotation, the paper's)")
       .def_readwrite("anchor_spacing", &PotOptions::anchor_spacing,
                      "target_samples: metres between kernels (0.5)")
+      .def_readwrite("anchor_clearance", &PotOptions::anchor_clearance,
+                     "target_samples: metres from a hit within which free anchors are dropped "
+                     "(0.25, half the atoms' kernel spacing; 0: off)")
+      .def_readwrite("anchor_sweeps", &PotOptions::anchor_sweeps,
+                     "target_samples: sweeps solving the anchors' weights together, walls and "
+                     "free space (10; 0: each class's partition alone)")
+      .def_readwrite("logit_gain", &PotOptions::logit_gain,
+                     "target_samples: factor on the transported logits (1.5, fitted on the Intel "
+                     "log; 1: the atoms' own)")
       .def_readwrite("candidates", &PotOptions::candidates,
                      "atoms pre-selected per sector (0: all)")
       .def_readwrite("refine", &PotOptions::refine, "RePOT (default False: POT)")

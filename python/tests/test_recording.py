@@ -17,6 +17,8 @@ def test_defaults_are_what_maps_real_logs_and_paper_is_a_preset():
     o = potmap.MapperOptions()
     assert o.pot.ranking == "indexed" and o.pot.placement == "target_samples"
     assert o.pot.wall_clearance == 0.5 and o.average_overall
+    assert o.pot.anchor_clearance == 0.25
+    assert o.pot.anchor_sweeps == 10 and o.pot.logit_gain == 1.5
     assert o.seed_placement == "barycentric" and o.seed_displacement_variance == 0.25
     p = potmap.MapperOptions.paper()
     assert p.pot.ranking == "exhaustive" and p.pot.placement == "barycentric"

@@ -151,6 +151,9 @@ TEST(CApiMapper, StructsInitToTheDocumentedDefaults) {
   EXPECT_EQ(m.placement, POTMAP_PLACEMENT_AUTO);
   EXPECT_EQ(m.anchor_spacing, 0.5);
   EXPECT_EQ(m.wall_clearance, 0.5);
+  EXPECT_EQ(m.anchor_clearance, 0.25);
+  EXPECT_EQ(m.anchor_sweeps, 10);
+  EXPECT_EQ(m.logit_gain, 1.5);
   EXPECT_EQ(m.average_overall, 1);
   EXPECT_EQ(m.async_merge, 0);
   EXPECT_EQ(m.seeds_yield_fully, 1);
@@ -471,6 +474,10 @@ TEST(CApiMapper, MapperChecksItsArgumentsAndStaysUnchangedOnFailure) {
              "refine_em_iterations");
   bad_option([](potmap_mapper_options& b) { b.half_life = -1; }, "half_life");
   bad_option([](potmap_mapper_options& b) { b.half_life = NAN; }, "half_life");
+  bad_option([](potmap_mapper_options& b) { b.anchor_clearance = -1; }, "anchor_clearance");
+  bad_option([](potmap_mapper_options& b) { b.anchor_sweeps = -1; }, "anchor_sweeps");
+  bad_option([](potmap_mapper_options& b) { b.logit_gain = 0; }, "logit_gain");
+  bad_option([](potmap_mapper_options& b) { b.logit_gain = NAN; }, "logit_gain");
   bad_option([](potmap_mapper_options& b) { b.struct_size = 3; }, "struct_size");
   bad_option([](potmap_mapper_options& b) { b.struct_size = 4096; }, "newer");
   EXPECT_EQ(m, nullptr);

@@ -117,14 +117,16 @@ struct PotOptions {
   /// free space keep their offset from the nearest hit and miss the target's free space when
   /// the two sectors' hits lie at different distances from the sensor. false: the SPEC's rule.
   bool transport_free = true;
-  /// Wall clearance, metres (default 0.5, about one kernel spacing of the BHM atoms; 0: off,
-  /// the authors' rule). > 0: a transported kernel with a negative weight (free-space
+  /// Wall clearance of barycentric kernels, metres (default 0.5, about one kernel spacing of
+  /// the BHM atoms; 0: off, the authors' rule; target_samples: anchor_clearance instead).
+  /// > 0: a transported kernel with a negative weight (free-space
   /// evidence) that lands within this distance of one of the target sector's hits is dropped,
   /// and so is one with a positive weight (wall evidence) that lands farther than this from
   /// every hit. The two plans move hits onto hits and free samples onto free samples, but not
   /// the free space along a wall onto the free space along the target's wall: without the
   /// clearance, free-space kernels erase the target's walls (on Intel, overall AUC 0.880
-  /// without it against 0.943 with it, docs/pot-measurements.md).
+  /// without it against 0.943 with it, docs/pot-measurements.md). RePOT's seeds and the drive
+  /// mapper's transfer are barycentric.
   double wall_clearance = 0.5;
   /// Weight variance added per square metre that the transport moved a kernel beyond the
   /// chosen rotation (weight units^2 / m^2; 0, the default: none). The plan moves each kernel
@@ -142,6 +144,31 @@ struct PotOptions {
   /// target_samples: one anchor per cell of this edge, hits and free samples apart (metres;
   /// default 0.5, the source BHM's kernel spacing: kernels no denser than the maps they carry).
   double anchor_spacing = 0.5;
+  /// target_samples: free-sample anchors within this distance of one of the sector's hits are
+  /// dropped, metres (default 0.25, half the atoms' kernel spacing; 0: none dropped). With the
+  /// anchors' weights solved together (anchor_sweeps) a free anchor this near a wall no longer
+  /// erases it, and free space reaches closer to the walls: on the whole Intel log 0.25 m
+  /// scored NLL 0.205 against 0.5 m's 0.229 (both solved; ACES, CSAIL and Freiburg 079 agree,
+  /// docs/pot-measurements.md). The barycentric placement's kernels keep wall_clearance: at
+  /// 0.25 m its free kernels, not solved, erased walls (Intel, 30 scans: the scans' own maps
+  /// fell from AUC 0.92 to 0.76).
+  double anchor_clearance = 0.25;
+  /// target_samples: projected Gauss-Seidel sweeps that solve the anchors' weights so that the
+  /// scan's map, walls and free space together, reads each anchor's value at the anchor
+  /// (default 10; 0: each class's Nadaraya-Watson partition alone, which ignores the other
+  /// class, so that a wall's kernels and the free kernels beside it blur each other over a
+  /// kernel's width and free space near walls reads near 0.5). On the whole Intel log the
+  /// solve took POT from AUC 0.944 / NLL 0.274 to 0.964 / 0.229 (anchor clearance 0.25 m; the
+  /// other three Radish logs alike, docs/pot-measurements.md); 20 sweeps scored the same.
+  int anchor_sweeps = 10;
+  /// target_samples: the transported logit means are multiplied by this (default 1.5, fitted
+  /// on the whole Intel log and checked on ACES, CSAIL and Freiburg 079, where the best gain
+  /// was 1.5 to 2 as well). The atoms' BHMs learned each place from a few source scans under
+  /// their prior, and the overall map averages scans instead of adding their evidence, so the
+  /// transported map reads the right side of 0.5 but too near it: a logistic fit of the held-out
+  /// labels on its logit gave slopes of 1.5 to 2 on all four logs. 1: the atoms' logits as
+  /// they are.
+  double logit_gain = 1.5;
 
   /// How candidates are ranked (default indexed: on the committed experiments it scores within
   /// 0.005 AUC and NLL of the exhaustive ranking in 3.5 to 9 times less time, and its cost
