@@ -67,7 +67,14 @@ def main():
     a = ap.parse_args()
     logs = a.logs.split(",")
     seeds = [int(s) for s in a.seeds.split(",")]
-    result = {"machine": {"cpu": platform.processor() or platform.machine(),
+    shown = []  # the command as run, less the build folder
+    for arg in sys.argv[1:]:
+        if shown and shown[-1] == "--build":
+            shown.pop()
+        elif not arg.startswith("--build="):
+            shown.append(arg)
+    result = {"command": " ".join(["bench/pot_calibration.py"] + shown),
+              "machine": {"cpu": platform.processor() or platform.machine(),
                           "hardware_threads": os.cpu_count()},
               "seeds": seeds, "logs": logs, "rows": []}
     for name, extra in [("BHM (learned, no transfer)", None)] + ROWS:
@@ -77,7 +84,8 @@ def main():
                                    extra or [])
         result["rows"].append(row)
     head = "| setting | " + " | ".join(logs) + " |"
-    lines = ["", "AUC / NLL, whole logs, seeds " + a.seeds + ":", "", head,
+    lines = ["", "AUC / NLL, whole logs, seed%s %s:" % ("s" if len(seeds) > 1 else "", a.seeds),
+             "", head,
              "|---" * (len(logs) + 1) + "|"]
     for row in result["rows"]:
         cells = ["%.3f / %.3f" % (row["logs"][l]["auc"], row["logs"][l]["nll"]) for l in logs]
