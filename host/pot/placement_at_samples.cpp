@@ -189,43 +189,18 @@ AnchorRows anchor_rows(const std::vector<Anchor>& anchors, int dim, double reach
   return rows;
 }
 
-}  // namespace
-
-void solve_anchor_weights(const std::vector<Anchor>& anchors, int dim, double reach, int sweeps,
-                          double gain, double* w) {
-  if (sweeps <= 0 || anchors.empty()) return;
-  const AnchorRows rows = anchor_rows(anchors, dim, reach);
-  for (int t = 0; t < sweeps; ++t)
-    for (std::size_t i = 0; i < anchors.size(); ++i) {
-      const double v = gain * anchors[i].value;
-      double r = v;
-      for (std::size_t e = rows.start[i]; e < rows.start[i + 1]; ++e)
-        r -= rows.phi[e] * w[rows.column[e]];
-      // Kept to the value's sign, as the averaged map keeps its weights: a weight of the other
-      // sign would only cancel a neighbour's tail, and past the last anchor it rings into space
-      // the scan did not see.
-      w[i] = v >= 0 ? std::max(r, 0.0) : std::min(r, 0.0);
-    }
-}
-
-void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map, int sweeps,
-                    double gain) {
-  const std::size_t n = anchors.size();
-  if (n == 0) return;
-  double gmin = HUGE_VAL;
-  for (const Anchor& a : anchors) gmin = std::min(gmin, a.gamma);
-  // Every anchor within gamma d^2 <= 16 of another lies within this reach of it.
-  const double reach = std::sqrt(16.0 / gmin);
-  std::vector<double> sum(n, 1.0), sum2(n, 1.0);  // each anchor's own phi = 1
-  // Each pair once: phi is symmetric where the two share a width (every pair of a class within
-  // a sector), which halves the exps. Each class on a grid of its own, in cells of the reach:
-  // pairs across classes are not summed, and are not looked at.
+// Each class's Nadaraya-Watson partition at its anchors, added into sum and sum2 (phi and phi^2
+// of the class's other anchors). Each pair once: phi is symmetric where the two share a width
+// (every pair of a class within a sector), which halves the exps. Each class on a grid of its
+// own, in cells of the reach: pairs across classes are not summed, and are not looked at.
+void class_partition(const std::vector<Anchor>& anchors, int dim, double reach,
+                     std::vector<double>& sum, std::vector<double>& sum2) {
   std::vector<std::size_t> members;
   std::vector<double> pts;
   for (const bool hit : {true, false}) {
     members.clear();
     pts.clear();
-    for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t i = 0; i < anchors.size(); ++i)
       if (anchors[i].hit == hit) {
         members.push_back(i);
         pts.insert(pts.end(), anchors[i].position.begin(), anchors[i].position.begin() + dim);
@@ -242,10 +217,47 @@ void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map,
       sum2[j] += phi_i * phi_i;
     });
   }
-  // The partition's weights, and with sweeps the solve started from them.
+}
+
+}  // namespace
+
+void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map, int sweeps,
+                    double gain) {
+  const std::size_t n = anchors.size();
+  if (n == 0) return;
+  double gmin = HUGE_VAL;
+  for (const Anchor& a : anchors) gmin = std::min(gmin, a.gamma);
+  // Every anchor within gamma d^2 <= 16 of another lies within this reach of it.
+  const double reach = std::sqrt(16.0 / gmin);
+  std::vector<double> sum(n, 1.0), sum2(n, 1.0);  // each anchor's own phi = 1
+  AnchorRows rows;
+  if (sweeps > 0) {
+    // The solve's rows hold every pair within the cut: each class's partition is their
+    // same-class part, so the pairs are found once.
+    rows = anchor_rows(anchors, dim, reach);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t e = rows.start[i]; e < rows.start[i + 1]; ++e)
+        if (anchors[rows.column[e]].hit == anchors[i].hit) {
+          sum[i] += rows.phi[e];
+          sum2[i] += rows.phi[e] * rows.phi[e];
+        }
+  } else {
+    class_partition(anchors, dim, reach, sum, sum2);
+  }
+  // The partition's weights, and with sweeps the solve started from them: projected
+  // Gauss-Seidel in the anchors' order, each weight kept to its value's sign, as the averaged
+  // map keeps its weights (a weight of the other sign would only cancel a neighbour's tail, and
+  // past the last anchor it rings into space the scan did not see).
   std::vector<double> w(n);
   for (std::size_t i = 0; i < n; ++i) w[i] = gain * anchors[i].value / sum[i];
-  solve_anchor_weights(anchors, dim, reach, sweeps, gain, w.data());
+  for (int t = 0; t < sweeps; ++t)
+    for (std::size_t i = 0; i < n; ++i) {
+      const double v = gain * anchors[i].value;
+      double r = v;
+      for (std::size_t e = rows.start[i]; e < rows.start[i + 1]; ++e)
+        r -= rows.phi[e] * w[rows.column[e]];
+      w[i] = v >= 0 ? std::max(r, 0.0) : std::min(r, 0.0);
+    }
   for (std::size_t i = 0; i < n; ++i)
     map.push_back(anchors[i].position.data(), anchors[i].gamma, w[i],
                   anchors[i].variance / sum2[i]);

@@ -55,16 +55,10 @@ std::size_t anchors_at_samples(const Atom& atom, const Sector& sec, const Sector
 /// kernels weighted so that, alone, they reproduce the anchors' variances at the anchors (a
 /// Nadaraya-Watson partition, as atoms' kernels at samples are built). Means: `gain` times the
 /// anchors' values; with `sweeps` = 0 by the same partition, else solved so that the map of both
-/// classes together reads them at the anchors (solve_anchor_weights, started from the
-/// partition's weights). PotOptions::anchor_sweeps and logit_gain say why.
+/// classes together reads them at the anchors (projected Gauss-Seidel over every pair within
+/// gamma d^2 <= 16, each weight kept to its value's sign, started from the partition's weights).
+/// PotOptions::anchor_sweeps and logit_gain say why.
 void anchors_to_map(const std::vector<Anchor>& anchors, int dim, KernelMap& map, int sweeps = 0,
                     double gain = 1.0);
-
-/// `sweeps` projected Gauss-Seidel sweeps, in the anchors' order, of Phi w = gain * value over
-/// every pair of anchors within gamma d^2 <= 16 (Phi_ij = phi_j(x_i), the diagonal 1), each
-/// weight kept to its value's sign; `w` (one per anchor) holds the start and receives the
-/// result. `reach`: a distance, metres, that holds every such pair (sqrt(16 / smallest gamma)).
-void solve_anchor_weights(const std::vector<Anchor>& anchors, int dim, double reach, int sweeps,
-                          double gain, double* w);
 
 }  // namespace potmap::detail
