@@ -56,6 +56,16 @@ void add_run_options(CLI::App* cmd, Settings& s) {
       ->expected(1, -1)
       ->capture_default_str();
   add_wavemap_options(cmd, s.wavemap_cells, s.wavemap);
+  cmd->add_flag("--lookahead", s.lookahead,
+                "Also score each scan's held-out samples on every method's map before the scan "
+                "is learned (sequences: intra, inter, sim2real, dynamic), all of them and those "
+                "beyond every earlier sample's reach: what a planner reads of the space ahead, "
+                "and what a transferred prior is for (docs/transfer.md)");
+  cmd->add_option("--lookahead-reach", s.lookahead_reach,
+                  "Look-ahead: a held-out sample with no earlier training sample within this "
+                  "many metres is beyond reach (0: twice the BHM's spacing)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 // The BHM and ABHM methods' settings.

@@ -1,4 +1,5 @@
 #include "potmap/experiments/experiment_runner.hpp"
+#include "potmap/experiments/lookahead.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -264,7 +265,8 @@ experiment::PictureView Harness::picture_view(const MapTask& task) const {
 Record Harness::fit_and_score(const Method& m, const MapTask& task, const LabelledPoints& test,
                               bool figures, const std::string& case_label,
                               const StructureReference* reference,
-                              const experiment::SamplePlaces* places) {
+                              const experiment::SamplePlaces* places,
+                              const std::vector<std::uint8_t>* beyond) {
   FittedMap f = m.fit(context(), task);
   Record r;
   r.method = m.name;
@@ -276,6 +278,21 @@ Record Harness::fit_and_score(const Method& m, const MapTask& task, const Labell
   const std::vector<double> prob = experiment::query_map(f, test, &r.query_s);
   r.scores = potmap::score(prob, test.label);
   if (places) r.breakdown = experiment::score_breakdown(prob, test, *places);
+  if (task.lookahead && f.lookahead.size() == test.size()) {
+    std::vector<float> all, far;
+    std::vector<std::uint8_t> all_y, far_y;
+    for (std::size_t i = 0; i < test.size(); ++i) {
+      if (!std::isfinite(f.lookahead[i])) continue;  // the first scan's
+      all.push_back(f.lookahead[i]);
+      all_y.push_back(test.label[i]);
+      if (beyond && (*beyond)[i]) {
+        far.push_back(f.lookahead[i]);
+        far_y.push_back(test.label[i]);
+      }
+    }
+    if (!all.empty()) r.lookahead = potmap::score(all, all_y);
+    if (!far.empty()) r.lookahead_beyond = potmap::score(far, far_y);
+  }
   r.info = f.info;
   if (reference) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -324,6 +341,12 @@ void Harness::run_case(const std::string& source_label,
   task.seed = seed;
   task.source = source;
   task.source_key = source_label + "\n" + std::to_string(seed);
+  std::vector<std::uint8_t> beyond;
+  if (s_.lookahead) {
+    task.lookahead = &test;
+    const double reach = s_.lookahead_reach > 0 ? s_.lookahead_reach : 2 * s_.bhm.spacing;
+    beyond = experiment::beyond_reach(test, task.train, reach);
+  }
   const bool figs = seed == s_.seeds.front();
   err() << "potmap: " << experiment_ << " " << (source_label.empty() ? "" : source_label + " -> ")
         << target_label << " seed " << seed << ": " << target.size() << " scans, "
@@ -359,13 +382,19 @@ void Harness::run_case(const std::string& source_label,
     } else {
       r = fit_and_score(m, task, test, figs,
                         m.uses_source ? source_label + "-" + target_label : target_label, ref.get(),
-                        places.get());
+                        places.get(), s_.lookahead ? &beyond : nullptr);
       if (!m.uses_source) cache_[key] = {r};
       err() << job::format(
           "potmap:   %-12s ACC %.3f AUC %.3f NLL %.3f F1 %.3f chamfer %.2f m  %.1f "
           "ms/scan\n",
           m.name.c_str(), r.scores.acc, r.scores.auc, r.scores.nll, r.structure.f1,
           r.structure.chamfer_m, r.per_scan_ms);
+      if (r.lookahead.n)
+        err() << job::format(
+            "potmap:   %-12s look-ahead AUC %.3f NLL %.3f; beyond reach (%zu) AUC %.3f NLL "
+            "%.3f\n",
+            "", r.lookahead.auc, r.lookahead.nll, r.lookahead_beyond.n, r.lookahead_beyond.auc,
+            r.lookahead_beyond.nll);
     }
     r.source = source_label;
     r.target = target_label;
@@ -475,6 +504,7 @@ using Case = std::pair<std::string, std::string>;  // (source, target)
 // One (case, group) cell of the table: the statistics of the group's chosen member.
 struct Cell {
   Stat acc, auc, nll, ms, f1, precision, recall, chamfer;
+  Stat ahead_auc, ahead_nll, beyond_auc, beyond_nll, beyond_n;  // look-ahead
   std::string chosen;
   bool present = false;
 };
@@ -521,6 +551,7 @@ std::string choose_member(const std::vector<std::string>& order,
 Cell member_cell(const std::vector<const Record*>& records, const std::string& name,
                  std::set<std::string>& figures) {
   std::vector<double> acc, auc, nll, ms, f1, precision, recall, chamfer;
+  std::vector<double> ahead_auc, ahead_nll, beyond_auc, beyond_nll, beyond_n;
   for (const Record* r : records) {
     acc.push_back(r->scores.acc);
     auc.push_back(r->scores.auc);
@@ -530,10 +561,32 @@ Cell member_cell(const std::vector<const Record*>& records, const std::string& n
     precision.push_back(r->structure.precision);
     recall.push_back(r->structure.recall);
     chamfer.push_back(r->structure.chamfer_m);
+    if (r->lookahead.n) {
+      ahead_auc.push_back(r->lookahead.auc);
+      ahead_nll.push_back(r->lookahead.nll);
+      beyond_auc.push_back(r->lookahead_beyond.auc);
+      beyond_nll.push_back(r->lookahead_beyond.nll);
+      beyond_n.push_back(double(r->lookahead_beyond.n));
+    }
     for (const std::string& f : r->figures) figures.insert(f);
   }
-  return {stat(acc),       stat(auc),    stat(nll),     stat(ms), stat(f1),
-          stat(precision), stat(recall), stat(chamfer), name,     true};
+  Cell c;
+  c.acc = stat(acc);
+  c.auc = stat(auc);
+  c.nll = stat(nll);
+  c.ms = stat(ms);
+  c.f1 = stat(f1);
+  c.precision = stat(precision);
+  c.recall = stat(recall);
+  c.chamfer = stat(chamfer);
+  c.ahead_auc = stat(ahead_auc);
+  c.ahead_nll = stat(ahead_nll);
+  c.beyond_auc = stat(beyond_auc);
+  c.beyond_nll = stat(beyond_nll);
+  c.beyond_n = stat(beyond_n);
+  c.chosen = name;
+  c.present = true;
+  return c;
 }
 
 nlohmann::json cell_row(const Case& c, const std::string& group, const Cell& cell,
@@ -551,6 +604,12 @@ nlohmann::json cell_row(const Case& c, const std::string& group, const Cell& cel
   row["precision"] = to_json(cell.precision);
   row["recall"] = to_json(cell.recall);
   row["chamfer_m"] = to_json(cell.chamfer);
+  if (cell.ahead_nll.n)
+    row["lookahead"] = {{"auc", to_json(cell.ahead_auc)},
+                        {"nll", to_json(cell.ahead_nll)},
+                        {"beyond_auc", to_json(cell.beyond_auc)},
+                        {"beyond_nll", to_json(cell.beyond_nll)},
+                        {"beyond_n", to_json(cell.beyond_n)}};
   row["figures"] = std::vector<std::string>(figures.begin(), figures.end());
   return row;
 }
@@ -593,14 +652,13 @@ std::string metric_text(const Summary& sum, std::size_t ci, std::size_t gi, int 
   auto it = sum.cells.find({ci, gi});
   if (it == sum.cells.end()) return "-";
   const Cell& c = it->second;
-  const Stat& s = mi == 0   ? c.acc
-                  : mi == 1 ? c.auc
-                  : mi == 2 ? c.nll
-                  : mi == 3 ? c.f1
-                  : mi == 4 ? c.chamfer
-                            : c.ms;
+  const Stat* stats[] = {&c.acc,        &c.auc,        &c.nll,       &c.f1,
+                         &c.chamfer,    &c.ms,         &c.ahead_auc, &c.ahead_nll,
+                         &c.beyond_auc, &c.beyond_nll, &c.beyond_n};
+  const Stat& s = *stats[mi];
+  if (mi >= 6 && s.n == 0) return "-";  // no look-ahead: a method that learns at once
   char buf[256];
-  if (mi == 5)
+  if (mi == 5 || mi == 10)
     std::snprintf(buf, sizeof buf, "%.1f±%.1f", s.mean, s.sd);
   else if (mi == 4)
     std::snprintf(buf, sizeof buf, "%.2f±%.2f", s.mean, s.sd);
@@ -615,9 +673,10 @@ std::string table_text(const std::string& experiment, const std::string& spread,
   std::ostringstream out;
   out << experiment << " (mean ± sd over " << spread << "; held-out beams only)\n";
   // F1 and chamfer: occupied cells against the OGM reference (structure_score.hpp).
-  const char* metric_names[] = {"ACC", "AUC", "NLL", "F1", "chamfer m", "ms/scan"};
+  const char* metric_names[] = {"ACC",    "AUC",    "NLL",     "F1",      "chamfer m", "ms/scan",
+                                "LA AUC", "LA NLL", "far AUC", "far NLL", "far n"};
   char buf[256];
-  for (int mi = 0; mi < 6; ++mi) {
+  for (int mi = 0; mi < (s.lookahead ? 11 : 6); ++mi) {
     std::snprintf(buf, sizeof buf, "%-9s %-16s", metric_names[mi], "method");
     out << buf;
     for (const Case& c : sum.cases) {
@@ -645,6 +704,12 @@ std::string table_text(const std::string& experiment, const std::string& spread,
   out << "F1, chamfer m: the map's occupied cells (p > 0.501) against those of an OGM at "
       << s.structure_cell << " m of the training scans (tolerance " << s.structure_tolerance
       << " m; mean nearest-cell distance); 2D tasks only\n";
+  if (s.lookahead)
+    out << "LA: look-ahead, each scan's held-out samples on the map before that scan was learned "
+           "(every scan but the first; OGM's unknown cells p = 0.5); far: those with no earlier "
+           "training sample within "
+        << (s.lookahead_reach > 0 ? s.lookahead_reach : 2 * s.bhm.spacing)
+        << " m, and how many (per seed)\n";
   return out.str();
 }
 
@@ -700,6 +765,8 @@ nlohmann::json settings_json(const Settings& s) {
       {"repot_seeds_yield_fully", s.pot.seeds_yield_fully},
       {"holdout", s.holdout},
       {"budget_ms", s.budget_ms},
+      {"lookahead", s.lookahead},
+      {"lookahead_reach", s.lookahead_reach > 0 ? s.lookahead_reach : 2 * s.bhm.spacing},
       {"structure",
        {{"reference",
          "OGM of the training scans, cells with p >= 0.5 occupied, "
@@ -736,6 +803,15 @@ nlohmann::json run_json(const Record& r) {
   x["structure_s"] = r.structure_s;
   x["info"] = r.info;
   if (!r.breakdown.empty()) x["breakdown"] = breakdown_json(r.breakdown);
+  if (r.lookahead.n) {
+    auto scores = [](const Scores& s) {
+      return nlohmann::json{{"auc", finite_or_null(s.auc)},
+                            {"nll", finite_or_null(s.nll)},
+                            {"acc", finite_or_null(s.acc)},
+                            {"n", s.n}};
+    };
+    x["lookahead"] = {{"all", scores(r.lookahead)}, {"beyond_reach", scores(r.lookahead_beyond)}};
+  }
   return x;
 }
 

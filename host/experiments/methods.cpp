@@ -10,6 +10,7 @@
 #include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
+#include "potmap/experiments/lookahead.hpp"
 #include "potmap/io/known_cells.hpp"
 #include "potmap/learn/bhm_joint.hpp"
 #include "potmap/map/evaluate.hpp"
@@ -67,9 +68,17 @@ Method ogm_method(double resolution) {
     OgmOptions o;
     o.resolution = resolution;
     auto grid = std::make_shared<OccupancyGrid>(task.dim, o);
-    for (const Scan& s : task.train_scans) grid->insert(s);
+    LookAheadScorer ahead(task);
+    for (std::size_t i = 0; i < task.train_scans.size(); ++i) {
+      // Cells no beam has crossed read p = 0.5 (OccupancyGrid::probability).
+      ahead.before(
+          task.first_index + std::int64_t(i),
+          [&](const double* pts, std::size_t n, double* prob) { grid->probability(pts, n, prob); });
+      grid->insert(task.train_scans[i]);
+    }
     FittedMap f;
-    f.fit_seconds = seconds_since(t0);
+    f.fit_seconds = seconds_since(t0) - ahead.seconds();
+    if (ahead.active()) f.lookahead = ahead.take();
     f.info["cell_m"] = resolution;
     f.info["leaves"] = double(grid->leaf_count());
     f.info["memory_mb"] = double(grid->memory_bytes()) / 1e6;
@@ -108,7 +117,8 @@ std::string box_text(int dim, const double lo[3], const double hi[3]) {
 
 KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
                     const double hi[3], const LabelledPoints& samples, double* spacing_out,
-                    double* gamma_out, std::size_t* learner_bytes_out) {
+                    double* gamma_out, std::size_t* learner_bytes_out,
+                    const std::function<void(const JointBhm&, std::int64_t scan)>& before_scan) {
   double spacing = setup.spacing;
   if (setup.count > 0) {
     double v = 1;
@@ -136,7 +146,10 @@ KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double l
     // With the context, as `potmap mapping` runs it: the solves' parts on the host team (the
     // same posterior bit for bit as on this thread alone), the final map's variances on every
     // core.
-    learner.update_by_scan(setup.voxel > 0 ? aggregate_voxels(samples, setup.voxel) : samples, ctx);
+    std::function<void(std::int64_t)> before;
+    if (before_scan) before = [&](std::int64_t t) { before_scan(learner, t); };
+    learner.update_by_scan(setup.voxel > 0 ? aggregate_voxels(samples, setup.voxel) : samples, ctx,
+                           before);
     if (gamma_out) *gamma_out = learner.gamma();
     if (learner_bytes_out) *learner_bytes_out = learner.memory_bytes();
     return learner.map(ctx);
@@ -159,11 +172,22 @@ Method bhm_method(const BhmSetup& setup, const std::string& name) {
     const auto t0 = std::chrono::steady_clock::now();
     double spacing = 0, gamma = 0;
     std::size_t bytes = 0;
-    auto map = std::make_shared<KernelMap>(
-        learn_bhm(ctx, setup, task.dim, task.lo, task.hi, task.train, &spacing, &gamma, &bytes));
-    const double secs = seconds_since(t0);
+    LookAheadScorer ahead(task);
+    std::function<void(const JointBhm&, std::int64_t)> before;
+    if (ahead.active() && setup.joint)
+      before = [&](const JointBhm& learner, std::int64_t scan) {
+        ahead.before(scan, [&](const double* pts, std::size_t n, double* prob) {
+          std::vector<double> var(n);
+          learner.predict(pts, n, prob, var.data(), ctx);
+          for (std::size_t i = 0; i < n; ++i) prob[i] = probit_probability(prob[i], var[i]);
+        });
+      };
+    auto map = std::make_shared<KernelMap>(learn_bhm(ctx, setup, task.dim, task.lo, task.hi,
+                                                     task.train, &spacing, &gamma, &bytes, before));
+    const double secs = seconds_since(t0) - ahead.seconds();
     FittedMap f = kernel_fitted_map(ctx, map);
     f.fit_seconds = secs;
+    if (before) f.lookahead = ahead.take();
     f.info["kernels"] = double(map->size());
     f.info["spacing_m"] = spacing;
     f.info["gamma"] = gamma;

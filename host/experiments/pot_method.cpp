@@ -9,7 +9,9 @@
 #include "potmap/data/labelling.hpp"
 #include "potmap/error.hpp"
 #include "potmap/experiments/experiment.hpp"
+#include "potmap/experiments/lookahead.hpp"
 #include "potmap/learn/bhm_joint.hpp"
+#include "potmap/map/evaluate.hpp"
 
 namespace potmap::experiment {
 
@@ -175,11 +177,37 @@ struct PotRun {
   double seconds = 0;
 };
 
+// The overall map as it stands at n points (the look-ahead): the persistent learner's, else
+// the averaged or summed map (p = 0.5 before it has a kernel).
+void query_overall(Context* ctx, const JointBhm* learner, const KernelMap& map, const double* pts,
+                   std::size_t n, double* prob) {
+  if (learner) {
+    std::vector<double> var(n);
+    learner->predict(pts, n, prob, var.data(), ctx);
+    for (std::size_t i = 0; i < n; ++i) prob[i] = probit_probability(prob[i], var[i]);
+    return;
+  }
+  if (map.empty()) {
+    std::fill(prob, prob + n, 0.5);
+    return;
+  }
+  if (ctx) {
+    MapEvaluator ev(*ctx, map);
+    std::vector<float> p(n);
+    ev.evaluate(pts, n, nullptr, nullptr, p.data());
+    std::copy(p.begin(), p.end(), prob);
+    return;
+  }
+  const MapValuesExact e = evaluate_exact(map, pts, n);
+  std::copy(e.prob.begin(), e.prob.end(), prob);
+}
+
 // Transfers the task's scans one after another and combines them into the overall map (the
 // persistent learner's when there is one), with the stages of consecutive scans overlapped.
+// `ahead`: each scan's look-ahead, scored on the overall map before the scan joins it.
 PotRun map_task_scans(Context* ctx, const MapTask& task, const PotSetup& setup,
-                      const Dictionary& dict, const PotOptions& po, JointBhm* learner,
-                      double range) {
+                      const Dictionary& dict, const PotOptions& po, JointBhm* learner, double range,
+                      LookAheadScorer& ahead) {
   const auto off = scan_offsets(task);
   // A scan's samples gathered per voxel of the BHM's edge (BhmSetup::voxel; 3D drives: 0.5 m),
   // as the BHM learns them, for the transport and the persistent map alike: their cost follows
@@ -236,6 +264,12 @@ PotRun map_task_scans(Context* ctx, const MapTask& task, const PotSetup& setup,
     run.timing.placement_ms += t.timing.placement_ms;
     run.timing.refine_ms += t.timing.refine_ms;
     if (merging.valid()) merging.get();
+    ahead.before(task.first_index + std::int64_t(i),
+                 [&](const double* pts, std::size_t n, double* prob) {
+                   const KernelMap none;
+                   const KernelMap& now = learner ? none : average ? averaged.map() : overall.map();
+                   query_overall(ctx, learner, now, pts, n, prob);
+                 });
     merging = std::async(launch, merge, i, std::move(t.map));
   };
   // A scan's kernels are placed (host) beside the next scan's ranking and transport (device),
@@ -285,10 +319,12 @@ Method pot_method(const PotSetup& setup, const std::string& name,
     std::unique_ptr<JointBhm> learner;
     const PotOptions po = task_pot_options(setup, task, *dict, learner);
     const double range = po.max_range > 0 ? po.max_range : dict->max_range;
-    const PotRun run = map_task_scans(ctx, task, setup, *dict, po, learner.get(), range);
+    LookAheadScorer ahead(task);
+    const PotRun run = map_task_scans(ctx, task, setup, *dict, po, learner.get(), range, ahead);
 
     FittedMap f = kernel_fitted_map(ctx, run.map);
-    f.fit_seconds = run.seconds;
+    f.fit_seconds = run.seconds - ahead.seconds();
+    if (ahead.active()) f.lookahead = ahead.take();
     const double dn = double(std::max<std::size_t>(task.train_scans.size(), 1));
     f.info["kernels"] = double(run.map->size());
     f.info["atoms"] = double(dict->size());

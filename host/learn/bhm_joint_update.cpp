@@ -222,7 +222,8 @@ void JointBhm::em_on_host(double bias_outside, bool boxed, Context* ctx) {
     for (std::uint32_t k : sc.part_rows[1]) mark_[k] = 0;
 }
 
-void JointBhm::update_by_scan(const LabelledPoints& samples, Context* ctx) {
+void JointBhm::update_by_scan(const LabelledPoints& samples, Context* ctx,
+                              const std::function<void(std::int64_t scan)>& before_scan) {
   std::map<std::int64_t, std::vector<std::size_t>> by_scan;
   const bool has_scan = samples.scan.size() == samples.size();
   for (std::size_t i = 0; i < samples.size(); ++i)
@@ -240,6 +241,7 @@ void JointBhm::update_by_scan(const LabelledPoints& samples, Context* ctx) {
       if (!samples.weight.empty()) s.weight.push_back(samples.weight[i]);
       s.scan.push_back(t);
     }
+    if (before_scan) before_scan(t);
     update(s, ctx);
   }
 }

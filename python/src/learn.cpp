@@ -199,8 +199,15 @@ void bind_learn_joint_bhm(py::module_& m) {
            "Adds one scan's LabelledPoints (EM over its xi, conjugate gradients). ctx: a\n"
            "Context whose host helper thread shares the work (default None: this thread\n"
            "alone; the result is the same bit for bit).")
-      .def("update_by_scan", unlocked(&JointBhm::update_by_scan), "samples"_a, "ctx"_a = nullptr,
-           "One update() per scan index, in increasing order, each with ctx (see update()).")
+      .def(
+          "update_by_scan",
+          [](PyJointBhm& b, const LabelledPoints& samples, Context* ctx) {
+            py::gil_scoped_release release;
+            std::lock_guard<std::mutex> lock(*b.mu);
+            b.update_by_scan(samples, ctx);
+          },
+          "samples"_a, "ctx"_a = nullptr,
+          "One update() per scan index, in increasing order, each with ctx (see update()).")
       .def("set_time", unlocked(&JointBhm::set_time), "seconds"_a,
            "The sensor time of the data update() adds next (a scan's stamp). With\n"
            "half_life > 0 what was learned fades by 2**(-(t - time) / half_life); an\n"

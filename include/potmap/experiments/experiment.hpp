@@ -52,6 +52,11 @@ struct MapTask {
   double lo[3] = {0, 0, 0};       ///< area the map must cover, metres
   double hi[3] = {0, 0, 0};
   std::uint64_t seed = 0;  ///< for the method's own random choices
+  /// Look-ahead (null, the default: none; lookahead.hpp): held-out samples a method that
+  /// learns the scans in order scores, before each scan, on the map as it stands (their scan
+  /// indices say which scan; the first scan's are not scored). The samples are the caller's,
+  /// never learned from.
+  const LabelledPoints* lookahead = nullptr;
 };
 
 /// Labels `scans` with `labels` (holdout_fraction is what splits the beams) and builds the task
@@ -79,6 +84,11 @@ struct FittedMap {
   std::shared_ptr<const KernelMap> kernels;
   double fit_seconds = 0;              ///< wall time of learning, all scans of the task
   std::map<std::string, double> info;  ///< method-specific numbers (kernels, cell size, steps)
+  /// With MapTask::lookahead: per sample of it, the probability the map gave before the
+  /// sample's scan was learned (NaN where not scored). Empty: the method has no look-ahead
+  /// (it learns every scan at once: the diagonal BHM, ABHM). Its scoring is not part of
+  /// fit_seconds.
+  std::vector<float> lookahead;
 };
 
 /// A mapping method.
@@ -133,11 +143,13 @@ JointBhmOptions joint_bhm_options(const BhmSetup& setup);
 /// posterior after one scan is the prior of the next). The diagonal model runs on `ctx` when
 /// it is given; the joint one on the host. `spacing_out`/`gamma_out` receive what was used;
 /// `learner_bytes_out` the joint learner's memory at the end (JointBhm::memory_bytes; the
-/// diagonal model: the map's kernels).
-KernelMap learn_bhm(Context* ctx, const BhmSetup& setup, int dim, const double lo[3],
-                    const double hi[3], const LabelledPoints& samples,
-                    double* spacing_out = nullptr, double* gamma_out = nullptr,
-                    std::size_t* learner_bytes_out = nullptr);
+/// diagonal model: the map's kernels). `before_scan` (joint model only; optional): called with
+/// the learner before each scan's update (the look-ahead).
+KernelMap learn_bhm(
+    Context* ctx, const BhmSetup& setup, int dim, const double lo[3], const double hi[3],
+    const LabelledPoints& samples, double* spacing_out = nullptr, double* gamma_out = nullptr,
+    std::size_t* learner_bytes_out = nullptr,
+    const std::function<void(const JointBhm&, std::int64_t scan)>& before_scan = {});
 
 /// Online BHM: the posterior after one scan is the prior of the next (bhm_update_sequential).
 Method bhm_method(const BhmSetup& setup, const std::string& name = "BHM");

@@ -61,6 +61,13 @@ struct Settings {
   /// first seed).
   double budget_ms = 0;
   std::string source;  ///< per-time-unit: POT's source (empty: the other targets)
+  /// Look-ahead (default false; sequences, not instantaneous maps): each scan's held-out
+  /// samples also scored on each method's map before that scan was learned (lookahead.hpp),
+  /// all of them and those beyond every earlier training sample's reach.
+  bool lookahead = false;
+  /// The look-ahead's reach, metres (0, the default: twice the BHM's kernel spacing, the
+  /// distance its kernels carry a sample: 1 m in 2D, 2 m on drives).
+  double lookahead_reach = 0;
   /// Where the harness writes: a note per case and method to `err`; the tables to `out` (to
   /// `err` with json "-", whose JSON then goes to `out`). Null: nowhere.
   std::ostream* out = nullptr;
@@ -82,6 +89,9 @@ struct Record {
   std::size_t scans = 0;   ///< scans the method learned from
   double fit_s = 0, per_scan_ms = 0, query_s = 0;
   std::map<std::string, double> info;
+  /// Look-ahead scores (Settings::lookahead; n 0 and NaN where the method has none): on every
+  /// scan's held-out samples but the first scan's, and on those beyond reach.
+  Scores lookahead{NAN, NAN, NAN, 0}, lookahead_beyond{NAN, NAN, NAN, 0};
   /// Held-out scores by range, height and kind of sample (3D tasks; score_breakdown.hpp).
   std::vector<experiment::BinScores> breakdown;
   std::vector<std::string> figures;
@@ -144,13 +154,15 @@ class Harness {
   void add_wavemap(std::vector<experiment::Method>& out) const;
   /// Fits and scores one method on one task (no caching); figures when `figures` is set; the
   /// structural score against `reference` when it is not null; the breakdown of the scores
-  /// when `places` (of the test samples) is not null.
+  /// when `places` (of the test samples) is not null; the look-ahead's when the task asks for
+  /// one, `beyond` marking the test samples beyond reach.
   // The pictures' view of a task: 3D tasks top down over a height band about the sensors.
   experiment::PictureView picture_view(const experiment::MapTask& task) const;
   Record fit_and_score(const experiment::Method& m, const experiment::MapTask& task,
                        const LabelledPoints& test, bool figures, const std::string& case_label,
                        const StructureReference* reference = nullptr,
-                       const experiment::SamplePlaces* places = nullptr);
+                       const experiment::SamplePlaces* places = nullptr,
+                       const std::vector<std::uint8_t>* beyond = nullptr);
   /// The structural reference of a task (null for a task that is not 2D), with its picture
   /// when `picture` is set.
   std::shared_ptr<const StructureReference> make_reference(const experiment::MapTask& task,

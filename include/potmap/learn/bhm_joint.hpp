@@ -33,6 +33,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
@@ -192,8 +193,11 @@ class JointBhm {
   void catch_up();
 
   /// Adds the samples of every scan index in increasing order, one update() per scan, each
-  /// with `ctx` (default null: this thread alone; see update()).
-  void update_by_scan(const LabelledPoints& samples, Context* ctx = nullptr);
+  /// with `ctx` (default null: this thread alone; see update()). `before_scan` (optional) is
+  /// called with each scan index before its update: the map as it stands can be read then
+  /// (an experiment's look-ahead).
+  void update_by_scan(const LabelledPoints& samples, Context* ctx = nullptr,
+                      const std::function<void(std::int64_t scan)>& before_scan = {});
 
   /// Seeds the prior of the kernels no sample has reached yet from another map over the same
   /// place (RePOT: the scan's transported kernels). Where `field`'s kernels weigh at least
