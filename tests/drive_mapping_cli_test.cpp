@@ -248,11 +248,11 @@ TEST(DriveMappingCli, LookAheadScoresEveryKeyframeBeforeItIsLearned) {
   EXPECT_GT(all["auc"].get<double>(), 0.8) << all;
   EXPECT_LT(beyond["n"].get<std::size_t>(), all["n"].get<std::size_t>());
   EXPECT_EQ(scores_of(d), j);
-  // A 2D log has no look-ahead: refused, not ignored.
+  // A 2D log's POT has no persistent map to look ahead with: refused, not ignored.
   const test::CliResult log =
       test::run_cli("mapping " + test::quoted(test::shared_data("radish/intel-corrected.log.gz")) +
-                        " --max-scans 2 --lookahead -q -o " + test::quoted(d + "-log"),
+                        " --max-scans 2 --method pot --lookahead -q -o " + test::quoted(d + "-log"),
                     "2>&1");
   EXPECT_NE(log.status, 0);
-  EXPECT_NE(log.out.find("--lookahead is for 3D drives"), std::string::npos) << log.out;
+  EXPECT_NE(log.out.find("--method pot has none"), std::string::npos) << log.out;
 }

@@ -10,6 +10,7 @@
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
+#include "potmap/map/evaluate.hpp"
 #include "potmap/pot/atoms.hpp"
 #include "potmap/pot/map_run.hpp"
 #include "potmap/pot/mapper.hpp"
@@ -111,6 +112,48 @@ TEST(MapperParts, StartAtOnAMapperWithScansIsRefused) {
   m.add_scan(s.scans[0]);
   EXPECT_THROW(m.start_at(4), ArgumentError);
   EXPECT_EQ(m.scans(), 1u);
+}
+
+// map_scored's look-ahead: scan k's held-out samples on RePOT's persistent map of scans 0..k-1
+// (what a mapper that stopped before scan k reads there), the first scan's unscored; POT's
+// averaged map has no look-ahead here.
+TEST(MapperParts, LookAheadIsThePersistentMapBeforeEachScan) {
+  const PartsScene& s = parts_scene();
+  const MapperOptions o = test::small_mapper_options(true);
+  ASSERT_TRUE(persistent_refine(o));
+  Mapper ahead(&test::context(), s.dict, o);
+  MapRunTotals t;
+  t.test.dim = 2;
+  map_scored(&test::context(), ahead, s.scans, t, {}, true);
+  std::size_t first = 0;
+  while (first < t.test.size() && t.test.scan[first] == 0) ++first;
+  ASSERT_EQ(t.ahead_prob.size(), t.test.size() - first);
+  ASSERT_EQ(t.ahead_beyond.size(), t.ahead_prob.size());
+  for (const std::size_t k : {std::size_t(1), std::size_t(4)}) {
+    Mapper before(&test::context(), s.dict, o);
+    MapRunTotals tb;
+    tb.test.dim = 2;
+    map_scored(&test::context(), before,
+               std::vector<Scan>(s.scans.begin(), s.scans.begin() + long(k)), tb);
+    std::vector<double> pts;
+    std::vector<std::size_t> at;
+    for (std::size_t i = first; i < t.test.size(); ++i)
+      if (t.test.scan[i] == std::int64_t(k)) {
+        pts.insert(pts.end(), &t.test.position[2 * i], &t.test.position[2 * i + 2]);
+        at.push_back(i - first);
+      }
+    ASSERT_GT(at.size(), 20u);
+    std::vector<double> mean(at.size()), var(at.size());
+    before.repot()->learner().predict(pts.data(), at.size(), mean.data(), var.data(),
+                                      &test::context());
+    for (std::size_t j = 0; j < at.size(); ++j)
+      ASSERT_FLOAT_EQ(t.ahead_prob[at[j]], float(probit_probability(mean[j], var[j])))
+          << "scan " << k << " sample " << j;
+  }
+  Mapper pot(&test::context(), s.dict, test::small_mapper_options(false));
+  MapRunTotals tp;
+  tp.test.dim = 2;
+  EXPECT_THROW(map_scored(&test::context(), pot, s.scans, tp, {}, true), ArgumentError);
 }
 
 }  // namespace

@@ -54,6 +54,29 @@ TEST(MappingCli, RealLogToMapPicturesRosMapAndScores) {
   EXPECT_NE(test::file_bytes(d + "/map.yaml").find("image: map.pgm\n"), std::string::npos);
 }
 
+// --lookahead on a 2D log: every scan but the first scored on RePOT's map before it.
+TEST(MappingCli, LookAheadScoresEachScanBeforeItIsLearned) {
+  if (!test::cli_built()) GTEST_SKIP() << "potmap command not built";
+  const std::string d = test::temp_dir("mapping-lookahead");
+  const test::CliResult r = run_mapping_cli(
+      "mapping " + test::quoted(test::shared_data("radish/intel-corrected.log.gz")) +
+          " --max-scans 15 --lookahead -q -o " + test::quoted(d) + " --json -",
+      "2>/dev/null");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(j.contains("lookahead")) << r.out;
+  const nlohmann::json& all = j["lookahead"]["all"];
+  const nlohmann::json& far = j["lookahead"]["beyond_reach"];
+  const std::size_t n = j["overall"]["points"].get<std::size_t>();
+  EXPECT_LT(all["n"].get<std::size_t>(), n);          // the first scan's are not scored
+  EXPECT_GT(all["n"].get<std::size_t>(), n * 4 / 5);  // the 14 others are
+  EXPECT_LT(far["n"].get<std::size_t>(), all["n"].get<std::size_t>());
+  // Ahead of the data the map is worse than behind it, and far better than chance.
+  EXPECT_GT(all["nll"].get<double>(), j["overall"]["nll"].get<double>()) << all;
+  EXPECT_GT(all["auc"].get<double>(), 0.85) << all;
+  EXPECT_GE(j["lookahead_ms_per_scan"].get<double>(), 0.0);
+}
+
 // RePOT's seed rule reaches the mapper: the two rules give different maps of the same scans,
 // and scores.json says which one made it.
 TEST(MappingCli, SeedRuleFlagChoosesTheRule) {

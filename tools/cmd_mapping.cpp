@@ -99,8 +99,8 @@ void register_mapping(CLI::App& app, Runner& runner) {
                 "3D drives: keep every tile of the joint BHM (memory grows with the drive) so "
                 "that map.potmap carries its information form for `potmap merge`");
   cmd->add_flag("--lookahead", a->job.lookahead,
-                "3D drives: score each keyframe's held-out samples on the map before the "
-                "keyframe is added, all of them and those beyond every earlier sample's reach "
+                "Score each keyframe's (2D logs: scan's, RePOT only) held-out samples on the map "
+                "before it is added, all of them and those beyond every earlier sample's reach "
                 "(what transfer is for: a prior where the sensor has not been); in scores.json");
   cmd->add_option("--sums", a->job.sums,
                   "3D drives: where the joint BHM's features and sums run: auto (the device "

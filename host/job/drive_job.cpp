@@ -117,25 +117,6 @@ nlohmann::json summary_json(const std::string& recording, const MappingJobOption
   return j;
 }
 
-// --lookahead: the map before each keyframe on its held-out samples, all and beyond reach.
-void report_lookahead(const DriveMapper& mapper, const DriveRun& run, const Report& report,
-                      nlohmann::json& j, MappingJobResult& out) {
-  Scores& all = out.lookahead;
-  Scores& beyond = out.lookahead_beyond;
-  lookahead_scores(mapper.lookahead(), all, beyond);
-  auto json = [](const Scores& s) {
-    return nlohmann::json{{"auc", s.auc}, {"nll", s.nll}, {"n", s.n}};
-  };
-  j["lookahead"] = {{"all", json(all)}, {"beyond_reach", json(beyond)}};
-  j["lookahead_ms_per_keyframe"] =
-      run.lookahead_ms / double(std::max<std::size_t>(run.keyframes, 1));
-  report.note(
-      format("look-ahead     AUC %.4f  NLL %.4f  (%zu held-out samples scored before "
-             "their keyframe); beyond every earlier sample's reach AUC %.4f  NLL %.4f  "
-             "(%zu)",
-             all.auc, all.nll, all.n, beyond.auc, beyond.nll, beyond.n));
-}
-
 // How the drive's keyframes and poses were found, for the first line of the run.
 std::string layout_text(const Drive& drive) {
   if (drive.layout == "rosbag") return "ROS bag, poses from " + drive.poses_file;
@@ -251,7 +232,9 @@ MappingJobResult write_drive_results(const std::string& recording, const Mapping
     j["ranks"] = *res.ranks;
     j["memory_mb"] = res.learner.memory_bytes() / 1e6;  // the merged map's learner
   }
-  if (mapper.options().lookahead && !res.ranks) report_lookahead(mapper, run, report, j, out);
+  if (mapper.options().lookahead && !res.ranks)
+    report_lookahead(mapper.lookahead(), run.lookahead_ms, run.keyframes, "keyframe", report, j,
+                     out);
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
   j["outputs_phases_s"] = {

@@ -32,4 +32,20 @@ void write_scores(const std::string& dir, nlohmann::json summary, MappingJobResu
   write_text_atomically(scores, out.scores_json + "\n");
 }
 
+void report_lookahead(const LookAhead& ahead, double ms, std::size_t count, const char* unit,
+                      const Report& report, nlohmann::json& j, MappingJobResult& out) {
+  Scores& all = out.lookahead;
+  Scores& beyond = out.lookahead_beyond;
+  lookahead_scores(ahead, all, beyond);
+  auto json = [](const Scores& s) {
+    return nlohmann::json{{"auc", s.auc}, {"nll", s.nll}, {"n", s.n}};
+  };
+  j["lookahead"] = {{"all", json(all)}, {"beyond_reach", json(beyond)}};
+  j[std::string("lookahead_ms_per_") + unit] = ms / double(std::max<std::size_t>(count, 1));
+  report.note(
+      format("look-ahead     AUC %.4f  NLL %.4f  (%zu held-out samples scored before "
+             "their %s); beyond every earlier sample's reach AUC %.4f  NLL %.4f  (%zu)",
+             all.auc, all.nll, all.n, unit, beyond.auc, beyond.nll, beyond.n));
+}
+
 }  // namespace potmap::job

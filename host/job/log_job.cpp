@@ -95,6 +95,14 @@ MappingJobResult run_log_job(Context& ctx, const std::string& log, const Mapping
     throw ArgumentError(
         "mapping: --half-life fades RePOT's persistent joint BHM; POT's averaged map does not "
         "forget (--method repot)");
+  if (a.lookahead && a.method != "repot")
+    throw ArgumentError(
+        "mapping: --lookahead on a 2D log scores RePOT's persistent map; --method pot has none "
+        "(potmap experiment --lookahead scores POT's averaged map)");
+  if (a.lookahead && ranks.size() > 1)
+    throw ArgumentError(
+        "mapping: --lookahead needs the scans in one process (a rank's map lacks the scans "
+        "before its part)");
   if (ranks.rank() == 0) fs::create_directories(a.out);
 
   std::vector<Scan> scans = read_scans(log, a);
@@ -109,6 +117,7 @@ MappingJobResult run_log_job(Context& ctx, const std::string& log, const Mapping
                         "D");
   MapJob job = map_job_of(a, report);
   job.start_at = part.begin;
+  job.lookahead = a.lookahead;
   if (ranks.size() > 1) check_rank_mergeable(job.mapper);
   report.note(format("mapping        %zu scans of %s (cut at %g m), %s, %zu atoms of %s", selected,
                      log.c_str(), a.range_cut, a.method == "repot" ? "RePOT" : "POT", dict.size(),
@@ -152,6 +161,13 @@ MappingJobResult run_log_job(Context& ctx, const std::string& log, const Mapping
   j["range_cut"] = a.range_cut;
   j["half_life_s"] = a.half_life;
   j["device"] = ctx.info().summary();
+  if (a.lookahead) {
+    LookAhead ahead;
+    ahead.prob = r.totals.ahead_prob;
+    ahead.label = r.totals.ahead_label;
+    ahead.beyond = r.totals.ahead_beyond;
+    report_lookahead(ahead, r.totals.ahead_ms, r.totals.scans, "scan", report, j, out);
+  }
   write_scores(a.out, j, out);
   return out;
 }

@@ -59,6 +59,7 @@ class Reader {
     at_ += n;
     return s;
   }
+  bool at_end() const { return at_ == b_.size(); }
   void done() const {
     if (at_ != b_.size())
       throw InputError(path_ + ": checkpoint record: " + std::to_string(b_.size() - at_) +
@@ -96,6 +97,12 @@ std::string encode_checkpoint(const nlohmann::json& run, const MapRunTotals& t, 
     b.f64(x);
   b.u64(t.kernels);
   b.u64(t.scans);
+  // The look-ahead last (records written before it end here and read as none).
+  b.u64(t.ahead_prob.size());
+  for (float p : t.ahead_prob) b.f64(p);
+  b.out.append(t.ahead_label.begin(), t.ahead_label.end());
+  b.out.append(t.ahead_beyond.begin(), t.ahead_beyond.end());
+  b.f64(t.ahead_ms);
   return std::move(b.out);
 }
 
@@ -132,6 +139,15 @@ void decode_checkpoint(const std::string& bytes, const std::string& path, nlohma
   for (double* x : sums) *x = r.f64();
   t.kernels = static_cast<std::size_t>(r.u64());
   t.scans = static_cast<std::size_t>(r.u64());
+  if (!r.at_end()) {
+    t.ahead_prob.resize(r.count(10, "look-ahead samples"));
+    for (float& p : t.ahead_prob) p = static_cast<float>(r.f64());
+    const std::string y = r.raw(t.ahead_prob.size(), "look-ahead labels");
+    const std::string far = r.raw(t.ahead_prob.size(), "look-ahead reach");
+    t.ahead_label.assign(y.begin(), y.end());
+    t.ahead_beyond.assign(far.begin(), far.end());
+    t.ahead_ms = r.f64();
+  }
   r.done();
 }
 

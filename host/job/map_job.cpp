@@ -162,7 +162,7 @@ MapJobResult run_map_job(Context* ctx, const Dictionary& dict, const std::vector
     ++r.checkpoints;
     r.checkpoint_seconds += std::chrono::duration<double>(last_checkpoint - now).count();
   };
-  map_scored(ctx, mapper, scans, t, after_scan);
+  map_scored(ctx, mapper, scans, t, after_scan, job.lookahead);
   summarise(r, t, ctx);
   r.total_seconds = t.seconds + seconds_since(t0);
   r.totals = std::move(t);

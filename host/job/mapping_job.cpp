@@ -73,8 +73,6 @@ MappingJobResult run_mapping_job(Context& ctx, const std::string& recording,
     if (o.method.empty()) o.method = "bhm";
     return job::run_drive_job(ctx, recording, o, hooks, ranks);
   }
-  if (o.lookahead)
-    throw ArgumentError("mapping: --lookahead is for 3D drives; " + recording + " is a 2D log");
   if (o.range_cut < 0) o.range_cut = 20;
   if (o.method.empty()) o.method = "repot";
   return job::run_log_job(ctx, recording, o, hooks, ranks);

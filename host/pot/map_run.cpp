@@ -1,6 +1,7 @@
 #include "potmap/pot/map_run.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <future>
 
 #include "potmap/error.hpp"
@@ -25,6 +26,25 @@ void add_held_out(const MappedScan& m, MapRunTotals& t) {
   test.scan.insert(test.scan.end(), m.test.scan.begin(), m.test.scan.end());
 }
 
+// The persistent map as it stands on the scan's held-out samples, before the scan joins it.
+void look_ahead(const Mapper& mapper, const MappedScan& m, MapRunTotals& t, Context* ctx) {
+  if (mapper.scans() == 0 || m.test.empty()) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  const JointBhm& learner = mapper.repot()->learner();
+  const std::size_t n = m.test.size();
+  std::vector<double> mean(n), var(n);
+  learner.predict(m.test.position.data(), n, mean.data(), var.data(), ctx);
+  std::vector<std::uint8_t> reached(n);
+  learner.reached(m.test.position.data(), n, reached.data());
+  for (std::size_t i = 0; i < n; ++i) {
+    t.ahead_prob.push_back(static_cast<float>(probit_probability(mean[i], var[i])));
+    t.ahead_label.push_back(m.test.label[i]);
+    t.ahead_beyond.push_back(reached[i] ? 0 : 1);
+  }
+  t.ahead_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 void add_to_totals(MapRunTotals& t, const MappedScan& done) {
   const ScanTransfer& tr = done.transfer;
   t.timing.prepare_ms += tr.timing.prepare_ms;
@@ -41,9 +61,14 @@ void add_to_totals(MapRunTotals& t, const MappedScan& done) {
 }  // namespace
 
 void map_scored(Context* ctx, Mapper& mapper, const std::vector<Scan>& scans, MapRunTotals& totals,
-                const std::function<void(const MappedScan&)>& after_scan) {
+                const std::function<void(const MappedScan&)>& after_scan, bool lookahead) {
+  if (lookahead && !persistent_refine(mapper.options()))
+    throw ArgumentError(
+        "look-ahead: scored on RePOT's persistent map (POT's averaged map: potmap experiment "
+        "--lookahead)");
   auto merge_scan = [&](MappedScan&& m) {
     add_held_out(m, totals);
+    if (lookahead) look_ahead(mapper, m, totals, ctx);
     mapper.add_mapped(std::move(m));
     const MappedScan& done = mapper.last();
     add_to_totals(totals, done);
@@ -78,6 +103,10 @@ void add_totals(MapRunTotals& into, const MapRunTotals& part) {
   append(into.test.position, part.test.position);
   append(into.test.label, part.test.label);
   append(into.test.scan, part.test.scan);
+  append(into.ahead_prob, part.ahead_prob);
+  append(into.ahead_label, part.ahead_label);
+  append(into.ahead_beyond, part.ahead_beyond);
+  into.ahead_ms += part.ahead_ms;
   into.timing.prepare_ms += part.timing.prepare_ms;
   into.timing.ranking_ms += part.timing.ranking_ms;
   into.timing.transport_ms += part.timing.transport_ms;

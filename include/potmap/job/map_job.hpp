@@ -42,6 +42,9 @@ struct MapJob {
   std::size_t start_at = 0;
   OverallMapOptions overall;
   std::string instantaneous_dir;  ///< write each instantaneous map here (empty: don't)
+  /// Look-ahead (default false; RePOT's persistent map): each scan's held-out samples on the
+  /// map before the scan joins it (map_scored(), MapRunTotals::ahead_*).
+  bool lookahead = false;
   MapCheckpointing checkpoint;
   /// After each scan: its index in `scans`, the scans done and in all of this run, and a line
   /// on it (sectors, kernels, time). May throw to stop the run.

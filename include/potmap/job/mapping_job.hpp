@@ -85,7 +85,8 @@ struct MappingJobOptions {
   /// Never retire far tiles, so that map.potmap carries the information form (`potmap merge`).
   bool keep_tiles = false;
   /// Score each keyframe's kept held-out samples on the map before the keyframe is added
-  /// (DriveMapperOptions::lookahead): scores.json's "lookahead", on all of them and on those
+  /// (DriveMapperOptions::lookahead; 2D logs: each scan's on RePOT's persistent map, MapJob::
+  /// lookahead, in one process only): scores.json's "lookahead", on all of them and on those
   /// beyond every earlier sample's reach. Default false.
   bool lookahead = false;
   BagOptions bag;  ///< ROS bags: topic, fixed frame, poses, keyframe spacing

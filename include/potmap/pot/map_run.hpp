@@ -31,6 +31,12 @@ struct MapRunTotals {
   std::size_t kernels = 0;  ///< instantaneous kernels, summed
   std::size_t scans = 0;
   double seconds = 0;  ///< wall-clock time of the earlier stretches of the run (resumed ones)
+  /// Look-ahead (map_scored's `lookahead`): per held-out sample of every scan after the run's
+  /// first, the overall map's probability before that scan joined it, its label, and 1 where no
+  /// earlier sample had reached a kernel there (JointBhm::reached). Empty without.
+  std::vector<float> ahead_prob;
+  std::vector<std::uint8_t> ahead_label, ahead_beyond;
+  double ahead_ms = 0;  ///< the look-ahead's scoring, outside the scans' times
 };
 
 /// Maps scans[mapper.scans() ..] (a mapper restored from a checkpoint continues where it
@@ -41,8 +47,12 @@ struct MapRunTotals {
 /// With mapper.options().pipeline, everything after a scan's transfer (its scores, its merge,
 /// `after_scan`) runs on a worker beside the next scan's transfer, which reads none of it: the
 /// scans still reach the mapper one at a time and in order, so the maps are a serial run's.
+/// `lookahead` (default false; RePOT's persistent map only, ArgumentError otherwise): before
+/// each scan after the mapper's first joins the map, the map as it stands scores the scan's
+/// held-out samples into totals.ahead_* (JointBhm::predict; the map is unchanged).
 void map_scored(Context* ctx, Mapper& mapper, const std::vector<Scan>& scans, MapRunTotals& totals,
-                const std::function<void(const MappedScan&)>& after_scan = {});
+                const std::function<void(const MappedScan&)>& after_scan = {},
+                bool lookahead = false);
 
 /// What a scored run came to.
 struct MapRunSummary {
