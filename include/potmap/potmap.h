@@ -878,8 +878,8 @@ typedef struct potmap_mapping_job_options {
   size_t export_every; /**< 3D: keyframes between exports of the map so far (0: at the end) */
   int resume;          /**< 3D: 1 continues from OUT/map.ckpt when it is there (default 0) */
   /* ---- appended in version 2 ---- */
-  /** 3D: 1 scores each keyframe's held-out samples on the map before the keyframe is added
-   *  (`potmap mapping --lookahead`; result's lookahead fields). Default 0. */
+  /** 1 scores each keyframe's (2D: scan's, RePOT only) held-out samples on the map before it
+   *  is added (`potmap mapping --lookahead`; result's lookahead fields). Default 0. */
   int lookahead;
 } potmap_mapping_job_options;
 
@@ -910,8 +910,8 @@ typedef struct potmap_mapping_job_result {
   double acc, auc, nll; /**< every held-out beam (20 %, never mapped) on the final map */
   size_t samples;       /**< held-out samples scored */
   /* ---- appended in version 2 ---- */
-  /** options lookahead: the held-out samples scored on the map before their keyframe was
-   *  added, all of them and those beyond every earlier sample's reach (NaN without). */
+  /** options lookahead: the held-out samples scored on the map before their keyframe (scan)
+   *  was added, all of them and those beyond every earlier sample's reach (NaN without). */
   double lookahead_auc, lookahead_nll;
   size_t lookahead_samples;
   double beyond_auc, beyond_nll;

@@ -1368,7 +1368,7 @@ class MappingJobOptions:
     def keep_tiles(self, value: Any) -> None: ...
     @property
     def lookahead(self) -> bool:
-        """3D: scores.json's look-ahead"""
+        """scores.json's look-ahead (2D logs: RePOT's persistent map)"""
         ...
     @lookahead.setter
     def lookahead(self, value: Any) -> None: ...
@@ -1395,6 +1395,14 @@ class MappingJobResult:
     @property
     def scores(self) -> Scores:
         """held-out beams on the final map"""
+        ...
+    @property
+    def lookahead(self) -> Scores:
+        """options lookahead: held-out samples on the map before their scan or keyframe"""
+        ...
+    @property
+    def lookahead_beyond(self) -> Scores:
+        """those of them beyond every earlier sample's reach"""
         ...
     @property
     def scores_json(self) -> str:

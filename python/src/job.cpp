@@ -53,7 +53,8 @@ void bind_job_options(py::module_& m) {
       .def_readwrite("resume", &O::resume, "3D: continue from OUT/map.ckpt")
       .def_readwrite("keep_checkpoint", &O::keep_checkpoint)
       .def_readwrite("keep_tiles", &O::keep_tiles)
-      .def_readwrite("lookahead", &O::lookahead, "3D: scores.json's look-ahead")
+      .def_readwrite("lookahead", &O::lookahead,
+                     "scores.json's look-ahead (2D logs: RePOT's persistent map)")
       .def_readwrite("bag", &O::bag, "ROS bags: BagOptions");
   add_fields_repr(o);
 
@@ -70,6 +71,10 @@ void bind_job_options(py::module_& m) {
       .def_readonly("drive", &MappingJobResult::drive, "a 3D drive (else a 2D log)")
       .def_readonly("files", &MappingJobResult::files, "every file written, scores.json last")
       .def_readonly("scores", &MappingJobResult::scores, "held-out beams on the final map")
+      .def_readonly("lookahead", &MappingJobResult::lookahead,
+                    "options lookahead: held-out samples on the map before their scan or keyframe")
+      .def_readonly("lookahead_beyond", &MappingJobResult::lookahead_beyond,
+                    "those of them beyond every earlier sample's reach")
       .def_readonly("scores_json", &MappingJobResult::scores_json, "scores.json's text");
 }
 

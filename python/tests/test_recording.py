@@ -83,6 +83,17 @@ def test_map_recording_scores_as_potmap_mapping(default_dictionary, data_dir, ct
         assert json.load(f)["overall"]["auc"] == r.overall.auc
 
 
+def test_map_recording_looks_ahead_as_potmap_mapping(default_dictionary, data_dir, ctx, cli,
+                                                    tmp_path):
+    # A 2D log's look-ahead: each scan's held-out samples on RePOT's map before the scan.
+    log = f"{data_dir}/radish/intel-corrected.log.gz"
+    r = potmap.map_recording(log, out_dir=tmp_path / "py", ctx=ctx, max_scans=6, lookahead=True)
+    theirs = cli("mapping", log, "-o", tmp_path / "cli", "--max-scans", 6, "--lookahead", "-q",
+                 "--json", "-", json_out=True)
+    assert r.summary["lookahead"] == theirs["lookahead"]
+    assert 0 < r.summary["lookahead"]["all"]["n"] < r.summary["overall"]["points"]
+
+
 def test_map_recording_paper_preset_is_the_commands(default_dictionary, data_dir, ctx, cli,
                                                      tmp_path):
     log = f"{data_dir}/radish/intel-corrected.log.gz"

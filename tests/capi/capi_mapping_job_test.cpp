@@ -94,6 +94,30 @@ TEST(CApiMappingJob, MapsADriveIntoTheCommandsFilesAndScores) {
   for (const auto& f : mine["files"]) EXPECT_TRUE(fs::exists(f.get<std::string>())) << f;
 }
 
+// A 2D log's look-ahead (RePOT's persistent map before each scan) reaches the C result as
+// scores.json has it.
+TEST(CApiMappingJob, ALogsLookAheadReachesTheResult) {
+  const std::string out = temp_dir("mapping-job-log-ahead") + "/c";
+  potmap_mapping_job_options o;
+  POTMAP_ASSERT_OK(potmap_mapping_job_options_init(&o, sizeof o));
+  o.out = out.c_str();
+  o.max_scans = 6;
+  o.lookahead = 1;
+  potmap_mapping_job_result r;
+  r.struct_size = sizeof r;
+  POTMAP_ASSERT_OK(potmap_map_recording(shared_context(),
+                                        shared_data("radish/intel-corrected.log.gz").c_str(), &o,
+                                        nullptr, nullptr, nullptr, &r));
+  EXPECT_EQ(r.drive, 0);
+  const nlohmann::json j = read_json(out + "/scores.json");
+  ASSERT_TRUE(j.contains("lookahead")) << j;
+  EXPECT_EQ(r.lookahead_samples, j["lookahead"]["all"]["n"].get<std::size_t>());
+  EXPECT_EQ(r.lookahead_nll, j["lookahead"]["all"]["nll"].get<double>());
+  EXPECT_EQ(r.beyond_samples, j["lookahead"]["beyond_reach"]["n"].get<std::size_t>());
+  EXPECT_GT(r.lookahead_samples, 0u);
+  EXPECT_LT(r.lookahead_samples, r.samples);  // the first scan's are not scored
+}
+
 TEST(CApiMappingJob, StoppedByItsProgressLeavesOnlyWholeFiles) {
   const std::string out = temp_dir("mapping-job-stop") + "/c";
   potmap_mapping_job_options o;
