@@ -24,7 +24,7 @@ import subprocess
 import sys
 import tempfile
 
-from marked_doc import replace_marked
+from marked_doc import replace_marked, write_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DRIVES = os.path.join(HERE, "..", "..", "shared", "data", "drives3d")
@@ -84,10 +84,7 @@ def main():
             device, os.cpu_count(), a.keyframes - 1, a.cut), ""] + table + [""])
         replace_marked(a.doc, "bench/lookahead.py", "table", body)
     if a.out:
-        tmp = a.out + ".tmp"
-        with open(tmp, "w") as f:
-            json.dump(result, f, indent=1)
-        os.replace(tmp, a.out)
+        write_json(a.out, result)
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ import subprocess
 import sys
 import tempfile
 
-from marked_doc import replace_marked
+from marked_doc import replace_marked, write_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "..", "..", "shared", "data")
@@ -109,10 +109,7 @@ def main():
                           ""] + table + [""])
         replace_marked(a.doc, "bench/lookahead_methods.py", "table", body)
     if a.out:
-        tmp = a.out + ".tmp"
-        with open(tmp, "w") as f:
-            json.dump(result, f, indent=1)
-        os.replace(tmp, a.out)
+        write_json(a.out, result)
 
 
 if __name__ == "__main__":

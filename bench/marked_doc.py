@@ -19,6 +19,14 @@ def replace_marked(doc, script, name, body):
     os.replace(doc + ".tmp", doc)
 
 
+def write_json(path, data):
+    """Writes `data` as indented JSON to `path` through a temporary file renamed into place."""
+    import json
+    with open(path + ".tmp", "w") as f:
+        json.dump(data, f, indent=1)
+    os.replace(path + ".tmp", path)
+
+
 def refresh_figures():
     """Carries the figures derived from the docs' JSON into docs/figures.json and every page's
     marked spans (scripts/make_doc_figures.py); for a script that has just written docs/ JSON."""
