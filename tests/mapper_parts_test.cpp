@@ -9,6 +9,7 @@
 
 #include "potmap/data/simulator.hpp"
 #include "potmap/error.hpp"
+#include "potmap/job/map_job.hpp"
 #include "potmap/learn/bhm_joint_merge.hpp"
 #include "potmap/map/evaluate.hpp"
 #include "potmap/pot/atoms.hpp"
@@ -154,6 +155,30 @@ TEST(MapperParts, LookAheadIsThePersistentMapBeforeEachScan) {
   MapRunTotals tp;
   tp.test.dim = 2;
   EXPECT_THROW(map_scored(&test::context(), pot, s.scans, tp, {}, true), ArgumentError);
+}
+
+// A run with look-ahead stopped after a checkpoint and resumed ends with the look-ahead of an
+// uninterrupted run: the checkpoint carries the scores so far.
+TEST(MapperParts, ACheckpointCarriesTheLookAhead) {
+  const PartsScene& s = parts_scene();
+  job::MapJob j;
+  j.mapper = test::small_mapper_options(true);
+  j.lookahead = true;
+  const job::MapJobResult whole = job::run_map_job(&test::context(), *s.dict, s.scans, j);
+  ASSERT_GT(whole.totals.ahead_prob.size(), 100u);
+  j.checkpoint.path = test::temp_dir("lookahead-checkpoint") + "/run.ckpt";
+  j.checkpoint.every = 2;
+  j.after_scan = [](std::size_t, std::size_t done, std::size_t, const std::string&) {
+    if (done == 5) throw std::runtime_error("stopped");
+  };
+  EXPECT_THROW(job::run_map_job(&test::context(), *s.dict, s.scans, j), std::runtime_error);
+  j.after_scan = nullptr;
+  j.checkpoint.resume = true;
+  const job::MapJobResult resumed = job::run_map_job(&test::context(), *s.dict, s.scans, j);
+  EXPECT_EQ(resumed.resumed_at, 4u);
+  EXPECT_EQ(resumed.totals.ahead_prob, whole.totals.ahead_prob);
+  EXPECT_EQ(resumed.totals.ahead_label, whole.totals.ahead_label);
+  EXPECT_EQ(resumed.totals.ahead_beyond, whole.totals.ahead_beyond);
 }
 
 }  // namespace
