@@ -345,4 +345,8 @@ TEST(ExperimentCli, LookAheadScoresEachScanBeforeItIsLearned) {
       EXPECT_LT(far["nll"].get<double>(), 0.55);  // the bias
     }
   }
+  // Instantaneous maps have no before: refused, not ignored.
+  const auto r = potmap::test::run_cli("experiment dynamic --lookahead --seeds 0", "2>&1");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.out.find("dynamic maps every scan on its own"), std::string::npos) << r.out;
 }

@@ -56,11 +56,12 @@ void add_run_options(CLI::App* cmd, Settings& s) {
       ->expected(1, -1)
       ->capture_default_str();
   add_wavemap_options(cmd, s.wavemap_cells, s.wavemap);
-  cmd->add_flag("--lookahead", s.lookahead,
-                "Also score each scan's held-out samples on every method's map before the scan "
-                "is learned (sequences: intra, inter, sim2real, dynamic), all of them and those "
-                "beyond every earlier sample's reach: what a planner reads of the space ahead, "
-                "and what a transferred prior is for (docs/transfer.md)");
+  cmd->add_flag(
+      "--lookahead", s.lookahead,
+      "Also score each scan's held-out samples on every method's map before the scan "
+      "is learned (the sequences of intra, inter, sim2real and per-time), all of them and those "
+      "beyond every earlier sample's reach: what a planner reads of the space ahead, "
+      "and what a transferred prior is for (docs/transfer.md)");
   cmd->add_option("--lookahead-reach", s.lookahead_reach,
                   "Look-ahead: a held-out sample with no earlier training sample within this "
                   "many metres is beyond reach (0: twice the BHM's spacing)")
@@ -513,6 +514,10 @@ int run_sim2real(const Settings& settings, const std::vector<std::string>& data,
 int run_dynamic(const Settings& settings, std::vector<std::string> data,
                 const std::vector<std::string>& sources) {
   if (data.empty()) data.push_back("simdyn:town1");
+  if (settings.lookahead)
+    throw ArgumentError(
+        "experiment dynamic: --lookahead scores a sequence's scans before they are learned; "
+        "dynamic maps every scan on its own");
   Harness h("dynamic", settings);
   const auto methods = h.methods();
   bool warm = false;
