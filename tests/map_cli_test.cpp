@@ -73,6 +73,24 @@ TEST(MapCli, MapsAnotherTownWithADictionary) {
   };
   EXPECT_NEAR(pitch(read_map(d + "/coarse.potmap")), 1.0, 1e-9);
   EXPECT_NEAR(pitch(m), 0.5, 1e-9);
+  // --lookahead: scans 2 and 3 scored on the persistent map before them, the same map written.
+  const test::CliResult ahead =
+      test::run_cli("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+                        "/ahead.potmap --refine --rotations 4 --lookahead --json -",
+                    "2>/dev/null");
+  ASSERT_EQ(ahead.status, 0) << ahead.out;
+  const nlohmann::json ja = nlohmann::json::parse(ahead.out);
+  ASSERT_TRUE(ja.contains("lookahead")) << ahead.out;
+  EXPECT_GT(ja["lookahead"]["all"]["n"].get<std::size_t>(), 0u);
+  EXPECT_LT(ja["lookahead"]["all"]["n"].get<std::size_t>(),
+            ja["overall"]["points"].get<std::size_t>());
+  EXPECT_EQ(ja["overall"], j["overall"]);
+  const test::CliResult pot =
+      test::run_cli("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
+                    "/pot.potmap --rotations 4 --lookahead");
+  EXPECT_NE(pot.status, 0);
+  EXPECT_NE(pot.out.find("--lookahead scores RePOT's persistent map"), std::string::npos)
+      << pot.out;
   const test::CliResult bad =
       test::run_cli("map --dict " + q + "/d.potdict --scans " + q + "/tgt/scans.log --out " + q +
                     "/bad.potmap --refine --refine-spacing 0");

@@ -31,7 +31,7 @@ namespace {
 struct MapArgs {
   std::string dict, scans, out, instantaneous, json, picture, ros_map;
   bool refine = false, per_scan_refine = false, cpu = false, quiet = false, no_pipeline = false,
-       hits_only = false, seeds_yield_fully = true;
+       hits_only = false, seeds_yield_fully = true, lookahead = false;
   double refine_min_variance = 0;
   double refine_spacing = JointBhmOptions{}.spacing, refine_prior_var = JointBhmOptions{}.prior_var;
   double half_life = 0;  // seconds of the scans' time (0: never forget)
@@ -110,6 +110,7 @@ nlohmann::json run_record(const MapArgs& a, const std::string& dict_file, const 
   // Only when set: the checkpoints of runs without it stay resumable.
   if (a.preset != "default") r["--preset"] = a.preset;
   if (a.half_life > 0) r["--half-life"] = a.half_life;
+  if (a.lookahead) r["--lookahead"] = true;
   return r;
 }
 
@@ -179,6 +180,10 @@ MapJob map_job(const MapArgs& a) {
   job.overall.merge_radius = a.merge_radius;
   job.overall.max_kernels = a.max_kernels;
   job.instantaneous_dir = a.instantaneous;
+  job.lookahead = a.lookahead;
+  if (a.lookahead && (!a.refine || a.per_scan_refine))
+    throw ArgumentError(
+        "map: --lookahead scores RePOT's persistent map (--refine without --per-scan-refine)");
   print_scans(job, !a.quiet, "potmap map");
   return job;
 }
@@ -192,6 +197,12 @@ void print_summary(std::FILE* human, const MapArgs& a, const MapJobResult& r) {
                r.instantaneous.acc, r.instantaneous.auc, r.instantaneous.nll, r.instantaneous.n);
   std::fprintf(human, "overall        ACC %.4f  AUC %.4f  NLL %.4f\n", r.overall_scores.acc,
                r.overall_scores.auc, r.overall_scores.nll);
+  if (r.lookahead.n)
+    std::fprintf(human,
+                 "look-ahead     AUC %.4f  NLL %.4f  (%zu held-out samples scored before their "
+                 "scan); beyond every earlier sample's reach AUC %.4f  NLL %.4f  (%zu)\n",
+                 r.lookahead.auc, r.lookahead.nll, r.lookahead.n, r.lookahead_beyond.auc,
+                 r.lookahead_beyond.nll, r.lookahead_beyond.n);
   std::fprintf(human,
                "time per scan  %.1f ms solve (max %.1f): ranking %.1f, transport %.1f, "
                "placement %.1f, refine %.1f; preparation %.1f (overlapped)\n",
@@ -331,6 +342,10 @@ void register_map(CLI::App& app, Runner& runner) {
                 "merge the refined maps (--refine-min-variance and --em apply to it)");
   add_seed_rule_flag(cmd, &a->seeds_yield_fully);
   add_half_life_option(cmd, &a->half_life);
+  cmd->add_flag("--lookahead", a->lookahead,
+                "With --refine: score each scan's held-out samples on the persistent map before "
+                "the scan joins it, all of them and those beyond every earlier sample's reach "
+                "(the JSON's lookahead; docs/transfer.md)");
   cmd->add_option("--refine-spacing", a->refine_spacing,
                   "RePOT's persistent map: metres between its kernels (default 0.5, about a "
                   "wall's thickness; a sample's cost grows as (1 / spacing)^dim)")

@@ -232,9 +232,11 @@ MappingJobResult write_drive_results(const std::string& recording, const Mapping
     j["ranks"] = *res.ranks;
     j["memory_mb"] = res.learner.memory_bytes() / 1e6;  // the merged map's learner
   }
-  if (mapper.options().lookahead && !res.ranks)
-    report_lookahead(mapper.lookahead(), run.lookahead_ms, run.keyframes, "keyframe", report, j,
-                     out);
+  if (mapper.options().lookahead && !res.ranks) {
+    Scores all, beyond;
+    lookahead_scores(mapper.lookahead(), all, beyond);
+    report_lookahead(all, beyond, run.lookahead_ms, run.keyframes, "keyframe", report, j, out);
+  }
   j["mapping_s"] = mapping_s;
   j["outputs_s"] = output_s;
   j["outputs_phases_s"] = {

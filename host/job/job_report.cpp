@@ -32,11 +32,11 @@ void write_scores(const std::string& dir, nlohmann::json summary, MappingJobResu
   write_text_atomically(scores, out.scores_json + "\n");
 }
 
-void report_lookahead(const LookAhead& ahead, double ms, std::size_t count, const char* unit,
-                      const Report& report, nlohmann::json& j, MappingJobResult& out) {
-  Scores& all = out.lookahead;
-  Scores& beyond = out.lookahead_beyond;
-  lookahead_scores(ahead, all, beyond);
+void report_lookahead(const Scores& all, const Scores& beyond, double ms, std::size_t count,
+                      const char* unit, const Report& report, nlohmann::json& j,
+                      MappingJobResult& out) {
+  out.lookahead = all;
+  out.lookahead_beyond = beyond;
   auto json = [](const Scores& s) {
     return nlohmann::json{{"auc", s.auc}, {"nll", s.nll}, {"n", s.n}};
   };

@@ -28,8 +28,9 @@ Dictionary job_dictionary(const MappingJobOptions& options, const Report& report
 
 /// The look-ahead's scores (all, beyond reach) into out.lookahead*, scores.json's "lookahead"
 /// and "lookahead_ms_per_<unit>" (`ms` over `count` scans or keyframes), and the account's line.
-void report_lookahead(const LookAhead& ahead, double ms, std::size_t count, const char* unit,
-                      const Report& report, nlohmann::json& j, MappingJobResult& out);
+void report_lookahead(const Scores& all, const Scores& beyond, double ms, std::size_t count,
+                      const char* unit, const Report& report, nlohmann::json& j,
+                      MappingJobResult& out);
 
 /// The end of a job: `summary` gets the list of out.files with DIR/scores.json (which it is
 /// written to, whole, and which is added to out.files); out.scores_json its text.

@@ -161,13 +161,9 @@ MappingJobResult run_log_job(Context& ctx, const std::string& log, const Mapping
   j["range_cut"] = a.range_cut;
   j["half_life_s"] = a.half_life;
   j["device"] = ctx.info().summary();
-  if (a.lookahead) {
-    LookAhead ahead;
-    ahead.prob = r.totals.ahead_prob;
-    ahead.label = r.totals.ahead_label;
-    ahead.beyond = r.totals.ahead_beyond;
-    report_lookahead(ahead, r.totals.ahead_ms, r.totals.scans, "scan", report, j, out);
-  }
+  if (a.lookahead)
+    report_lookahead(r.lookahead, r.lookahead_beyond, r.totals.ahead_ms, r.totals.scans, "scan",
+                     report, j, out);
   write_scores(a.out, j, out);
   return out;
 }

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include "mapping_merge.hpp"
 #include "potmap/error.hpp"
 #include "potmap/io/map_io.hpp"
+#include "potmap/mapping/drive_mapper.hpp"
 #include "potmap/mapping/map_files.hpp"
 
 namespace potmap::job {
@@ -73,6 +75,13 @@ void summarise(MapJobResult& r, const MapRunTotals& t, Context* ctx) {
   r.kernels_per_scan = s.kernels_per_scan;
   r.instantaneous = s.instantaneous;
   r.overall_scores = s.overall;
+  if (!t.ahead_prob.empty()) {
+    LookAhead ahead;
+    ahead.prob = t.ahead_prob;
+    ahead.label = t.ahead_label;
+    ahead.beyond = t.ahead_beyond;
+    lookahead_scores(ahead, r.lookahead, r.lookahead_beyond);
+  }
 }
 
 const KernelMap& MapJobResult::overall_map() const {
@@ -116,6 +125,13 @@ std::string MapJobResult::to_json() const {
                         {"solve_wall_max", max_wall_ms}}},
                       {"total_seconds", total_seconds}};
   if (merged) j["ranks"] = merged->record;
+  if (lookahead.n) {
+    auto json = [](const Scores& s) {
+      return nlohmann::json{{"auc", s.auc}, {"nll", s.nll}, {"n", s.n}};
+    };
+    j["lookahead"] = {{"all", json(lookahead)}, {"beyond_reach", json(lookahead_beyond)}};
+    j["lookahead_ms_per_scan"] = totals.ahead_ms / double(std::max<std::size_t>(scans, 1));
+  }
   return j.dump();
 }
 

@@ -4,6 +4,7 @@
 // accumulate the overall map (POT's OverallMap, or RePOT's persistent RepotMap), score
 // instantaneous and overall maps on the scans' held-out samples, report per-scan timing; write
 // checkpoints of the run and continue one.
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -75,6 +76,9 @@ struct MapJobResult {
   double checkpoint_seconds = 0;  ///< wall-clock time they took
   Scores instantaneous;           ///< every scan's held-out samples on its own instantaneous map
   Scores overall_scores;          ///< every scan's held-out samples on the final overall map
+  /// MapJob::lookahead: the held-out samples on the map before their scan joined it, all and
+  /// beyond every earlier sample's reach (n 0 and NaN without).
+  Scores lookahead{NAN, NAN, NAN, 0}, lookahead_beyond{NAN, NAN, NAN, 0};
   std::size_t scans = 0;
   PotTiming mean_timing;     ///< per scan
   double mean_wall_ms = 0;   ///< per scan, solve to callback
