@@ -155,6 +155,7 @@ potmap_status potmap_drive_mapper_add_keyframe(potmap_drive_mapper* mapper,
     st.transfer_ms = k.transfer_ms;
     st.seeded = k.seeded;
     st.sums_on_device = k.sums_on_device ? 1 : 0;
+    st.lookahead_ms = k.lookahead_ms;
     write_struct(stats, st, kKeyframeStatsV1, "stats", POTMAP_ERROR_BUFFER_TOO_SMALL);
   });
 }

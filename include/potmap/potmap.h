@@ -753,6 +753,9 @@ typedef struct potmap_keyframe_stats {
   double transfer_ms;  /**< RePOT's transfer and seeding (0 without a dictionary) */
   size_t seeded;       /**< kernels RePOT seeded */
   int sums_on_device;  /**< 1: the joint BHM's features and sums ran on the device */
+  /* ---- appended last (a struct_size that ends before it: not written) ---- */
+  double lookahead_ms; /**< the look-ahead's scoring (options lookahead; 0 without, and for the
+                            first keyframe); not part of the times above */
 } potmap_keyframe_stats;
 
 /** Adds keyframe `index` (a 3D scan in the world frame: hits moved by the pose, which gives

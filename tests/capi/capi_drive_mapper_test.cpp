@@ -76,6 +76,11 @@ TEST(CApiDriveMapper, MapsADriveReadAsADataset) {
     EXPECT_GT(st.samples, st.gathered);
     EXPECT_GT(st.held_out, 0u);
     EXPECT_GT(st.memory_bytes, 0u);
+    // The look-ahead's time: from the second keyframe on (the first has no map before it).
+    if (i == 0)
+      EXPECT_EQ(st.lookahead_ms, 0.0);
+    else
+      EXPECT_GT(st.lookahead_ms, 0.0) << i;
   }
   // Keyframes 1-5 scored before each was learned: the walk sees mostly what it saw before.
   double la_auc = 0, la_nll = 0, b_auc = 0, b_nll = 0;
